@@ -1,0 +1,57 @@
+# IRS workspace: `make demo` sets everything up and runs the main demo, `make test` runs the tests.
+# Set-up is incremental: the venv is rebuilt only when env/requirements.txt changes, the colcon
+# workspace only when a package file changes.
+SHELL := /bin/bash
+PYTHON ?= python3
+VENV := .venv
+UV := $(VENV)/bin/uv
+ENV_STAMP := $(VENV)/.irs-requirements.stamp
+BUILD_STAMP := install/.irs-build.stamp
+PACKAGES := irs_msgs irs_sensing irs_treadmill irs_vehicle_sim irs_control irs_bringup
+# The files whose change needs colcon again. Python modules are not among them: the ament_python
+# packages are installed with --symlink-install (develop mode), so edits to them are live.
+PACKAGE_FILES := $(shell find $(PACKAGES) -type f \( -name package.xml -o -name 'setup.*' \
+  -o -name CMakeLists.txt -o -name '*.cmake' -o -path '*/msg/*' -o -path '*/resource/*' \
+  -o -path '*/config/*' \) 2>/dev/null)
+
+.PHONY: demo test env build clean help
+
+help:
+	@echo "make demo   set up (venv + colcon build) and run the Figure 10 demo"
+	@echo "make test   set up and run the whole test suite"
+	@echo "make build  set up only;  make clean  remove venv and build products"
+
+env: $(ENV_STAMP)
+build: $(BUILD_STAMP)
+
+$(ENV_STAMP): env/requirements.txt
+	@command -v $(PYTHON) >/dev/null || { echo "error: $(PYTHON) not found (Python 3.11 is needed)"; exit 1; }
+	@$(PYTHON) -c 'import sys; sys.exit(sys.version_info[:2] != (3, 11))' || \
+	  { echo "error: the ros-jazzy wheels need Python 3.11; set PYTHON=python3.11"; exit 1; }
+	@test -x $(VENV)/bin/python || $(PYTHON) -m venv $(VENV) || \
+	  { echo "error: '$(PYTHON) -m venv' failed; on Debian: apt-get install python3-venv python3-dev"; exit 1; }
+	@test -x $(UV) || { $(VENV)/bin/python -m pip --version >/dev/null 2>&1 || $(VENV)/bin/python -m ensurepip --default-pip >/dev/null; \
+	  $(VENV)/bin/python -m pip install --quiet --disable-pip-version-check uv==0.13.9; }
+	$(UV) pip install --quiet --python $(VENV)/bin/python -r env/requirements.txt
+	@touch $@
+
+# colcon builds irs_msgs (ament_cmake, rosidl) and the ament_python packages into install/.
+# AMENT_PREFIX_PATH/CMAKE_PREFIX_PATH point at the venv, which is a ROS install prefix.
+# irs_msgs/cmake/wheel_prefix_fixes.cmake repairs include paths the wheels' CMake exports
+# carry over from their build container (see the comment in that file).
+$(BUILD_STAMP): $(ENV_STAMP) $(PACKAGE_FILES)
+	@source env/venv.bash && colcon --log-base build/log build --merge-install --symlink-install \
+	  --base-paths $(PACKAGES) --event-handlers console_cohesion- status- \
+	  --cmake-args -DPython3_EXECUTABLE=$$VIRTUAL_ENV/bin/python \
+	    -DCMAKE_PROJECT_INCLUDE=$(CURDIR)/irs_msgs/cmake/wheel_prefix_fixes.cmake \
+	    -DBUILD_TESTING=OFF
+	@touch $@
+
+demo: $(BUILD_STAMP)
+	./irs run irs_bringup experiment demo
+
+test: $(BUILD_STAMP)
+	./irs exec python -m pytest
+
+clean:
+	rm -rf $(VENV) build install log

@@ -1,0 +1,31 @@
+"""Install irs_bringup as an ament_python package (nodes land in lib/irs_bringup/ for ros2 run)."""
+from glob import glob
+
+from setuptools import find_packages, setup
+
+package_name = 'irs_bringup'
+
+setup(
+    name=package_name,
+    version='0.1.0',
+    packages=find_packages(exclude=['test']),
+    data_files=[
+        ('share/ament_index/resource_index/packages', ['resource/' + package_name]),
+        ('share/' + package_name, ['package.xml']),
+        ('share/' + package_name + '/config', glob('config/*.yaml')),
+    ],
+    install_requires=['setuptools'],
+    zip_safe=True,
+    maintainer='IRS team',
+    maintainer_email='irs@example.org',
+    description='Experiments on the IRS: graph bringup, MCAP recording, replay, plots.',
+    license='Apache-2.0',
+    entry_points={
+        'console_scripts': [
+            'experiment = irs_bringup.experiment_cli:main',
+            'bag = irs_bringup.bag_cli:main',
+            'recorder = irs_bringup.recorder_node:main',
+            'driver_console = irs_bringup.driver_node:main',
+        ],
+    },
+)

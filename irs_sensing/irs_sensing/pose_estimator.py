@@ -1,0 +1,249 @@
+"""Arm pose estimator core: joint angles -> validated pose and velocities (paper Sec. 3.2).
+
+Pipeline per sample ``update(theta1, theta2, theta3, stamp, belt_speed)``:
+
+1. Reject non-finite angles / stamp, non-increasing stamps.
+2. Reject joint angles outside the configured mechanical ranges ``[joint_min, joint_max]``,
+   compared modulo 2 pi (a reading ``a`` is accepted if some ``a + 2 pi k`` lies in the range),
+   so wrapped (-pi, pi] angles and unwrapped potentiometer angles are treated alike.
+3. Forward kinematics (:func:`irs_sensing.arm_kinematics.forward_kinematics`).
+4. Reject a c.g. off the belt by more than ``off_belt_margin`` [m].
+5. Reject an implausible jump from the last accepted pose: distance >
+   ``max_speed * (t - t_last) + jump_margin`` or heading change >
+   ``max_yaw_rate * (t - t_last) + jump_margin_psi``.  The bound grows with the elapsed time,
+   so after a genuine fast move (e.g. after a stale period) a reading is eventually accepted.
+6. Differentiate ``x_cg, y_cg`` and the *unwrapped* heading with the configured
+   :mod:`irs_sensing.differentiator`.  The differentiators assume the nominal period ``dt``;
+   if the gap to the last accepted sample differs from ``dt`` by more than ``dt_tolerance``
+   (relative), they are reset and velocities are reported invalid until they have settled.
+
+Velocities: ``xdot, ydot`` [m/s] in the ``treadmill`` frame, ``r`` [rad/s].  The velocity over
+the belt surface is ``(xdot + V_b, ydot)`` (the surface moves at ``-V_b`` along x, see
+conventions.md); rotated into the car frame::
+
+    u = (xdot + V_b) cos(psi) + ydot sin(psi)      (longitudinal, car frame)
+    v = -(xdot + V_b) sin(psi) + ydot cos(psi)     (lateral, car frame)
+
+so that ``dx/dt = u cos(psi) - v sin(psi) - V_b`` holds.  ``V_b`` is an optional input
+(default 0, i.e. velocities relative to the treadmill frame).
+
+A rejected sample returns ``(None, reason)``; nothing computed from it is kept (no state update).
+``stale(now)`` is True when no sample has been accepted for ``stale_timeout`` [s].
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from typing import Optional, Tuple
+
+from .arm_kinematics import (ArmGeometry, forward_kinematics, sensor_point, singularity_margin,
+                             wrap_angle)
+from .differentiator import Differentiator, make_differentiator
+
+__all__ = ["PoseEstimatorParams", "PoseEstimate", "PoseEstimator"]
+
+_BELT_HALF_LENGTH = 1.2192  # [m]
+_BELT_HALF_WIDTH = 0.6096   # [m]
+
+
+@dataclass(frozen=True)
+class PoseEstimatorParams:
+    """Parameters of :class:`PoseEstimator` (units in brackets).
+
+    dt [s] nominal sample period; ds [m] sensor point ahead of the c.g.;
+    joint_min / joint_max [rad] mechanical joint ranges (theta1, theta2, theta3);
+    belt_half_length, belt_half_width [m]; off_belt_margin [m];
+    max_speed [m/s] and max_yaw_rate [rad/s] plausibility bounds, jump_margin [m] and
+    jump_margin_psi [rad] allowances on top; stale_timeout [s]; dt_tolerance [-] relative;
+    singular_tolerance [rad] elbow-angle margin below which ``near_singular`` is flagged;
+    differentiator 'lowpass' | 'savgol', cutoff_hz [Hz], window [samples], order [-].
+    """
+
+    dt: float = 0.001
+    ds: float = 0.15
+    joint_min: Tuple[float, float, float] = (-math.pi, -math.pi, -math.pi)
+    joint_max: Tuple[float, float, float] = (math.pi, math.pi, math.pi)
+    belt_half_length: float = _BELT_HALF_LENGTH
+    belt_half_width: float = _BELT_HALF_WIDTH
+    off_belt_margin: float = 0.10
+    max_speed: float = 10.0
+    max_yaw_rate: float = 10.0
+    jump_margin: float = 0.02
+    jump_margin_psi: float = 0.05
+    stale_timeout: float = 0.05
+    dt_tolerance: float = 0.5
+    singular_tolerance: float = math.radians(5.0)
+    differentiator: str = "lowpass"
+    cutoff_hz: float = 10.0
+    window: int = 20
+    order: int = 1
+    geometry: ArmGeometry = field(default_factory=ArmGeometry)
+
+    def __post_init__(self) -> None:
+        pos = ("dt", "belt_half_length", "belt_half_width", "max_speed", "max_yaw_rate",
+               "stale_timeout", "dt_tolerance", "cutoff_hz")
+        for n in pos:
+            v = getattr(self, n)
+            if not isinstance(v, (int, float)) or not math.isfinite(v) or v <= 0:
+                raise ValueError(f"PoseEstimatorParams.{n} must be a finite number > 0, got {v!r}.")
+        for n in ("ds", "off_belt_margin", "jump_margin", "jump_margin_psi",
+                  "singular_tolerance"):
+            v = getattr(self, n)
+            if not isinstance(v, (int, float)) or not math.isfinite(v):
+                raise ValueError(f"PoseEstimatorParams.{n} must be a finite number, got {v!r}.")
+        for n in ("off_belt_margin", "jump_margin", "jump_margin_psi", "singular_tolerance"):
+            if getattr(self, n) < 0:
+                raise ValueError(f"PoseEstimatorParams.{n} must be >= 0, got {getattr(self, n)}.")
+        if len(self.joint_min) != 3 or len(self.joint_max) != 3 or any(
+                not lo < hi for lo, hi in zip(self.joint_min, self.joint_max)):
+            raise ValueError("PoseEstimatorParams.joint_min/joint_max must be three (min < max) "
+                             "angle pairs in rad.")
+        object.__setattr__(self, "joint_min", tuple(float(v) for v in self.joint_min))
+        object.__setattr__(self, "joint_max", tuple(float(v) for v in self.joint_max))
+        if not isinstance(self.geometry, ArmGeometry):
+            raise ValueError("PoseEstimatorParams.geometry must be an ArmGeometry.")
+        make_differentiator(self.differentiator, self.dt, self.cutoff_hz, self.window, self.order)
+
+
+@dataclass(frozen=True)
+class PoseEstimate:
+    """Validated pose [m, rad] and velocities [m/s, rad/s] at time ``stamp`` [s].
+
+    ``velocity_valid`` is False while the differentiators settle after a (re)start; the
+    velocity fields are then NaN.
+    """
+
+    stamp: float
+    x_cg: float
+    y_cg: float
+    psi: float
+    x_s: float
+    y_s: float
+    xdot: float
+    ydot: float
+    yaw_rate: float
+    u: float
+    v: float
+    velocity_valid: bool
+    near_singular: bool
+
+
+class PoseEstimator:
+    """Stateful pose estimator (see module docstring)."""
+
+    def __init__(self, params: Optional[PoseEstimatorParams] = None) -> None:
+        self.params = params if params is not None else PoseEstimatorParams()
+        p = self.params
+        self._diff = [make_differentiator(p.differentiator, p.dt, p.cutoff_hz, p.window, p.order)
+                      for _ in range(3)]
+        self.reset()
+
+    def reset(self) -> None:
+        """Forget all history (next valid sample restarts the differentiators)."""
+        for d in self._diff:
+            d.reset()
+        self._last: Optional[Tuple[float, float, float, float]] = None  # t, x, y, psi
+        self._psi_unwrapped = 0.0
+        self.last_reason = "no sample yet"
+
+    @property
+    def last_valid_stamp(self) -> Optional[float]:
+        """Stamp [s] of the last accepted sample, or None."""
+        return None if self._last is None else self._last[0]
+
+    def stale(self, now: float) -> bool:
+        """True if no sample was accepted within ``stale_timeout`` [s] before ``now`` [s]."""
+        return self._last is None or (now - self._last[0]) > self.params.stale_timeout
+
+    def stale_reason(self, now: float) -> str:
+        """Empty string if fresh, else a sentence."""
+        if self._last is None:
+            return "stale: no valid arm reading received yet"
+        age = now - self._last[0]
+        if age > self.params.stale_timeout:
+            return (f"stale: no valid arm reading for {age:.3f} s "
+                    f"(timeout {self.params.stale_timeout:.3f} s)")
+        return ""
+
+    def _reject(self, reason: str) -> Tuple[None, str]:
+        self.last_reason = reason
+        return None, reason
+
+    def update(self, theta1: float, theta2: float, theta3: float, stamp: float,
+               belt_speed: float = 0.0) -> Tuple[Optional[PoseEstimate], str]:
+        """Process one reading of the joint angles [rad] taken at ``stamp`` [s].
+
+        Returns ``(PoseEstimate, "")`` or ``(None, reason)``.
+        """
+        p = self.params
+        angles = (theta1, theta2, theta3)
+        for i, a in enumerate(angles):
+            if a is None or not isinstance(a, (int, float)) or not math.isfinite(a):
+                return self._reject(f"joint {i + 1} angle is not a finite number ({a!r})")
+        if stamp is None or not math.isfinite(stamp):
+            return self._reject(f"time stamp is not a finite number ({stamp!r})")
+        if not math.isfinite(belt_speed):
+            return self._reject(f"belt speed is not a finite number ({belt_speed!r})")
+        if self._last is not None and stamp <= self._last[0]:
+            return self._reject(f"time stamp {stamp:.6f} s does not increase "
+                                f"(last {self._last[0]:.6f} s)")
+        for i, a in enumerate(angles):
+            # compared modulo 2 pi (FK only sees the angle modulo 2 pi): the reading is valid if
+            # some a + 2 pi k lies in [joint_min, joint_max]
+            span = p.joint_max[i] - p.joint_min[i]
+            if span < 2.0 * math.pi:
+                shifted = p.joint_min[i] + math.fmod(a - p.joint_min[i], 2.0 * math.pi)
+                if shifted < p.joint_min[i]:
+                    shifted += 2.0 * math.pi
+            else:
+                shifted = p.joint_min[i]
+            if not p.joint_min[i] <= shifted <= p.joint_max[i]:
+                return self._reject(
+                    f"joint {i + 1} angle {a:.4f} rad outside mechanical range "
+                    f"[{p.joint_min[i]:.4f}, {p.joint_max[i]:.4f}] rad")
+        pose = forward_kinematics(theta1, theta2, theta3, p.geometry)
+        if abs(pose.x_cg) > p.belt_half_length + p.off_belt_margin or \
+                abs(pose.y_cg) > p.belt_half_width + p.off_belt_margin:
+            return self._reject(
+                f"pose ({pose.x_cg:.3f}, {pose.y_cg:.3f}) m is off the belt by more than "
+                f"{p.off_belt_margin:.3f} m")
+        gap = None
+        if self._last is not None:
+            t0, x0, y0, psi0 = self._last
+            gap = stamp - t0
+            dist = math.hypot(pose.x_cg - x0, pose.y_cg - y0)
+            lim = p.max_speed * gap + p.jump_margin
+            if dist > lim:
+                return self._reject(f"implausible jump of {dist:.3f} m in {gap:.4f} s "
+                                    f"(limit {lim:.3f} m)")
+            dpsi = abs(wrap_angle(pose.psi - psi0))
+            lim_psi = p.max_yaw_rate * gap + p.jump_margin_psi
+            if dpsi > lim_psi:
+                return self._reject(f"implausible heading jump of {dpsi:.3f} rad in {gap:.4f} s "
+                                    f"(limit {lim_psi:.3f} rad)")
+        # ---- accepted: update state
+        if gap is None or abs(gap - p.dt) > p.dt_tolerance * p.dt:
+            for d in self._diff:
+                d.reset()
+            self._psi_unwrapped = pose.psi
+        else:
+            self._psi_unwrapped += wrap_angle(pose.psi - self._last[3])
+        self._last = (float(stamp), pose.x_cg, pose.y_cg, pose.psi)
+        xdot = self._diff[0].update(pose.x_cg)
+        ydot = self._diff[1].update(pose.y_cg)
+        r = self._diff[2].update(self._psi_unwrapped)
+        valid = all(d.ready for d in self._diff)
+        c, s = math.cos(pose.psi), math.sin(pose.psi)
+        if valid:
+            ub = xdot + belt_speed
+            u = ub * c + ydot * s
+            v = -ub * s + ydot * c
+        else:
+            xdot = ydot = r = u = v = math.nan
+        xs, ys = sensor_point(pose, p.ds)
+        self.last_reason = ""
+        est = PoseEstimate(stamp=float(stamp), x_cg=pose.x_cg, y_cg=pose.y_cg, psi=pose.psi,
+                           x_s=xs, y_s=ys, xdot=xdot, ydot=ydot, yaw_rate=r, u=u, v=v,
+                           velocity_valid=valid,
+                           near_singular=singularity_margin(theta2) < p.singular_tolerance)
+        return est, ""

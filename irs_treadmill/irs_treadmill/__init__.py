@@ -1,0 +1,1 @@
+"""irs_treadmill."""

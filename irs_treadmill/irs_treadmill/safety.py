@@ -1,0 +1,145 @@
+"""Latched safety monitor for the treadmill drive.
+
+A fault cuts the drive (0 V; the belt then coasts down by friction, it cannot brake) and stays
+latched until :meth:`SafetyMonitor.reset` is called.  Faults:
+
+* the car's c.g. within ``end_margin`` [m] of the front (+x) or rear (-x) belt end, or within
+  ``edge_margin`` [m] of the left (+y) or right (-y) belt edge;
+* no valid position for longer than ``stale_timeout`` [s] (checked in :meth:`check`), or a
+  non-finite position / time stamp.
+
+Before the first valid position the drive is inhibited (``drive_permitted`` False) without a
+latched fault.  After ``reset()`` the conditions are re-evaluated on the next call, so a
+persisting condition re-latches immediately.  Belt geometry: ``docs/conventions.md``.
+"""
+from __future__ import annotations
+
+import enum
+import math
+from dataclasses import dataclass
+from typing import Optional
+
+__all__ = ["FaultCode", "SafetyParams", "SafetyMonitor"]
+
+
+class FaultCode(enum.IntEnum):
+    """Fault codes; ``FaultCode.X.text`` is a human-readable description."""
+
+    NONE = 0
+    NEAR_FRONT_END = 1
+    NEAR_REAR_END = 2
+    NEAR_LEFT_EDGE = 3
+    NEAR_RIGHT_EDGE = 4
+    STALE_POSITION = 5
+    INVALID_INPUT = 6
+
+    @property
+    def text(self) -> str:
+        return _FAULT_TEXT[self]
+
+
+_FAULT_TEXT = {
+    FaultCode.NONE: "no fault",
+    FaultCode.NEAR_FRONT_END: "car too close to the front (+x) end of the belt",
+    FaultCode.NEAR_REAR_END: "car too close to the rear (-x) end of the belt",
+    FaultCode.NEAR_LEFT_EDGE: "car too close to the left (+y) edge of the belt",
+    FaultCode.NEAR_RIGHT_EDGE: "car too close to the right (-y) edge of the belt",
+    FaultCode.STALE_POSITION: "car position input stale (timeout)",
+    FaultCode.INVALID_INPUT: "car position input not finite",
+}
+
+
+@dataclass(frozen=True)
+class SafetyParams:
+    """belt_half_length, belt_half_width [m]; end_margin, edge_margin [m] (distance from the
+    end/edge at which the fault trips); stale_timeout [s]."""
+
+    belt_half_length: float = 1.2192
+    belt_half_width: float = 0.6096
+    end_margin: float = 0.15
+    edge_margin: float = 0.10
+    stale_timeout: float = 0.1
+
+    def __post_init__(self) -> None:
+        for n in ("belt_half_length", "belt_half_width", "end_margin", "edge_margin",
+                  "stale_timeout"):
+            v = getattr(self, n)
+            if not isinstance(v, (int, float)) or not math.isfinite(v) or v < 0:
+                raise ValueError(f"SafetyParams.{n} must be a finite number >= 0, got {v!r}.")
+        if self.end_margin >= self.belt_half_length or self.edge_margin >= self.belt_half_width:
+            raise ValueError("SafetyParams margins must be smaller than the belt half length/width.")
+        if self.stale_timeout <= 0:
+            raise ValueError("SafetyParams.stale_timeout must be > 0 s.")
+
+
+class SafetyMonitor:
+    """Latched drive-cut logic (see module docstring)."""
+
+    def __init__(self, params: Optional[SafetyParams] = None) -> None:
+        self.params = params if params is not None else SafetyParams()
+        self.fault = FaultCode.NONE
+        self.fault_detail = ""
+        self._last_stamp: Optional[float] = None
+
+    # ------------------------------------------------------------------ inputs
+    def _latch(self, code: FaultCode, detail: str) -> None:
+        if self.fault == FaultCode.NONE:
+            self.fault = code
+            self.fault_detail = detail
+
+    def update_position(self, x: float, y: float, stamp: float) -> FaultCode:
+        """Register a car c.g. position [m] measured at ``stamp`` [s]; return the fault state."""
+        p = self.params
+        if not (math.isfinite(x) and math.isfinite(y) and math.isfinite(stamp)):
+            self._latch(FaultCode.INVALID_INPUT, f"x={x!r}, y={y!r}, stamp={stamp!r}")
+            return self.fault
+        self.check(stamp)
+        self._last_stamp = float(stamp)
+        if x > p.belt_half_length - p.end_margin:
+            self._latch(FaultCode.NEAR_FRONT_END, f"x = {x:.3f} m")
+        elif x < -p.belt_half_length + p.end_margin:
+            self._latch(FaultCode.NEAR_REAR_END, f"x = {x:.3f} m")
+        if y > p.belt_half_width - p.edge_margin:
+            self._latch(FaultCode.NEAR_LEFT_EDGE, f"y = {y:.3f} m")
+        elif y < -p.belt_half_width + p.edge_margin:
+            self._latch(FaultCode.NEAR_RIGHT_EDGE, f"y = {y:.3f} m")
+        return self.fault
+
+    def check(self, now: float) -> FaultCode:
+        """Check the position age at time ``now`` [s]; call every control period."""
+        if not math.isfinite(now):
+            self._latch(FaultCode.INVALID_INPUT, f"now={now!r}")
+        elif self._last_stamp is not None and now - self._last_stamp > self.params.stale_timeout:
+            self._latch(FaultCode.STALE_POSITION,
+                        f"last position {now - self._last_stamp:.3f} s old")
+        return self.fault
+
+    # ------------------------------------------------------------------ outputs
+    @property
+    def faulted(self) -> bool:
+        return self.fault != FaultCode.NONE
+
+    @property
+    def drive_permitted(self) -> bool:
+        """True when no fault is latched and a valid position has been received."""
+        return not self.faulted and self._last_stamp is not None
+
+    def gate(self, voltage: float) -> float:
+        """Return ``voltage`` [V] if the drive is permitted, else 0 V (drive cut)."""
+        if not self.drive_permitted or not math.isfinite(voltage):
+            return 0.0
+        return voltage
+
+    def status_text(self) -> str:
+        """Fault text plus detail, e.g. for a diagnostics message."""
+        if not self.faulted:
+            return FaultCode.NONE.text if self._last_stamp is not None else \
+                "drive inhibited: no position received yet"
+        return f"{self.fault.text} ({self.fault_detail})"
+
+    def reset(self) -> None:
+        """Clear the latched fault and the position history (drive inhibited until the next
+        valid position arrives; a persisting condition re-latches on that update)."""
+        self.fault = FaultCode.NONE
+        self.fault_detail = ""
+        self._last_stamp = None

@@ -1,0 +1,112 @@
+"""Simulated potentiometer readings of the position-sensing arm (paper Sec. 3.2).
+
+The true joint angles come from :func:`irs_sensing.arm_kinematics.inverse_kinematics` for the
+car's c.g. pose ``(x, y, psi)``.  Each reading is then::
+
+    theta_meas = Q( theta_true + n ),   n ~ N(0, sigma^2)   (if noise enabled)
+    Q(a) = lsb * round(a / lsb)                             (if quantisation enabled)
+
+with ``lsb = adc_range / 2**adc_bits`` [rad], or ``lsb`` given directly (``lsb > 0`` overrides
+bits/range).  Noise is drawn from a ``numpy.random.Generator`` seeded by ``seed``: three draws
+per call, in joint order; when the noise is disabled no draws are made.
+
+Defaults (assumptions; the paper gives no numbers): 12-bit ADC over a 2 pi rad potentiometer
+range (lsb = 1.534 mrad = 0.088 deg), noise sigma = 0.5 mrad.  The paper says encoders had only
+1/10 of the potentiometer resolution; a 1024-line encoder x 4 has 1.53 mrad, consistent with a
+pot resolution of order 0.15-1.5 mrad.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from irs_sensing.arm_kinematics import ArmGeometry, inverse_kinematics
+
+__all__ = ["ArmSensorParams", "ArmSensor", "quantize"]
+
+
+def quantize(angle: float, lsb: float) -> float:
+    """Round ``angle`` [rad] to the nearest multiple of ``lsb`` [rad] (mid-tread quantiser)."""
+    return lsb * round(angle / lsb)
+
+
+@dataclass
+class ArmSensorParams:
+    """Potentiometer model parameters.
+
+    Attributes
+    ----------
+    noise_std : float
+        Gaussian noise standard deviation per joint [rad] (default 5e-4).
+    enable_noise : bool
+    adc_bits : int
+        ADC resolution [bits] (default 12).
+    adc_range : float
+        Angle spanned by the full ADC range [rad] (default 2 pi).
+    lsb : float
+        Quantisation step [rad]; 0 means ``adc_range / 2**adc_bits``.
+    enable_quantization : bool
+    seed : int
+        Seed of the noise generator.
+    """
+
+    noise_std: float = 5e-4
+    enable_noise: bool = True
+    adc_bits: int = 12
+    adc_range: float = 2.0 * math.pi
+    lsb: float = 0.0
+    enable_quantization: bool = True
+    seed: int = 0
+
+    def validate(self) -> None:
+        if not (math.isfinite(self.noise_std) and self.noise_std >= 0.0):
+            raise ValueError(f"noise_std must be a non-negative angle in rad, got {self.noise_std!r}")
+        if not (isinstance(self.adc_bits, int) and 1 <= self.adc_bits <= 32):
+            raise ValueError(f"adc_bits must be an integer in [1, 32], got {self.adc_bits!r}")
+        if not (math.isfinite(self.adc_range) and self.adc_range > 0.0):
+            raise ValueError(f"adc_range must be a positive angle in rad, got {self.adc_range!r}")
+        if not (math.isfinite(self.lsb) and self.lsb >= 0.0):
+            raise ValueError(f"lsb must be a non-negative angle in rad (0 = from bits), got {self.lsb!r}")
+
+    @property
+    def step_size(self) -> float:
+        """Quantisation step [rad]."""
+        return self.lsb if self.lsb > 0.0 else self.adc_range / 2 ** self.adc_bits
+
+
+class ArmSensor:
+    """Three potentiometer angles for a car pose.
+
+    Parameters
+    ----------
+    geometry : irs_sensing.arm_kinematics.ArmGeometry
+    params : ArmSensorParams
+    """
+
+    def __init__(self, geometry: ArmGeometry | None = None, params: ArmSensorParams | None = None):
+        self.geometry = geometry if geometry is not None else ArmGeometry()
+        self.params = params if params is not None else ArmSensorParams()
+        self.params.validate()
+        self.reset()
+
+    def reset(self) -> None:
+        """Re-seed the noise generator."""
+        self.rng = np.random.default_rng(self.params.seed)
+
+    def true_angles(self, x: float, y: float, psi: float) -> tuple:
+        """Noise-free joint angles (theta1, theta2, theta3) [rad]; raises ``ArmReachError``."""
+        return inverse_kinematics(x, y, psi, self.geometry)
+
+    def measure(self, x: float, y: float, psi: float) -> np.ndarray:
+        """Measured joint angles [rad], shape (3,)."""
+        th = np.array(self.true_angles(x, y, psi), dtype=float)
+        p = self.params
+        if p.enable_noise and p.noise_std > 0.0:
+            th = th + self.rng.normal(0.0, p.noise_std, size=3)
+        if p.enable_quantization:
+            q = p.step_size
+            th = q * np.round(th / q)
+        return th

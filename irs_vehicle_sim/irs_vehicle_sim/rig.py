@@ -1,0 +1,458 @@
+"""The whole IRS rig as one fixed-step, deterministic simulation (no rclpy).
+
+Composition per step ``k -> k+1`` (time ``t_k = k dt``), inputs held (ZOH) over the step:
+
+1. The inputs are sanitised (:func:`sanitize_steer`, :func:`sanitize_voltage`,
+   :func:`sanitize_speed`): NaN/inf/out-of-range values are replaced by the safe value and a
+   reason string is recorded in ``RigOutputs.input_warnings``.
+2. The lateral plant advances with the **achieved** steer angles at ``t_k`` (actuator outputs
+   read before the actuators step; ZOH of the sampled actuator output, i.e. at most one sample,
+   1 ms at 1 kHz, of extra lag versus a continuous cascade).
+3. The car's longitudinal state advances with ``psi_k``, ``v_k`` held and the *exact* belt
+   travel over the step (belt stepped first, ``x -= s_{k+1} - s_k``).
+4. Both steering actuators step with the commands; the belt steps with the drive voltage.
+5. Outputs at ``t_{k+1}`` are formed: arm potentiometer angles (inverse kinematics + noise +
+   ADC), belt encoder speed, actuator states, ground truth, wheel speeds, fault flags.
+
+Timing convention (shared with the ROS graph, which must agree bit-for-bit with
+:func:`simulate`): ``outputs_k`` describe the state at ``t_k``; the command applied during step
+``k -> k+1`` is the one computed from ``outputs_k`` (``inputs_k = input_fn(outputs_k)``).  So a
+controller that reads the sensors at ``t_k`` and answers immediately acts over ``[t_k, t_{k+1})``
+-- no extra sample of delay beyond the physical ones (actuator transport delay, belt delay,
+encoder delay).
+
+Faults are latched: the first off-belt edge (``'front'``, ``'rear'``, ``'left'``, ``'right'``,
+``'nonfinite'``) or an arm reach error sets ``fault`` and ``fault_reason``; the simulation keeps
+integrating (the ROS node decides what to do).  Arm angles are NaN while the arm cannot reach.
+"""
+
+from __future__ import annotations
+
+import copy
+import math
+from dataclasses import dataclass, field, fields, asdict, replace
+from typing import Callable, Optional
+
+import numpy as np
+
+from .actuator import ActuatorParams, ActuatorState, SteeringActuator, DEFAULT_STEER_LIMIT_RAD
+from .identified import IdentifiedParams, IdentifiedPlant
+from .lateral_plant import BicyclePlant, LateralPlant
+from .car_on_belt import CarParams, CarOnBelt, wheel_speeds
+from .arm_sensor import ArmSensorParams, ArmSensor
+from .belt import BeltParams, TreadmillBelt
+from irs_sensing.arm_kinematics import ArmGeometry, ArmReachError
+
+__all__ = ["RigInputs", "RigOutputs", "RigConfig", "RigSimulation", "simulate",
+           "sanitize_steer", "sanitize_voltage", "sanitize_speed", "unflatten"]
+
+#: Steer commands beyond this magnitude are rejected as garbage (30 deg) [rad]; commands between
+#: the actuator limit (15 deg) and this value are accepted and saturated by the actuator.
+DEFAULT_STEER_REJECT_RAD = math.radians(30.0)
+
+
+# ----------------------------------------------------------------------------- sanitising
+def sanitize_steer(value: float, reject_limit: float = DEFAULT_STEER_REJECT_RAD):
+    """Safe steer command [rad] and a reason (``None`` if accepted).
+
+    Non-finite values and ``|value| > reject_limit`` are replaced by 0 rad.
+    """
+    try:
+        v = float(value)
+    except (TypeError, ValueError):
+        return 0.0, f"steer command {value!r} is not a number; using 0 rad"
+    if not math.isfinite(v):
+        return 0.0, f"steer command {v!r} is not finite; using 0 rad"
+    if abs(v) > reject_limit:
+        return 0.0, (f"steer command {v:.4f} rad exceeds the accepted range "
+                     f"+-{reject_limit:.4f} rad; using 0 rad")
+    return v, None
+
+
+def sanitize_voltage(value: float, u_max: float):
+    """Safe drive voltage [V] and a reason; non-finite or outside [0, u_max] -> 0 V."""
+    try:
+        v = float(value)
+    except (TypeError, ValueError):
+        return 0.0, f"drive voltage {value!r} is not a number; using 0 V"
+    if not math.isfinite(v):
+        return 0.0, f"drive voltage {v!r} is not finite; using 0 V"
+    if v < 0.0 or v > u_max:
+        return 0.0, f"drive voltage {v:.3f} V is outside [0, {u_max:.3f}] V; using 0 V"
+    return v, None
+
+
+def sanitize_speed(value: float, u_max: float, fallback: float):
+    """Safe driver speed command [m/s] and a reason; non-finite or outside [0, u_max] ->
+    ``fallback`` (the last accepted command: stopping the car on a moving belt is not safe)."""
+    try:
+        v = float(value)
+    except (TypeError, ValueError):
+        return fallback, f"speed command {value!r} is not a number; holding {fallback:.3f} m/s"
+    if not math.isfinite(v):
+        return fallback, f"speed command {v!r} is not finite; holding {fallback:.3f} m/s"
+    if v < 0.0 or v > u_max:
+        return fallback, (f"speed command {v:.3f} m/s is outside [0, {u_max:.3f}] m/s; "
+                          f"holding {fallback:.3f} m/s")
+    return v, None
+
+
+# ----------------------------------------------------------------------------- data
+@dataclass
+class RigInputs:
+    """Inputs held over one step: steer commands [rad], drive voltage [V], speed command [m/s]."""
+
+    front_steer: float = 0.0
+    rear_steer: float = 0.0
+    drive_voltage: float = 0.0
+    speed_cmd: float = 0.0
+
+
+@dataclass
+class RigOutputs:
+    """Rig outputs at time ``time`` [s] (all SI)."""
+
+    time: float
+    arm_angles: tuple            # (theta1, theta2, theta3) measured [rad]; NaN if unreachable
+    belt_speed_measured: float   # encoder estimate [m/s]
+    belt_speed: float            # true belt speed [m/s]
+    actuator_front: ActuatorState
+    actuator_rear: ActuatorState
+    x: float                     # c.g. x [m]
+    y: float                     # c.g. y [m]
+    psi: float                   # heading [rad]
+    u: float                     # forward speed over the belt [m/s]
+    v: float                     # body lateral velocity at the c.g. [m/s]
+    yaw_rate: float              # [rad/s]
+    y_s: float                   # sensor-point lateral displacement [m]
+    wheel_speeds: tuple          # [FL, FR, RL, RR] [rad/s]
+    off_belt: bool
+    off_belt_edge: str
+    arm_fault: bool
+    fault: bool                  # latched
+    fault_reason: str            # latched first reason, '' if none
+    input_warnings: tuple = ()   # reasons from sanitising the inputs of the last step
+    applied_inputs: Optional[RigInputs] = None  # sanitised inputs of the last step
+
+
+def unflatten(d: dict) -> dict:
+    """Turn ROS-style dotted keys (``'actuator_front.lag_hz'``) into nested dicts."""
+    out: dict = {}
+    for k, v in d.items():
+        if isinstance(v, dict):
+            v = unflatten(v)
+        parts = str(k).split(".")
+        cur = out
+        for p in parts[:-1]:
+            cur = cur.setdefault(p, {})
+            if not isinstance(cur, dict):
+                raise ValueError(f"parameter {k!r} conflicts with a scalar parameter {p!r}")
+        if parts[-1] in cur and isinstance(cur[parts[-1]], dict) and isinstance(v, dict):
+            cur[parts[-1]].update(v)
+        else:
+            cur[parts[-1]] = v
+    return out
+
+
+def _coerce(name: str, default, value):
+    """Convert a YAML value to the type of the default, with a clear error."""
+    if isinstance(default, bool):
+        if not isinstance(value, bool):
+            raise ValueError(f"{name} must be true or false, got {value!r}")
+        return value
+    if isinstance(default, int):
+        if isinstance(value, bool) or not isinstance(value, int):
+            raise ValueError(f"{name} must be an integer, got {value!r}")
+        return value
+    if isinstance(default, float):
+        if isinstance(value, bool) or not isinstance(value, (int, float)):
+            raise ValueError(f"{name} must be a number, got {value!r}")
+        if not math.isfinite(float(value)):
+            raise ValueError(f"{name} must be finite, got {value!r}")
+        return float(value)
+    if isinstance(default, str):
+        if not isinstance(value, str):
+            raise ValueError(f"{name} must be a string, got {value!r}")
+        return value
+    return value
+
+
+def _section(name: str, defaults: dict, given) -> dict:
+    if given is None:
+        return dict(defaults)
+    if not isinstance(given, dict):
+        raise ValueError(f"parameter section {name!r} must be a mapping, got {given!r}")
+    unknown = set(given) - set(defaults)
+    if unknown:
+        raise ValueError(f"unknown parameter(s) {sorted(unknown)} in section {name!r}; "
+                         f"expected some of {sorted(defaults)}")
+    out = dict(defaults)
+    for k, v in given.items():
+        out[k] = _coerce(f"{name}.{k}", defaults[k], v)
+    return out
+
+
+def _bicycle_defaults() -> dict:
+    """Bicycle section defaults: preset ``irs_2wd``; the explicit fields (assumed 1:10 car) are
+    used only when ``preset`` is ''."""
+    return dict(preset="irs_2wd", mass=1.9, yaw_inertia=0.03, lf=0.13, lr=0.13, c_f=40.0, c_r=50.0,
+                track=0.16, wheel_radius=0.033, speed=1.2)
+
+
+@dataclass
+class RigConfig:
+    """Validated rig configuration (see ``config/rig.yaml`` for units and defaults).
+
+    Build with :meth:`from_dict` from the YAML ``ros__parameters`` mapping (nested or dotted
+    keys).  Unknown keys, wrong types and non-physical values raise ``ValueError``.
+    """
+
+    dt: float = 1e-3
+    seed: int = 0
+    plant: str = "identified"
+    ds: float = 0.33
+    steer_reject: float = DEFAULT_STEER_REJECT_RAD
+    speed_cmd_max: float = 5.0
+    x0: float = 0.0
+    y0: float = 0.0
+    u0: float = 1.2
+    belt_speed0: float = 1.2
+    actuator_front: ActuatorParams = field(default_factory=ActuatorParams)
+    actuator_rear: ActuatorParams = field(default_factory=ActuatorParams)
+    identified: IdentifiedParams = field(default_factory=IdentifiedParams)
+    bicycle: dict = field(default_factory=_bicycle_defaults)
+    car: CarParams = field(default_factory=CarParams)
+    arm_geometry: ArmGeometry = field(default_factory=ArmGeometry)
+    arm_sensor: ArmSensorParams = field(default_factory=ArmSensorParams)
+    belt: BeltParams = field(default_factory=BeltParams)
+
+    _SCALARS = ("dt", "seed", "plant", "ds", "steer_reject", "speed_cmd_max", "x0", "y0", "u0",
+                "belt_speed0")
+
+    @classmethod
+    def from_dict(cls, params: dict | None) -> "RigConfig":
+        """Build from a (possibly dotted) parameter dict; missing keys take the defaults."""
+        d = unflatten(dict(params or {}))
+        base = cls()
+        scal = {k: getattr(base, k) for k in cls._SCALARS}
+        sections = ("actuator_front", "actuator_rear", "identified", "bicycle", "car", "arm",
+                    "belt")
+        unknown = set(d) - set(scal) - set(sections)
+        if unknown:
+            raise ValueError(f"unknown parameter(s) {sorted(unknown)}; expected some of "
+                             f"{sorted(set(scal) | set(sections))}")
+        kw = {k: _coerce(k, scal[k], d[k]) for k in scal if k in d}
+
+        act_def = {f.name: getattr(ActuatorParams(), f.name) for f in fields(ActuatorParams)}
+        for side in ("actuator_front", "actuator_rear"):
+            kw[side] = ActuatorParams(**_section(side, act_def, d.get(side)))
+
+        idd = {"gain": 0.0, "speed": 1.2, "ds": -1.0}
+        ids = _section("identified", idd, d.get("identified"))
+        kw["identified"] = IdentifiedParams(
+            gain=None if ids["gain"] == 0.0 else ids["gain"], speed=ids["speed"],
+            ds=kw.get("ds", base.ds) if ids["ds"] < 0.0 else ids["ds"])
+        kw["bicycle"] = _section("bicycle", _bicycle_defaults(), d.get("bicycle"))
+        car_def = asdict(CarParams())
+        kw["car"] = CarParams(**_section("car", car_def, d.get("car")))
+        geo_def = asdict(ArmGeometry())
+        sen_def = asdict(ArmSensorParams())
+        sen_def.pop("seed")
+        arm = _section("arm", {**geo_def, **sen_def}, d.get("arm"))
+        kw["arm_geometry"] = ArmGeometry(**{k: arm[k] for k in geo_def})
+        kw["arm_sensor"] = ArmSensorParams(**{k: arm[k] for k in sen_def},
+                                           seed=kw.get("seed", base.seed))
+        belt_def = asdict(BeltParams())
+        kw["belt"] = BeltParams(**_section("belt", belt_def, d.get("belt")))
+        cfg = cls(**kw)
+        cfg.validate()
+        return cfg
+
+    def validate(self) -> None:
+        """Raise ``ValueError`` for non-physical values."""
+        if not (math.isfinite(self.dt) and 0.0 < self.dt <= 0.05):
+            raise ValueError(f"dt must be a step in (0, 0.05] s, got {self.dt!r}")
+        if self.plant not in ("identified", "bicycle"):
+            raise ValueError(f"plant must be 'identified' or 'bicycle', got {self.plant!r}")
+        if not (self.steer_reject > 0.0):
+            raise ValueError(f"steer_reject must be a positive angle in rad, got {self.steer_reject!r}")
+        if not (self.speed_cmd_max > 0.0):
+            raise ValueError(f"speed_cmd_max must be a positive speed in m/s, got {self.speed_cmd_max!r}")
+        if not (0.0 <= self.u0 <= self.speed_cmd_max):
+            raise ValueError(f"u0 must be in [0, speed_cmd_max] m/s, got {self.u0!r}")
+        if not (0.0 <= self.belt_speed0 <= self.belt.v_top):
+            raise ValueError(f"belt_speed0 must be in [0, {self.belt.v_top}] m/s, got {self.belt_speed0!r}")
+        self.actuator_front.validate()
+        self.actuator_rear.validate()
+        self.identified.validate()
+        self.car.validate()
+        self.arm_sensor.validate()
+        if self.plant == "bicycle":
+            self.make_bicycle_params()
+
+    def make_bicycle_params(self):
+        """``BicycleParams`` from the ``bicycle`` section (a named preset if given)."""
+        from .bicycle import BicycleParams
+
+        b = dict(self.bicycle)
+        name = b.pop("preset", "")
+        b.pop("speed", None)
+        if name:
+            from .presets import get_preset  # the bicycle-model engineer's presets
+
+            try:
+                return get_preset(name).params
+            except KeyError as exc:
+                raise ValueError(f"bicycle.preset: {exc.args[0]}") from None
+        return BicycleParams(**b)
+
+
+# ----------------------------------------------------------------------------- simulation
+class RigSimulation:
+    """Deterministic rig simulation; see the module docstring for the step order."""
+
+    def __init__(self, config: RigConfig | None = None):
+        self.config = config if config is not None else RigConfig()
+        self.config.validate()
+        c = self.config
+        self.act_front = SteeringActuator(copy.deepcopy(c.actuator_front))
+        self.act_rear = SteeringActuator(copy.deepcopy(c.actuator_rear))
+        if c.plant == "identified":
+            self.plant: LateralPlant = IdentifiedPlant(c.identified)
+        else:
+            self.plant = BicyclePlant(c.make_bicycle_params(), c.bicycle["speed"], c.ds)
+        self.car = CarOnBelt(c.car, c.x0, c.u0)
+        self.arm = ArmSensor(c.arm_geometry, c.arm_sensor)
+        self.belt = TreadmillBelt(c.belt)
+        self.reset()
+
+    def reset(self) -> RigOutputs:
+        """Reset every component to the configured initial state; returns ``outputs_0``."""
+        c = self.config
+        self.act_front.reset(0.0)
+        self.act_rear.reset(0.0)
+        self.plant.reset(c.y0)
+        self.car.reset(c.x0, c.u0)
+        self.arm.reset()
+        self.belt.reset(c.belt_speed0)
+        self.k = 0
+        self._speed_cmd = c.u0
+        self._fault_reason = ""
+        self._outputs = self._make_outputs((), None)
+        return self._outputs
+
+    @property
+    def time(self) -> float:
+        """t_k = k dt [s]."""
+        return self.k * self.config.dt
+
+    @property
+    def outputs(self) -> RigOutputs:
+        """Outputs at the current time t_k."""
+        return self._outputs
+
+    def step(self, inputs: RigInputs) -> RigOutputs:
+        """Advance t_k -> t_{k+1} with ``inputs`` held; returns ``outputs_{k+1}``."""
+        c = self.config
+        dt = c.dt
+        warn = []
+        df, r1 = sanitize_steer(inputs.front_steer, c.steer_reject)
+        dr, r2 = sanitize_steer(inputs.rear_steer, c.steer_reject)
+        vb, r3 = sanitize_voltage(inputs.drive_voltage, c.belt.u_max)
+        uc, r4 = sanitize_speed(inputs.speed_cmd, c.speed_cmd_max, self._speed_cmd)
+        for tag, r in (("front_steer", r1), ("rear_steer", r2), ("drive_voltage", r3),
+                       ("speed_cmd", r4)):
+            if r is not None:
+                warn.append(f"{tag}: {r}")
+        self._speed_cmd = uc
+        applied = RigInputs(df, dr, vb, uc)
+
+        psi_k = self.plant.psi
+        v_k = self.plant.lateral_velocity
+        d_front_k = self.act_front.achieved
+        d_rear_k = self.act_rear.achieved
+        self.plant.step(d_front_k, d_rear_k, dt)
+        s_prev = self.belt.position
+        self.belt.step(vb, dt)
+        travel = self.belt.position - s_prev
+        self.car.step(uc, psi_k, v_k, 0.0, dt)
+        self.car.x -= travel
+        self.act_front.step(df, dt)
+        self.act_rear.step(dr, dt)
+        self.k += 1
+        self._outputs = self._make_outputs(tuple(warn), applied)
+        return self._outputs
+
+    def _make_outputs(self, warnings: tuple, applied) -> RigOutputs:
+        pl = self.plant
+        x, y, psi = self.car.x, pl.y_cg, pl.psi
+        edge = self.car.edge(y)
+        arm_fault = False
+        try:
+            ang = tuple(float(a) for a in self.arm.measure(x, y, psi))
+        except ArmReachError:
+            ang = (math.nan, math.nan, math.nan)
+            arm_fault = True
+        if not self._fault_reason:
+            if edge:
+                self._fault_reason = f"off_belt:{edge}"
+            elif arm_fault:
+                self._fault_reason = "arm_reach"
+        ws = wheel_speeds(self.car.u, pl.lateral_velocity, pl.yaw_rate,
+                          self.act_front.achieved, self.act_rear.achieved, self.config.car)
+        return RigOutputs(
+            time=self.time, arm_angles=ang, belt_speed_measured=self.belt.measured_speed,
+            belt_speed=self.belt.speed, actuator_front=replace(self.act_front.state),
+            actuator_rear=replace(self.act_rear.state), x=x, y=y, psi=psi, u=self.car.u,
+            v=pl.lateral_velocity, yaw_rate=pl.yaw_rate, y_s=pl.y_s,
+            wheel_speeds=tuple(float(w) for w in ws), off_belt=bool(edge), off_belt_edge=edge,
+            arm_fault=arm_fault, fault=bool(self._fault_reason),
+            fault_reason=self._fault_reason, input_warnings=warnings, applied_inputs=applied)
+
+
+_SCALAR_OUT = ("time", "belt_speed_measured", "belt_speed", "x", "y", "psi", "u", "v",
+               "yaw_rate", "y_s")
+
+
+def simulate(config: RigConfig | dict | None, input_fn: Callable[[RigOutputs], RigInputs],
+             duration: float) -> dict:
+    """Offline run (no ROS) with the shared timing convention.
+
+    ``N = round(duration / dt)`` steps.  For k = 0..N-1: ``inputs_k = input_fn(outputs_k)`` is
+    applied over ``[t_k, t_{k+1})``.
+
+    Returns
+    -------
+    dict of numpy arrays
+        Output series of length N+1 (``time, x, y, psi, u, v, yaw_rate, y_s, belt_speed,
+        belt_speed_measured``, ``arm_angles`` (N+1, 3), ``wheel_speeds`` (N+1, 4),
+        ``steer_front``/``steer_rear`` achieved, ``servo_front``/``servo_rear``, ``fault``),
+        and the sanitised inputs ``front_steer_cmd, rear_steer_cmd, drive_voltage, speed_cmd`` of
+        length N (row k applied during step k).
+    """
+    if not isinstance(config, RigConfig):
+        config = RigConfig.from_dict(config)
+    sim = RigSimulation(config)
+    n = int(round(duration / config.dt))
+    if n < 0:
+        raise ValueError(f"duration must be >= 0 s, got {duration!r}")
+    outs = [sim.outputs]
+    ins = []
+    for _ in range(n):
+        u = input_fn(outs[-1])
+        o = sim.step(u)
+        ins.append(o.applied_inputs)
+        outs.append(o)
+    res = {k: np.array([getattr(o, k) for o in outs], dtype=float) for k in _SCALAR_OUT}
+    res["arm_angles"] = np.array([o.arm_angles for o in outs], dtype=float).reshape(-1, 3)
+    res["wheel_speeds"] = np.array([o.wheel_speeds for o in outs], dtype=float).reshape(-1, 4)
+    res["steer_front"] = np.array([o.actuator_front.achieved for o in outs])
+    res["steer_rear"] = np.array([o.actuator_rear.achieved for o in outs])
+    res["servo_front"] = np.array([o.actuator_front.servo for o in outs])
+    res["servo_rear"] = np.array([o.actuator_rear.servo for o in outs])
+    res["fault"] = np.array([o.fault for o in outs], dtype=bool)
+    res["front_steer_cmd"] = np.array([i.front_steer for i in ins], dtype=float)
+    res["rear_steer_cmd"] = np.array([i.rear_steer for i in ins], dtype=float)
+    res["drive_voltage"] = np.array([i.drive_voltage for i in ins], dtype=float)
+    res["speed_cmd"] = np.array([i.speed_cmd for i in ins], dtype=float)
+    return res

@@ -1,0 +1,76 @@
+"""Arm potentiometer model: exact angles, noise statistics, ADC quantisation, seeding."""
+import sys
+
+for _name in ("irs_sensing", "irs_vehicle_sim", "irs_control"):
+    if _name in sys.modules and getattr(sys.modules[_name], "__file__", None) is None:
+        del sys.modules[_name]
+import math
+
+import numpy as np
+import pytest
+
+from irs_sensing.arm_kinematics import ArmGeometry, ArmReachError, forward_kinematics
+from irs_vehicle_sim.arm_sensor import ArmSensor, ArmSensorParams
+
+POSE = (0.31, -0.12, 0.07)
+
+
+def test_noise_free_unquantised_is_exact_ik():
+    s = ArmSensor(params=ArmSensorParams(enable_noise=False, enable_quantization=False))
+    th = s.measure(*POSE)
+    pose = forward_kinematics(*th, ArmGeometry())
+    assert (pose.x_cg, pose.y_cg, pose.psi) == pytest.approx(POSE, abs=1e-12)
+
+
+def test_noise_statistics():
+    sigma = 1e-3
+    s = ArmSensor(params=ArmSensorParams(noise_std=sigma, enable_quantization=False, seed=3))
+    true = np.array(s.true_angles(*POSE))
+    n = 20000
+    err = np.array([s.measure(*POSE) for _ in range(n)]) - true
+    assert np.all(np.abs(err.mean(axis=0)) < 4 * sigma / math.sqrt(n))
+    np.testing.assert_allclose(err.std(axis=0), sigma, rtol=0.03)
+    # joints independent
+    c = np.corrcoef(err.T)
+    assert np.all(np.abs(c[np.triu_indices(3, 1)]) < 0.03)
+
+
+def test_quantisation_step_and_error_bound():
+    p = ArmSensorParams(enable_noise=False, adc_bits=12, adc_range=2 * math.pi)
+    assert p.step_size == pytest.approx(2 * math.pi / 4096)
+    s = ArmSensor(params=p)
+    rng = np.random.default_rng(1)
+    for _ in range(200):
+        pose = (rng.uniform(-1, 1), rng.uniform(-0.5, 0.5), rng.uniform(-0.5, 0.5))
+        th = s.measure(*pose)
+        true = np.array(s.true_angles(*pose))
+        k = th / p.step_size
+        np.testing.assert_allclose(k, np.round(k), atol=1e-9)
+        assert np.all(np.abs(th - true) <= p.step_size / 2 + 1e-15)
+    # explicit lsb overrides bits/range
+    p2 = ArmSensorParams(enable_noise=False, lsb=0.01)
+    th = ArmSensor(params=p2).measure(*POSE)
+    np.testing.assert_allclose(th / 0.01, np.round(th / 0.01), atol=1e-9)
+
+
+def test_seeded_and_reset_reproducible():
+    a = ArmSensor(params=ArmSensorParams(seed=7))
+    b = ArmSensor(params=ArmSensorParams(seed=7))
+    c = ArmSensor(params=ArmSensorParams(seed=8, enable_quantization=False))
+    ra = [a.measure(*POSE) for _ in range(10)]
+    rb = [b.measure(*POSE) for _ in range(10)]
+    np.testing.assert_array_equal(ra, rb)
+    a.reset()
+    np.testing.assert_array_equal([a.measure(*POSE) for _ in range(10)], ra)
+    assert not np.array_equal([c.measure(*POSE) for _ in range(10)],
+                              [ArmSensor(params=ArmSensorParams(seed=7, enable_quantization=False))
+                               .measure(*POSE) for _ in range(10)])
+
+
+def test_unreachable_pose_and_bad_params():
+    with pytest.raises(ArmReachError):
+        ArmSensor().measure(0.0, -2.0, 0.0)
+    with pytest.raises(ValueError, match="noise_std"):
+        ArmSensor(params=ArmSensorParams(noise_std=-1.0))
+    with pytest.raises(ValueError, match="adc_bits"):
+        ArmSensor(params=ArmSensorParams(adc_bits=0))
