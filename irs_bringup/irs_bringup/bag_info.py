@@ -26,7 +26,8 @@ class _Parser(argparse.ArgumentParser):
 
 
 def _stamp(ns: int) -> str:
-    t = _dt.datetime.fromtimestamp(ns / 1e9, tz=_dt.timezone.utc)
+    t = (_dt.datetime.fromtimestamp(ns // 10**9, tz=_dt.timezone.utc)
+         + _dt.timedelta(microseconds=(ns % 10**9) // 1000))  # truncated, no float rounding
     return f'{t.isoformat(timespec="microseconds")} ({ns // 10**9}.{ns % 10**9:09d} s)'
 
 

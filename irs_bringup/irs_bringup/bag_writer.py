@@ -134,12 +134,25 @@ class BagSummary:
     closed: bool = False
 
 
+def _qos_for_metadata(qos: str):
+    """Version 9 metadata.yaml stores QoS profiles as a YAML list (the MCAP channel keeps the
+    string); an empty string becomes ``[]``; an unparsable string is kept as is."""
+    if not qos.strip():
+        return []
+    try:
+        loaded = yaml.safe_load(qos)
+    except yaml.YAMLError:
+        return qos
+    return loaded if isinstance(loaded, list) else qos
+
+
 def bag_metadata_dict(*, file_name: str, topics: Mapping[str, Tuple[str, str, str, int]],
                       start_ns: int, duration_ns: int, message_count: int,
                       custom_data: Optional[Mapping[str, str]] = None) -> dict:
     """The inner ``rosbag2_bagfile_information`` mapping (metadata version 9).
 
-    ``topics`` maps topic name -> (type, offered_qos_profiles, type_description_hash, count).
+    ``topics`` maps topic name -> (type, offered_qos_profiles YAML string,
+    type_description_hash, count).
     """
     return {
         'version': 9,
@@ -153,7 +166,7 @@ def bag_metadata_dict(*, file_name: str, topics: Mapping[str, Tuple[str, str, st
                     'name': name,
                     'type': typ,
                     'serialization_format': 'cdr',
-                    'offered_qos_profiles': qos,
+                    'offered_qos_profiles': _qos_for_metadata(qos),
                     'type_description_hash': thash,
                 },
                 'message_count': int(count),

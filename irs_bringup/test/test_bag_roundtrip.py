@@ -4,8 +4,12 @@ import sys
 
 # pytest's --import-mode=importlib registers the repository folder ./irs_bringup as a namespace
 # package named like the real package; drop it so the real package imports.
+# Also put the package root on sys.path so the tests run without PYTHONPATH.
 if 'irs_bringup' in sys.modules and getattr(sys.modules['irs_bringup'], '__file__', None) is None:
     del sys.modules['irs_bringup']
+_ROOT = str(__import__('pathlib').Path(__file__).resolve().parents[1])
+if _ROOT not in sys.path:
+    sys.path.insert(0, _ROOT)
 
 import json
 from pathlib import Path
@@ -142,7 +146,15 @@ def test_mcap_library_reads_with_crc_validation(recorded):
     # byte-identical, same order (log time, then write order)
     assert got == [(tp, t, t - 500, d) for tp, _, t, d, _ in msgs]
     assert names == ['experiment', 'versions', 'rosbag2']
-    # sequential read checks every chunk CRC and the data-section CRC
+    # sequential read checks every chunk CRC and the data-section CRC; all CRCs are present
+    with open(path, 'rb') as f:
+        recs = list(StreamReader(f, validate_crcs=True, emit_chunks=True).records)
+    kinds = {}
+    for rec in recs:
+        kinds.setdefault(type(rec).__name__, []).append(rec)
+    assert all(c.uncompressed_crc != 0 for c in kinds['Chunk'])
+    assert kinds['DataEnd'][0].data_section_crc != 0
+    assert kinds['Footer'][0].summary_crc != 0
     with open(path, 'rb') as f:
         n = sum(1 for rec in StreamReader(f, validate_crcs=True).records
                 if type(rec).__name__ == 'Message')
@@ -183,6 +195,10 @@ def test_metadata_yaml(recorded):
     assert topics['/car/pose']['message_count'] == 750
     tm = topics['/arm/joint_states']['topic_metadata']
     assert tm['type'] == JS and tm['serialization_format'] == 'cdr'
+    assert tm['offered_qos_profiles'] == []  # v9: a YAML list, empty when unknown
+    pose_qos = topics['/car/pose']['topic_metadata']['offered_qos_profiles']
+    assert [(q['reliability'], q['depth'], q['history']) for q in pose_qos] == [
+        ('best_effort', 5, 'keep_last')]
     assert tm['type_description_hash'] == get_typestore(Stores.ROS2_JAZZY).hash_rihs01(JS)
     custom = info['custom_data']
     assert custom['irs.dropped_messages'] == '6'
@@ -380,3 +396,14 @@ def test_writer_errors(tmp_path):
 def test_deserialize_helper_errors():
     with pytest.raises(BagError, match='cannot decode'):
         deserialize(JS, get_message_definition(JS), b'\x00\x01\x00\x00\x01')
+
+
+def test_modules_do_not_import_rclpy():
+    import subprocess
+    code = ('import sys; sys.path.insert(0, sys.argv[1]); '
+            'import irs_bringup.bag_writer, irs_bringup.bag_reader, irs_bringup.bag_info, '
+            'irs_bringup.bag_export, irs_bringup.msg_definitions; '
+            'print("rclpy" in sys.modules)')
+    out = subprocess.run([sys.executable, '-c', code, str(Path(__file__).resolve().parents[1])],
+                         capture_output=True, text=True, check=True)
+    assert out.stdout.strip() == 'False'

@@ -18,7 +18,7 @@ when it leaves saturation). ``A_o`` alone has lower degree than ``R`` here (2 < 
 default is ``F = A_o (s + w_f)^k``, ``k = deg R - deg A_o`` and ``w_f`` the largest root
 magnitude of ``A_m`` (30 rad/s for Eq. 21). The "natural" ``F = A_o B^+`` was tried and
 rejected: its slow roots -2.4 and -4.8 make the saturated controller sluggish and a 0.3 m
-step overshoots 37 % (worse than no anti-windup, 30 %), while ``A_o (s+30)^2`` gives 1.4 %
+step overshoots 37 % (worse than no anti-windup, 30 %), while ``A_o (s+30)^2`` gives 1.2 %
 (see docs/control_design.md).
 
 Realisation and discretisation: the *linear* law ``u = [T/R, -S/R] [u_c, y]`` is realised
@@ -28,8 +28,8 @@ then added in the equivalent observer form (Astrom & Wittenmark, Computer-Contro
 
 .. math::
 
-    u_k = C x_k + D w_k, \quad v_k = \mathrm{sat}(u_k), \quad
-    x_{k+1} = \Phi x_k + \Gamma w_k + L (v_k - u_k),
+    u_k = C x_k + D w_k, \\quad v_k = \\mathrm{sat}(u_k), \\quad
+    x_{k+1} = \\Phi x_k + \\Gamma w_k + L (v_k - u_k),
 
 whose characteristic polynomial from ``v`` is ``F_d(z) = prod(z - exp(f_i dt))``, the ZOH
 image of ``F``: this is the discrete ``F_d u = T_d u_c - S_d y + (F_d - R_d) v``. ``L`` is

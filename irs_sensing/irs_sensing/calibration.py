@@ -110,7 +110,7 @@ class JointCalibration:
         if not self.raw_min - tol <= raw <= self.raw_max + tol:
             raise CalibrationError(f"{self.name}: angle {angle:.4f} rad maps to raw {raw:.4f}, "
                                    f"outside [{self.raw_min}, {self.raw_max}].")
-        return raw
+        return min(self.raw_max, max(self.raw_min, raw))  # absorb round-off at the range ends
 
     @property
     def angle_range(self) -> Tuple[float, float]:

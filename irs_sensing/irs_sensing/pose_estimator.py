@@ -73,7 +73,7 @@ class PoseEstimatorParams:
     stale_timeout: float = 0.05
     dt_tolerance: float = 0.5
     singular_tolerance: float = math.radians(5.0)
-    differentiator: str = "lowpass"
+    differentiator: str = "savgol"
     cutoff_hz: float = 10.0
     window: int = 20
     order: int = 1
@@ -103,6 +103,30 @@ class PoseEstimatorParams:
         if not isinstance(self.geometry, ArmGeometry):
             raise ValueError("PoseEstimatorParams.geometry must be an ArmGeometry.")
         make_differentiator(self.differentiator, self.dt, self.cutoff_hz, self.window, self.order)
+
+    @classmethod
+    def from_ros_params(cls, d):
+        """Build from the ``arm_pose_estimator.ros__parameters`` mapping of ``sensing.yaml``
+        (keys ``rate_hz`` -> ``dt``, ``geometry`` -> :class:`ArmGeometry`; ``calibration`` is
+        ignored here, see :func:`irs_sensing.calibration.ArmCalibration.from_dict`)."""
+        import dataclasses
+        kw = dict(d)
+        kw.pop("calibration", None)
+        if "rate_hz" in kw:
+            rate = kw.pop("rate_hz")
+            if not isinstance(rate, (int, float)) or not rate > 0:
+                raise ValueError(f"rate_hz must be a rate > 0 Hz, got {rate!r}.")
+            kw["dt"] = 1.0 / rate
+        if "geometry" in kw:
+            kw["geometry"] = ArmGeometry(**kw["geometry"])
+        names = {f.name for f in dataclasses.fields(cls)}
+        unknown = set(kw) - names
+        if unknown:
+            raise ValueError(f"PoseEstimatorParams: unknown parameters {sorted(unknown)}.")
+        for key in ("joint_min", "joint_max"):
+            if key in kw:
+                kw[key] = tuple(kw[key])
+        return cls(**kw)
 
 
 @dataclass(frozen=True)

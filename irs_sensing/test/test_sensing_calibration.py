@@ -1,12 +1,4 @@
 """Calibration round trips and validation."""
-import sys
-
-# pytest's --import-mode=importlib registers the repository folders (e.g. ./irs_sensing) as
-# namespace packages named like the real packages; drop them so the real packages import.
-for _name in ("irs_sensing", "irs_vehicle_sim", "irs_treadmill"):
-    if _name in sys.modules and getattr(sys.modules[_name], "__file__", None) is None:
-        del sys.modules[_name]
-
 import math
 
 import pytest
@@ -83,3 +75,23 @@ def test_from_dict_rejects_unknown_key():
     with pytest.raises(ValueError):
         ArmCalibration.from_dict({"joint1": {"gain": 1.0, "ofset": 2.0}, "joint2": {},
                                   "joint3": {}})
+
+
+def test_sensing_yaml_units_and_estimator_params():
+    import re
+
+    import yaml
+
+    from irs_sensing.pose_estimator import PoseEstimatorParams
+    for line in CONFIG.read_text().splitlines():
+        code = line.split("#")[0]
+        if re.search(r":\s*\[?-?\d", code):
+            assert re.search(r"#\s*\[", line), f"number without a unit comment: {line!r}"
+    ros = yaml.safe_load(CONFIG.read_text())["arm_pose_estimator"]["ros__parameters"]
+    p = PoseEstimatorParams.from_ros_params(ros)
+    assert p.dt == pytest.approx(0.001)
+    assert p.geometry.base_y == pytest.approx(0.85)
+    # the joint-1 calibrated span equals the configured mechanical range
+    arm = ArmCalibration.from_dict(ros["calibration"])
+    lo, hi = arm.joints[0].angle_range
+    assert (lo, hi) == pytest.approx((p.joint_min[0], p.joint_max[0]), abs=1e-3)

@@ -1,12 +1,4 @@
 """Differentiator transfer function, delay and noise gain."""
-import sys
-
-# pytest's --import-mode=importlib registers the repository folders (e.g. ./irs_sensing) as
-# namespace packages named like the real packages; drop them so the real packages import.
-for _name in ("irs_sensing", "irs_vehicle_sim", "irs_treadmill"):
-    if _name in sys.modules and getattr(sys.modules[_name], "__file__", None) is None:
-        del sys.modules[_name]
-
 import math
 
 import numpy as np

@@ -1,12 +1,4 @@
 """Pose estimator: validation, rejection, staleness, velocities."""
-import sys
-
-# pytest's --import-mode=importlib registers the repository folders (e.g. ./irs_sensing) as
-# namespace packages named like the real packages; drop them so the real packages import.
-for _name in ("irs_sensing", "irs_vehicle_sim", "irs_treadmill"):
-    if _name in sys.modules and getattr(sys.modules[_name], "__file__", None) is None:
-        del sys.modules[_name]
-
 import math
 
 import numpy as np
@@ -64,10 +56,12 @@ def test_yaw_rate_across_pi_wrap():
     r = 2.0
     traj = [(0.0, 0.0, math.pi - 0.5 + r * k * DT) for k in range(600)]  # crosses +pi at 0.25 s
     res = feed(est, traj)
-    rates = [e.yaw_rate for e, _ in res if e is not None and e.velocity_valid]
-    assert len(rates) > 400
-    assert np.allclose(rates[-100:], r, atol=1e-6)
-    assert all(abs(x - r) < 1e-6 for x in rates)
+    assert all(e is not None for e, _ in res)
+    psis = np.array([e.psi for e, _ in res])
+    assert np.any(psis > 3.1) and np.any(psis < -3.1)   # the wrapped heading did jump
+    # after the filter has settled (~0.2 s) the rate stays exact across the wrap at 0.25 s
+    rates = np.array([e.yaw_rate for e, _ in res[200:]])
+    assert np.all(np.abs(rates - r) < 1e-4)   # a wrap glitch would be ~2 pi (1 - alpha)/dt
 
 
 def test_rejections_return_none_and_keep_state():
@@ -135,11 +129,12 @@ def test_stale_detection():
 
 
 def test_near_singular_flag():
-    est = PoseEstimator(PoseEstimatorParams())
-    e, _ = est.update(-math.pi / 2, 0.02, math.pi / 2, stamp=0.0)  # nearly stretched arm
-    assert e is not None and e.near_singular
-    e, _ = est.update(-math.pi / 2 - 0.7, 1.4, math.pi / 2 - 0.7, stamp=0.001)
-    assert e is None or not e.near_singular
+    # shorter arm so that the stretched arm ends on the belt: tip at y = 0.85 - 1.4 = -0.55 m
+    p = PoseEstimatorParams(geometry=ArmGeometry(l1=0.9, l2=0.5))
+    e, reason = PoseEstimator(p).update(-math.pi / 2, 0.02, math.pi / 2, stamp=0.0)
+    assert e is not None and e.near_singular, reason
+    e, reason = PoseEstimator(p).update(-math.pi / 2 - 0.7, 1.4, 0.0, stamp=0.0)
+    assert e is not None and not e.near_singular, reason
 
 
 def test_params_validation():

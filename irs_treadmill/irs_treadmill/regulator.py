@@ -91,6 +91,18 @@ class RegulatorParams:
             if not isinstance(v, (int, float)) or not math.isfinite(v) or v <= 0:
                 raise ValueError(f"RegulatorParams.{n} must be a finite number > 0, got {v!r}.")
 
+    @classmethod
+    def from_dict(cls, d):
+        """Build from a parameter mapping (e.g. the YAML ``ros__parameters`` sub-tree); unknown
+        keys raise ``ValueError``."""
+        import dataclasses
+        names = {f.name for f in dataclasses.fields(cls)}
+        unknown = set(d) - names
+        if unknown:
+            raise ValueError(f"{cls.__name__}: unknown parameters {sorted(unknown)}; expected a "
+                             f"subset of {sorted(names)}.")
+        return cls(**dict(d))
+
 
 @dataclass(frozen=True)
 class RegulatorOutput:

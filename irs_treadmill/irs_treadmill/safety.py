@@ -71,6 +71,18 @@ class SafetyParams:
         if self.stale_timeout <= 0:
             raise ValueError("SafetyParams.stale_timeout must be > 0 s.")
 
+    @classmethod
+    def from_dict(cls, d):
+        """Build from a parameter mapping (e.g. the YAML ``ros__parameters`` sub-tree); unknown
+        keys raise ``ValueError``."""
+        import dataclasses
+        names = {f.name for f in dataclasses.fields(cls)}
+        unknown = set(d) - names
+        if unknown:
+            raise ValueError(f"{cls.__name__}: unknown parameters {sorted(unknown)}; expected a "
+                             f"subset of {sorted(names)}.")
+        return cls(**dict(d))
+
 
 class SafetyMonitor:
     """Latched drive-cut logic (see module docstring)."""

@@ -1,0 +1,30 @@
+"""Run a node the way the ROS 2 examples do, so that SIGINT/SIGTERM end it with exit code 0."""
+import sys
+
+import rclpy
+from rclpy.executors import ExternalShutdownException, SingleThreadedExecutor
+
+
+def run_node(node_factory, args=None) -> int:
+    """``rclpy.init``, build the node, spin until shutdown, clean up; return the exit code.
+
+    Configuration errors raised by the node's constructor (``ValueError``) are reported as one
+    log line and exit code 2, not a traceback.
+    """
+    rclpy.init(args=args)
+    node = None
+    try:
+        node = node_factory()
+        executor = SingleThreadedExecutor()
+        executor.add_node(node)
+        executor.spin()
+    except (KeyboardInterrupt, ExternalShutdownException):
+        pass
+    except ValueError as exc:
+        print(f'[FATAL] configuration error: {exc}', file=sys.stderr)
+        return 2
+    finally:
+        if node is not None:
+            node.destroy_node()
+        rclpy.try_shutdown()
+    return 0

@@ -1,0 +1,62 @@
+"""Exact-time pairing of inputs by their header stamps (no rclpy).
+
+In lock-step runs every message of step k carries the stamp t_k. A node that needs several inputs
+of the same step (a controller: measurement and reference; the rig: steering and drive commands)
+must not act on whichever arrived first, or the run depends on DDS delivery order. ``StampSync``
+buffers each input by its stamp (integer nanoseconds) and hands out a complete set only once every
+input of that stamp is there, in stamp order -- the exact-time policy of ROS message_filters.
+"""
+from dataclasses import dataclass, field
+
+
+@dataclass
+class StampSync:
+    """Collect one value per input name per stamp; release complete sets in stamp order.
+
+    Parameters
+    ----------
+    inputs : sequence of str
+        Names of the inputs that make a set complete.
+    max_pending : int
+        Stamps kept waiting at most; older incomplete sets are dropped and counted in ``dropped``.
+    """
+
+    inputs: tuple
+    max_pending: int = 10000
+    dropped: int = 0
+    _pending: dict = field(default_factory=dict)
+
+    def __post_init__(self):
+        self.inputs = tuple(self.inputs)
+        if not self.inputs:
+            raise ValueError('StampSync needs at least one input name')
+
+    def add(self, name: str, stamp_ns: int, value) -> list:
+        """Store ``value`` of input ``name`` at ``stamp_ns``; return newly complete sets.
+
+        Returns a list of ``(stamp_ns, {name: value})`` in increasing stamp order. A set is
+        released once all inputs of its stamp are present; incomplete older sets stay pending
+        (lock-step peers may be slower on one input than on another).
+        """
+        if name not in self.inputs:
+            raise KeyError(f"unknown input '{name}', expected one of {self.inputs}")
+        self._pending.setdefault(int(stamp_ns), {})[name] = value
+        complete = sorted(s for s, vals in self._pending.items() if len(vals) == len(self.inputs))
+        released = [(s, self._pending.pop(s)) for s in complete]
+        while len(self._pending) > self.max_pending:
+            self._pending.pop(min(self._pending))
+            self.dropped += 1
+        return released
+
+    def has(self, stamp_ns: int) -> bool:
+        """True when a complete set for ``stamp_ns`` is pending (it never is after ``add``)."""
+        vals = self._pending.get(int(stamp_ns), {})
+        return len(vals) == len(self.inputs)
+
+    @property
+    def pending(self) -> int:
+        """Number of stamps with an incomplete set."""
+        return len(self._pending)
+
+    def clear(self) -> None:
+        self._pending.clear()

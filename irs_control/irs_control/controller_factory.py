@@ -1,0 +1,114 @@
+"""Build a lateral controller from a flat parameter mapping (no rclpy).
+
+The lateral-controller node and the offline closed-loop simulation both call
+:func:`make_controller`, so the design the node computes at start-up is the one the offline
+simulation uses.
+
+Plant used for an MRC design (steer [rad] -> sensor-point lateral displacement y_s [m]):
+
+- ``plant = 'identified'``: the paper's Eq. 6 plant with the reconstructed gain
+  (:mod:`.paper_design`), with or without the actuator lag ``p/(s+p)``.
+- ``plant = <preset name>``: the physical bicycle model of that preset at ``speed`` and ``ds``
+  (:func:`irs_vehicle_sim.bicycle.transfer_function`), with or without the actuator lag.
+
+The reference model (``reference_model_num``/``_den``) and observer polynomial (``observer``;
+``[0.0]`` = the paper's choice: ``(s+12)^2`` with the actuator, ``s+12`` without) are
+coefficient lists, highest power first.
+"""
+from dataclasses import dataclass
+
+import numpy as np
+
+from .discrete_pi import DiscretePiController
+from .discrete_rst import DiscreteRstController
+from .paper_design import PAPER_PLANT_GAIN, identified_plant, reference_model
+from .rst_design import RstDesign, design_rst
+
+_BM, _AM = reference_model()
+
+#: Defaults of every controller parameter (also the node's parameter defaults).
+CONTROLLER_DEFAULTS = {
+    'mode': 'mrc',
+    'dt': 0.001,
+    'plant': 'identified',
+    'speed': 1.2,
+    'ds': 0.33,
+    'plant_gain': 0.0,
+    'include_actuator': True,
+    'actuator_pole': 29.0,
+    'reference_model_num': [float(c) for c in _BM],
+    'reference_model_den': [float(c) for c in _AM],
+    'observer': [0.0],
+    'cancel_zeros': 'stable',
+    'kp': 5.0,
+    'ki': 3.0,
+    'steer_limit': 0.2618,
+    'anti_windup': True,
+}
+
+
+@dataclass
+class LateralControllerSpec:
+    """What :func:`make_controller` built: the controller, and the design for an MRC."""
+
+    controller: object
+    design: RstDesign | None
+    summary: str
+
+
+def plant_polynomials(cfg: dict):
+    """``(B, A)`` of the design plant described by ``cfg`` (see the module docstring)."""
+    include = bool(cfg['include_actuator'])
+    pole = float(cfg['actuator_pole'])
+    if cfg['plant'] == 'identified':
+        gain = float(cfg['plant_gain']) or PAPER_PLANT_GAIN
+        return identified_plant(include, pole, gain)
+    from irs_vehicle_sim.bicycle import transfer_function
+    from irs_vehicle_sim.presets import get_preset
+
+    try:
+        preset = get_preset(cfg['plant'])
+    except KeyError as exc:
+        raise ValueError(f"plant: {exc.args[0]}") from None
+    num, den = transfer_function(preset.params, float(cfg['speed']), float(cfg['ds']),
+                                 actuator_pole=pole if include else None, as_control=False)
+    return np.trim_zeros(np.asarray(num, float), 'f'), np.asarray(den, float)
+
+
+def observer_polynomial(cfg: dict) -> np.ndarray:
+    """The observer polynomial Ao; ``[0.0]`` selects the paper's choice for the plant."""
+    ao = [float(c) for c in cfg['observer']]
+    if ao == [0.0]:
+        return np.array([1.0, 24.0, 144.0]) if cfg['include_actuator'] else np.array([1.0, 12.0])
+    if not ao or ao[0] == 0.0:
+        raise ValueError(f'observer must be polynomial coefficients with a non-zero leading '
+                         f'coefficient, or [0.0] for the paper choice; got {ao}')
+    return np.array(ao)
+
+
+def make_controller(params: dict | None = None) -> LateralControllerSpec:
+    """Design and discretise the controller that ``params`` describe (missing keys: defaults)."""
+    cfg = {**CONTROLLER_DEFAULTS, **(params or {})}
+    unknown = set(cfg) - set(CONTROLLER_DEFAULTS)
+    if unknown:
+        raise ValueError(f'unknown controller parameter(s) {sorted(unknown)}')
+    limit = float(cfg['steer_limit'])
+    if not limit > 0.0:
+        raise ValueError(f'steer_limit must be a positive angle in rad, got {limit}')
+    dt = float(cfg['dt'])
+    if cfg['mode'] == 'pi':
+        ctl = DiscretePiController(kp=float(cfg['kp']), ki=float(cfg['ki']), dt=dt,
+                                   limits=(-limit, limit), anti_windup=bool(cfg['anti_windup']))
+        return LateralControllerSpec(ctl, None, f"PI: Kp = {cfg['kp']} rad/m, Ki = {cfg['ki']} rad/(m s)")
+    if cfg['mode'] != 'mrc':
+        raise ValueError(f"mode must be 'mrc' or 'pi', got {cfg['mode']!r}")
+    B, A = plant_polynomials(cfg)
+    design = design_rst(B, A, np.asarray(cfg['reference_model_num'], float),
+                        np.asarray(cfg['reference_model_den'], float), observer_polynomial(cfg),
+                        cancel=cfg['cancel_zeros'])
+    ctl = DiscreteRstController(design, dt=dt, u_min=-limit, u_max=limit,
+                                anti_windup=bool(cfg['anti_windup']))
+    fmt = lambda p: '[' + ', '.join(f'{c:.6g}' for c in p) + ']'  # noqa: E731
+    summary = (f"MRC on plant '{cfg['plant']}' ({'with' if cfg['include_actuator'] else 'without'} "
+               f"actuator): R = {fmt(design.R)}, S = {fmt(design.S)}, T = {fmt(design.T)}")
+    return LateralControllerSpec(ctl, design, summary)

@@ -1,0 +1,71 @@
+"""Discrete PI lateral controller with back-calculation anti-windup (paper: Kp = 5, Ki = 3).
+
+.. math::
+
+    e_k = r_k - y_k, \\quad u_k = K_p e_k + I_k, \\quad v_k = \\mathrm{sat}(u_k),
+
+    I_{k+1} = I_k + dt \\left( K_i e_k + \\frac{v_k - u_k}{T_t} \\right).
+
+**Back-calculation** (not conditional integration): while the steer is clipped the
+integrator is bled towards the value that makes ``u = v`` with tracking time constant
+``T_t`` [s] (default ``T_t = K_p / K_i``, the integral time, the usual choice for PI).
+Units: ``e`` [m], ``u`` [rad], ``K_p`` [rad/m], ``K_i`` [rad/(m s)].
+"""
+from __future__ import annotations
+
+from .discrete_rst import STEER_LIMIT, ControlOutput
+
+__all__ = ["DiscretePiController"]
+
+
+class DiscretePiController:
+    """PI controller, forward-Euler integral, back-calculation anti-windup.
+
+    Parameters
+    ----------
+    kp : float
+        Proportional gain [rad/m] (paper: 5).
+    ki : float
+        Integral gain [rad/(m s)] (paper: 3).
+    dt : float
+        Sample time [s].
+    limits : tuple of float
+        ``(u_min, u_max)`` steer limits [rad].
+    tracking_time : float, optional
+        Back-calculation time constant ``T_t`` [s]; default ``kp / ki``.
+    anti_windup : bool
+        Disable to compare with a plain clipped PI.
+    """
+
+    def __init__(self, kp: float = 5.0, ki: float = 3.0, dt: float = 1e-3,
+                 limits=(-STEER_LIMIT, STEER_LIMIT), tracking_time: float | None = None,
+                 anti_windup: bool = True):
+        if not dt > 0:
+            raise ValueError(f"dt must be a positive sample time in seconds; got {dt}.")
+        if kp < 0 or ki < 0:
+            raise ValueError(f"Expected non-negative gains kp, ki; got {kp}, {ki}.")
+        u_min, u_max = limits
+        if not u_min < u_max:
+            raise ValueError(f"Expected limits (u_min, u_max) with u_min < u_max; got {limits}.")
+        if tracking_time is None:
+            tracking_time = kp / ki if ki > 0 and kp > 0 else 1.0
+        if not tracking_time > 0:
+            raise ValueError(f"tracking_time must be positive seconds; got {tracking_time}.")
+        self.kp, self.ki, self.dt = float(kp), float(ki), float(dt)
+        self.u_min, self.u_max = float(u_min), float(u_max)
+        self.tracking_time = float(tracking_time)
+        self.anti_windup = bool(anti_windup)
+        self.integral = 0.0
+
+    def reset(self) -> None:
+        """Zero the integrator."""
+        self.integral = 0.0
+
+    def step(self, reference: float, measurement: float) -> ControlOutput:
+        """Advance one sample; ``reference``, ``measurement`` in m, steer in rad."""
+        e = reference - measurement
+        u = self.kp * e + self.integral
+        v = min(max(u, self.u_min), self.u_max)
+        aw = (v - u) / self.tracking_time if self.anti_windup else 0.0
+        self.integral += self.dt * (self.ki * e + aw)
+        return ControlOutput(u_unsat=u, u_sat=v, saturated=(v != u))

@@ -1,0 +1,136 @@
+"""Parameter table of the ``vehicle_sim`` node: name, default, unit, range, description.
+
+Defaults are taken from the core dataclasses (:class:`~irs_vehicle_sim.rig.RigConfig` and its
+sections), so this table cannot drift from the code; units and descriptions live here, once.
+The node declares every entry with a descriptor; ``RigConfig.from_dict`` takes the values.
+"""
+import math
+from dataclasses import asdict
+
+from irs_common.params import Param
+
+from .actuator import ActuatorParams
+from .arm_sensor import ArmSensorParams
+from .belt import BeltParams
+from .car_on_belt import CarParams
+from .rig import RigConfig, _bicycle_defaults
+from irs_sensing.arm_kinematics import ArmGeometry
+
+INF = math.inf
+
+# name: (unit, low, high, description)
+_RIG = {
+    'dt': ('s', 1e-5, 0.05, 'fixed simulation step (1 kHz default)'),
+    'seed': ('1', 0, 2**31 - 1, 'seed of the arm-sensor noise generator'),
+    'plant': ('-', None, None, "lateral plant: 'identified' (paper Eq. 6) or 'bicycle' (physical preset)"),
+    'ds': ('m', 0.0, 5.0, 'sensor point ahead of the c.g. (paper: 0.33 m)'),
+    'steer_reject': ('rad', 0.0, math.pi, '|steer command| above this is rejected and 0 rad used'),
+    'speed_cmd_max': ('m/s', 0.0, 20.0, 'driver speed commands outside [0, this] are rejected'),
+    'x0': ('m', -1.2192, 1.2192, 'initial c.g. x in the treadmill frame'),
+    'y0': ('m', -0.6096, 0.6096, 'initial c.g. y in the treadmill frame'),
+    'u0': ('m/s', 0.0, 20.0, 'initial car speed over the belt (and the driver command until one arrives)'),
+    'belt_speed0': ('m/s', 0.0, 6.7056, 'initial belt speed'),
+}
+_ACT = {
+    'lag_hz': ('Hz', 0.01, 1000.0, 'servo first-order lag corner (4.6 Hz vehicle fit, 3.8 Hz isolated servo)'),
+    'rate_limit': ('rad/s', 0.0, INF, 'servo slew-rate limit'),
+    'delay': ('s', 0.0, 1.0, 'transmitter transport delay (quantised to dt)'),
+    'backlash': ('rad', 0.0, 0.1, 'total width of the steering backlash (0.175 deg default)'),
+    'limit': ('rad', 0.0, math.pi / 2, 'hard steer saturation (15 deg default)'),
+    'enable_lag': ('-', None, None, 'simulate the first-order lag'),
+    'enable_rate_limit': ('-', None, None, 'simulate the rate limit'),
+    'enable_delay': ('-', None, None, 'simulate the transport delay'),
+    'enable_backlash': ('-', None, None, 'simulate the backlash'),
+    'enable_saturation': ('-', None, None, 'simulate the saturation'),
+}
+_IDENT = {
+    'gain': ('m/s^2/rad', 0.0, INF, 'K of the identified G(s); 0 = paper reconstruction'),
+    'speed': ('m/s', 0.01, 20.0, 'identification speed U (heading = v_s / U)'),
+    'ds': ('m', -1.0, 5.0, 'sensor distance of the identified model; negative = use ds'),
+}
+_BICYCLE = {
+    'preset': ('-', None, None, "vehicle preset from config/presets.yaml; '' = use the fields below"),
+    'mass': ('kg', 0.0, INF, 'vehicle mass (preset empty only)'),
+    'yaw_inertia': ('kg m^2', 0.0, INF, 'yaw inertia about the c.g. (preset empty only)'),
+    'lf': ('m', 0.0, INF, 'c.g. to front axle (preset empty only)'),
+    'lr': ('m', 0.0, INF, 'c.g. to rear axle (preset empty only)'),
+    'c_f': ('N/rad', 0.0, INF, 'front axle cornering stiffness (preset empty only)'),
+    'c_r': ('N/rad', 0.0, INF, 'rear axle cornering stiffness (preset empty only)'),
+    'track': ('m', 0.0, INF, 'track width (preset empty only)'),
+    'wheel_radius': ('m', 0.0, INF, 'wheel rolling radius (preset empty only)'),
+    'speed': ('m/s', 0.01, 20.0, 'forward speed the bicycle model is linearised at'),
+}
+_CAR = {
+    'tau_u': ('s', 0.0, INF, 'time constant of the car speed response to the driver command'),
+    'length': ('m', 0.0, 2.0, 'body length (off-belt margin)'),
+    'width': ('m', 0.0, 1.0, 'body width (off-belt margin)'),
+    'lf': ('m', 0.0, 1.0, 'c.g. to front axle (wheel kinematics)'),
+    'lr': ('m', 0.0, 1.0, 'c.g. to rear axle (wheel kinematics)'),
+    'track': ('m', 0.0, 1.0, 'track width (wheel kinematics)'),
+    'wheel_radius': ('m', 0.0, 1.0, 'wheel rolling radius (wheel kinematics)'),
+}
+_ARM = {
+    'l1': ('m', 0.0, INF, 'arm link 1 length'),
+    'l2': ('m', 0.0, INF, 'arm link 2 length'),
+    'base_x': ('m', -INF, INF, 'arm base (joint 1) x in the treadmill frame'),
+    'base_y': ('m', -INF, INF, 'arm base (joint 1) y in the treadmill frame'),
+    'attach_offset': ('m', -1.0, 1.0, 'arm tip attachment ahead of the c.g.'),
+    'elbow': ('1', -1, 1, 'inverse-kinematics branch: +1 theta2 in (0, pi), -1 in (-pi, 0)'),
+    'noise_std': ('rad', 0.0, 1.0, 'potentiometer noise standard deviation per joint'),
+    'enable_noise': ('-', None, None, 'add potentiometer noise'),
+    'adc_bits': ('bit', 1, 32, 'ADC resolution'),
+    'adc_range': ('rad', 0.0, INF, 'angle spanned by the ADC range'),
+    'lsb': ('rad', 0.0, 1.0, 'quantisation step; 0 = adc_range / 2^adc_bits'),
+    'enable_quantization': ('-', None, None, 'quantise the angles'),
+}
+_BELT = {
+    'gain': ('m/s^2/V', 0.0, INF, 'belt drive gain (Eq. 2 numerator 2.38)'),
+    'pole': ('1/s', 0.0, INF, 'belt drive pole (Eq. 2: 4.5)'),
+    'b_over_j': ('1/s', 0.0, INF, 'viscous friction B/J (0.158)'),
+    'f_over_b': ('m/s', 0.0, INF, 'sliding/viscous friction ratio F/B (0.270)'),
+    'v_top': ('m/s', 0.0, 20.0, 'belt top speed (15 mph)'),
+    'u_max': ('V', 0.0, 100.0, 'drive voltage range [0, u_max]'),
+    'delay': ('s', 0.0, 1.0, 'drive transport delay (assumed)'),
+    'counts_per_rev': ('count/rev', 1, 2**31 - 1, 'shaft encoder resolution'),
+    'roller_radius': ('m', 0.0, 1.0, 'drive roller radius'),
+    'gear_ratio': ('1', 0.0, INF, 'encoder revolutions per roller revolution'),
+    'window_samples': ('1', 1, 100000, 'samples in the encoder speed-estimate window'),
+    'delay_samples': ('1', 0, 100000, 'samples of encoder speed-estimate delay'),
+}
+
+
+def _section_defaults():
+    cfg = RigConfig()
+    arm = {**asdict(ArmGeometry()), **asdict(ArmSensorParams())}
+    arm.pop('seed')
+    ident = {'gain': 0.0, 'speed': cfg.identified.speed, 'ds': -1.0}
+    return {
+        'actuator_front': (asdict(ActuatorParams()), _ACT),
+        'actuator_rear': (asdict(ActuatorParams()), _ACT),
+        'identified': (ident, _IDENT),
+        'bicycle': (_bicycle_defaults(), _BICYCLE),
+        'car': (asdict(CarParams()), _CAR),
+        'arm': (arm, _ARM),
+        'belt': (asdict(BeltParams()), _BELT),
+    }
+
+
+def _param(name, default, meta, read_only=False):
+    unit, low, high, desc = meta
+    if isinstance(default, float) and not isinstance(default, bool):
+        low = None if low is None else float(low)
+        high = None if high is None else float(high)
+    return Param(name, default, desc, unit, low, high, read_only)
+
+
+def rig_parameter_table() -> list:
+    """Every rig parameter as a :class:`~irs_common.params.Param` (dotted names for sections)."""
+    cfg = RigConfig()
+    table = [_param(k, getattr(cfg, k), _RIG[k], read_only=k in ('dt',)) for k in _RIG]
+    for section, (defaults, meta) in _section_defaults().items():
+        missing = set(defaults) - set(meta)
+        if missing:
+            raise RuntimeError(f'rig_params: no unit/description for {section}.{sorted(missing)}')
+        for key, default in defaults.items():
+            table.append(_param(f'{section}.{key}', default, meta[key]))
+    return table

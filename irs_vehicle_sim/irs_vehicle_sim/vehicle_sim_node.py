@@ -1,0 +1,266 @@
+"""``vehicle_sim`` node: the simulated IRS rig on ROS topics (thin wrapper of :mod:`.rig`).
+
+Clock modes (parameter ``clock_mode``, read-only):
+
+- ``realtime``: a wall timer advances the rig by as many steps as wall time has passed, each with
+  the latest commands received, like the hardware. Stamps are ``t_start + k dt`` (ROS time).
+- ``lockstep``: the rig is the clock. It publishes ``/clock`` = t_k and every output stamped t_k,
+  then waits until every input listed in ``lockstep_inputs`` has delivered a command stamped t_k
+  (the answer to the measurement of t_k) before it steps to t_{k+1}. Inputs not listed use the
+  latest value received. A run is therefore bit-for-bit reproducible whatever the machine load.
+  If nothing arrives for ``lockstep_resend_period`` s of wall time (a subscriber matched late and
+  missed step k), step k's outputs are published again; consumers ignore stamps they have seen.
+
+Commands that are NaN, inf or out of range are replaced by the safe value (steer 0 rad, drive 0 V,
+driver speed held) with a throttled warning; the counts are on ``rig/status``.
+"""
+import math
+import time
+
+from geometry_msgs.msg import PointStamped
+from nav_msgs.msg import Odometry
+from rclpy.node import Node
+from rosgraph_msgs.msg import Clock
+from sensor_msgs.msg import JointState
+
+from irs_common import qos
+from irs_common.node_main import run_node
+from irs_common.params import Param, declare_table
+from irs_common.stamp_sync import StampSync
+from irs_common.stamps import from_ns, to_ns
+from irs_msgs.msg import (BeltSpeed, DriverCommand, RigStatus, SteeringActuatorState,
+                          SteeringCommand, TreadmillDriveCommand)
+
+from .rig import RigConfig, RigInputs, RigSimulation
+from .rig_params import rig_parameter_table
+
+#: lock-step input name -> (topic, message type)
+INPUTS = {
+    'steering': ('steering/command', SteeringCommand),
+    'drive': ('treadmill/drive', TreadmillDriveCommand),
+    'driver': ('driver/command', DriverCommand),
+}
+
+NODE_PARAMS = [
+    Param('clock_mode', 'realtime', "'realtime' (wall timer, latest commands) or 'lockstep' "
+          '(publishes /clock, waits for the commands of each step)', '-', read_only=True),
+    Param('lockstep_inputs', ['steering'], 'inputs whose command for step k must arrive before '
+          "step k+1 in lockstep mode: any of 'steering', 'drive', 'driver'", '-', read_only=True),
+    Param('lockstep_resend_period', 1.0, 'wall time without progress after which the outputs of '
+          'the current step are published again (lockstep)', 's', 0.01, 3600.0),
+    Param('default_drive_voltage', 0.0, 'drive voltage used until the first drive command arrives '
+          '(0 = belt coasts)', 'V', 0.0, 100.0),
+    Param('frame_id', 'treadmill', 'fixed frame of poses and points', '-'),
+    Param('child_frame_id', 'base_link', 'car body frame (ground-truth odometry)', '-'),
+    Param('publish_wheel_speeds', False, 'publish the four wheel speeds (independent-wheel-torque '
+          'car encoders)', '-'),
+    Param('max_steps', 0, 'stop stepping after this many steps (0 = run until shut down)', '1',
+          0, 2**62),
+]
+
+ARM_JOINTS = ['arm_joint1', 'arm_joint2', 'arm_joint3']
+WHEELS = ['wheel_front_left', 'wheel_front_right', 'wheel_rear_left', 'wheel_rear_right']
+
+
+def _quat_z(psi: float):
+    return 0.0, 0.0, math.sin(psi / 2.0), math.cos(psi / 2.0)
+
+
+class VehicleSimNode(Node):
+    """Publishes what the rig's sensors report; takes steering, drive and driver commands."""
+
+    def __init__(self):
+        super().__init__('vehicle_sim')
+        self.p = declare_table(self, NODE_PARAMS)
+        rig_values = declare_table(self, rig_parameter_table())
+        self.config = RigConfig.from_dict(rig_values)
+        if self.p['clock_mode'] not in ('realtime', 'lockstep'):
+            raise ValueError(f"clock_mode must be 'realtime' or 'lockstep', got {self.p['clock_mode']!r}")
+        self.lockstep = self.p['clock_mode'] == 'lockstep'
+        required = [n for n in self.p['lockstep_inputs'] if n]
+        unknown = set(required) - set(INPUTS)
+        if unknown:
+            raise ValueError(f'lockstep_inputs: unknown input(s) {sorted(unknown)}; '
+                             f'expected some of {sorted(INPUTS)}')
+        self.required = tuple(required) if self.lockstep else ()
+        self.sim = RigSimulation(self.config)
+        self.dt_ns = int(round(self.config.dt * 1e9))
+        if abs(self.dt_ns * 1e-9 - self.config.dt) > 1e-15:
+            raise ValueError(f'dt = {self.config.dt} s is not a whole number of nanoseconds')
+
+        # Latest accepted command of every input (used for inputs that are not lock-step inputs).
+        self.latest = {'steering': (0.0, 0.0), 'drive': self.p['default_drive_voltage'],
+                       'driver': self.config.u0}
+        self.rejected = {'steering': 0, 'drive': 0, 'driver': 0}
+        self.sync = StampSync(self.required) if self.required else None
+        self.resends = 0
+
+        self.pub_clock = self.create_publisher(Clock, '/clock', qos.CLOCK) if self.lockstep else None
+        self.pub_arm = self.create_publisher(JointState, 'arm/joint_states', qos.SENSOR)
+        self.pub_belt = self.create_publisher(BeltSpeed, 'belt/speed', qos.SENSOR)
+        self.pub_act = self.create_publisher(SteeringActuatorState, 'steering/state', qos.SENSOR)
+        self.pub_odom = self.create_publisher(Odometry, 'ground_truth/odom', qos.SENSOR)
+        self.pub_point = self.create_publisher(PointStamped, 'ground_truth/sensor_point', qos.SENSOR)
+        self.pub_wheels = (self.create_publisher(JointState, 'wheel_speeds', qos.SENSOR)
+                           if self.p['publish_wheel_speeds'] else None)
+        self.pub_status = self.create_publisher(RigStatus, 'rig/status', qos.STATUS)
+        self.subs = {name: self.create_subscription(
+            mtype, topic, lambda msg, n=name: self._on_command(n, msg), qos.COMMAND)
+            for name, (topic, mtype) in INPUTS.items()}
+
+        self.last_fault = None
+        if self.lockstep:
+            self.stamp0_ns = 0
+            self.last_progress = time.monotonic()
+            self._publish_outputs()
+            self.timer = self.create_timer(0.05, self._lockstep_watchdog)
+        else:
+            self.stamp0_ns = self.get_clock().now().nanoseconds
+            self.wall0 = time.monotonic()
+            self.timer = self.create_timer(self.config.dt, self._realtime_tick)
+        self.get_logger().info(
+            f"rig up: {self.p['clock_mode']}, dt = {self.config.dt} s, plant = {self.config.plant}"
+            + (f", lock-step inputs {list(self.required)}" if self.lockstep else ''))
+
+    # ---------------------------------------------------------------- inputs
+    def _decode(self, name, msg):
+        if name == 'steering':
+            return (msg.front_angle, msg.rear_angle)
+        if name == 'drive':
+            return msg.voltage
+        return msg.speed
+
+    def _on_command(self, name, msg):
+        value = self._decode(name, msg)
+        if name in self.required:
+            stamp = to_ns(msg.header.stamp)
+            current = self._stamp_ns()
+            if stamp < current:
+                return  # answer to a step already taken (a resend duplicate)
+            for stamp_ns, values in self.sync.add(name, stamp, value):
+                if stamp_ns == self._stamp_ns():
+                    self._lockstep_step(values)
+        else:
+            self.latest[name] = value
+
+    # ---------------------------------------------------------------- stepping
+    def _stamp_ns(self) -> int:
+        return self.stamp0_ns + self.sim.k * self.dt_ns
+
+    def _inputs(self, values: dict) -> RigInputs:
+        merged = {**self.latest, **values}
+        front, rear = merged['steering']
+        return RigInputs(front_steer=front, rear_steer=rear, drive_voltage=merged['drive'],
+                         speed_cmd=merged['driver'])
+
+    def _done(self) -> bool:
+        return self.p['max_steps'] > 0 and self.sim.k >= self.p['max_steps']
+
+    def _step(self, values: dict):
+        out = self.sim.step(self._inputs(values))
+        for reason in out.input_warnings:
+            kind = 'steering' if 'steer' in reason else 'drive' if 'drive' in reason else 'driver'
+            self.rejected[kind] += 1
+            self.get_logger().warning(f'rejected command: {reason}', throttle_duration_sec=1.0)
+        self._publish_outputs()
+
+    def _lockstep_step(self, values):
+        if self._done():
+            return
+        self._step(values)
+        self.last_progress = time.monotonic()
+
+    def _lockstep_watchdog(self):
+        if self._done():
+            return
+        if time.monotonic() - self.last_progress > self.p['lockstep_resend_period']:
+            self.resends += 1
+            self.get_logger().warning(
+                f'lock-step: no commands for t = {self._stamp_ns() * 1e-9:.3f} s from '
+                f'{list(self.required)} for {self.p["lockstep_resend_period"]} s; '
+                'publishing the outputs of this step again', throttle_duration_sec=5.0)
+            self._publish_outputs()
+            self.last_progress = time.monotonic()
+
+    def _realtime_tick(self):
+        due = int((time.monotonic() - self.wall0) / self.config.dt)
+        for _ in range(min(due - self.sim.k, 100)):   # catch up, at most 0.1 s per tick
+            if self._done():
+                return
+            self._step({})
+
+    # ---------------------------------------------------------------- outputs
+    def _publish_outputs(self):
+        out = self.sim.outputs
+        stamp = from_ns(self._stamp_ns())
+        frame = self.p['frame_id']
+        if self.pub_clock is not None:
+            self.pub_clock.publish(Clock(clock=stamp))
+
+        js = JointState()
+        js.header.stamp = stamp
+        js.header.frame_id = frame
+        js.name = ARM_JOINTS
+        js.position = [float(a) for a in out.arm_angles]
+        self.pub_arm.publish(js)
+
+        belt = BeltSpeed()
+        belt.header.stamp = stamp
+        belt.header.frame_id = frame
+        belt.speed = float(out.belt_speed_measured)
+        belt.encoder_count = int(self.sim.belt.encoder.count)
+        self.pub_belt.publish(belt)
+
+        act = SteeringActuatorState()
+        act.header.stamp = stamp
+        af, ar = out.actuator_front, out.actuator_rear
+        act.front_commanded, act.front_achieved = float(af.commanded), float(af.achieved)
+        act.rear_commanded, act.rear_achieved = float(ar.commanded), float(ar.achieved)
+        act.front_saturated, act.rear_saturated = bool(af.saturated), bool(ar.saturated)
+        self.pub_act.publish(act)
+
+        odom = Odometry()
+        odom.header.stamp = stamp
+        odom.header.frame_id = frame
+        odom.child_frame_id = self.p['child_frame_id']
+        odom.pose.pose.position.x = float(out.x)
+        odom.pose.pose.position.y = float(out.y)
+        q = _quat_z(out.psi)
+        o = odom.pose.pose.orientation
+        o.x, o.y, o.z, o.w = q
+        odom.twist.twist.linear.x = float(out.u)
+        odom.twist.twist.linear.y = float(out.v)
+        odom.twist.twist.angular.z = float(out.yaw_rate)
+        self.pub_odom.publish(odom)
+
+        pt = PointStamped()
+        pt.header.stamp = stamp
+        pt.header.frame_id = frame
+        pt.point.x = float(out.x + self.config.ds * math.cos(out.psi))
+        pt.point.y = float(out.y_s)
+        self.pub_point.publish(pt)
+
+        if self.pub_wheels is not None:
+            ws = JointState()
+            ws.header.stamp = stamp
+            ws.name = WHEELS
+            ws.velocity = [float(w) for w in out.wheel_speeds]
+            self.pub_wheels.publish(ws)
+
+        fault = (out.fault, out.fault_reason)
+        if fault != self.last_fault or self.sim.k % 1000 == 0:
+            if out.fault and fault != self.last_fault:
+                self.get_logger().error(f'rig fault: {out.fault_reason}')
+            self.last_fault = fault
+            st = RigStatus()
+            st.header.stamp = stamp
+            st.car_on_belt = not out.fault_reason.startswith('off_belt')
+            st.fault_text = out.fault_reason
+            st.rejected_steer_count = self.rejected['steering']
+            st.rejected_drive_count = self.rejected['drive']
+            st.step = self.sim.k
+            self.pub_status.publish(st)
+
+
+def main(args=None):
+    return run_node(VehicleSimNode, args)
