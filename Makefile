@@ -40,6 +40,8 @@ $(ENV_STAMP): env/requirements.txt
 # irs_msgs/cmake/wheel_prefix_fixes.cmake repairs include paths the wheels' CMake exports
 # carry over from their build container (see the comment in that file).
 $(BUILD_STAMP): $(ENV_STAMP) $(PACKAGE_FILES)
+	@# --symlink-install leaves links to deleted sources in build/, which then fail the build.
+	@test ! -d build || find build -xtype l -delete
 	@source env/venv.bash && colcon --log-base build/log build --merge-install --symlink-install \
 	  --base-paths $(PACKAGES) --event-handlers console_cohesion- status- \
 	  --cmake-args -DPython3_EXECUTABLE=$$VIRTUAL_ENV/bin/python \

@@ -13,6 +13,7 @@ setup(
         ('share/ament_index/resource_index/packages', ['resource/' + package_name]),
         ('share/' + package_name, ['package.xml']),
         ('share/' + package_name + '/config', glob('config/*.yaml')),
+        ('share/' + package_name + '/config/experiments', glob('config/experiments/*.yaml')),
     ],
     install_requires=['setuptools'],
     zip_safe=True,
@@ -25,7 +26,7 @@ setup(
             'experiment = irs_bringup.experiment_cli:main',
             'bag = irs_bringup.bag_cli:main',
             'recorder = irs_bringup.recorder_node:main',
-            'driver_console = irs_bringup.driver_node:main',
+            'driver = irs_bringup.driver_node:main',
         ],
     },
 )

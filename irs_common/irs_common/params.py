@@ -63,3 +63,48 @@ def markdown_table(table) -> str:
         ro = ' (read-only)' if p.read_only else ''
         rows.append(f'| `{p.name}` | `{p.default!r}` | {p.unit} | {rng} | {p.description}{ro} |')
     return '\n'.join(rows)
+
+
+def table_from_defaults(defaults: dict, meta: dict, read_only=()) -> list:
+    """A parameter table from ``{name: default}`` and ``{name: (unit, low, high, description)}``.
+
+    Defaults come from the ROS-free core (its dataclasses), units and descriptions from ``meta``;
+    a name missing from ``meta`` is an error, so no parameter goes undocumented.
+    """
+    missing = sorted(set(defaults) - set(meta))
+    if missing:
+        raise ValueError(f'no unit/description for parameter(s) {missing}')
+    table = []
+    for name, default in defaults.items():
+        unit, low, high, desc = meta[name]
+        if isinstance(default, (list, tuple)):
+            default = list(default)
+        if isinstance(default, float):
+            low = None if low is None else float(low)
+            high = None if high is None else float(high)
+        table.append(Param(name, default, desc, unit, low, high, name in read_only))
+    return table
+
+
+def flatten(mapping: dict, prefix: str = '') -> dict:
+    """``{'a': {'b': 1}}`` -> ``{'a.b': 1}`` (ROS parameter names of nested YAML)."""
+    out = {}
+    for key, value in mapping.items():
+        name = f'{prefix}{key}'
+        if isinstance(value, dict):
+            out.update(flatten(value, name + '.'))
+        else:
+            out[name] = value
+    return out
+
+
+def unflatten(values: dict) -> dict:
+    """``{'a.b': 1}`` -> ``{'a': {'b': 1}}``."""
+    out = {}
+    for name, value in values.items():
+        node = out
+        *parents, leaf = name.split('.')
+        for part in parents:
+            node = node.setdefault(part, {})
+        node[leaf] = value
+    return out

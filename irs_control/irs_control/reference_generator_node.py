@@ -9,13 +9,13 @@ once per ``/clock`` tick, stamped with that tick (lock-step runs pair it with th
 the same stamp); otherwise at ``rate`` on a wall timer.
 """
 from rclpy.node import Node
-from rosgraph_msgs.msg import Clock
 from std_msgs.msg import Float64
 
 from irs_common import qos
 from irs_common.node_main import run_node
 from irs_common.params import Param, declare_table
 from irs_common.stamps import to_sec
+from irs_common.ticker import create_ticker
 from irs_msgs.msg import LateralReference
 
 from .reference import from_dict
@@ -59,10 +59,7 @@ class ReferenceGeneratorNode(Node):
         if self.p['source'] == 'console':
             self.create_subscription(Float64, 'console/lateral_position', self._on_console,
                                      qos.COMMAND)
-        if self.get_parameter('use_sim_time').value:
-            self.create_subscription(Clock, '/clock', self._on_clock, qos.CLOCK)
-        else:
-            self.create_timer(1.0 / self.p['rate'], self._on_timer)
+        create_ticker(self, self.p['rate'], self._publish)
 
     def _on_console(self, msg):
         self.console_value = msg.data
@@ -77,12 +74,6 @@ class ReferenceGeneratorNode(Node):
             ref.lateral_position = float(self.signal(to_sec(stamp)))
             ref.source = LateralReference.SOURCE_FUNCTION
         self.pub.publish(ref)
-
-    def _on_clock(self, msg):
-        self._publish(msg.clock)
-
-    def _on_timer(self):
-        self._publish(self.get_clock().now().to_msg())
 
 
 def main(args=None):

@@ -38,7 +38,7 @@ from typing import Optional, Tuple
 
 from .arm_kinematics import (ArmGeometry, forward_kinematics, sensor_point, singularity_margin,
                              wrap_angle)
-from .differentiator import Differentiator, make_differentiator
+from .differentiator import make_differentiator
 
 __all__ = ["PoseEstimatorParams", "PoseEstimate", "PoseEstimator"]
 
@@ -60,7 +60,7 @@ class PoseEstimatorParams:
     """
 
     dt: float = 0.001
-    ds: float = 0.15
+    ds: float = 0.33
     joint_min: Tuple[float, float, float] = (-math.pi, -math.pi, -math.pi)
     joint_max: Tuple[float, float, float] = (math.pi, math.pi, math.pi)
     belt_half_length: float = _BELT_HALF_LENGTH

@@ -5,7 +5,7 @@ import numpy as np
 import pytest
 
 from irs_treadmill.regulator import BeltSpeedRegulator, RegulatorParams
-from irs_treadmill.safety import FaultCode, SafetyMonitor, SafetyParams
+from irs_treadmill.safety import SafetyMonitor, SafetyParams
 from irs_vehicle_sim.belt import BeltParams, TreadmillBelt
 
 DT = 0.001          # [s] control period (paper: 1 kHz)

@@ -1,5 +1,4 @@
 """Regulator unit tests (limits, anti-wind-up) and safety latching."""
-import math
 
 import pytest
 

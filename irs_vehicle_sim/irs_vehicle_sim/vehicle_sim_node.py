@@ -22,6 +22,7 @@ from nav_msgs.msg import Odometry
 from rclpy.node import Node
 from rosgraph_msgs.msg import Clock
 from sensor_msgs.msg import JointState
+from std_srvs.srv import Trigger
 
 from irs_common import qos
 from irs_common.node_main import run_node
@@ -54,6 +55,9 @@ NODE_PARAMS = [
     Param('child_frame_id', 'base_link', 'car body frame (ground-truth odometry)', '-'),
     Param('publish_wheel_speeds', False, 'publish the four wheel speeds (independent-wheel-torque '
           'car encoders)', '-'),
+    Param('autostart', True, 'start stepping at once; false: wait for a call of the rig/start '
+          'service (std_srvs/Trigger), e.g. once the experiment graph is connected', '-',
+          read_only=True),
     Param('max_steps', 0, 'stop stepping after this many steps (0 = run until shut down)', '1',
           0, 2**62),
 ]
@@ -109,6 +113,18 @@ class VehicleSimNode(Node):
             for name, (topic, mtype) in INPUTS.items()}
 
         self.last_fault = None
+        self.started = False
+        self.stamp0_ns = 0
+        self.timer = None
+        self.create_service(Trigger, 'rig/start', self._on_start)
+        if self.p['autostart']:
+            self._start()
+        self.get_logger().info(
+            f"rig up: {self.p['clock_mode']}, dt = {self.config.dt} s, plant = {self.config.plant}"
+            + (f", lock-step inputs {list(self.required)}" if self.lockstep else ''))
+
+    def _start(self):
+        self.started = True
         if self.lockstep:
             self.stamp0_ns = 0
             self.last_progress = time.monotonic()
@@ -118,9 +134,16 @@ class VehicleSimNode(Node):
             self.stamp0_ns = self.get_clock().now().nanoseconds
             self.wall0 = time.monotonic()
             self.timer = self.create_timer(self.config.dt, self._realtime_tick)
-        self.get_logger().info(
-            f"rig up: {self.p['clock_mode']}, dt = {self.config.dt} s, plant = {self.config.plant}"
-            + (f", lock-step inputs {list(self.required)}" if self.lockstep else ''))
+
+    def _on_start(self, _request, response):
+        if self.started:
+            response.success = False
+            response.message = 'already running'
+        else:
+            self._start()
+            response.success = True
+            response.message = f"started ({self.p['clock_mode']})"
+        return response
 
     # ---------------------------------------------------------------- inputs
     def _decode(self, name, msg):
@@ -133,6 +156,8 @@ class VehicleSimNode(Node):
     def _on_command(self, name, msg):
         value = self._decode(name, msg)
         if name in self.required:
+            if not self.started:
+                return
             stamp = to_ns(msg.header.stamp)
             current = self._stamp_ns()
             if stamp < current:

@@ -1,0 +1,94 @@
+"""``bag``: one command for the bag tools.
+
+Usage::
+
+    bag info BAG [--validate] [--no-metadata]        (irs_bringup.bag_info)
+    bag export BAG [--topics T ...] --out DIR        (irs_bringup.bag_export)
+    bag play BAG [options]                           (irs_bringup.bag_play)
+    bag plots BAG --out DIR                          (irs_bringup.bag_plots)
+    bag rerun BAG --out FILE.rrd                     (irs_bringup.rerun_export)
+    bag validate BAG                                 (bag_reader.validate, CRCs + indexes)
+
+Exit codes: 0 ok, 1 bad/unreadable bag, 2 usage error. Errors are one line, no traceback.
+"""
+from __future__ import annotations
+
+import sys
+from typing import List, Optional
+
+COMMANDS = {
+    'info': 'show topics, counts, rates, metadata',
+    'export': 'one CSV per topic',
+    'play': 'replay onto the topics with the recorded timing',
+    'plots': 'PNG plots (lateral, steering, belt, car position)',
+    'rerun': 'a rerun .rrd recording (top-down view + time series)',
+    'validate': 'check CRCs, indexes and metadata.yaml',
+}
+
+
+def _usage() -> str:
+    lines = ['usage: bag <command> [args...]', '', 'commands:']
+    lines += [f'  {k:<9} {v}' for k, v in COMMANDS.items()]
+    lines.append("\n'bag <command> --help' for the options of a command.")
+    return '\n'.join(lines)
+
+
+def _validate(argv: List[str]) -> int:
+    import argparse
+
+    from .bag_reader import BagError, validate
+
+    class P(argparse.ArgumentParser):
+        def error(self, message):
+            self.print_usage(sys.stderr)
+            self.exit(2, f'{self.prog}: error: {message}\n')
+
+    p = P(prog='bag validate', description='Validate a bag (CRCs, indexes, metadata.yaml).')
+    p.add_argument('bag')
+    args = p.parse_args(argv)
+    try:
+        rep = validate(args.bag)
+    except (BagError, OSError) as exc:
+        print(f'bag validate: error: {exc}', file=sys.stderr)
+        return 1
+    if rep.ok:
+        print(f'OK: {rep.message_count} messages, {rep.chunk_count} chunks, CRCs valid')
+        return 0
+    print('FAILED:')
+    for prob in rep.problems:
+        print(f'  - {prob}')
+    more = f' (+{len(rep.problems) - 1} more problems)' if len(rep.problems) > 1 else ''
+    first = rep.problems[0] if rep.problems else 'invalid bag'
+    print(f'bag validate: error: {first}{more}', file=sys.stderr)
+    return 1
+
+
+def main(argv: Optional[List[str]] = None) -> int:
+    argv = list(sys.argv[1:] if argv is None else argv)
+    if not argv or argv[0] in ('-h', '--help', 'help'):
+        print(_usage())
+        return 0 if argv else 2
+    cmd, rest = argv[0], argv[1:]
+    if cmd == 'info':
+        from .bag_info import main as run
+    elif cmd == 'export':
+        from .bag_export import main as run
+    elif cmd == 'play':
+        from .bag_play import main as run
+    elif cmd == 'plots':
+        from .bag_plots import main as run
+    elif cmd == 'rerun':
+        from .rerun_export import main as run
+    elif cmd == 'validate':
+        run = _validate
+    else:
+        print(f"bag: error: unknown command '{cmd}'\n{_usage()}", file=sys.stderr)
+        return 2
+    try:
+        return int(run(rest) or 0)
+    except KeyboardInterrupt:
+        return 130
+
+
+if __name__ == '__main__':
+    sys.exit(main())

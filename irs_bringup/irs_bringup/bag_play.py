@@ -1,0 +1,315 @@
+"""``bag play <bag>``: publish the recorded CDR bytes again, with the recorded timing.
+
+Usage::
+
+    bag play BAG [--rate R | --fast] [--topics T ...] [--remap OLD:=NEW ...]
+                 [--start-offset S] [--loop] [--clock [--clock-from {log,header}]]
+                 [--wait-for-subscribers N | --paused-until-matched] [--wait-timeout S]
+                 [--qos-depth D] [--ros-args ...]
+
+- Each topic gets a publisher of its recorded type (RELIABLE, KEEP_LAST ``--qos-depth``
+  (default 1000), VOLATILE; TRANSIENT_LOCAL if every recorded publisher of the topic was) and
+  the recorded bytes are published as they are (``Publisher.publish(bytes)`` ->
+  ``publish_raw`` in rclpy 7.1.6): no deserialization, byte-for-byte identical.
+- Timing: message i is due at ``wall_start + (t_i - t_first) / rate`` (an absolute schedule,
+  errors do not accumulate); the player sleeps until ~0.3 ms before the due time and spins the
+  rest. ``--rate 0`` / ``--fast``: as fast as possible. At the end it prints the timing error
+  statistics (mean / p99 / max of ``actual - due`` over all messages).
+- ``--clock``: publishes ``/clock`` (rosgraph_msgs/Clock) right before each message whose time
+  is later than the last clock published, with that time, so consumers running on sim time see
+  exactly the data's time line (no coarse bursts). ``--clock-from log`` (default) uses the log
+  (receive) time, ``--clock-from header`` the message's own ``header.stamp`` (messages whose
+  type does not start with a Header / Time are skipped for the clock). For a lock-step recording
+  ``header`` reproduces the simulation time line.
+- ``--wait-for-subscribers N``: start (at t_first) only once every played publisher (and /clock
+  with ``--clock``) has matched at least N subscriptions, so no leading message is lost with
+  reliable subscribers. ``--paused-until-matched`` = ``--wait-for-subscribers 1``.
+- The played messages are read into memory before playback starts (memory ~ the selection's
+  uncompressed size), so chunk decompression never delays a message.
+- At the end the player waits (<= 10 s) until every reliable subscriber acknowledged every
+  message (``Publisher.wait_for_all_acked``) before it exits.
+
+Exit codes: 0 ok (also after Ctrl-C), 1 bad/unreadable bag or timeout waiting for subscribers,
+2 usage error (e.g. unknown topic).
+"""
+from __future__ import annotations
+
+import argparse
+import importlib
+import struct
+import sys
+import time
+from typing import Dict, List, Optional
+
+from .bag_reader import BagError, BagReader
+
+__all__ = ['main', 'stamp_reader', 'TimingStats']
+
+_SPIN_S = 0.0003
+
+
+class _Parser(argparse.ArgumentParser):
+    def error(self, message: str) -> None:
+        self.print_usage(sys.stderr)
+        self.exit(2, f'{self.prog}: error: {message}\n')
+
+
+class UsageError(Exception):
+    """Bad option values (exit code 2)."""
+
+
+def _first_field_type(definition: str) -> str:
+    for line in definition.splitlines():
+        s = line.split('#', 1)[0].strip()
+        if not s:
+            continue
+        if s.startswith('=' * 10):
+            break
+        parts = s.split()
+        if len(parts) >= 2 and '=' not in parts[1] and '=' not in parts[0]:
+            return parts[0]
+    return ''
+
+
+def stamp_reader(definition: str):
+    """A function ``data -> stamp_ns`` reading the leading Header/Time of a CDR message, or None.
+
+    Both ``std_msgs/Header`` and ``builtin_interfaces/Time`` start with ``int32 sec, uint32
+    nanosec`` right after the 4-byte CDR encapsulation header.
+    """
+    first = _first_field_type(definition)
+    if first not in ('std_msgs/Header', 'std_msgs/msg/Header', 'Header',
+                     'builtin_interfaces/Time', 'builtin_interfaces/msg/Time'):
+        return None
+
+    def read(data: bytes) -> Optional[int]:
+        if len(data) < 12:
+            return None
+        fmt = '<iI' if data[1] & 1 else '>iI'
+        sec, nsec = struct.unpack_from(fmt, data, 4)
+        return sec * 1_000_000_000 + nsec
+    return read
+
+
+class TimingStats:
+    """Accumulates ``actual - due`` publication errors [s]."""
+
+    def __init__(self):
+        self.errors: List[float] = []
+
+    def add(self, err_s: float) -> None:
+        self.errors.append(err_s)
+
+    def summary(self) -> Dict[str, float]:
+        if not self.errors:
+            return {'n': 0, 'mean_ms': 0.0, 'p99_ms': 0.0, 'max_ms': 0.0, 'mean_signed_ms': 0.0}
+        a = sorted(abs(e) for e in self.errors)
+        n = len(a)
+        return {'n': n, 'mean_ms': 1e3 * sum(a) / n,
+                'p99_ms': 1e3 * a[min(n - 1, int(0.99 * n))], 'max_ms': 1e3 * a[-1],
+                'mean_signed_ms': 1e3 * sum(self.errors) / n}
+
+
+def _import_type(type_name: str):
+    pkg, sub, name = type_name.split('/')
+    return getattr(importlib.import_module(f'{pkg}.{sub}'), name)
+
+
+def _parse_remaps(items) -> Dict[str, str]:
+    out = {}
+    for item in items or []:
+        if ':=' not in item:
+            raise UsageError(f'--remap expects OLD:=NEW, got {item!r}')
+        old, new = item.split(':=', 1)
+        old, new = old.strip(), new.strip()
+        if not old or not new:
+            raise UsageError(f'--remap expects OLD:=NEW, got {item!r}')
+        out[old if old.startswith('/') else '/' + old] = new if new.startswith('/') else '/' + new
+    return out
+
+
+def build_parser() -> argparse.ArgumentParser:
+    p = _Parser(prog='bag play', description='Replay a rosbag2 MCAP bag onto its topics.')
+    p.add_argument('bag', help='bag directory or .mcap file')
+    p.add_argument('--rate', type=float, default=1.0,
+                   help='playback rate factor (default 1.0; 0 = as fast as possible)')
+    p.add_argument('--fast', action='store_true', help='as fast as possible (= --rate 0)')
+    p.add_argument('--topics', nargs='+', metavar='T', help='play only these topics')
+    p.add_argument('--remap', nargs='+', metavar='OLD:=NEW', default=[],
+                   help='publish topic OLD on NEW')
+    p.add_argument('--start-offset', type=float, default=0.0, metavar='S',
+                   help='skip the first S seconds of the bag')
+    p.add_argument('--loop', action='store_true', help='play again and again (until Ctrl-C)')
+    p.add_argument('--clock', action='store_true',
+                   help="publish /clock at the played messages' times")
+    p.add_argument('--clock-from', choices=('log', 'header'), default='log',
+                   help='time source for /clock: log (receive) time or header.stamp')
+    p.add_argument('--wait-for-subscribers', type=int, default=0, metavar='N',
+                   help='start only once every played topic has N matched subscribers')
+    p.add_argument('--paused-until-matched', action='store_true',
+                   help='same as --wait-for-subscribers 1')
+    p.add_argument('--wait-timeout', type=float, default=60.0, metavar='S',
+                   help='give up waiting for subscribers after S seconds (exit 1)')
+    p.add_argument('--qos-depth', type=int, default=1000, help='publisher KEEP_LAST depth')
+    p.add_argument('--quiet', action='store_true', help='only print the final summary')
+    return p
+
+
+def main(argv: Optional[List[str]] = None) -> int:
+    """Entry point of ``bag play``; returns the exit code."""
+    argv = list(sys.argv[1:] if argv is None else argv)
+    ros_args: List[str] = []
+    if '--ros-args' in argv:
+        i = argv.index('--ros-args')
+        argv, ros_args = argv[:i], argv[i:]
+    args = build_parser().parse_args(argv)
+    try:
+        return _play(args, ros_args)
+    except UsageError as exc:
+        print(f'bag play: error: {exc}', file=sys.stderr)
+        return 2
+    except BagError as exc:
+        print(f'bag play: error: {exc}', file=sys.stderr)
+        return 1
+    except OSError as exc:
+        print(f'bag play: error: {exc}', file=sys.stderr)
+        return 1
+
+
+def _play(args, ros_args) -> int:
+    rate = 0.0 if args.fast else args.rate
+    if rate < 0 or rate != rate:
+        raise UsageError(f'--rate must be >= 0, got {args.rate}')
+    if args.start_offset < 0:
+        raise UsageError(f'--start-offset must be >= 0 s, got {args.start_offset}')
+    n_wait = max(args.wait_for_subscribers, 1 if args.paused_until_matched else 0)
+    remaps = _parse_remaps(args.remap)
+
+    reader = BagReader(args.bag)
+    try:
+        infos = reader.topics
+        schemas = reader.schemas
+        if args.topics:
+            wanted = [t if t.startswith('/') else '/' + t for t in args.topics]
+            unknown = [t for t in wanted if t not in infos]
+            if unknown:
+                raise UsageError(f'topic(s) not in the bag: {", ".join(unknown)} '
+                                 f'(it has: {", ".join(sorted(infos)) or "none"})')
+        else:
+            wanted = sorted(infos)
+        for old in remaps:
+            if old not in wanted:
+                raise UsageError(f'--remap: topic {old} is not played')
+        if not wanted or reader.message_count == 0:
+            print('bag play: nothing to play (no messages)', file=sys.stderr)
+            return 0
+        types = {}
+        for t in wanted:
+            try:
+                types[t] = _import_type(infos[t].type)
+            except (ImportError, AttributeError, ValueError):
+                raise BagError(f'type {infos[t].type!r} of {t} is not installed') from None
+        stamp_of = {t: stamp_reader(schemas.get(infos[t].type, '')) for t in wanted}
+        return _run_ros(args, ros_args, reader, wanted, types, stamp_of, infos, remaps, rate,
+                        n_wait)
+    finally:
+        reader.close()
+
+
+def _run_ros(args, ros_args, reader, wanted, types, stamp_of, infos, remaps, rate,
+             n_wait) -> int:
+    import rclpy
+    from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
+    from rosgraph_msgs.msg import Clock
+    from builtin_interfaces.msg import Time
+    from rclpy.duration import Duration
+
+    rclpy.init(args=['bag_play', *ros_args])
+    node = rclpy.create_node('bag_player')
+    log = (lambda *a: None) if args.quiet else (lambda s: print(s, flush=True))
+    stats = TimingStats()
+    played = 0
+    clocks = 0
+    interrupted = False
+    try:
+        pubs = {}
+        for t in wanted:
+            latched = 'transient_local' in (infos[t].offered_qos_profiles or '') and \
+                'volatile' not in (infos[t].offered_qos_profiles or '')
+            qos = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=max(1, args.qos_depth),
+                             reliability=ReliabilityPolicy.RELIABLE,
+                             durability=(DurabilityPolicy.TRANSIENT_LOCAL if latched
+                                         else DurabilityPolicy.VOLATILE))
+            pubs[t] = node.create_publisher(types[t], remaps.get(t, t), qos)
+        clock_pub = None
+        if args.clock:
+            clock_pub = node.create_publisher(
+                Clock, '/clock', QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=100,
+                                            reliability=ReliabilityPolicy.RELIABLE,
+                                            durability=DurabilityPolicy.VOLATILE))
+        endpoints = list(pubs.values()) + ([clock_pub] if clock_pub else [])
+        if n_wait > 0:
+            log(f'bag play: waiting for {n_wait} subscriber(s) on '
+                f'{", ".join(p.topic_name for p in endpoints)}')
+            deadline = time.monotonic() + args.wait_timeout
+            while any(p.get_subscription_count() < n_wait for p in endpoints):
+                if time.monotonic() > deadline:
+                    missing = [p.topic_name for p in endpoints
+                               if p.get_subscription_count() < n_wait]
+                    print(f'bag play: error: timed out after {args.wait_timeout} s waiting for '
+                          f'{n_wait} subscriber(s) on {", ".join(missing)}', file=sys.stderr)
+                    return 1
+                time.sleep(0.01)
+        t_first = reader.start_time_ns + int(round(args.start_offset * 1e9))
+        last_clock = None
+        sleep = time.sleep
+        perf = time.perf_counter
+        # Everything to play is read (and decompressed) before the clock starts: reading MCAP
+        # chunks while playing costs tens of ms per chunk in Python and shows as timing error.
+        todo = [m for m in reader.messages(wanted) if m.log_time_ns >= t_first]
+        if todo:
+            t_first = todo[0].log_time_ns
+        wall_start_overall = perf()
+        while True:
+            wall0 = perf()
+            for m in todo:
+                if rate > 0:
+                    due = wall0 + (m.log_time_ns - t_first) * 1e-9 / rate
+                    rem = due - perf()
+                    if rem > _SPIN_S:
+                        sleep(rem - _SPIN_S)
+                    while perf() < due:
+                        pass
+                if clock_pub is not None:
+                    if args.clock_from == 'log':
+                        tc = m.log_time_ns
+                    else:
+                        f = stamp_of[m.topic]
+                        tc = f(m.data) if f is not None else None
+                    if tc is not None and (last_clock is None or tc > last_clock):
+                        clock_pub.publish(Clock(clock=Time(sec=tc // 1_000_000_000,
+                                                           nanosec=tc % 1_000_000_000)))
+                        last_clock = tc
+                        clocks += 1
+                pubs[m.topic].publish(bytes(m.data))
+                if rate > 0:
+                    stats.add(perf() - due)
+                played += 1
+            if not args.loop:
+                break
+        elapsed = perf() - wall_start_overall
+        for p in endpoints:
+            p.wait_for_all_acked(Duration(seconds=10.0))
+    except KeyboardInterrupt:
+        interrupted = True
+        elapsed = 0.0
+    finally:
+        node.destroy_node()
+        rclpy.try_shutdown()
+    s = stats.summary()
+    timing = (f'timing error mean {s["mean_ms"]:.3f} ms, p99 {s["p99_ms"]:.3f} ms, '
+              f'max {s["max_ms"]:.3f} ms' if rate > 0 else 'as fast as possible')
+    print(f'bag play: {"interrupted, " if interrupted else ""}played {played} messages'
+          f'{f" and {clocks} /clock" if args.clock else ""} in {elapsed:.3f} s; {timing}',
+          flush=True)
+    return 0

@@ -1,0 +1,46 @@
+"""``driver`` node: the transmitter's throttle, as a speed profile over time.
+
+Publishes ``driver/command`` (irs_msgs/DriverCommand, the car's forward speed over the belt
+[m/s]) from the profile in the parameters (``profile.times`` [s], ``profile.speeds`` [m/s],
+``profile.interpolation``): once per ``/clock`` tick with ``use_sim_time`` (lock-step runs list
+``driver`` among the rig's lock-step inputs), otherwise at ``rate`` on a wall timer.
+"""
+from rclpy.node import Node
+
+from irs_common import qos
+from irs_common.node_main import run_node
+from irs_common.params import Param, declare_table
+from irs_common.stamps import to_sec
+from irs_common.ticker import create_ticker
+from irs_msgs.msg import DriverCommand
+
+from .speed_profile import SpeedProfile
+
+PARAMS = [
+    Param('profile.times', [0.0], 'breakpoint times of the speed profile', 's', read_only=True),
+    Param('profile.speeds', [1.2], 'car speed over the belt at each breakpoint', 'm/s',
+          read_only=True),
+    Param('profile.interpolation', 'step', "'step' (hold) or 'linear' between breakpoints", '-',
+          read_only=True),
+    Param('rate', 1000.0, 'publication rate without sim time', 'Hz', 0.1, 10000.0, read_only=True),
+]
+
+
+class DriverNode(Node):
+    def __init__(self):
+        super().__init__('driver')
+        self.p = declare_table(self, PARAMS)
+        self.profile = SpeedProfile(self.p['profile.times'], self.p['profile.speeds'],
+                                    self.p['profile.interpolation'])
+        self.pub = self.create_publisher(DriverCommand, 'driver/command', qos.COMMAND)
+        create_ticker(self, self.p['rate'], self._publish)
+
+    def _publish(self, stamp):
+        msg = DriverCommand()
+        msg.header.stamp = stamp
+        msg.speed = float(self.profile(to_sec(stamp)))
+        self.pub.publish(msg)
+
+
+def main(args=None):
+    return run_node(DriverNode, args)

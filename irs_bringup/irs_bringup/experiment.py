@@ -1,0 +1,200 @@
+"""Experiment files: what runs, with which parameters, on which clock, for how long (no rclpy).
+
+An experiment file (YAML, see ``config/experiments/``)::
+
+    name: figure10_mrc_with_actuator
+    description: one line
+    clock: lockstep            # lockstep (rig publishes /clock, reproducible) | realtime
+    duration: 8.0              # [s] simulated (lockstep) or wall (realtime) time
+    nodes:                     # node name -> how to start it (as `ros2 run` would)
+      vehicle_sim:
+        package: irs_vehicle_sim
+        executable: vehicle_sim
+        params_files: [pkg://irs_vehicle_sim/config/rig.yaml]   # share/<pkg>/... or a path
+        params: {plant: identified}                              # overrides, flat names
+        remaps: {}
+    record:
+      topics: [arm/joint_states, ...]     # what the recorder writes to the bag ([] = no bag)
+
+Clock handling is the runner's job: for ``lockstep`` it sets ``clock_mode: lockstep``,
+``autostart: false`` and ``max_steps`` on the rig and ``use_sim_time: true`` on every other node;
+for ``realtime`` ``clock_mode: realtime``.
+"""
+from dataclasses import dataclass, field
+import math
+from pathlib import Path
+
+import yaml
+
+RIG_KEY = ('irs_vehicle_sim', 'vehicle_sim')
+
+#: Topics each node executable publishes and subscribes (relative names), used to wait until the
+#: graph is connected and documented in docs/architecture.md.
+NODE_TOPICS = {
+    ('irs_vehicle_sim', 'vehicle_sim'): {
+        'pub': ['/clock', 'arm/joint_states', 'belt/speed', 'steering/state', 'ground_truth/odom',
+                'ground_truth/sensor_point', 'rig/status'],
+        'sub': ['steering/command', 'treadmill/drive', 'driver/command']},
+    ('irs_sensing', 'arm_pose_estimator'): {
+        'pub': ['pose', 'velocity', 'lateral_position', 'sensing/status'],
+        'sub': ['arm/joint_states']},
+    ('irs_control', 'lateral_controller'): {
+        'pub': ['steering/command', 'lateral/status'],
+        'sub': ['lateral_position', 'lateral/reference']},
+    ('irs_control', 'reference_generator'): {'pub': ['lateral/reference'], 'sub': ['/clock']},
+    ('irs_treadmill', 'treadmill_regulator'): {
+        'pub': ['treadmill/drive', 'treadmill/state'],
+        'sub': ['pose', 'velocity', 'belt/speed', 'treadmill/reset']},
+    ('irs_bringup', 'driver'): {'pub': ['driver/command'], 'sub': ['/clock']},
+}
+
+
+class ExperimentError(ValueError):
+    """The experiment file is missing, unreadable or inconsistent (message says what and where)."""
+
+
+@dataclass
+class NodeEntry:
+    name: str
+    package: str
+    executable: str
+    params_files: list = field(default_factory=list)
+    params: dict = field(default_factory=dict)
+    remaps: dict = field(default_factory=dict)
+
+    @property
+    def key(self):
+        return (self.package, self.executable)
+
+
+@dataclass
+class Experiment:
+    name: str
+    description: str
+    clock: str
+    duration: float
+    nodes: list
+    record_topics: list
+    path: Path | None = None
+    text: str = ''
+
+    def node(self, package, executable):
+        """The entry that runs ``package/executable``, or None."""
+        return next((n for n in self.nodes if n.key == (package, executable)), None)
+
+
+def experiments_dir() -> Path:
+    """``share/irs_bringup/config/experiments`` of the installed package."""
+    from ament_index_python.packages import get_package_share_directory
+    return Path(get_package_share_directory('irs_bringup')) / 'config' / 'experiments'
+
+
+def find_experiment(name_or_path: str) -> Path:
+    """A path as given, or ``<name>.yaml`` among the installed experiments."""
+    p = Path(name_or_path)
+    if p.suffix in ('.yaml', '.yml') or p.exists():
+        if not p.is_file():
+            raise ExperimentError(f'experiment file {p} does not exist')
+        return p
+    candidate = experiments_dir() / f'{name_or_path}.yaml'
+    if not candidate.is_file():
+        names = ', '.join(sorted(x.stem for x in experiments_dir().glob('*.yaml')))
+        raise ExperimentError(f"no experiment '{name_or_path}'; installed: {names}")
+    return candidate
+
+
+def resolve_params_file(ref: str) -> Path:
+    """``pkg://<package>/<path>`` -> ``share/<package>/<path>``; other strings are paths."""
+    if ref.startswith('pkg://'):
+        from ament_index_python.packages import get_package_share_directory
+        package, _, rel = ref[len('pkg://'):].partition('/')
+        path = Path(get_package_share_directory(package)) / rel
+    else:
+        path = Path(ref)
+    if not path.is_file():
+        raise ExperimentError(f'parameter file {ref} not found ({path})')
+    return path
+
+
+def load_experiment(name_or_path: str) -> Experiment:
+    path = find_experiment(name_or_path)
+    text = path.read_text()
+    try:
+        doc = yaml.safe_load(text)
+    except yaml.YAMLError as exc:
+        raise ExperimentError(f'{path}: not valid YAML: {exc}') from None
+    if not isinstance(doc, dict):
+        raise ExperimentError(f'{path}: expected a mapping at the top level')
+    unknown = set(doc) - {'name', 'description', 'clock', 'duration', 'nodes', 'record'}
+    if unknown:
+        raise ExperimentError(f'{path}: unknown keys {sorted(unknown)}')
+    clock = doc.get('clock', 'lockstep')
+    if clock not in ('lockstep', 'realtime'):
+        raise ExperimentError(f"{path}: clock must be 'lockstep' or 'realtime', got {clock!r}")
+    duration = doc.get('duration')
+    if not isinstance(duration, (int, float)) or not math.isfinite(duration) or duration <= 0:
+        raise ExperimentError(f'{path}: duration must be a positive number of seconds, got {duration!r}')
+    nodes = []
+    for name, entry in (doc.get('nodes') or {}).items():
+        if not isinstance(entry, dict) or 'package' not in entry or 'executable' not in entry:
+            raise ExperimentError(f'{path}: node {name} needs package and executable')
+        extra = set(entry) - {'package', 'executable', 'params_files', 'params', 'remaps'}
+        if extra:
+            raise ExperimentError(f'{path}: node {name}: unknown keys {sorted(extra)}')
+        nodes.append(NodeEntry(name, entry['package'], entry['executable'],
+                               list(entry.get('params_files') or []),
+                               dict(entry.get('params') or {}), dict(entry.get('remaps') or {})))
+    if not nodes:
+        raise ExperimentError(f'{path}: no nodes')
+    if sum(n.key == RIG_KEY for n in nodes) > 1:
+        raise ExperimentError(f'{path}: more than one vehicle_sim')
+    record = (doc.get('record') or {}).get('topics') or []
+    return Experiment(doc.get('name', path.stem), doc.get('description', ''), clock,
+                      float(duration), nodes, list(record), path, text)
+
+
+def node_parameters(entry: NodeEntry) -> dict:
+    """The flat parameters the node will have: its params files in order, then ``params``."""
+    from irs_common.params import flatten
+    values = {}
+    for ref in entry.params_files:
+        doc = yaml.safe_load(resolve_params_file(ref).read_text()) or {}
+        for node_name, section in doc.items():
+            if node_name in (entry.name, '/**', '**') or node_name.lstrip('/') == entry.name:
+                values.update(flatten((section or {}).get('ros__parameters', {})))
+    values.update(entry.params)
+    return values
+
+
+def clock_overrides(exp: Experiment, entry: NodeEntry, dt: float) -> dict:
+    """Parameters the runner adds for the experiment's clock mode."""
+    if entry.key == RIG_KEY:
+        if exp.clock == 'lockstep':
+            return {'clock_mode': 'lockstep', 'autostart': False,
+                    'max_steps': int(round(exp.duration / dt))}
+        return {'clock_mode': 'realtime', 'autostart': False}
+    return {'use_sim_time': True} if exp.clock == 'lockstep' else {}
+
+
+def absolute(topic: str) -> str:
+    """Topic name as the graph reports it (nodes run in the root namespace)."""
+    return topic if topic.startswith('/') else '/' + topic
+
+
+def expected_endpoints(exp: Experiment) -> dict:
+    """``{topic: (publishers, subscribers)}`` the graph must show before the run starts."""
+    counts = {}
+    for entry in exp.nodes:
+        io = NODE_TOPICS.get(entry.key, {'pub': [], 'sub': []})
+        for kind, idx in (('pub', 0), ('sub', 1)):
+            for topic in io[kind]:
+                topic = absolute(entry.remaps.get(topic, topic))
+                c = counts.setdefault(topic, [0, 0])
+                c[idx] += 1
+    for topic in exp.record_topics:
+        counts.setdefault(absolute(topic), [0, 0])[1] += 1
+    if exp.clock == 'lockstep' and '/clock' in counts:
+        # every node but the rig runs on sim time: its time source subscribes /clock too
+        counts['/clock'][1] += sum(1 for e in exp.nodes if e.key != RIG_KEY)
+    # A topic nobody publishes (e.g. driver/command without a driver node) is not waited for.
+    return {t: tuple(c) for t, c in counts.items() if c[0] > 0 and c[1] > 0}

@@ -1,0 +1,126 @@
+"""``experiment``: run IRS experiments (``ros2 run irs_bringup experiment ...``, or ``./irs run``).
+
+  experiment list                        installed experiment files
+  experiment run <name|file.yaml>        run one through the ROS graph, record, plot
+  experiment run <name> --offline        the same cores without ROS (closed_loop.py)
+  experiment figure10 [--offline]        the three Figure 10 runs and their report
+  experiment demo                        = figure10 through the graph (the README's demo)
+"""
+import argparse
+from pathlib import Path
+import sys
+
+from .experiment import ExperimentError, experiments_dir, load_experiment
+
+FIGURE10 = {'mrc_with_actuator': 'figure10_mrc_with_actuator',
+            'mrc_without_actuator': 'figure10_mrc_without_actuator',
+            'pi': 'figure10_pi'}
+
+
+def _post_process(result, log=print):
+    """Validate the bag, write plots and the .rrd; returns the list of written artefacts."""
+    written = []
+    if result.bag_dir is None or not result.bag_dir.exists():
+        return written
+    from .bag_reader import BagError, validate
+    try:
+        report = validate(result.bag_dir)
+        log(f'[experiment] bag: {result.bag_dir} ({"valid" if report.ok else "INVALID: " + "; ".join(report.problems)})')
+    except BagError as exc:
+        log(f'[experiment] bag unreadable: {exc}')
+        return written
+    try:
+        from .bag_plots import make_plots
+        written += make_plots(result.bag_dir, result.run_dir / 'plots')
+    except Exception as exc:  # plots must never hide the run's result
+        log(f'[experiment] plots failed: {exc}')
+    try:
+        from .rerun_export import export_rrd
+        rrd = result.run_dir / 'run.rrd'
+        export_rrd(result.bag_dir, rrd)
+        written.append(rrd)
+    except Exception as exc:
+        log(f'[experiment] rerun export failed: {exc}')
+    for path in written:
+        log(f'[experiment] wrote {path}')
+    return written
+
+
+def run_experiment(name, runs_dir='runs', plots=True, log=print):
+    """Run one experiment through the graph; returns the RunResult."""
+    from .experiment_runner import ExperimentRunner
+    exp = load_experiment(name)
+    result = ExperimentRunner(exp, runs_dir=runs_dir, log=log).run()
+    log(f'[experiment] {exp.name}: {result.message}; simulated {result.sim_time:.3f} s in '
+        f'{result.wall_time:.1f} s wall; run directory {result.run_dir}')
+    if plots:
+        _post_process(result, log)
+    return result
+
+
+def offline_run(name):
+    """The experiment's closed loop without ROS: arrays as ClosedLoop.run returns them."""
+    from .offline import loop_config_from_experiment
+    from .closed_loop import ClosedLoop
+    exp = load_experiment(name)
+    return ClosedLoop(loop_config_from_experiment(exp)).run(exp.duration)
+
+
+def figure10(out_dir, offline=False, runs_dir='runs', log=print) -> int:
+    from .figure10 import write_report
+    from .run_series import lateral_run
+    runs = {}
+    for key, name in FIGURE10.items():
+        if offline:
+            runs[key] = offline_run(name)
+            continue
+        result = run_experiment(name, runs_dir=runs_dir, log=log)
+        if not result.completed:
+            log(f'[figure10] {name} did not complete: {result.message}')
+            return 1
+        runs[key] = lateral_run(result.bag_dir)
+    out = Path(out_dir)
+    metrics = write_report(runs, out, 'Figure 10 ' + ('(offline cores)' if offline else '(ROS graph, lock-step)'))
+    log(f'[figure10] report: {out / "figure10.png"}, {out / "figure10_metrics.md"}')
+    log((out / 'figure10_metrics.md').read_text() if (out / 'figure10_metrics.md').exists() else str(metrics))
+    return 0
+
+
+def main(argv=None) -> int:
+    parser = argparse.ArgumentParser(prog='experiment', description=__doc__,
+                                     formatter_class=argparse.RawDescriptionHelpFormatter)
+    sub = parser.add_subparsers(dest='cmd', required=True)
+    sub.add_parser('list', help='installed experiment files')
+    p_run = sub.add_parser('run', help='run an experiment')
+    p_run.add_argument('experiment', help='name of an installed experiment or a YAML file')
+    p_run.add_argument('--runs-dir', default='runs', help='where run directories go (default: runs)')
+    p_run.add_argument('--no-plots', action='store_true', help='skip plots and the .rrd')
+    p_run.add_argument('--offline', action='store_true', help='simulate the cores without ROS')
+    for cmd in ('figure10', 'demo'):
+        p = sub.add_parser(cmd, help='the three Figure 10 runs and their report')
+        p.add_argument('--offline', action='store_true', help='simulate the cores without ROS')
+        p.add_argument('--runs-dir', default='runs')
+        p.add_argument('--out', default=None, help='report directory (default: <runs-dir>/figure10)')
+    args = parser.parse_args(argv)
+    try:
+        if args.cmd == 'list':
+            for path in sorted(experiments_dir().glob('*.yaml')):
+                exp = load_experiment(str(path))
+                print(f'{path.stem:36s} {exp.clock:9s} {exp.duration:7.1f} s  {exp.description}')
+            return 0
+        if args.cmd == 'run':
+            if args.offline:
+                res = offline_run(args.experiment)
+                print(f'offline: {len(res["time"])} samples, final y_s = {res["y_s"][-1]:.6f} m')
+                return 0
+            result = run_experiment(args.experiment, args.runs_dir, plots=not args.no_plots)
+            return 0 if result.completed else 1
+        out = args.out or str(Path(args.runs_dir) / 'figure10')
+        return figure10(out, offline=args.offline, runs_dir=args.runs_dir)
+    except ExperimentError as exc:
+        print(f'experiment: {exc}', file=sys.stderr)
+        return 2
+
+
+if __name__ == '__main__':
+    sys.exit(main())

@@ -1,0 +1,238 @@
+"""Run an experiment: start every node as its own process, wait for the graph, run, shut down.
+
+Order of events:
+
+1. a run directory ``<runs>/<name>-<time>/`` with ``logs/`` (one log per node) and ``bag/``;
+2. the recorder (if the experiment records) and every node start through their ament-resolved
+   executables, with the experiment's parameter files and overrides plus the clock parameters;
+3. the runner waits until every node is in the graph and every topic has its expected
+   publishers and subscriptions (``experiment.expected_endpoints``), then calls ``rig/start``;
+4. it follows the run (``/clock`` in lock-step, wall time in real time) with a progress line,
+   checking every process: if one dies the run stops, naming the node and its last output;
+5. on completion or Ctrl-C every node is stopped with SIGINT (then SIGTERM/SIGKILL per process
+   group), the recorder last so it writes everything it received; no process is left behind.
+"""
+from dataclasses import dataclass, field
+import datetime
+import json
+import os
+from pathlib import Path
+import platform
+import subprocess
+import sys
+import time
+
+import rclpy
+from rclpy.context import Context
+from rosgraph_msgs.msg import Clock
+from std_srvs.srv import Trigger
+
+from irs_common import qos
+from irs_common.stamps import to_sec
+
+from .experiment import (Experiment, RIG_KEY, clock_overrides, expected_endpoints,
+                         node_parameters, resolve_params_file)
+from .graph import make_watcher
+from .processes import NodeProcess, NodeSpec
+
+
+class ExperimentFailed(RuntimeError):
+    """A node died, the graph did not come up, or the run did not progress."""
+
+
+@dataclass
+class RunResult:
+    run_dir: Path
+    bag_dir: Path | None
+    completed: bool
+    sim_time: float
+    wall_time: float
+    exit_codes: dict = field(default_factory=dict)
+    message: str = ''
+
+
+def _git_commit() -> str:
+    try:
+        return subprocess.run(['git', 'rev-parse', 'HEAD'], capture_output=True, text=True,
+                              cwd=Path(__file__).resolve().parent, timeout=5).stdout.strip()
+    except (OSError, subprocess.SubprocessError):
+        return ''
+
+
+def experiment_metadata(exp: Experiment) -> dict:
+    """String metadata for the bag: the experiment file, resolved parameters, versions, commit."""
+    import numpy
+    import scipy
+    params = {n.name: node_parameters(n) for n in exp.nodes}
+    return {'experiment_name': exp.name, 'experiment_file': str(exp.path or ''),
+            'experiment_yaml': exp.text, 'node_parameters': json.dumps(params, default=str),
+            'python': platform.python_version(), 'numpy': numpy.__version__,
+            'scipy': scipy.__version__, 'ros_distro': os.environ.get('ROS_DISTRO', 'jazzy'),
+            'rmw': os.environ.get('RMW_IMPLEMENTATION', ''), 'git_commit': _git_commit(),
+            'started': datetime.datetime.now().isoformat(timespec='seconds')}
+
+
+def _rig_dt(exp: Experiment) -> float:
+    rig = exp.node(*RIG_KEY)
+    return float(node_parameters(rig).get('dt', 0.001)) if rig else 0.001
+
+
+class ExperimentRunner:
+    """Runs one :class:`~irs_bringup.experiment.Experiment` (see module docstring)."""
+
+    def __init__(self, exp: Experiment, runs_dir='runs', log=print, graph_timeout=60.0,
+                 stall_timeout=30.0, progress=True):
+        self.exp = exp
+        stamp = datetime.datetime.now().strftime('%Y%m%d-%H%M%S')
+        self.run_dir = Path(runs_dir).resolve() / f'{exp.name}-{stamp}'
+        n = 1
+        while self.run_dir.exists():
+            n += 1
+            self.run_dir = Path(runs_dir).resolve() / f'{exp.name}-{stamp}-{n}'
+        self.log = log
+        self.graph_timeout = graph_timeout
+        self.stall_timeout = stall_timeout
+        self.progress = progress
+        self.procs = {}
+        self.dt = _rig_dt(exp)
+
+    # ------------------------------------------------------------------ processes
+    def _specs(self):
+        specs = []
+        for entry in self.exp.nodes:
+            for ref in entry.params_files:
+                resolve_params_file(ref)  # fail early with a clear message
+            params = {**entry.params, **clock_overrides(self.exp, entry, self.dt)}
+            specs.append(NodeSpec(entry.package, entry.executable, entry.name,
+                                  [str(resolve_params_file(r)) for r in entry.params_files],
+                                  params, entry.remaps))
+        return specs
+
+    def _recorder_spec(self, bag_dir):
+        params = {'topics': list(self.exp.record_topics), 'output': str(bag_dir),
+                  'metadata': json.dumps(experiment_metadata(self.exp))}
+        if self.exp.clock == 'lockstep':
+            params['use_sim_time'] = True
+        return NodeSpec('irs_bringup', 'recorder', 'recorder', params=params)
+
+    def _check_alive(self):
+        for name, proc in self.procs.items():
+            code = proc.poll()
+            if code is not None:
+                raise ExperimentFailed(f"node '{name}' died (exit code {code}); its last output:\n"
+                                       f'{proc.tail(15)}')
+
+    def _stop_all(self) -> dict:
+        codes = {}
+        recorder = self.procs.pop('recorder', None)
+        for name, proc in reversed(list(self.procs.items())):
+            codes[name] = proc.stop()
+        if recorder is not None:
+            self.procs['recorder'] = recorder
+            codes['recorder'] = recorder.stop(timeout=30.0)
+        return codes
+
+    # ------------------------------------------------------------------ run
+    def run(self) -> RunResult:
+        exp = self.exp
+        logs = self.run_dir / 'logs'
+        logs.mkdir(parents=True)
+        bag_dir = self.run_dir / 'bag' if exp.record_topics else None
+        context = Context()
+        rclpy.init(context=context)
+        watcher = make_watcher('irs_experiment_runner', context=context)
+        t_wall0 = time.monotonic()
+        clock = {'t': 0.0}
+        completed = False
+        message = ''
+        try:
+            if bag_dir is not None:
+                self.procs['recorder'] = NodeProcess(self._recorder_spec(bag_dir), logs)
+            for spec in self._specs():
+                self.procs[spec.name] = NodeProcess(spec, logs)
+            self.log(f'[experiment] {exp.name}: started {len(self.procs)} processes, '
+                     f'logs in {logs}')
+            self._wait_for_graph(watcher)
+            node = watcher.node
+            node.create_subscription(Clock, '/clock', lambda m: clock.__setitem__('t', to_sec(m.clock)),
+                                     qos.CLOCK)
+            self._start_rig(watcher)
+            t_start = time.monotonic()
+            completed = self._follow(watcher, clock, t_start)
+            message = 'completed' if completed else 'stopped'
+        except KeyboardInterrupt:
+            message = 'interrupted (Ctrl-C)'
+            self.log(f'\n[experiment] {message}: shutting down')
+        except ExperimentFailed as exc:
+            message = str(exc)
+            self.log(f'\n[experiment] FAILED: {message}')
+        finally:
+            codes = self._stop_all()
+            watcher.node.destroy_node()
+            rclpy.try_shutdown(context=context)
+        sim_time = clock['t'] if exp.clock == 'lockstep' else time.monotonic() - t_wall0
+        return RunResult(self.run_dir, bag_dir, completed, sim_time, time.monotonic() - t_wall0,
+                         codes, message)
+
+    def _wait_for_graph(self, watcher):
+        names = list(self.procs)
+        expected = expected_endpoints(self.exp)
+        deadline = time.monotonic() + self.graph_timeout
+
+        def ready():
+            self._check_alive()
+            if not {'/' + n for n in names} <= watcher.node_names():
+                return False
+            node = watcher.node
+            for topic, (pubs, subs) in expected.items():
+                if node.count_publishers(topic) < pubs or node.count_subscribers(topic) < subs:
+                    return False
+            return True
+
+        if not watcher.spin_until(ready, max(0.0, deadline - time.monotonic())):
+            missing = sorted({'/' + n for n in names} - watcher.node_names())
+            node = watcher.node
+            lacking = [f'{t} ({node.count_publishers(t)}/{p} pub, {node.count_subscribers(t)}/{s} sub)'
+                       for t, (p, s) in expected.items()
+                       if node.count_publishers(t) < p or node.count_subscribers(t) < s]
+            raise ExperimentFailed(f'graph not up after {self.graph_timeout:.0f} s; missing nodes '
+                                   f'{missing}, unmatched topics {lacking}')
+        self.log(f'[experiment] graph up: {len(names)} nodes, {len(expected)} topics connected')
+
+    def _start_rig(self, watcher):
+        if self.exp.node(*RIG_KEY) is None:
+            return
+        client = watcher.node.create_client(Trigger, 'rig/start')
+        if not watcher.spin_until(client.service_is_ready, 20.0):
+            raise ExperimentFailed('rig/start service not available')
+        future = client.call_async(Trigger.Request())
+        if not watcher.spin_until(future.done, 20.0) or not future.result().success:
+            raise ExperimentFailed(f'rig/start failed: {future.result() and future.result().message}')
+
+    def _follow(self, watcher, clock, t_start) -> bool:
+        exp = self.exp
+        last_t, last_change = -1.0, time.monotonic()
+        last_print = 0.0
+        end = exp.duration - 0.5 * self.dt
+        while True:
+            watcher.executor.spin_once(timeout_sec=0.05)
+            self._check_alive()
+            now = time.monotonic()
+            t = clock['t'] if exp.clock == 'lockstep' else now - t_start
+            if t != last_t:
+                last_t, last_change = t, now
+            elif exp.clock == 'lockstep' and now - last_change > self.stall_timeout:
+                raise ExperimentFailed(f'no progress for {self.stall_timeout:.0f} s at '
+                                       f't = {t:.3f} s (a lock-step input is missing)')
+            tty = sys.stdout.isatty()
+            if self.progress and now - last_print > (0.5 if tty else 10.0):
+                last_print = now
+                frac = min(1.0, t / exp.duration)
+                line = (f'[experiment] {exp.name} [{"#" * int(30 * frac):<30}] '
+                        f'{t:6.2f}/{exp.duration:.2f} s (wall {now - t_start:5.1f} s)')
+                sys.stdout.write('\r' + line if tty else line + '\n')
+                sys.stdout.flush()
+            if t >= end:
+                if self.progress and tty:
+                    sys.stdout.write('\n')
+                return True

@@ -1,0 +1,148 @@
+"""Node processes: start through the ament-resolved executable, stop cleanly, never leak.
+
+Each node runs as its own process in its own session (process group), with its output going to a
+log file (a pipe could fill up and block a 1 kHz node). Stopping sends SIGINT (what Ctrl-C in
+``ros2 run`` sends), then SIGTERM, then SIGKILL to the whole group, each after a timeout, so no
+child survives. No rclpy here.
+"""
+from dataclasses import dataclass, field
+import os
+from pathlib import Path
+import signal
+import subprocess
+import time
+
+from .executables import resolve_executable
+
+
+@dataclass
+class NodeSpec:
+    """How to start one node, as ``ros2 run <package> <executable> --ros-args ...`` would."""
+
+    package: str
+    executable: str
+    name: str = ''                                        # node name remap ('' = the node's own)
+    params_files: list = field(default_factory=list)      # --params-file paths, in order
+    params: dict = field(default_factory=dict)            # -p name:=value overrides
+    remaps: dict = field(default_factory=dict)            # -r from:=to
+    args: list = field(default_factory=list)              # plain arguments before --ros-args
+
+    def command(self, overrides_file=None) -> list:
+        """The full argument vector, executable resolved through the ament index.
+
+        ``params`` go into ``overrides_file`` (a parameter YAML, applied after ``params_files``)
+        when given -- any value survives that, where ``-p`` cannot carry e.g. multi-line strings
+        -- and are passed as ``-p name:=value`` otherwise.
+        """
+        cmd = [resolve_executable(self.package, self.executable), *map(str, self.args)]
+        ros = []
+        if self.name:
+            ros += ['-r', f'__node:={self.name}']
+        for path in self.params_files:
+            ros += ['--params-file', str(path)]
+        if self.params and overrides_file is not None:
+            import yaml
+            Path(overrides_file).write_text(yaml.safe_dump(
+                {'/**': {'ros__parameters': _nest(self.params)}}, sort_keys=False))
+            ros += ['--params-file', str(overrides_file)]
+        else:
+            for key, value in self.params.items():
+                ros += ['-p', f'{key}:={_param_text(value)}']
+        for src, dst in self.remaps.items():
+            ros += ['-r', f'{src}:={dst}']
+        return cmd + (['--ros-args', *ros] if ros else [])
+
+
+def _nest(flat: dict) -> dict:
+    out = {}
+    for name, value in flat.items():
+        node = out
+        *parents, leaf = name.split('.')
+        for part in parents:
+            node = node.setdefault(part, {})
+        node[leaf] = list(value) if isinstance(value, tuple) else value
+    return out
+
+
+def _param_text(value) -> str:
+    if isinstance(value, bool):
+        return 'true' if value else 'false'
+    if isinstance(value, (list, tuple)):
+        return '[' + ','.join(_param_text(v) for v in value) + ']'
+    if isinstance(value, str):
+        return value if value else "''"
+    return repr(value)
+
+
+class NodeProcess:
+    """A running node process (see module docstring)."""
+
+    def __init__(self, spec: NodeSpec, log_dir, env=None):
+        self.spec = spec
+        self.label = spec.name or spec.executable
+        self.log_path = Path(log_dir) / f'{self.label}.log'
+        self.log_path.parent.mkdir(parents=True, exist_ok=True)
+        self.cmd = spec.command(overrides_file=Path(log_dir) / f'{self.label}.params.yaml')
+        self._log = open(self.log_path, 'wb')
+        self.popen = subprocess.Popen(self.cmd, stdout=self._log, stderr=subprocess.STDOUT,
+                                      stdin=subprocess.DEVNULL, env=env, start_new_session=True)
+
+    @property
+    def pid(self) -> int:
+        return self.popen.pid
+
+    def poll(self):
+        """Exit code, or None while running."""
+        return self.popen.poll()
+
+    def output(self) -> str:
+        """Everything the process has printed so far."""
+        if not self._log.closed:
+            self._log.flush()
+        return self.log_path.read_text(errors='replace')
+
+    def tail(self, lines: int = 20) -> str:
+        return '\n'.join(self.output().splitlines()[-lines:])
+
+    def stop(self, timeout: float = 10.0) -> int:
+        """SIGINT, then SIGTERM, then SIGKILL (process group), each after ``timeout`` s."""
+        for sig, wait in ((signal.SIGINT, timeout), (signal.SIGTERM, timeout / 2),
+                          (signal.SIGKILL, timeout)):
+            if self.popen.poll() is not None:
+                break
+            self._signal_group(sig)
+            try:
+                self.popen.wait(wait)
+            except subprocess.TimeoutExpired:
+                continue
+        self._signal_group(signal.SIGKILL)  # leftovers of the group, if any
+        self._log.close()
+        return self.popen.returncode
+
+    def _signal_group(self, sig):
+        try:
+            os.killpg(self.popen.pid, sig)
+        except (ProcessLookupError, PermissionError):
+            pass
+
+
+def group_alive(pgid: int) -> bool:
+    """True while any process of the process group ``pgid`` exists."""
+    try:
+        os.killpg(pgid, 0)
+    except ProcessLookupError:
+        return False
+    except PermissionError:
+        return True
+    return True
+
+
+def wait_until(predicate, timeout: float, interval: float = 0.02) -> bool:
+    """Poll ``predicate`` until it is true or ``timeout`` s have passed; return its last value."""
+    deadline = time.monotonic() + timeout
+    while True:
+        if predicate():
+            return True
+        if time.monotonic() >= deadline:
+            return False
+        time.sleep(interval)

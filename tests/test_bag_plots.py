@@ -1,0 +1,164 @@
+"""``bag plots`` and ``bag rerun`` on a small synthetic bag; clean errors on broken bags."""
+import math
+import subprocess
+
+import pytest
+
+from irs_bringup.executables import resolve_executable
+
+N = 300
+DT_NS = 1_000_000
+PNG_MAGIC = b'\x89PNG\r\n\x1a\n'
+
+
+def _stamp(msg, k):
+    msg.header.stamp.sec = (k * DT_NS) // 10**9
+    msg.header.stamp.nanosec = (k * DT_NS) % 10**9
+    msg.header.frame_id = 'treadmill'
+    return msg
+
+
+def make_bag(path, topics=None):
+    """A bag with every topic the plots and the rerun export use, N samples at 1 kHz."""
+    from geometry_msgs.msg import PointStamped, PoseStamped
+    from nav_msgs.msg import Odometry
+    from rclpy.serialization import serialize_message
+    from sensor_msgs.msg import JointState
+
+    from irs_bringup.bag_writer import BagWriter
+    from irs_msgs.msg import (BeltSpeed, LateralReference, SteeringActuatorState,
+                              SteeringCommand, TreadmillState)
+    from irs_sensing.arm_kinematics import ArmGeometry, inverse_kinematics
+
+    geom = ArmGeometry()
+    with BagWriter(path, chunk_size=64 * 1024) as w:
+        for k in range(N):
+            t = k * DT_NS * 1e-9
+            y = 0.1 * math.sin(2 * math.pi * t)
+            x, psi = 0.05 * t, 0.02 * math.cos(2 * math.pi * t)
+            msgs = {}
+            p = _stamp(PointStamped(), k)
+            p.point.x, p.point.y = x + 0.2, y
+            msgs['/ground_truth/sensor_point'] = p
+            p2 = _stamp(PointStamped(), k)
+            p2.point.y = y + 1e-3
+            msgs['/lateral_position'] = p2
+            ref = _stamp(LateralReference(), k)
+            ref.lateral_position = 0.1 if k > N // 3 else 0.0
+            msgs['/lateral/reference'] = ref
+            cmd = _stamp(SteeringCommand(), k)
+            cmd.front_angle = 0.1 * math.sin(4 * math.pi * t)
+            msgs['/steering/command'] = cmd
+            st = _stamp(SteeringActuatorState(), k)
+            st.front_commanded, st.front_achieved = cmd.front_angle, 0.9 * cmd.front_angle
+            msgs['/steering/state'] = st
+            belt = _stamp(BeltSpeed(), k)
+            belt.speed, belt.encoder_count = 1.0 + 0.1 * t, k
+            msgs['/belt/speed'] = belt
+            ts = _stamp(TreadmillState(), k)
+            ts.belt_speed, ts.drive_voltage = belt.speed, 12.0
+            msgs['/treadmill/state'] = ts
+            od = _stamp(Odometry(), k)
+            od.pose.pose.position.x, od.pose.pose.position.y = x, y
+            od.pose.pose.orientation.z, od.pose.pose.orientation.w = (math.sin(psi / 2),
+                                                                      math.cos(psi / 2))
+            msgs['/ground_truth/odom'] = od
+            ps = _stamp(PoseStamped(), k)
+            ps.pose.position.x, ps.pose.position.y = x, y
+            msgs['/pose'] = ps
+            js = _stamp(JointState(), k)
+            js.name = ['arm_joint1', 'arm_joint2', 'arm_joint3']
+            js.position = list(inverse_kinematics(x, y, psi, geom))
+            msgs['/arm/joint_states'] = js
+            for topic, msg in msgs.items():
+                if topics is None or topic in topics:
+                    w.write(topic, _type_name(msg),
+                            serialize_message(msg), 10**9 + k * DT_NS)
+    return path
+
+
+def _type_name(msg):
+    mod = type(msg).__module__.split('.')
+    return f'{mod[0]}/msg/{type(msg).__name__}'
+
+
+@pytest.fixture(scope='module')
+def small_bag(tmp_path_factory):
+    return make_bag(tmp_path_factory.mktemp('plots') / 'bag')
+
+
+def test_make_plots_writes_valid_pngs(small_bag, tmp_path):
+    from irs_bringup.bag_plots import make_plots
+    paths = make_plots(small_bag, tmp_path / 'out')
+    assert sorted(p.name for p in paths) == ['belt.png', 'car_position.png', 'lateral.png',
+                                             'steering.png']
+    for p in paths:
+        data = p.read_bytes()
+        assert data[:8] == PNG_MAGIC and len(data) > 5000, p
+
+
+def test_plots_only_with_the_topics_present(tmp_path):
+    from irs_bringup.bag_plots import NoPlottableTopics, make_plots
+    bag = make_bag(tmp_path / 'belt_only', topics={'/belt/speed'})
+    assert [p.name for p in make_plots(bag, tmp_path / 'o1')] == ['belt.png']
+    empty = make_bag(tmp_path / 'no_plot_topics', topics={'/arm/joint_states'})
+    with pytest.raises(NoPlottableTopics, match='none of the plotted topics'):
+        make_plots(empty, tmp_path / 'o2')
+
+
+def test_rerun_export_round_trip(small_bag, tmp_path):
+    from irs_bringup.rerun_export import ENTITY_PATHS, export_rrd, rrd_entity_paths
+    rrd = tmp_path / 'run.rrd'
+    rows = export_rrd(small_bag, rrd)
+    assert rrd.is_file() and rrd.stat().st_size > 1000
+    assert set(rows) == set(ENTITY_PATHS)
+    # 2-D view decimated to 50 Hz: 0.3 s of data -> 15 rows; series at 200 Hz -> 60 rows
+    assert rows['world/arm'] == 15 and rows['world/car'] == 15
+    assert rows['series/lateral/ground_truth'] == 60
+    assert set(ENTITY_PATHS) <= rrd_entity_paths(rrd)
+
+
+def test_arm_drawn_through_elbow_to_tip(small_bag):
+    """The arm strip ends at the tip forward kinematics gives (= the car with offset 0)."""
+    from irs_bringup.bag_reader import BagReader
+    from irs_sensing.arm_kinematics import ArmGeometry, forward_kinematics
+    with BagReader(small_bag) as r:
+        (m, js), = [x for x, _ in zip(r.decoded(['/arm/joint_states']), range(1))]
+    fk = forward_kinematics(*js.position, ArmGeometry())
+    assert fk.x_tip == pytest.approx(0.0, abs=1e-9) and fk.y_tip == pytest.approx(0.0, abs=1e-9)
+
+
+def _bag(*args):
+    return subprocess.run([resolve_executable('irs_bringup', 'bag'), *map(str, args)],
+                          capture_output=True, text=True, timeout=120)
+
+
+def test_cli_plots_rerun_and_errors(small_bag, tmp_path):
+    res = _bag('plots', small_bag, '--out', tmp_path / 'p')
+    assert res.returncode == 0, res.stderr
+    assert len(res.stdout.split()) == 4
+    res = _bag('rerun', small_bag, '--out', tmp_path / 'r.rrd')
+    assert res.returncode == 0, res.stderr
+    assert (tmp_path / 'r.rrd').stat().st_size > 0
+
+    # a truncated copy of the bag: clear error, no traceback, exit code 1
+    trunc = tmp_path / 'trunc'
+    trunc.mkdir()
+    src = next(small_bag.glob('*.mcap')).read_bytes()
+    (trunc / 'trunc_0.mcap').write_bytes(src[:len(src) * 2 // 3])
+    for args in (('plots', trunc, '--out', tmp_path / 'tp'),
+                 ('rerun', trunc, '--out', tmp_path / 't.rrd'),
+                 ('info', trunc), ('validate', trunc), ('play', trunc, '--fast'),
+                 ('plots', tmp_path / 'missing', '--out', tmp_path / 'mp')):
+        res = _bag(*args)
+        assert res.returncode == 1, (args, res.stdout, res.stderr)
+        assert 'Traceback' not in res.stdout + res.stderr, res.stderr
+        assert 'error' in res.stderr, res.stderr
+        assert len(res.stderr.strip().splitlines()) == 1, res.stderr
+    assert not (tmp_path / 'tp').exists() or not any((tmp_path / 'tp').iterdir())
+
+    # usage errors: exit code 2
+    assert _bag('plots', small_bag).returncode == 2
+    assert _bag('frobnicate').returncode == 2
+    res = _bag('--help')
+    assert res.returncode == 0 and 'play' in res.stdout

@@ -1,0 +1,189 @@
+"""``bag play`` reproduces the recorded bytes, publishes /clock at the data's times, waits for
+its subscribers, and a sensing node re-run from a replay reproduces the recorded poses."""
+import math
+import struct
+import time
+
+from irs_bringup.processes import NodeSpec, wait_until
+
+from test_recorder import RIG_TOPICS, record_lockstep  # noqa: F401 (same tests/ directory)
+
+N = 400
+DT_NS = 1_000_000
+LOG0 = 5 * 10**9 + 123  # log times: LOG0 + k ms (+ 1 us for /b); stamps: k ms
+
+
+def _type_name(msg):
+    return f'{type(msg).__module__.split(".")[0]}/msg/{type(msg).__name__}'
+
+
+def make_bag(path):
+    from geometry_msgs.msg import PointStamped
+    from rclpy.serialization import serialize_message
+    from sensor_msgs.msg import JointState
+
+    from irs_bringup.bag_writer import BagWriter
+
+    with BagWriter(path, chunk_size=32 * 1024) as w:
+        for k in range(N):
+            p = PointStamped()
+            p.header.stamp.sec, p.header.stamp.nanosec = divmod(k * DT_NS, 10**9)
+            p.point.x, p.point.y = float(k), math.sin(k * 1e-2)
+            w.write('/a', _type_name(p), serialize_message(p), LOG0 + k * DT_NS)
+            js = JointState()
+            js.header.stamp = p.header.stamp
+            js.name = ['j'] * (k % 5)                  # varying sizes
+            js.position = [k * 0.5] * (k % 5)
+            w.write('/b', _type_name(js), serialize_message(js), LOG0 + k * DT_NS + 1000)
+    return path
+
+
+def raw_recorder(ros, topics):
+    """Raw subscriptions on the watcher node: topic -> list of received bytes."""
+    from rclpy.qos import HistoryPolicy, QoSProfile, ReliabilityPolicy
+    got = {t: [] for t in topics}
+    qos = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=10000,
+                     reliability=ReliabilityPolicy.RELIABLE)
+    for topic, mtype in topics.items():
+        ros.node.create_subscription(mtype, topic, got[topic].append, qos, raw=True)
+    return got
+
+
+def stamp_ns(data: bytes) -> int:
+    sec, nsec = struct.unpack_from('<iI', data, 4)
+    return sec * 10**9 + nsec
+
+
+def test_replay_is_byte_exact_with_clock_and_waits_for_subscribers(ros, launch, tmp_path):
+    from geometry_msgs.msg import PointStamped
+    from rosgraph_msgs.msg import Clock
+    from sensor_msgs.msg import JointState
+
+    from irs_bringup.bag_reader import BagReader
+
+    bag = make_bag(tmp_path / 'bag')
+    with BagReader(bag) as r:
+        recorded = {'/a': [], '/b': []}
+        for m in r.messages():
+            recorded[m.topic].append(m.data)
+        log_times = sorted({m.log_time_ns for m in r.messages()})
+
+    # The player starts first and must hold back until our subscriptions matched.
+    play = launch(NodeSpec('irs_bringup', 'bag', name='play', args=[
+        'play', bag, '--clock', '--paused-until-matched', '--remap', '/b:=/b_replayed']))
+    assert ros.wait_for_endpoints('/b_replayed', publishers=1, timeout=30.0), play.tail()
+    got = raw_recorder(ros, {'/a': PointStamped, '/b_replayed': JointState, '/clock': Clock})
+    done = ros.spin_until(lambda: play.poll() is not None
+                          and len(got['/a']) >= N and len(got['/b_replayed']) >= N
+                          and len(got['/clock']) >= len(log_times), 60.0)
+    out = play.output()
+    assert done, (out, {k: len(v) for k, v in got.items()})
+    assert play.poll() == 0, out
+    # byte for byte, in order, nothing lost at the start
+    assert got['/a'] == recorded['/a']
+    assert got['/b_replayed'] == recorded['/b']
+    # /clock at the data's own (log) times, one per distinct time, increasing
+    assert [stamp_ns(c) for c in got['/clock']] == log_times
+    assert 'timing error mean' in out, out
+
+    # --clock-from header: /clock follows header.stamp; only /a played, as fast as possible
+    got2 = raw_recorder(ros, {'/a': PointStamped, '/clock': Clock})
+    got2['/a'].clear()
+    play2 = launch(NodeSpec('irs_bringup', 'bag', name='play2', args=[
+        'play', bag, '--fast', '--topics', '/a', '--clock', '--clock-from', 'header',
+        '--wait-for-subscribers', '2']))   # our two /a subscriptions
+    assert ros.spin_until(lambda: play2.poll() is not None and len(got2['/a']) >= N
+                          and len(got2['/clock']) >= N, 60.0), play2.output()
+    assert play2.poll() == 0
+    assert got2['/a'] == recorded['/a']
+    assert [stamp_ns(c) for c in got2['/clock']] == [k * DT_NS for k in range(N)]
+
+
+def test_replay_start_offset_and_usage_errors(ros, launch, tmp_path):
+    import subprocess
+
+    from geometry_msgs.msg import PointStamped
+
+    from irs_bringup.executables import resolve_executable
+
+    bag = make_bag(tmp_path / 'bag')
+    got = raw_recorder(ros, {'/a': PointStamped})
+    play = launch(NodeSpec('irs_bringup', 'bag', name='play', args=[
+        'play', bag, '--topics', 'a', '--start-offset', '0.2', '--rate', '2',
+        '--wait-for-subscribers', '1']))
+    assert ros.spin_until(lambda: play.poll() is not None and len(got['/a']) >= N - 200,
+                          60.0), play.output()
+    assert play.poll() == 0
+    assert [stamp_ns(d) for d in got['/a']] == [k * DT_NS for k in range(200, N)]
+
+    exe = resolve_executable('irs_bringup', 'bag')
+    for args, code in ((['play', bag, '--topics', '/nope'], 2),
+                       (['play', tmp_path / 'missing'], 1),
+                       (['play', bag, '--remap', 'a=b'], 2),
+                       (['play', bag, '--rate', '-1'], 2)):
+        res = subprocess.run([exe, *map(str, args)], capture_output=True, text=True,
+                             timeout=60)
+        assert res.returncode == code, (args, res.stderr)
+        assert 'Traceback' not in res.stderr and 'error' in res.stderr
+
+
+def test_sensing_rerun_from_replay_reproduces_poses(ros, launch, tmp_path):
+    """Record arm/joint_states + pose from a lock-step graph, replay only the joint states
+    (with /clock from their stamps) into a fresh arm_pose_estimator, compare poses by stamp."""
+    from geometry_msgs.msg import PoseStamped
+    from rclpy.qos import HistoryPolicy, QoSProfile, ReliabilityPolicy
+
+    from irs_bringup.bag_reader import BagReader
+
+    max_steps = 800
+    bag = tmp_path / 'sensing'
+    topics = ['/clock', '/arm/joint_states', '/ground_truth/sensor_point', '/pose']
+    est = NodeSpec('irs_sensing', 'arm_pose_estimator', params={'use_sim_time': True})
+    t_start = time.monotonic()
+    code, out, _ = record_lockstep(ros, launch, bag, max_steps, topics, extra_nodes=[est],
+                                   extra_topics_started=['/pose'],
+                                   extra_topics_ready=[('/pose', max_steps + 1)])
+    assert code == 0, out[-2000:]
+    print(f'recording took {time.monotonic() - t_start:.1f} s')
+
+    def key(p):
+        return (p.pose.position.x, p.pose.position.y, p.pose.position.z,
+                p.pose.orientation.x, p.pose.orientation.y, p.pose.orientation.z,
+                p.pose.orientation.w)
+
+    with BagReader(bag) as r:
+        joints = [m for m in r.messages(['/arm/joint_states'])]
+        # start the replay at the last re-sent copy of step 0 (the idle time before the run,
+        # waiting for the recorder, need not be replayed at 1x)
+        last0 = max(m.log_time_ns for m in joints if stamp_ns(m.data) == 0)
+        offset = (last0 - r.start_time_ns - 1000) / 1e9
+        print(f'joint states span {(joints[-1].log_time_ns - last0) * 1e-9:.3f} s after the '
+              f'start offset {offset:.3f} s')
+        recorded = {}
+        for m, msg in r.decoded(['/pose']):
+            recorded[msg.header.stamp.sec * 10**9 + msg.header.stamp.nanosec] = key(msg)
+    assert len(recorded) == max_steps + 1
+
+    replayed = {}
+    ros.node.create_subscription(
+        PoseStamped, '/pose_replayed',
+        lambda msg: replayed.__setitem__(msg.header.stamp.sec * 10**9
+                                         + msg.header.stamp.nanosec, key(msg)),
+        QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=10000,
+                   reliability=ReliabilityPolicy.RELIABLE))
+    fresh = launch(NodeSpec('irs_sensing', 'arm_pose_estimator', name='estimator_rerun',
+                            params={'use_sim_time': True}, remaps={'pose': '/pose_replayed'}))
+    assert ros.wait_for_endpoints('/pose_replayed', publishers=1, timeout=30.0), fresh.tail()
+    play = launch(NodeSpec('irs_bringup', 'bag', name='play', args=[
+        'play', bag, '--topics', '/arm/joint_states', '--clock', '--clock-from', 'header',
+        '--wait-for-subscribers', '1', '--start-offset', f'{max(offset, 0.0):.9f}']))
+    assert ros.spin_until(lambda: play.poll() is not None
+                          and len(replayed) >= len(recorded), 60.0), \
+        (play.output(), fresh.tail(), len(replayed))
+    assert play.poll() == 0
+    assert set(replayed) == set(recorded)
+    for stamp, pose in recorded.items():
+        again = replayed[stamp]
+        for a, b in zip(pose, again):
+            assert (math.isnan(a) and math.isnan(b)) or abs(a - b) <= 1e-9, (stamp, pose, again)
+    assert wait_until(lambda: fresh.poll() is None, 0.1)

@@ -1,0 +1,222 @@
+"""The ``recorder`` node records a lock-step rig at 1 kHz into a valid bag, loses nothing, exits 0
+on SIGINT, and a SIGKILLed recorder leaves a bag that the tools refuse cleanly or recover.
+
+The rig (``vehicle_sim``, lock-step) publishes exactly one message per output topic per step
+(plus re-sends of the step-0 outputs while nobody answers); a responder in the test process
+answers each step's ``ground_truth/sensor_point`` with a ``steering/command`` of the same stamp,
+but only once the recorder has subscribed to everything and received step 0 on every rig topic.
+Completion is read from the recorder's own ``recorder/status`` counts, not from a sleep.
+"""
+import json
+import math
+import os
+import signal
+import subprocess
+
+import pytest
+
+from irs_bringup.executables import resolve_executable
+from irs_bringup.processes import NodeSpec, wait_until
+
+DT_NS = 1_000_000
+RIG_TOPICS = ['/clock', '/arm/joint_states', '/belt/speed', '/steering/state',
+              '/ground_truth/odom', '/ground_truth/sensor_point']
+CMD_TOPIC = '/steering/command'
+
+
+def stamp_ns(data: bytes) -> int:
+    """header.stamp (or Clock.clock) of a little-endian CDR message: int32 sec, uint32 nsec."""
+    import struct
+    sec, nsec = struct.unpack_from('<iI', data, 4)
+    return sec * 1_000_000_000 + nsec
+
+
+class StatusWatcher:
+    """Subscribes ``recorder/status`` (latched JSON) on the watcher node."""
+
+    def __init__(self, ros):
+        from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
+        from std_msgs.msg import String
+        self.last = None
+        ros.node.create_subscription(
+            String, '/recorder/status', self._on,
+            QoSProfile(depth=1, reliability=ReliabilityPolicy.RELIABLE,
+                       durability=DurabilityPolicy.TRANSIENT_LOCAL))
+
+    def _on(self, msg):
+        self.last = json.loads(msg.data)
+
+    def count(self, topic):
+        return 0 if self.last is None else self.last['messages'].get(topic, 0)
+
+
+class LockstepResponder:
+    """Answers each rig step with a steering command of the same stamp (once per stamp)."""
+
+    def __init__(self, ros, amplitude=0.05):
+        from geometry_msgs.msg import PointStamped
+        from rosgraph_msgs.msg import Clock
+
+        from irs_common import qos
+        from irs_msgs.msg import SteeringCommand
+        self.SteeringCommand = SteeringCommand
+        self.enabled = False
+        self.answered = -1
+        self.clock_ns = -1
+        self.amplitude = amplitude
+        self.pub = ros.node.create_publisher(SteeringCommand, CMD_TOPIC, qos.COMMAND)
+        ros.node.create_subscription(PointStamped, '/ground_truth/sensor_point', self._on_point,
+                                     qos.SENSOR)
+        ros.node.create_subscription(Clock, '/clock', self._on_clock, qos.CLOCK)
+
+    def _on_clock(self, msg):
+        self.clock_ns = max(self.clock_ns, msg.clock.sec * 10**9 + msg.clock.nanosec)
+
+    def _on_point(self, msg):
+        stamp = msg.header.stamp.sec * 10**9 + msg.header.stamp.nanosec
+        if not self.enabled or stamp <= self.answered:
+            return
+        self.answered = stamp
+        cmd = self.SteeringCommand()
+        cmd.header.stamp = msg.header.stamp
+        cmd.front_angle = self.amplitude * math.sin(2 * math.pi * stamp * 1e-9)
+        self.pub.publish(cmd)
+
+
+def rig_spec(max_steps, **extra):
+    return NodeSpec('irs_vehicle_sim', 'vehicle_sim', params={
+        'clock_mode': 'lockstep', 'max_steps': max_steps, 'lockstep_resend_period': 0.3,
+        **extra})
+
+
+def recorder_spec(out, topics, **params):
+    return NodeSpec('irs_bringup', 'recorder', params={
+        'topics': topics, 'output': str(out), 'status_period': 0.1, **params})
+
+
+def record_lockstep(ros, launch, bag, max_steps, topics, responder=None, extra_nodes=(),
+                    extra_topics_ready=(), extra_topics_started=(), metadata=None):
+    """Start recorder + rig, run ``max_steps`` lock-step steps, stop the recorder (SIGINT).
+
+    ``extra_topics_ready``: further (topic, minimal count) the recorder must have before the
+    run counts as complete; ``extra_topics_started``: topics that must have a first message
+    before the responder starts answering. Returns (exit code, recorder output, final status).
+    """
+    status = StatusWatcher(ros)
+    responder = responder or LockstepResponder(ros)
+    # a JSON string as a YAML single-quoted scalar, so that -p does not parse it as a mapping
+    extra = {}
+    if metadata:
+        extra['metadata'] = "'" + json.dumps(metadata).replace("'", "''") + "'"
+    rec = launch(recorder_spec(bag, topics, **extra))
+    rig = launch(rig_spec(max_steps))
+    for spec in extra_nodes:
+        launch(spec)
+    rig_topics = [t for t in topics if t in RIG_TOPICS]
+    # The recorder has subscribed to everything and the rig's step-0 outputs (re-sent every
+    # 0.3 s while nobody answers) reached it on every rig topic.
+    ros.spin_until(
+        lambda: rec.poll() is not None or rig.poll() is not None
+        or (all(status.count(t) >= 1 for t in [*rig_topics, *extra_topics_started])
+            and responder.pub.get_subscription_count() >= 2), 30.0)
+    assert rec.poll() is None and rig.poll() is None and all(
+        status.count(t) >= 1 for t in [*rig_topics, *extra_topics_started]), \
+        f'recorder not ready: {status.last}\n{rec.tail()}\n{rig.tail()}'
+    responder.enabled = True
+    last = max_steps * DT_NS
+    done = ros.spin_until(
+        lambda: (all(status.count(t) >= max_steps + 1 for t in rig_topics)
+                 and (CMD_TOPIC not in topics or status.count(CMD_TOPIC) >= max_steps + 1)
+                 and all(status.count(t) >= n for t, n in extra_topics_ready)),
+        90.0)
+    assert done, (f'run did not complete: clock {responder.clock_ns} / {last}, status '
+                  f'{status.last}\n{rig.tail()}')
+    code = rec.stop(timeout=15.0)
+    return code, rec.output(), status.last
+
+
+def test_recorder_lockstep_1khz_no_loss(ros, launch, tmp_path):
+    from rosbags.rosbag2 import Reader
+
+    from irs_bringup.bag_reader import BagReader, validate
+
+    max_steps = 1500
+    bag = tmp_path / 'bag'
+    topics = RIG_TOPICS + [CMD_TOPIC]
+    meta = {'experiment': 'tests/test_recorder.py', 'git_commit': 'abc123'}
+    code, out, status = record_lockstep(ros, launch, bag, max_steps, topics, metadata=meta)
+    assert code == 0, out[-3000:]
+    assert 'Traceback' not in out, out[-3000:]
+    summary = [ln for ln in out.splitlines() if ln.startswith('recorder: closed')]
+    assert summary and 'dropped: 0' in summary[-1], out[-2000:]
+
+    rep = validate(bag)
+    assert rep.ok, rep.problems
+    with BagReader(bag) as r:
+        assert set(r.topics) == set(topics)
+        by_topic = {t: [] for t in topics}
+        for m in r.messages():
+            by_topic[m.topic].append(m)
+        custom = r.bag_metadata['custom_data']
+        assert custom['irs.dropped_messages'] == '0'
+        recs = dict(r.metadata_records())
+        assert recs['irs_experiment']['experiment'] == 'tests/test_recorder.py'
+        assert recs['irs_experiment']['git_commit'] == 'abc123'
+    for t in RIG_TOPICS:
+        msgs = by_topic[t]
+        stamps = [stamp_ns(m.data) for m in msgs]
+        # every step 0..max_steps exactly once, except re-sends of the step-0 outputs
+        assert sorted(set(stamps)) == [k * DT_NS for k in range(max_steps + 1)], t
+        assert len(stamps) - stamps.count(0) == max_steps, (t, len(stamps), stamps.count(0))
+        first0 = [m.data for m in msgs if stamp_ns(m.data) == 0]
+        assert all(d == first0[0] for d in first0), f'{t}: re-sent step 0 differs'
+        assert stamps[stamps.count(0):] == sorted(stamps[stamps.count(0):]), t
+        assert len(msgs) == status['messages'][t]
+    cmd_stamps = [stamp_ns(m.data) for m in by_topic[CMD_TOPIC]]
+    # the responder answers every step, the last one (max_steps) included
+    assert cmd_stamps == [k * DT_NS for k in range(max_steps + 1)]
+
+    with Reader(bag) as rb:
+        assert {c.topic for c in rb.connections} == set(topics)
+        assert rb.message_count == sum(len(v) for v in by_topic.values())
+
+
+def test_recorder_sigkill_leaves_recoverable_prefix(ros, launch, tmp_path):
+    from irs_bringup.bag_reader import BagReader, BagError, recover
+
+    bag = tmp_path / 'killed'
+    status = StatusWatcher(ros)
+    launch(NodeSpec('irs_vehicle_sim', 'vehicle_sim',
+                    params={'clock_mode': 'realtime', 'max_steps': 20000}))
+    rec = launch(recorder_spec(bag, ['/arm/joint_states', '/belt/speed'], flush_period=0.2))
+    assert ros.spin_until(lambda: status.last is not None and status.last['chunks'] >= 2
+                          and status.count('/arm/joint_states') > 200, 30.0), rec.tail()
+    os.killpg(rec.pid, signal.SIGKILL)
+    assert wait_until(lambda: rec.poll() is not None, 10.0)
+    assert rec.poll() == -signal.SIGKILL
+
+    with pytest.raises(BagError, match='recover'):
+        BagReader(bag)
+    got = recover(bag)
+    assert not got.complete and got.chunks >= 2
+    assert len(got) >= 2 and {m.topic for m in got} <= {'/arm/joint_states', '/belt/speed'}
+    assert any(name == 'irs_experiment' for name, _ in got.metadata)
+
+    bag_exe = resolve_executable('irs_bringup', 'bag')
+    for cmd in (['info'], ['validate'], ['plots', '--out', str(tmp_path / 'plots')]):
+        res = subprocess.run([bag_exe, *cmd[:1], str(bag), *cmd[1:]], capture_output=True,
+                             text=True, timeout=60)
+        assert res.returncode == 1, (cmd, res.stdout, res.stderr)
+        assert 'Traceback' not in res.stderr + res.stdout
+        assert 'error' in res.stderr.lower(), res.stderr
+
+
+def test_recorder_bad_output_is_a_configuration_error(tmp_path):
+    existing = tmp_path / 'full'
+    existing.mkdir()
+    (existing / 'x').write_text('x')
+    res = subprocess.run([resolve_executable('irs_bringup', 'recorder'), '--ros-args',
+                          '-p', f'output:={existing}'], capture_output=True, text=True,
+                         timeout=60)
+    assert res.returncode == 2, res.stderr
+    assert 'not empty' in res.stderr and 'Traceback' not in res.stderr
