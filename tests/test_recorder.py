@@ -51,9 +51,15 @@ class StatusWatcher:
 
 
 class LockstepResponder:
-    """Answers each rig step with a steering command of the same stamp (once per stamp)."""
+    """Answers each rig step with a steering command of the same stamp (once per stamp).
 
-    def __init__(self, ros, amplitude=0.05):
+    The step is answered when ``trigger`` (a stamped topic computed from the step's outputs,
+    e.g. the sensed ``/pose``) arrives, which paces the rig to the slowest node in the chain.
+    A trigger received before :meth:`enable` is answered by :meth:`enable`.
+    """
+
+    def __init__(self, ros, amplitude=0.05, trigger='/ground_truth/sensor_point',
+                 trigger_type=None):
         from geometry_msgs.msg import PointStamped
         from rosgraph_msgs.msg import Clock
 
@@ -62,23 +68,35 @@ class LockstepResponder:
         self.SteeringCommand = SteeringCommand
         self.enabled = False
         self.answered = -1
+        self.pending = None
         self.clock_ns = -1
         self.amplitude = amplitude
         self.pub = ros.node.create_publisher(SteeringCommand, CMD_TOPIC, qos.COMMAND)
-        ros.node.create_subscription(PointStamped, '/ground_truth/sensor_point', self._on_point,
+        ros.node.create_subscription(trigger_type or PointStamped, trigger, self._on_trigger,
                                      qos.SENSOR)
         ros.node.create_subscription(Clock, '/clock', self._on_clock, qos.CLOCK)
 
     def _on_clock(self, msg):
         self.clock_ns = max(self.clock_ns, msg.clock.sec * 10**9 + msg.clock.nanosec)
 
-    def _on_point(self, msg):
+    def _on_trigger(self, msg):
         stamp = msg.header.stamp.sec * 10**9 + msg.header.stamp.nanosec
-        if not self.enabled or stamp <= self.answered:
+        if not self.enabled:
+            self.pending = stamp if self.pending is None else max(self.pending, stamp)
+            return
+        self._answer(stamp)
+
+    def enable(self):
+        self.enabled = True
+        if self.pending is not None:
+            self._answer(self.pending)
+
+    def _answer(self, stamp):
+        if stamp <= self.answered:
             return
         self.answered = stamp
         cmd = self.SteeringCommand()
-        cmd.header.stamp = msg.header.stamp
+        cmd.header.stamp.sec, cmd.header.stamp.nanosec = divmod(stamp, 10**9)
         cmd.front_angle = self.amplitude * math.sin(2 * math.pi * stamp * 1e-9)
         self.pub.publish(cmd)
 
@@ -115,14 +133,15 @@ def record_lockstep(ros, launch, bag, max_steps, topics, responder=None, extra_n
     rig_topics = [t for t in topics if t in RIG_TOPICS]
     # The recorder has subscribed to everything and the rig's step-0 outputs (re-sent every
     # 0.3 s while nobody answers) reached it on every rig topic.
+    need_cmd_subs = 2 if CMD_TOPIC in topics else 1   # the rig (+ the recorder)
     ros.spin_until(
         lambda: rec.poll() is not None or rig.poll() is not None
         or (all(status.count(t) >= 1 for t in [*rig_topics, *extra_topics_started])
-            and responder.pub.get_subscription_count() >= 2), 30.0)
+            and responder.pub.get_subscription_count() >= need_cmd_subs), 30.0)
     assert rec.poll() is None and rig.poll() is None and all(
         status.count(t) >= 1 for t in [*rig_topics, *extra_topics_started]), \
         f'recorder not ready: {status.last}\n{rec.tail()}\n{rig.tail()}'
-    responder.enabled = True
+    responder.enable()
     last = max_steps * DT_NS
     done = ros.spin_until(
         lambda: (all(status.count(t) >= max_steps + 1 for t in rig_topics)

@@ -95,6 +95,7 @@ class ExperimentRunner:
         self.progress = progress
         self.procs = {}
         self.dt = _rig_dt(exp)
+        self.phase = 'created'   # -> starting -> running -> stopping -> done (for observers)
 
     # ------------------------------------------------------------------ processes
     def _specs(self):
@@ -145,6 +146,7 @@ class ExperimentRunner:
         clock = {'t': 0.0}
         completed = False
         message = ''
+        self.phase = 'starting'
         try:
             if bag_dir is not None:
                 self.procs['recorder'] = NodeProcess(self._recorder_spec(bag_dir), logs)
@@ -157,6 +159,7 @@ class ExperimentRunner:
             node.create_subscription(Clock, '/clock', lambda m: clock.__setitem__('t', to_sec(m.clock)),
                                      qos.CLOCK)
             self._start_rig(watcher)
+            self.phase = 'running'
             t_start = time.monotonic()
             completed = self._follow(watcher, clock, t_start)
             message = 'completed' if completed else 'stopped'
@@ -167,9 +170,11 @@ class ExperimentRunner:
             message = str(exc)
             self.log(f'\n[experiment] FAILED: {message}')
         finally:
+            self.phase = 'stopping'
             codes = self._stop_all()
             watcher.node.destroy_node()
             rclpy.try_shutdown(context=context)
+            self.phase = 'done'
         sim_time = clock['t'] if exp.clock == 'lockstep' else time.monotonic() - t_wall0
         return RunResult(self.run_dir, bag_dir, completed, sim_time, time.monotonic() - t_wall0,
                          codes, message)

@@ -279,7 +279,6 @@ def _claims(R, poles):
     L.append(f"- Simulated at 0.02 m, MRC-act vs MRC+act ({nb}/{tot} measure-condition pairs "
              "say MRC-act is more oscillatory):")
     L += [f'  - {r}' for r in rows]
-    sw = [(s, _more_osc(wo(c, s), w(c, s))) for c in ('lag', 'all') for s in STEPS]
     L.append('- Step sweep (overshoot % MRC-act vs MRC+act): ' + '; '.join(
         f"{c} {s:g} m: {wo(c, s)['overshoot_percent']:.1f} vs {w(c, s)['overshoot_percent']:.1f}"
         for c in ('lag', 'all') for s in STEPS) + '.')
@@ -294,7 +293,6 @@ def _claims(R, poles):
              f"steps ({', '.join(f'{s:g}' for s in sat)} m) both MRCs are saturation-limited, "
              f"overshoot < 2 % for both; only {k_sat}/{4 * len(sat)} measures (mainly raw "
              f"crossings from the backlash/noise jitter) still favour the claim.")
-    del sw
     L += ['', '### Claim C: MRC neglecting the actuator is more oscillatory than even the PI', '',
           f"- Linear poles: MRC-act ζ = {pb['mrc_without_actuator']['d0']['zeta']:.3f} at ωn "
           f"{pb['mrc_without_actuator']['d0']['wn']:.2f} rad/s vs PI ζ = "
@@ -338,7 +336,9 @@ def _claims(R, poles):
               for c in ('lag', 'all')) + ' (nan = not settled within the record).',
           f"- Verdict: **reproduced** while the MRC is unsaturated (steps ≤ 0.02 m: PI rise "
           f"{pi('all')['rise_time']:.3f} s vs MRC+act {w('all')['rise_time']:.3f} s and model "
-          f"{R[('all', s0)]['model']['rise_time']:.3f} s, i.e. ~25-30 % slower; and the PI needs "
+          f"{R[('all', s0)]['model']['rise_time']:.3f} s, i.e. "
+          f"{pi('all')['rise_time'] / w('all')['rise_time'] - 1:+.0%} and "
+          f"{pi('all')['rise_time'] / R[('all', s0)]['model']['rise_time'] - 1:+.0%}; and the PI needs "
           f"{pi('lag')['settling_time']:.1f} s to settle to 2 % vs {w('lag')['settling_time']:.2f} s) -- "
           f"the PI's fast initial rise is bought with ~50 % overshoot, so its transient is not "
           f"the desired one. **Reversed** for saturated steps (≥ 0.05 m with the 15 deg limit): "

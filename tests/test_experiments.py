@@ -1,0 +1,70 @@
+"""Whole experiments through the ROS graph (every node its own process, lock-step, recorded)."""
+import os
+import signal
+import threading
+
+import numpy as np
+
+from irs_bringup.bag_reader import validate
+from irs_bringup.experiment import load_experiment
+from irs_bringup.experiment_cli import offline_run
+from irs_bringup.experiment_runner import ExperimentRunner
+from irs_bringup.processes import wait_until
+from irs_bringup.regulation_metrics import phase_metrics
+from irs_bringup.run_series import series_by_stamp
+
+
+def test_treadmill_regulation_keeps_the_car_on_the_belt(tmp_path):
+    exp = load_experiment('treadmill_regulation')
+    result = ExperimentRunner(exp, runs_dir=tmp_path, progress=False).run()
+    assert result.completed, result.message
+    assert all(code == 0 for code in result.exit_codes.values()), result.exit_codes
+    assert validate(result.bag_dir).ok
+    data = series_by_stamp(result.bag_dir)
+    stamps = np.array(sorted(data['x']))
+    t = stamps * 1e-9
+    x = np.array([data['x'][s] for s in stamps])
+    assert t[-1] == exp.duration and len(stamps) == round(exp.duration * 1000) + 1
+    # The graph gives the offline cores' numbers.
+    off = offline_run('treadmill_regulation')
+    assert np.max(np.abs(x - off['x'][np.round(t * 1000).astype(int)])) < 1e-9
+    phases = phase_metrics(t, x, 0.3, [0.5, 4.0])
+    for name, ph in zip(('speed-up 0 -> 1.2 m/s', 'slow-down 1.2 -> 0.6 m/s'), phases):
+        print(f"{name}: peak position error {ph['peak_error']:.3f} m, "
+              f"settled to +-2 cm after {ph['settling_time']:.2f} s")
+    up, down = phases
+    assert up['peak_error'] < 0.15 and up['settling_time'] < 2.5
+    # Slowing down relies on belt friction alone (the drive cannot brake): a larger excursion.
+    assert down['peak_error'] < 0.9 and down['settling_time'] < 8.0
+    assert np.all(np.abs(x) < 1.2192 - 0.15), 'the car must stay clear of the belt ends'
+    faults = [s for s in series_by_stamp(result.bag_dir, {'/treadmill/state': {'mode': 'mode'}})['mode'].values() if s == 3]
+    assert not faults
+
+
+def test_killing_a_node_ends_the_run_with_a_clear_message(tmp_path):
+    exp = load_experiment('figure10_mrc_with_actuator')
+    exp.duration = 60.0
+    runner = ExperimentRunner(exp, runs_dir=tmp_path, progress=False)
+    box = {}
+    thread = threading.Thread(target=lambda: box.setdefault('result', runner.run()))
+    thread.start()
+    assert wait_until(lambda: runner.phase in ('running', 'done'), 120.0)
+    assert runner.phase == 'running', 'the run must be under way when the node is killed'
+    victim = runner.procs['arm_pose_estimator']
+    pids = {name: p.pid for name, p in runner.procs.items()}
+    os.kill(victim.pid, signal.SIGKILL)
+    thread.join(120)
+    assert not thread.is_alive()
+    result = box['result']
+    assert not result.completed
+    assert "node 'arm_pose_estimator' died" in result.message
+    for name, pid in pids.items():
+        assert not _alive(pid), f'{name} (pid {pid}) left behind'
+
+
+def _alive(pid):
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return False
+    return True
