@@ -127,6 +127,24 @@ def test_replay_start_offset_and_usage_errors(ros, launch, tmp_path):
         assert 'Traceback' not in res.stderr and 'error' in res.stderr
 
 
+def call_until_answered(ros, service, timeout):
+    """Call a ListParameters service until a reply arrives (a lost reply is retried)."""
+    from rcl_interfaces.srv import ListParameters
+    client = ros.node.create_client(ListParameters, service)
+    deadline = time.monotonic() + timeout
+    try:
+        while time.monotonic() < deadline:
+            if not client.wait_for_service(timeout_sec=0.5):
+                continue
+            future = client.call_async(ListParameters.Request())
+            if ros.spin_until(future.done, min(1.0, max(0.0, deadline - time.monotonic()))):
+                return True
+            client.remove_pending_request(future)
+        return False
+    finally:
+        ros.node.destroy_client(client)
+
+
 def test_sensing_rerun_from_replay_reproduces_poses(ros, launch, tmp_path):
     """Record arm/joint_states + pose from a lock-step graph, replay only the joint states
     (with /clock from their stamps) into a fresh arm_pose_estimator, compare poses by stamp."""
@@ -142,8 +160,17 @@ def test_sensing_rerun_from_replay_reproduces_poses(ros, launch, tmp_path):
     t_start = time.monotonic()
     # the rig steps when the test answers the *pose* of a step: paced by the estimator
     responder = LockstepResponder(ros, trigger='/pose', trigger_type=PoseStamped)
+
+    def estimator_connected(status):
+        # the estimator's pose reaches the responder (both directions matched, see the probe
+        # below) and the recorder has subscribed to /pose, before the rig publishes step 0
+        assert ros.spin_until(lambda: responder.trigger_sub.get_publisher_count() >= 1, 30.0)
+        assert call_until_answered(ros, '/arm_pose_estimator/list_parameters', 30.0)
+        assert ros.spin_until(lambda: status.last is not None
+                              and '/pose' in status.last['messages'], 30.0), status.last
+
     code, out, _ = record_lockstep(ros, launch, bag, max_steps, topics, responder=responder,
-                                   extra_nodes=[est],
+                                   extra_nodes=[est], before_rig=estimator_connected,
                                    extra_topics_ready=[('/pose', max_steps - 1)])
     assert code == 0, out[-2000:]
     print(f'recording took {time.monotonic() - t_start:.1f} s')
@@ -177,8 +204,13 @@ def test_sensing_rerun_from_replay_reproduces_poses(ros, launch, tmp_path):
                    reliability=ReliabilityPolicy.RELIABLE))
     fresh = launch(NodeSpec('irs_sensing', 'arm_pose_estimator', name='estimator_rerun',
                             params={'use_sim_time': True}, remaps={'pose': '/pose_replayed'}))
-    # our reader matched the estimator's pose writer (and the discovery is under way back)
+    # Our reader matched the estimator's pose writer; the estimator's side must also have
+    # matched our reader, or its first poses are lost. Probe: a service call to the estimator
+    # whose reply reader is created *after* the pose subscription. Endpoint discovery data of
+    # one participant is processed in order, so once the estimator's reply writer reaches our
+    # reply reader, its pose writer knows our pose reader as well.
     assert ros.spin_until(lambda: sub.get_publisher_count() >= 1, 30.0), fresh.tail()
+    assert call_until_answered(ros, '/estimator_rerun/list_parameters', 30.0), fresh.tail()
     play = launch(NodeSpec('irs_bringup', 'bag', name='play', args=[
         'play', bag, '--topics', '/arm/joint_states', '--clock', '--clock-from', 'header',
         '--wait-for-subscribers', '1', '--start-offset', f'{max(offset, 0.0):.9f}']))

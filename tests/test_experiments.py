@@ -1,13 +1,16 @@
 """Whole experiments through the ROS graph (every node its own process, lock-step, recorded)."""
 import os
 import signal
+import subprocess
 import threading
 
 import numpy as np
+import pytest
 
 from irs_bringup.bag_reader import validate
 from irs_bringup.experiment import load_experiment
 from irs_bringup.experiment_cli import offline_run
+from irs_bringup.executables import resolve_executable
 from irs_bringup.experiment_runner import ExperimentRunner
 from irs_bringup.processes import wait_until
 from irs_bringup.regulation_metrics import phase_metrics
@@ -68,3 +71,32 @@ def _alive(pid):
     except ProcessLookupError:
         return False
     return True
+
+
+def _children_of_run(run_dir):
+    """PIDs of node processes whose command line names files in ``run_dir``."""
+    out = subprocess.run(['pgrep', '-f', str(run_dir)], capture_output=True, text=True).stdout
+    return [int(p) for p in out.split() if int(p) != os.getpid()]
+
+
+@pytest.mark.parametrize('sig', [signal.SIGTERM, signal.SIGKILL], ids=['SIGTERM', 'SIGKILL'])
+def test_stopping_the_runner_leaves_no_process_behind(tmp_path, sig):
+    exe = resolve_executable('irs_bringup', 'experiment')
+    log = open(tmp_path / 'runner.log', 'w')
+    runner = subprocess.Popen([exe, 'run', 'figure10_pi', '--no-plots', '--runs-dir', str(tmp_path)],
+                              stdout=log, stderr=subprocess.STDOUT, start_new_session=True)
+    try:
+        assert wait_until(lambda: 'graph up' in (tmp_path / 'runner.log').read_text(), 120.0), \
+            (tmp_path / 'runner.log').read_text()
+        assert len(_children_of_run(tmp_path)) >= 6
+        runner.send_signal(sig)
+        runner.wait(60)
+        assert wait_until(lambda: not _children_of_run(tmp_path), 30.0), \
+            f'left behind: {_children_of_run(tmp_path)}'
+        if sig == signal.SIGTERM:
+            assert 'interrupted' in (tmp_path / 'runner.log').read_text()
+    finally:
+        for pid in _children_of_run(tmp_path):
+            os.kill(pid, signal.SIGKILL)
+        if runner.poll() is None:
+            runner.kill()

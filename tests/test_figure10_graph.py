@@ -33,7 +33,7 @@ def test_figure10_through_the_graph(tmp_path):
     assert with_act['ise_vs_model'] < without_act['ise_vs_model'] / 3
     assert with_act['ise_vs_model'] < pi['ise_vs_model'] / 10
     # ... neglecting the actuator is visibly less damped ...
-    assert without_act['overshoot'] > 1.5 * with_act['overshoot']
+    assert without_act['overshoot_percent'] > 1.5 * with_act['overshoot_percent']
     assert without_act['crossings_2pct'] > with_act['crossings_2pct']
     # ... and the PI cannot reach the fast transient: slower rise, far slower settling.
     assert pi['rise_time'] > with_act['rise_time']

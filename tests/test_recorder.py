@@ -72,8 +72,8 @@ class LockstepResponder:
         self.clock_ns = -1
         self.amplitude = amplitude
         self.pub = ros.node.create_publisher(SteeringCommand, CMD_TOPIC, qos.COMMAND)
-        ros.node.create_subscription(trigger_type or PointStamped, trigger, self._on_trigger,
-                                     qos.SENSOR)
+        self.trigger_sub = ros.node.create_subscription(
+            trigger_type or PointStamped, trigger, self._on_trigger, qos.SENSOR)
         ros.node.create_subscription(Clock, '/clock', self._on_clock, qos.CLOCK)
 
     def _on_clock(self, msg):
@@ -113,23 +113,25 @@ def recorder_spec(out, topics, **params):
 
 
 def record_lockstep(ros, launch, bag, max_steps, topics, responder=None, extra_nodes=(),
-                    extra_topics_ready=(), extra_topics_started=(), metadata=None):
+                    extra_topics_ready=(), extra_topics_started=(), metadata=None,
+                    before_rig=None):
     """Start recorder + rig, run ``max_steps`` lock-step steps, stop the recorder (SIGINT).
 
     ``extra_topics_ready``: further (topic, minimal count) the recorder must have before the
     run counts as complete; ``extra_topics_started``: topics that must have a first message
-    before the responder starts answering. Returns (exit code, recorder output, final status).
+    before the responder starts answering; ``extra_nodes`` start before the rig, and
+    ``before_rig(status)`` (if given) runs before the rig starts. Returns (exit code, recorder output, final status).
     """
     status = StatusWatcher(ros)
     responder = responder or LockstepResponder(ros)
     # a JSON string as a YAML single-quoted scalar, so that -p does not parse it as a mapping
-    extra = {}
-    if metadata:
-        extra['metadata'] = "'" + json.dumps(metadata).replace("'", "''") + "'"
-    rec = launch(recorder_spec(bag, topics, **extra))
-    rig = launch(rig_spec(max_steps))
+    # NodeSpec passes params through a YAML params file, so a JSON text stays a string
+    rec = launch(recorder_spec(bag, topics, metadata=json.dumps(metadata or {})))
     for spec in extra_nodes:
         launch(spec)
+    if before_rig is not None:
+        before_rig(status)
+    rig = launch(rig_spec(max_steps))
     rig_topics = [t for t in topics if t in RIG_TOPICS]
     # The recorder has subscribed to everything and the rig's step-0 outputs (re-sent every
     # 0.3 s while nobody answers) reached it on every rig topic.

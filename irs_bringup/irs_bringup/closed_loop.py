@@ -147,8 +147,10 @@ class ClosedLoop:
                          out.belt_speed, out.fault))
             cmds.append((inputs.front_steer, inputs.drive_voltage))
             out = self.rig.step(inputs)
-        rows.append((out.time, out.y_s, math.nan, math.nan, out.actuator_front.achieved, out.x,
-                     out.belt_speed, out.fault))
+        # The last instant: outputs only (no command is computed for it), the reference as the
+        # reference generator publishes it.
+        rows.append((out.time, out.y_s, math.nan, float(self.signal(out.time)),
+                     out.actuator_front.achieved, out.x, out.belt_speed, out.fault))
         a = np.array(rows, dtype=float)
         c = np.array(cmds, dtype=float).reshape(-1, 2)
         return {'time': a[:, 0], 'y_s': a[:, 1], 'y_measured': a[:, 2], 'reference': a[:, 3],

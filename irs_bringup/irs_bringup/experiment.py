@@ -196,5 +196,7 @@ def expected_endpoints(exp: Experiment) -> dict:
     if exp.clock == 'lockstep' and '/clock' in counts:
         # every node but the rig runs on sim time: its time source subscribes /clock too
         counts['/clock'][1] += sum(1 for e in exp.nodes if e.key != RIG_KEY)
+    else:
+        counts.pop('/clock', None)  # only the lock-step rig publishes /clock
     # A topic nobody publishes (e.g. driver/command without a driver node) is not waited for.
     return {t: tuple(c) for t, c in counts.items() if c[0] > 0 and c[1] > 0}

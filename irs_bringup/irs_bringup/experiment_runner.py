@@ -18,7 +18,9 @@ import json
 import os
 from pathlib import Path
 import platform
+import signal
 import subprocess
+import threading
 import sys
 import time
 
@@ -135,6 +137,19 @@ class ExperimentRunner:
 
     # ------------------------------------------------------------------ run
     def run(self) -> RunResult:
+        """Run the experiment; SIGTERM and SIGHUP end it like Ctrl-C (every node stopped)."""
+        if threading.current_thread() is not threading.main_thread():
+            return self._run()
+        def interrupt(signum, _frame):
+            raise KeyboardInterrupt(signal.Signals(signum).name)
+        previous = {sig: signal.signal(sig, interrupt) for sig in (signal.SIGTERM, signal.SIGHUP)}
+        try:
+            return self._run()
+        finally:
+            for sig, handler in previous.items():
+                signal.signal(sig, handler)
+
+    def _run(self) -> RunResult:
         exp = self.exp
         logs = self.run_dir / 'logs'
         logs.mkdir(parents=True)

@@ -1,7 +1,8 @@
 """Node processes: start through the ament-resolved executable, stop cleanly, never leak.
 
 Each node runs as its own process in its own session (process group), with its output going to a
-log file (a pipe could fill up and block a 1 kHz node). Stopping sends SIGINT (what Ctrl-C in
+log file (a pipe could fill up and block a 1 kHz node), and is set to receive SIGTERM should the
+starting process die without stopping it. Stopping sends SIGINT (what Ctrl-C in
 ``ros2 run`` sends), then SIGTERM, then SIGKILL to the whole group, each after a timeout, so no
 child survives. No rclpy here.
 """
@@ -13,6 +14,18 @@ import subprocess
 import time
 
 from .executables import resolve_executable
+
+_PR_SET_PDEATHSIG = 1
+
+
+def _die_with_parent():
+    """In the child before exec: get SIGTERM when the parent dies (Linux prctl), so even a
+    SIGKILLed runner leaves no node behind."""
+    try:
+        import ctypes
+        ctypes.CDLL('libc.so.6', use_errno=True).prctl(_PR_SET_PDEATHSIG, signal.SIGTERM)
+    except OSError:
+        pass
 
 
 @dataclass
@@ -85,7 +98,8 @@ class NodeProcess:
         self.cmd = spec.command(overrides_file=Path(log_dir) / f'{self.label}.params.yaml')
         self._log = open(self.log_path, 'wb')
         self.popen = subprocess.Popen(self.cmd, stdout=self._log, stderr=subprocess.STDOUT,
-                                      stdin=subprocess.DEVNULL, env=env, start_new_session=True)
+                                      stdin=subprocess.DEVNULL, env=env, start_new_session=True,
+                                      preexec_fn=_die_with_parent)
 
     @property
     def pid(self) -> int:

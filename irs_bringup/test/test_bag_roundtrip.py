@@ -2,14 +2,6 @@
 
 import sys
 
-# pytest's --import-mode=importlib registers the repository folder ./irs_bringup as a namespace
-# package named like the real package; drop it so the real package imports.
-# Also put the package root on sys.path so the tests run without PYTHONPATH.
-if 'irs_bringup' in sys.modules and getattr(sys.modules['irs_bringup'], '__file__', None) is None:
-    del sys.modules['irs_bringup']
-_ROOT = str(__import__('pathlib').Path(__file__).resolve().parents[1])
-if _ROOT not in sys.path:
-    sys.path.insert(0, _ROOT)
 
 import json
 from pathlib import Path

@@ -1,9 +1,5 @@
 """Car on the belt: longitudinal integration, off-belt detection, kinematic wheel speeds."""
-import sys
 
-for _name in ("irs_sensing", "irs_vehicle_sim", "irs_control"):
-    if _name in sys.modules and getattr(sys.modules[_name], "__file__", None) is None:
-        del sys.modules[_name]
 import math
 
 import numpy as np

@@ -1,11 +1,5 @@
 """Tests of the vehicle presets and the pole/zero fitting tool (irs_vehicle_sim.presets)."""
-import sys
 
-# pytest's --import-mode=importlib registers the repository folders as namespace packages named
-# like the real packages; drop them so the real packages import.
-for _name in ("irs_sensing", "irs_vehicle_sim", "irs_control"):
-    if _name in sys.modules and getattr(sys.modules[_name], "__file__", None) is None:
-        del sys.modules[_name]
 
 import numpy as np
 import pytest

@@ -1,11 +1,6 @@
 """Tests of the transfer-function CLI (irs_vehicle_sim.tf_cli)."""
 import sys
 
-# pytest's --import-mode=importlib registers the repository folders as namespace packages named
-# like the real packages; drop them so the real packages import.
-for _name in ("irs_sensing", "irs_vehicle_sim", "irs_control"):
-    if _name in sys.modules and getattr(sys.modules[_name], "__file__", None) is None:
-        del sys.modules[_name]
 
 import re
 
