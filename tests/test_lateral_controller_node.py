@@ -1,0 +1,104 @@
+"""lateral_controller on its topics: saturation with anti-windup, stale input gives zero steer.
+
+For the saturation test the test process plays the rig: it steps the offline rig core
+(identified plant + actuator) with the steering command the node answers for each stamp.
+"""
+import math
+
+import numpy as np
+import pytest
+from geometry_msgs.msg import PointStamped
+
+from irs_common import qos
+from irs_common.stamps import from_ns, to_ns
+from irs_msgs.msg import LateralControllerStatus, LateralReference, SteeringCommand
+from irs_bringup.processes import NodeSpec
+from irs_vehicle_sim.rig import RigConfig, RigInputs, RigSimulation
+
+LIMIT = 0.2618
+
+
+class ControllerLink:
+    def __init__(self, ros):
+        node = ros.node
+        self.ros = ros
+        self.meas = node.create_publisher(PointStamped, 'lateral_position', qos.SENSOR)
+        self.ref = node.create_publisher(LateralReference, 'lateral/reference', qos.COMMAND)
+        self.cmds, self.status = {}, []
+        self.subs = [
+            node.create_subscription(SteeringCommand, 'steering/command',
+                                     lambda m: self.cmds.__setitem__(to_ns(m.header.stamp), m), qos.COMMAND),
+            node.create_subscription(LateralControllerStatus, 'lateral/status', self.status.append, qos.SENSOR)]
+        assert ros.wait_for_matched([self.meas, self.ref, *self.subs], timeout=30.0)
+
+    def send(self, stamp_ns, y, r=None):
+        if r is not None:
+            ref = LateralReference()
+            ref.header.stamp = from_ns(stamp_ns)
+            ref.lateral_position = float(r)
+            self.ref.publish(ref)
+        m = PointStamped()
+        m.header.stamp = from_ns(stamp_ns)
+        m.point.y = float(y)
+        self.meas.publish(m)
+
+
+def closed_loop_step_response(ros, launch, anti_windup, step=0.3, duration=4.0):
+    launch(NodeSpec('irs_control', 'lateral_controller',
+                    params={'reference_sync': True, 'anti_windup': anti_windup, 'stale_timeout': 10.0}))
+    link = ControllerLink(ros)
+    rig = RigSimulation(RigConfig.from_dict({'arm.enable_noise': False}))
+    y, steer = [], []
+    for k in range(int(round(duration / 0.001))):
+        stamp = k * 1_000_000
+        r = step if k * 0.001 >= 0.2 else 0.0
+        link.send(stamp, rig.outputs.y_s, r)
+        assert ros.spin_until(lambda: stamp in link.cmds, 20.0), f'no command for step {k}'
+        u = link.cmds[stamp].front_angle
+        steer.append(u)
+        y.append(rig.step(RigInputs(front_steer=u, speed_cmd=rig.config.u0)).y_s)
+    return np.array(y), np.array(steer), link.status
+
+
+def test_large_step_saturates_and_anti_windup_prevents_overshoot_blow_up(ros, launch):
+    step = 0.3
+    y, steer, status = closed_loop_step_response(ros, launch, anti_windup=True, step=step)
+    assert np.max(np.abs(steer)) == pytest.approx(LIMIT, abs=1e-12), 'the 15 deg limit must be hit'
+    assert any(s.saturated and s.output_unsaturated > LIMIT for s in status)
+    overshoot_aw = (y.max() - step) / step
+    assert abs(y[-1] - step) < 0.02 * step, 'must recover to the set point'
+    print(f'overshoot with anti-windup {100 * overshoot_aw:.1f} %')
+    assert overshoot_aw < 0.10
+
+
+def test_without_anti_windup_the_same_step_overshoots_much_more(ros, launch):
+    step = 0.3
+    y, steer, _ = closed_loop_step_response(ros, launch, anti_windup=False, step=step)
+    overshoot = (y.max() - step) / step
+    print(f'overshoot without anti-windup {100 * overshoot:.1f} %')
+    assert np.max(np.abs(steer)) == pytest.approx(LIMIT, abs=1e-12)
+    assert overshoot > 0.2, 'the anti-windup test above would not show anything'
+
+
+def test_stale_or_invalid_measurement_gives_zero_steer(ros, launch):
+    launch(NodeSpec('irs_control', 'lateral_controller', params={'stale_timeout': 0.1}))
+    link = ControllerLink(ros)
+    now = lambda: ros.node.get_clock().now().nanoseconds  # noqa: E731
+    # Running: a far-off measurement gives a saturated steer towards the reference (0 m).
+    for _ in range(20):
+        stamp = now()
+        link.send(stamp, 0.2)
+        assert ros.spin_until(lambda: stamp in link.cmds, 10.0)
+    assert link.cmds[stamp].front_angle == pytest.approx(-LIMIT)
+    # Silence: within the timeout the node commands zero steer and says STALE.
+    n = len(link.status)
+    assert ros.spin_until(lambda: any(s.state == LateralControllerStatus.STATE_STALE
+                                      for s in link.status[n:]), 5.0)
+    stale_cmds = [c for s, c in link.cmds.items() if s > stamp]
+    assert stale_cmds and all(c.front_angle == 0.0 for c in stale_cmds)
+    # A NaN measurement: zero steer, INVALID.
+    stamp = now()
+    link.send(stamp, math.nan)
+    assert ros.spin_until(lambda: stamp in link.cmds, 10.0)
+    assert link.cmds[stamp].front_angle == 0.0
+    assert ros.spin_until(lambda: link.status[-1].state == LateralControllerStatus.STATE_INVALID, 5.0)
