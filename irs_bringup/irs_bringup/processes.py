@@ -13,6 +13,8 @@ import signal
 import subprocess
 import time
 
+from irs_common.params import unflatten
+
 from .executables import resolve_executable
 
 _PR_SET_PDEATHSIG = 1
@@ -56,7 +58,7 @@ class NodeSpec:
         if self.params and overrides_file is not None:
             import yaml
             Path(overrides_file).write_text(yaml.safe_dump(
-                {'/**': {'ros__parameters': _nest(self.params)}}, sort_keys=False))
+                {'/**': {'ros__parameters': unflatten(self.params)}}, sort_keys=False))
             ros += ['--params-file', str(overrides_file)]
         else:
             for key, value in self.params.items():
@@ -64,17 +66,6 @@ class NodeSpec:
         for src, dst in self.remaps.items():
             ros += ['-r', f'{src}:={dst}']
         return cmd + (['--ros-args', *ros] if ros else [])
-
-
-def _nest(flat: dict) -> dict:
-    out = {}
-    for name, value in flat.items():
-        node = out
-        *parents, leaf = name.split('.')
-        for part in parents:
-            node = node.setdefault(part, {})
-        node[leaf] = list(value) if isinstance(value, tuple) else value
-    return out
 
 
 def _param_text(value) -> str:

@@ -106,5 +106,5 @@ def unflatten(values: dict) -> dict:
         *parents, leaf = name.split('.')
         for part in parents:
             node = node.setdefault(part, {})
-        node[leaf] = value
+        node[leaf] = list(value) if isinstance(value, tuple) else value
     return out

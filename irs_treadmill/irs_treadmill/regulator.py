@@ -56,6 +56,17 @@ from typing import Optional
 __all__ = ["RegulatorParams", "RegulatorOutput", "BeltSpeedRegulator"]
 
 
+def dataclass_from_mapping(cls, d):
+    """``cls(**d)`` for a parameter dataclass; unknown keys raise ``ValueError`` naming them."""
+    import dataclasses
+    names = {f.name for f in dataclasses.fields(cls)}
+    unknown = set(d) - names
+    if unknown:
+        raise ValueError(f"{cls.__name__}: unknown parameters {sorted(unknown)}; expected a "
+                         f"subset of {sorted(names)}.")
+    return cls(**dict(d))
+
+
 @dataclass(frozen=True)
 class RegulatorParams:
     """Parameters of :class:`BeltSpeedRegulator` (units in brackets).
@@ -95,13 +106,7 @@ class RegulatorParams:
     def from_dict(cls, d):
         """Build from a parameter mapping (e.g. the YAML ``ros__parameters`` sub-tree); unknown
         keys raise ``ValueError``."""
-        import dataclasses
-        names = {f.name for f in dataclasses.fields(cls)}
-        unknown = set(d) - names
-        if unknown:
-            raise ValueError(f"{cls.__name__}: unknown parameters {sorted(unknown)}; expected a "
-                             f"subset of {sorted(names)}.")
-        return cls(**dict(d))
+        return dataclass_from_mapping(cls, d)
 
 
 @dataclass(frozen=True)

@@ -18,6 +18,7 @@ import enum
 import math
 from dataclasses import dataclass
 from typing import Optional
+from .regulator import dataclass_from_mapping
 
 __all__ = ["FaultCode", "SafetyParams", "SafetyMonitor"]
 
@@ -75,13 +76,7 @@ class SafetyParams:
     def from_dict(cls, d):
         """Build from a parameter mapping (e.g. the YAML ``ros__parameters`` sub-tree); unknown
         keys raise ``ValueError``."""
-        import dataclasses
-        names = {f.name for f in dataclasses.fields(cls)}
-        unknown = set(d) - names
-        if unknown:
-            raise ValueError(f"{cls.__name__}: unknown parameters {sorted(unknown)}; expected a "
-                             f"subset of {sorted(names)}.")
-        return cls(**dict(d))
+        return dataclass_from_mapping(cls, d)
 
 
 class SafetyMonitor:

@@ -7,7 +7,7 @@ The node declares every entry with a descriptor; ``RigConfig.from_dict`` takes t
 import math
 from dataclasses import asdict
 
-from irs_common.params import Param
+from irs_common.params import table_from_defaults
 
 from .actuator import ActuatorParams
 from .arm_sensor import ArmSensorParams
@@ -115,22 +115,13 @@ def _section_defaults():
     }
 
 
-def _param(name, default, meta, read_only=False):
-    unit, low, high, desc = meta
-    if isinstance(default, float) and not isinstance(default, bool):
-        low = None if low is None else float(low)
-        high = None if high is None else float(high)
-    return Param(name, default, desc, unit, low, high, read_only)
-
-
 def rig_parameter_table() -> list:
     """Every rig parameter as a :class:`~irs_common.params.Param` (dotted names for sections)."""
     cfg = RigConfig()
-    table = [_param(k, getattr(cfg, k), _RIG[k], read_only=k in ('dt',)) for k in _RIG]
-    for section, (defaults, meta) in _section_defaults().items():
-        missing = set(defaults) - set(meta)
-        if missing:
-            raise RuntimeError(f'rig_params: no unit/description for {section}.{sorted(missing)}')
-        for key, default in defaults.items():
-            table.append(_param(f'{section}.{key}', default, meta[key]))
-    return table
+    defaults = {k: getattr(cfg, k) for k in _RIG}
+    meta = dict(_RIG)
+    for section, (values, section_meta) in _section_defaults().items():
+        for key, value in values.items():
+            defaults[f'{section}.{key}'] = value
+        meta.update({f'{section}.{key}': m for key, m in section_meta.items()})
+    return table_from_defaults(defaults, meta, read_only=('dt',))
