@@ -6,6 +6,7 @@ PYTHON ?= python3
 VENV := .venv
 UV := $(VENV)/bin/uv
 ENV_STAMP := $(VENV)/.irs-requirements.stamp
+LOCK := env/requirements.lock
 BUILD_STAMP := install/.irs-build.stamp
 PACKAGES := irs_msgs irs_common irs_sensing irs_treadmill irs_vehicle_sim irs_control irs_bringup
 # The files whose change needs colcon again. Python modules are not among them: the ament_python
@@ -14,17 +15,20 @@ PACKAGE_FILES := $(shell find $(PACKAGES) -type f \( -name package.xml -o -name 
   -o -name CMakeLists.txt -o -name '*.cmake' -o -path '*/msg/*' -o -path '*/resource/*' \
   -o -path '*/config/*' \) 2>/dev/null)
 
-.PHONY: demo test env build clean help
+.PHONY: demo test env build clean help lock
 
 help:
 	@echo "make demo   set up (venv + colcon build) and run the Figure 10 demo"
 	@echo "make test   set up and run the whole test suite"
 	@echo "make build  set up only;  make clean  remove venv and build products"
+	@echo "make lock   re-resolve env/requirements.txt into the pinned env/requirements.lock"
 
 env: $(ENV_STAMP)
 build: $(BUILD_STAMP)
 
-$(ENV_STAMP): env/requirements.txt
+# The venv installs the full pinned set in $(LOCK) (every transitive dependency), which
+# `make lock` resolves from the direct requirements in env/requirements.txt.
+$(ENV_STAMP): $(LOCK) env/venv_local_setup.sh.in
 	@command -v $(PYTHON) >/dev/null || { echo "error: $(PYTHON) not found (Python 3.11 is needed)"; exit 1; }
 	@$(PYTHON) -c 'import sys; sys.exit(sys.version_info[:2] != (3, 11))' || \
 	  { echo "error: the ros-jazzy wheels need Python 3.11; set PYTHON=python3.11"; exit 1; }
@@ -32,8 +36,13 @@ $(ENV_STAMP): env/requirements.txt
 	  { echo "error: '$(PYTHON) -m venv' failed; on Debian: apt-get install python3-venv python3-dev"; exit 1; }
 	@test -x $(UV) || { $(VENV)/bin/python -m pip --version >/dev/null 2>&1 || $(VENV)/bin/python -m ensurepip --default-pip >/dev/null; \
 	  $(VENV)/bin/python -m pip install --quiet --disable-pip-version-check uv==0.13.9; }
-	$(UV) pip install --quiet --python $(VENV)/bin/python -r env/requirements.txt
+	$(UV) pip install --quiet --python $(VENV)/bin/python -r $(LOCK)
+	@sed 's|@VENV@|$(CURDIR)/$(VENV)|' env/venv_local_setup.sh.in > $(VENV)/local_setup.sh
+	@printf '. "%s/local_setup.sh"\n' "$(CURDIR)/$(VENV)" > $(VENV)/local_setup.bash
 	@touch $@
+
+lock: $(ENV_STAMP)
+	$(UV) pip compile --quiet --python-version 3.11 env/requirements.txt -o $(LOCK)
 
 # colcon builds irs_msgs (ament_cmake, rosidl) and the ament_python packages into install/.
 # AMENT_PREFIX_PATH/CMAKE_PREFIX_PATH point at the venv, which is a ROS install prefix.

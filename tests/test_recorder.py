@@ -120,15 +120,15 @@ def record_lockstep(ros, launch, bag, max_steps, topics, responder=None, extra_n
     ``extra_topics_ready``: further (topic, minimal count) the recorder must have before the
     run counts as complete; ``extra_topics_started``: topics that must have a first message
     before the responder starts answering; ``extra_nodes`` start before the rig, and
-    ``before_rig(status)`` (if given) runs before the rig starts. Returns (exit code, recorder output, final status).
+    ``before_rig(status)`` (if given) runs before the rig starts. Every node started here is
+    stopped before returning. Returns (exit code, recorder output, final status).
     """
     status = StatusWatcher(ros)
     responder = responder or LockstepResponder(ros)
     # a JSON string as a YAML single-quoted scalar, so that -p does not parse it as a mapping
     # NodeSpec passes params through a YAML params file, so a JSON text stays a string
     rec = launch(recorder_spec(bag, topics, metadata=json.dumps(metadata or {})))
-    for spec in extra_nodes:
-        launch(spec)
+    others = [launch(spec) for spec in extra_nodes]
     if before_rig is not None:
         before_rig(status)
     rig = launch(rig_spec(max_steps))
@@ -153,6 +153,8 @@ def record_lockstep(ros, launch, bag, max_steps, topics, responder=None, extra_n
     assert done, (f'run did not complete: clock {responder.clock_ns} / {last}, status '
                   f'{status.last}\n{rig.tail()}')
     code = rec.stop(timeout=15.0)
+    for proc in [rig, *others]:   # the graph is gone when this returns
+        proc.stop(timeout=15.0)
     return code, rec.output(), status.last
 
 

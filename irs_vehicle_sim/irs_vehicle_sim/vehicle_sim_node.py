@@ -12,7 +12,8 @@ Clock modes (parameter ``clock_mode``, read-only):
   missed step k), step k's outputs are published again; consumers ignore stamps they have seen.
 
 Commands that are NaN, inf or out of range are replaced by the safe value (steer 0 rad, drive 0 V,
-driver speed held) with a throttled warning; the counts are on ``rig/status``.
+driver speed held) with a throttled warning; the counts are on ``rig/status``. In real time a
+steering or drive command older than ``command_timeout`` is stale and the safe value is used too.
 """
 import math
 import time
@@ -49,6 +50,9 @@ NODE_PARAMS = [
           "step k+1 in lockstep mode: any of 'steering', 'drive', 'driver'", '-', read_only=True),
     Param('lockstep_resend_period', 1.0, 'wall time without progress after which the outputs of '
           'the current step are published again (lockstep)', 's', 0.01, 3600.0),
+    Param('command_timeout', 0.1, 'real time: a steering or drive command older than this is stale '
+          'and the safe value is used (steer 0 rad, drive 0 V); the driver speed is held', 's',
+          0.001, 3600.0),
     Param('default_drive_voltage', 0.0, 'drive voltage used until the first drive command arrives '
           '(0 = belt coasts)', 'V', 0.0, 100.0),
     Param('frame_id', 'treadmill', 'fixed frame of poses and points', '-'),
@@ -96,6 +100,8 @@ class VehicleSimNode(Node):
         self.latest = {'steering': (0.0, 0.0), 'drive': self.p['default_drive_voltage'],
                        'driver': self.config.u0}
         self.rejected = {'steering': 0, 'drive': 0, 'driver': 0}
+        self.received_at = {}          # input name -> time.monotonic() of its latest command
+        self.stale_inputs = set()
         self.sync = StampSync(self.required) if self.required else None
         self.resends = 0
 
@@ -167,13 +173,37 @@ class VehicleSimNode(Node):
                     self._lockstep_step(values)
         else:
             self.latest[name] = value
+            self.received_at[name] = time.monotonic()
 
     # ---------------------------------------------------------------- stepping
     def _stamp_ns(self) -> int:
         return self.stamp0_ns + self.sim.k * self.dt_ns
 
+    def _fresh_latest(self) -> dict:
+        """Latest commands, with stale steering/drive replaced by the safe value (real time)."""
+        latest = dict(self.latest)
+        if self.lockstep:
+            return latest
+        now = time.monotonic()
+        for name, safe in (('steering', (0.0, 0.0)), ('drive', 0.0)):
+            seen = self.received_at.get(name)
+            stale = seen is not None and now - seen > self.p['command_timeout']
+            if stale:
+                latest[name] = safe
+                if name not in self.stale_inputs:
+                    self.get_logger().warning(
+                        f'{name} command stale (none for {now - seen:.3f} s > '
+                        f"{self.p['command_timeout']} s): using the safe value {safe}")
+            elif name in self.stale_inputs:
+                self.get_logger().info(f'{name} commands are fresh again')
+            if stale:
+                self.stale_inputs.add(name)
+            else:
+                self.stale_inputs.discard(name)
+        return latest
+
     def _inputs(self, values: dict) -> RigInputs:
-        merged = {**self.latest, **values}
+        merged = {**self._fresh_latest(), **values}
         front, rear = merged['steering']
         return RigInputs(front_steer=front, rear_steer=rear, drive_voltage=merged['drive'],
                          speed_cmd=merged['driver'])
