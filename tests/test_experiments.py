@@ -7,7 +7,7 @@ import threading
 import numpy as np
 import pytest
 
-from irs_bringup.bag_reader import validate
+from irs_bringup.bag_reader import BagReader, validate
 from irs_bringup.experiment import load_experiment
 from irs_bringup.experiment_cli import offline_run
 from irs_bringup.executables import resolve_executable
@@ -42,6 +42,19 @@ def test_treadmill_regulation_keeps_the_car_on_the_belt(tmp_path):
     assert np.all(np.abs(x) < 1.2192 - 0.15), 'the car must stay clear of the belt ends'
     faults = [s for s in series_by_stamp(result.bag_dir, {'/treadmill/state': {'mode': 'mode'}})['mode'].values() if s == 3]
     assert not faults
+    # Every recorded topic carries every step's stamp t_0 .. t_N (N = duration / dt).
+    n_steps = round(exp.duration * 1000)
+    expected = set(range(0, (n_steps + 1) * 1_000_000, 1_000_000))
+    stamps, counts = {}, {}
+    with BagReader(result.bag_dir) as reader:
+        assert set(reader.topics) == set(exp.record_topics)
+        for m, msg in reader.decoded():
+            s = msg.header.stamp
+            stamps.setdefault(m.topic, set()).add(s.sec * 1_000_000_000 + s.nanosec)
+            counts[m.topic] = counts.get(m.topic, 0) + 1
+    for topic in exp.record_topics:
+        assert stamps[topic] == expected, f'{topic}: {len(stamps[topic])} of {len(expected)} steps'
+        assert counts[topic] == len(expected), f'{topic}: {counts[topic] - len(expected)} repeated'
 
 
 def test_killing_a_node_ends_the_run_with_a_clear_message(tmp_path):

@@ -170,9 +170,13 @@ def clock_overrides(exp: Experiment, entry: NodeEntry, dt: float) -> dict:
     """Parameters the runner adds for the experiment's clock mode."""
     if entry.key == RIG_KEY:
         if exp.clock == 'lockstep':
-            return {'clock_mode': 'lockstep', 'autostart': False,
+            rig_topics = {absolute(t) for t in NODE_TOPICS[RIG_KEY]['pub']}
+            waits = ','.join(f'{t}={subs}' for t, (_pubs, subs) in expected_endpoints(exp).items()
+                             if t in rig_topics)
+            return {'clock_mode': 'lockstep', 'autostart': False, 'start_subscribers': waits,
                     'max_steps': int(round(exp.duration / dt))}
-        return {'clock_mode': 'realtime', 'autostart': False}
+        return {'clock_mode': 'realtime', 'autostart': False,
+                'max_steps': int(round(exp.duration / dt))}
     return {'use_sim_time': True} if exp.clock == 'lockstep' else {}
 
 

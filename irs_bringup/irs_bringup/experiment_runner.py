@@ -31,6 +31,7 @@ from std_srvs.srv import Trigger
 
 from irs_common import qos
 from irs_common.stamps import to_sec
+from irs_msgs.msg import RigStatus
 
 from .experiment import (Experiment, RIG_KEY, clock_overrides, expected_endpoints,
                          node_parameters, resolve_params_file)
@@ -173,6 +174,8 @@ class ExperimentRunner:
             node = watcher.node
             node.create_subscription(Clock, '/clock', lambda m: clock.__setitem__('t', to_sec(m.clock)),
                                      qos.CLOCK)
+            node.create_subscription(RigStatus, 'rig/status',
+                                     lambda m: clock.__setitem__('complete', m.run_complete), qos.STATUS)
             self._start_rig(watcher)
             self.phase = 'running'
             t_start = time.monotonic()
@@ -252,7 +255,17 @@ class ExperimentRunner:
                         f'{t:6.2f}/{exp.duration:.2f} s (wall {now - t_start:5.1f} s)')
                 sys.stdout.write('\r' + line if tty else line + '\n')
                 sys.stdout.flush()
-            if t >= end:
+            rig_done = clock.get('complete') or (self.exp.node(*RIG_KEY) is None and t >= end)
+            if rig_done or (exp.clock == 'realtime' and t >= end + 5.0):
                 if self.progress and tty:
                     sys.stdout.write('\n')
+                self._drain(watcher)
                 return True
+
+    def _drain(self, watcher, seconds: float = 0.5):
+        """Every node has published all of the run (the rig saw the last step's answers); give
+        the messages still in flight to the recorder ``seconds`` of wall time before stopping."""
+        deadline = time.monotonic() + seconds
+        while time.monotonic() < deadline:
+            watcher.executor.spin_once(timeout_sec=0.05)
+            self._check_alive()

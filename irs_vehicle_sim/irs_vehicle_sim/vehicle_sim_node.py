@@ -62,6 +62,9 @@ NODE_PARAMS = [
     Param('autostart', True, 'start stepping at once; false: wait for a call of the rig/start '
           'service (std_srvs/Trigger), e.g. once the experiment graph is connected', '-',
           read_only=True),
+    Param('start_subscribers', '', "lock-step: before publishing step 0, wait until these of the "
+          "rig's topics have matched this many subscriptions ('topic=count,...'; the experiment "
+          'runner sets it), so no consumer misses the first step', '-', read_only=True),
     Param('max_steps', 0, 'stop stepping after this many steps (0 = run until shut down)', '1',
           0, 2**62),
 ]
@@ -119,6 +122,7 @@ class VehicleSimNode(Node):
             for name, (topic, mtype) in INPUTS.items()}
 
         self.last_fault = None
+        self.run_complete = False
         self.started = False
         self.stamp0_ns = 0
         self.timer = None
@@ -133,13 +137,41 @@ class VehicleSimNode(Node):
         self.started = True
         if self.lockstep:
             self.stamp0_ns = 0
-            self.last_progress = time.monotonic()
-            self._publish_outputs()
-            self.timer = self.create_timer(0.05, self._lockstep_watchdog)
+            waits = self._start_waits()
+            t0 = time.monotonic()
+
+            def begin():
+                unmatched = [t for t, (pub, n) in waits.items() if pub.get_subscription_count() < n]
+                if unmatched and time.monotonic() - t0 < 10.0:
+                    return
+                if unmatched:
+                    self.get_logger().warning(f'starting although {unmatched} have fewer '
+                                              'subscriptions than expected')
+                self.destroy_timer(self.timer)
+                self.last_progress = time.monotonic()
+                self._publish_outputs()
+                self.timer = self.create_timer(0.05, self._lockstep_watchdog)
+            self.timer = self.create_timer(0.01, begin)
         else:
             self.stamp0_ns = self.get_clock().now().nanoseconds
             self.wall0 = time.monotonic()
             self.timer = self.create_timer(self.config.dt, self._realtime_tick)
+
+    def _start_waits(self) -> dict:
+        """``{topic: (publisher, subscriptions expected)}`` from ``start_subscribers``."""
+        pubs = {'/clock': self.pub_clock, 'arm/joint_states': self.pub_arm,
+                'belt/speed': self.pub_belt, 'steering/state': self.pub_act,
+                'ground_truth/odom': self.pub_odom, 'ground_truth/sensor_point': self.pub_point,
+                'rig/status': self.pub_status}
+        waits = {}
+        for item in filter(None, self.p['start_subscribers'].split(',')):
+            topic, _, count = item.partition('=')
+            topic = topic.strip()
+            key = topic if topic == '/clock' else topic.lstrip('/')
+            if key not in pubs or not count.strip().isdigit():
+                raise ValueError(f"start_subscribers: '{item}' is not '<rig topic>=<count>'")
+            waits[key] = (pubs[key], int(count))
+        return waits
 
     def _on_start(self, _request, response):
         if self.started:
@@ -221,6 +253,9 @@ class VehicleSimNode(Node):
 
     def _lockstep_step(self, values):
         if self._done():
+            # The commands answering the last published step: every node has now published its
+            # outputs for every step of the run.
+            self._complete()
             return
         self._step(values)
         self.last_progress = time.monotonic()
@@ -241,8 +276,15 @@ class VehicleSimNode(Node):
         due = int((time.monotonic() - self.wall0) / self.config.dt)
         for _ in range(min(due - self.sim.k, 100)):   # catch up, at most 0.1 s per tick
             if self._done():
+                self._complete()
                 return
             self._step({})
+
+    def _complete(self):
+        if not self.run_complete:
+            self.run_complete = True
+            self.get_logger().info(f'run complete: {self.sim.k} steps ({self.sim.time:.3f} s)')
+            self._publish_status(self.sim.outputs, from_ns(self._stamp_ns()))
 
     # ---------------------------------------------------------------- outputs
     def _publish_outputs(self):
@@ -307,14 +349,18 @@ class VehicleSimNode(Node):
             if out.fault and fault != self.last_fault:
                 self.get_logger().error(f'rig fault: {out.fault_reason}')
             self.last_fault = fault
-            st = RigStatus()
-            st.header.stamp = stamp
-            st.car_on_belt = not out.fault_reason.startswith('off_belt')
-            st.fault_text = out.fault_reason
-            st.rejected_steer_count = self.rejected['steering']
-            st.rejected_drive_count = self.rejected['drive']
-            st.step = self.sim.k
-            self.pub_status.publish(st)
+            self._publish_status(out, stamp)
+
+    def _publish_status(self, out, stamp):
+        st = RigStatus()
+        st.header.stamp = stamp
+        st.car_on_belt = not out.fault_reason.startswith('off_belt')
+        st.fault_text = out.fault_reason
+        st.rejected_steer_count = self.rejected['steering']
+        st.rejected_drive_count = self.rejected['drive']
+        st.step = self.sim.k
+        st.run_complete = self.run_complete
+        self.pub_status.publish(st)
 
 
 def main(args=None):
