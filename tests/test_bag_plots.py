@@ -148,7 +148,7 @@ def test_cli_plots_rerun_and_errors(small_bag, tmp_path):
     (trunc / 'trunc_0.mcap').write_bytes(src[:len(src) * 2 // 3])
     for args in (('plots', trunc, '--out', tmp_path / 'tp'),
                  ('rerun', trunc, '--out', tmp_path / 't.rrd'),
-                 ('info', trunc), ('validate', trunc), ('play', trunc, '--fast'),
+                 ('play', trunc, '--fast'),   # info/validate: tests/test_recorder.py
                  ('plots', tmp_path / 'missing', '--out', tmp_path / 'mp')):
         res = _bag(*args)
         assert res.returncode == 1, (args, res.stdout, res.stderr)

@@ -93,7 +93,8 @@ def test_replay_is_byte_exact_with_clock_and_waits_for_subscribers(ros, launch, 
         'play', bag, '--fast', '--topics', '/a', '--clock', '--clock-from', 'header',
         '--wait-for-subscribers', '2']))   # our two /a subscriptions
     assert ros.spin_until(lambda: play2.poll() is not None and len(got2['/a']) >= N
-                          and len(got2['/clock']) >= N, 60.0), play2.output()
+                          and len(got2['/clock']) >= N, 60.0), \
+        (play2.output(), len(got2['/a']), len(got2['/clock']), len(got['/a']))
     assert play2.poll() == 0
     assert got2['/a'] == recorded['/a']
     assert [stamp_ns(c) for c in got2['/clock']] == [k * DT_NS for k in range(N)]

@@ -236,7 +236,11 @@ def _run_ros(args, ros_args, reader, wanted, types, stamp_of, infos, remaps, rat
         for t in wanted:
             latched = 'transient_local' in (infos[t].offered_qos_profiles or '') and \
                 'volatile' not in (infos[t].offered_qos_profiles or '')
-            qos = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=max(1, args.qos_depth),
+            # When subscribers are waited for, keep the whole selection in the writer's history:
+            # a reader whose side of the match completes just after ours can still get every
+            # message by retransmission, even from an --fast burst.
+            depth = max(1, args.qos_depth, infos[t].message_count if n_wait > 0 else 0)
+            qos = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=depth,
                              reliability=ReliabilityPolicy.RELIABLE,
                              durability=(DurabilityPolicy.TRANSIENT_LOCAL if latched
                                          else DurabilityPolicy.VOLATILE))
@@ -244,7 +248,8 @@ def _run_ros(args, ros_args, reader, wanted, types, stamp_of, infos, remaps, rat
         clock_pub = None
         if args.clock:
             clock_pub = node.create_publisher(
-                Clock, '/clock', QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=100,
+                Clock, '/clock', QoSProfile(history=HistoryPolicy.KEEP_LAST,
+                                            depth=max(100, reader.message_count if n_wait > 0 else 0),
                                             reliability=ReliabilityPolicy.RELIABLE,
                                             durability=DurabilityPolicy.VOLATILE))
         endpoints = list(pubs.values()) + ([clock_pub] if clock_pub else [])
@@ -272,6 +277,7 @@ def _run_ros(args, ros_args, reader, wanted, types, stamp_of, infos, remaps, rat
         wall_start_overall = perf()
         while True:
             wall0 = perf()
+            last_clock = None   # each loop replays the clock from the start (a jump back)
             for m in todo:
                 if rate > 0:
                     due = wall0 + (m.log_time_ns - t_first) * 1e-9 / rate
@@ -298,8 +304,15 @@ def _run_ros(args, ros_args, reader, wanted, types, stamp_of, infos, remaps, rat
             if not args.loop:
                 break
         elapsed = perf() - wall_start_overall
-        for p in endpoints:
-            p.wait_for_all_acked(Duration(seconds=10.0))
+        t_ack = perf()
+        unacked = [p.topic_name for p in endpoints
+                   if not p.wait_for_all_acked(Duration(seconds=10.0))]
+        if unacked:
+            print(f'bag play: warning: not every subscriber acknowledged every message on '
+                  f'{", ".join(unacked)} within 10 s', file=sys.stderr, flush=True)
+        elif not args.quiet:
+            print(f'bag play: all messages acknowledged ({(perf() - t_ack) * 1e3:.1f} ms)',
+                  flush=True)
     except KeyboardInterrupt:
         interrupted = True
         elapsed = 0.0

@@ -67,6 +67,7 @@ import signal
 import sys
 import threading
 import time
+from pathlib import Path
 
 import rclpy
 from rclpy.executors import SingleThreadedExecutor
@@ -169,14 +170,17 @@ class Recorder(Node):
                 self.explicit.append(self.resolve_topic_name(t))
         self.exclude = list(self.p['exclude'])
         meta = parse_metadata(self.p['metadata'])
-        output = self.p['output'] or _dt.datetime.now().strftime('irs_bag_%Y_%m_%d-%H_%M_%S')
-        try:
-            self.writer = BagWriter(output, chunk_size=int(self.p['chunk_size']),
-                                    compression=self.p['compression'])
-        except BagWriterError as exc:
-            raise ValueError(str(exc)) from None
+        self.output = Path(self.p['output'] or _dt.datetime.now().strftime(
+            'irs_bag_%Y_%m_%d-%H_%M_%S'))
+        if self.output.exists() and (not self.output.is_dir() or any(self.output.iterdir())):
+            raise ValueError(f'bag directory {self.output} already exists and is not empty')
+        if self.p['compression'] not in ('zstd', 'lz4', 'none'):
+            raise ValueError(f"compression must be 'zstd', 'lz4' or 'none', "
+                             f"got {self.p['compression']!r}")
         meta.setdefault('recorder.topics', json.dumps(topics))
-        self.writer.add_metadata('irs_experiment', meta)
+        self.meta = meta
+        # The bag is created when the first topic is subscribed (nothing matched -> no bag).
+        self.writer = None
         self.recorded: dict[str, _Recorded] = {}
         self.unsupported: set[str] = set()
         self.stop_requested = threading.Event()
@@ -188,7 +192,14 @@ class Recorder(Node):
                            durability=DurabilityPolicy.TRANSIENT_LOCAL))
             self.create_timer(self.p['status_period'], self.publish_status)
         self.get_logger().info(
-            f"recording {topics} to {self.writer.directory} ({self.p['compression']})")
+            f"recording {topics} to {self.output} ({self.p['compression']})")
+
+    def _ensure_writer(self) -> BagWriter:
+        if self.writer is None:
+            self.writer = BagWriter(self.output, chunk_size=int(self.p['chunk_size']),
+                                    compression=self.p['compression'])
+            self.writer.add_metadata('irs_experiment', self.meta)
+        return self.writer
 
     # ------------------------------------------------------------ discovery
     def _wanted(self, name: str) -> bool:
@@ -214,8 +225,12 @@ class Recorder(Node):
             try:
                 self._subscribe(name, types[0], pubs)
                 changed = True
-            except (ImportError, AttributeError, ValueError, MessageDefinitionError,
-                    BagWriterError) as exc:
+            except BagWriterError as exc:
+                if self.writer is None:   # the bag directory cannot be created
+                    raise ValueError(str(exc)) from None
+                self.get_logger().error(f'{name}: cannot record type {types[0]}: {exc}')
+                self.unsupported.add(name)
+            except (ImportError, AttributeError, ValueError, MessageDefinitionError) as exc:
                 self.get_logger().error(f'{name}: cannot record type {types[0]}: {exc}')
                 self.unsupported.add(name)
         return changed
@@ -231,7 +246,7 @@ class Recorder(Node):
                          else ReliabilityPolicy.RELIABLE),
             durability=(DurabilityPolicy.TRANSIENT_LOCAL if latched
                         else DurabilityPolicy.VOLATILE))
-        self.writer.add_topic(name, type_name, ''.join(_qos_text(i) for i in pubs))
+        self._ensure_writer().add_topic(name, type_name, ''.join(_qos_text(i) for i in pubs))
         check_is_valid_msg_type(msg_type)  # imports the type support
         with self.handle:
             handle = _rclpy.Subscription(self.handle, msg_type, name, qos.get_c_qos_profile())
@@ -296,7 +311,7 @@ class Recorder(Node):
                     recs = list(self.recorded.values())
                     wait_set = _rclpy.WaitSet(len(recs), 0, 0, 0, 0, 0, ctx.handle)
                 self.update_publisher_counts()
-            if now >= next_flush:
+            if now >= next_flush and self.writer is not None:
                 self.writer.flush()
                 next_flush = now + period_flush
             got = 0
@@ -322,7 +337,13 @@ class Recorder(Node):
                     break
 
     def publish_status(self):
-        if self.status_pub is None or self.writer.closed:
+        if self.status_pub is None:
+            return
+        if self.writer is None:
+            self.status_pub.publish(String(data=json.dumps(
+                {'bag': str(self.output), 'messages': {}, 'dropped': {}, 'chunks': 0})))
+            return
+        if self.writer.closed:
             return
         s = self.writer.summary()
         self.status_pub.publish(String(data=json.dumps({
@@ -334,9 +355,11 @@ class Recorder(Node):
 
     def close(self) -> str:
         """Close the bag; return the one-line summary."""
-        s = self.writer.close()
         for rec in self.recorded.values():
             rec.handle.destroy_when_not_in_use()
+        if self.writer is None:
+            return f'recorder: nothing recorded (no topic matched), no bag written at {self.output}'
+        s = self.writer.close()
         per = ', '.join(f'{t}: {st.message_count}' for t, st in sorted(s.topics.items())
                         if st.type)
         drops = ', '.join(f'{t}: {st.dropped}' for t, st in sorted(s.topics.items())
@@ -371,7 +394,11 @@ def main(args=None) -> int:
 
         spin_thread = threading.Thread(target=spin, name='recorder-params', daemon=True)
         spin_thread.start()
-        node.run()
+        try:
+            node.run()
+        except ValueError as exc:
+            print(f'[FATAL] recorder: {exc}', file=sys.stderr)
+            return 2
         node.stop_requested.set()
         spin_thread.join(timeout=2.0)
         line = node.close()
@@ -380,7 +407,7 @@ def main(args=None) -> int:
     finally:
         if node is not None:
             node.stop_requested.set()
-            if hasattr(node, 'writer') and not node.writer.closed:
+            if getattr(node, 'writer', None) is not None and not node.writer.closed:
                 node.writer.close()
             if spin_thread is not None:
                 spin_thread.join(timeout=2.0)
