@@ -102,3 +102,37 @@ def test_stale_or_invalid_measurement_gives_zero_steer(ros, launch):
     assert ros.spin_until(lambda: stamp in link.cmds, 10.0)
     assert link.cmds[stamp].front_angle == 0.0
     assert ros.spin_until(lambda: link.status[-1].state == LateralControllerStatus.STATE_INVALID, 5.0)
+
+
+def test_a_repeated_step_is_answered_again_without_stepping_the_controller(ros, launch):
+    """Lock-step resend: a repeated measurement gets the same answer again, state untouched."""
+    launch(NodeSpec('irs_control', 'lateral_controller', params={'stale_timeout': 10.0}))
+    link = ControllerLink(ros)
+    answers = []
+    ros.node.create_subscription(SteeringCommand, 'steering/command', answers.append, qos.COMMAND)
+    assert ros.spin_until(lambda: ros.node.count_publishers('steering/command') >= 1, 10.0)
+    for k, y in enumerate((0.01, 0.02, 0.02, 0.03)):
+        stamp = (k if k < 2 else k - 1) * 1_000_000      # stamps 0, 1, 1 (repeat), 2 ms
+        n = len(answers)
+        link.send(stamp, y)
+        assert ros.spin_until(lambda: len(answers) > n, 10.0)
+        assert to_ns(answers[-1].header.stamp) == stamp
+    assert answers[2].front_angle == answers[1].front_angle
+    # Had the repeat stepped the controller, the next answer would differ from a fresh run's.
+    launch(NodeSpec('irs_control', 'lateral_controller', name='fresh_controller',
+                    params={'stale_timeout': 10.0},
+                    remaps={'steering/command': 'fresh/steering/command',
+                            'lateral_position': 'fresh/lateral_position',
+                            'lateral/status': 'fresh/lateral/status'}))
+    fresh = []
+    pub = ros.node.create_publisher(PointStamped, 'fresh/lateral_position', qos.SENSOR)
+    sub = ros.node.create_subscription(SteeringCommand, 'fresh/steering/command', fresh.append, qos.COMMAND)
+    assert ros.wait_for_matched([pub, sub], timeout=30.0)
+    for k, y in enumerate((0.01, 0.02, 0.03)):
+        m = PointStamped()
+        m.header.stamp = from_ns(k * 1_000_000)
+        m.point.y = y
+        n = len(fresh)
+        pub.publish(m)
+        assert ros.spin_until(lambda: len(fresh) > n, 10.0)
+    assert [a.front_angle for a in (answers[0], answers[1], answers[3])] == [f.front_angle for f in fresh]

@@ -2,7 +2,8 @@
 
 With ``use_sim_time`` the callback runs once per new ``/clock`` time, with that time as stamp:
 in lock-step runs every tick gets exactly one publication, stamped like the rig's outputs of that
-step (a tick the rig publishes again, see vehicle_sim's ``lockstep_resend_period``, is ignored). Without sim time, a timer at ``rate_hz`` calls it with the node clock's time.
+step. A tick the rig publishes again (vehicle_sim's ``lockstep_resend_period``) is answered
+again, so that a consumer that missed the first answer gets it; older ticks are ignored. Without sim time, a timer at ``rate_hz`` calls it with the node clock's time.
 """
 from rosgraph_msgs.msg import Clock
 
@@ -16,7 +17,7 @@ def create_ticker(node, rate_hz: float, callback):
 
         def on_clock(msg):
             ns = msg.clock.sec * 1_000_000_000 + msg.clock.nanosec
-            if ns > last[0]:
+            if ns >= last[0]:
                 last[0] = ns
                 callback(msg.clock)
         return node.create_subscription(Clock, '/clock', on_clock, qos.CLOCK)

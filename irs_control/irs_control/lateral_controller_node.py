@@ -76,6 +76,7 @@ class LateralControllerNode(Node):
         self.reference = self.p['default_reference']
         self.sync = StampSync(('y', 'ref')) if self.p['reference_sync'] else None
         self.last_stamp_ns = -1
+        self.last_answer = None
         self.last_meas_time = None
         self.state = LateralControllerStatus.STATE_STALE
         self.pub_cmd = self.create_publisher(SteeringCommand, 'steering/command', qos.COMMAND)
@@ -102,7 +103,10 @@ class LateralControllerNode(Node):
     def _control_step(self, msg, reference):
         stamp_ns = to_ns(msg.header.stamp)
         if stamp_ns <= self.last_stamp_ns:
-            return  # seen already (a lock-step resend) or out of order
+            if stamp_ns == self.last_stamp_ns and self.last_answer is not None:
+                for pub, out in self.last_answer:   # a repeated step: repeat the answer
+                    pub.publish(out)
+            return  # older than the last step: out of order, ignored
         self.last_stamp_ns = stamp_ns
         y = msg.point.y
         status = LateralControllerStatus()
@@ -135,6 +139,7 @@ class LateralControllerNode(Node):
         status.output = float(steer)
         status.saturated = bool(saturated)
         self.pub_status.publish(status)
+        self.last_answer = [(self.pub_cmd, cmd), (self.pub_status, status)]
 
     def _check_stale(self):
         if self.state != LateralControllerStatus.STATE_RUNNING or self.last_meas_time is None:

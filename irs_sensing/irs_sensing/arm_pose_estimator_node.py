@@ -26,7 +26,7 @@ from sensor_msgs.msg import JointState
 from irs_common import qos
 from irs_common.node_main import run_node
 from irs_common.params import declare_table, unflatten
-from irs_common.stamps import to_sec
+from irs_common.stamps import to_ns, to_sec
 from irs_msgs.msg import SensingStatus
 
 from .calibration import ArmCalibration, CalibrationError
@@ -50,6 +50,8 @@ class ArmPoseEstimatorNode(Node):
         self.estimator = PoseEstimator(PoseEstimatorParams.from_ros_params(nested))
         self.accepted = 0
         self.rejected = 0
+        self.last_stamp_ns = -1
+        self.last_answer = []   # the messages published for last_stamp_ns (re-sent on a repeat)
         self.last_state = None
         self.last_reason = ''
         self.pub_pose = self.create_publisher(PoseStamped, 'pose', qos.SENSOR)
@@ -67,14 +69,20 @@ class ArmPoseEstimatorNode(Node):
         return tuple(msg.position)
 
     def _on_joints(self, msg):
+        stamp_ns = to_ns(msg.header.stamp)
+        if stamp_ns <= self.last_stamp_ns:
+            if stamp_ns == self.last_stamp_ns:   # the rig repeated a step: repeat our answer
+                for pub, out in self.last_answer:
+                    pub.publish(out)
+            return
+        self.last_stamp_ns = stamp_ns
+        self.last_answer = []
         stamp = to_sec(msg.header.stamp)
         try:
             angles = self._angles(msg)
             est, reason = self.estimator.update(*angles, stamp)
         except (CalibrationError, ValueError) as exc:
             est, reason = None, str(exc)
-        if est is None and reason.startswith('time stamp') and 'does not increase' in reason:
-            return  # a repeated sample (lock-step resend): already answered
         if est is None:
             self.rejected += 1
             self.get_logger().warning(f'arm reading rejected: {reason}', throttle_duration_sec=1.0)
@@ -95,17 +103,20 @@ class ArmPoseEstimatorNode(Node):
         pose.pose.orientation.z = math.sin(psi / 2.0)
         pose.pose.orientation.w = math.cos(psi / 2.0)
         self.pub_pose.publish(pose)
+        self.last_answer.append((self.pub_pose, pose))
         twist = TwistStamped()
         twist.header.stamp = stamp
         twist.header.frame_id = self.child_frame_id
         twist.twist.linear.x, twist.twist.linear.y = float(vx), float(vy)
         twist.twist.angular.z = float(r)
         self.pub_twist.publish(twist)
+        self.last_answer.append((self.pub_twist, twist))
         point = PointStamped()
         point.header.stamp = stamp
         point.header.frame_id = self.frame_id
         point.point.x, point.point.y = float(x_s), float(y_s)
         self.pub_point.publish(point)
+        self.last_answer.append((self.pub_point, point))
 
     def _status(self, stamp, state, reason, age):
         self.last_state, self.last_reason = state, reason
