@@ -13,7 +13,6 @@ from irs_common.stamps import to_ns
 from irs_msgs.msg import SteeringActuatorState, SteeringCommand
 from sensor_msgs.msg import JointState
 
-from irs_bringup.executables import resolve_executable  # noqa: F401  (ensures the env is set)
 from irs_bringup.processes import NodeSpec
 
 

@@ -7,7 +7,7 @@ central result says (see docs/figure10.md for which of the paper's claims hold a
 import numpy as np
 
 from irs_bringup.experiment_cli import FIGURE10, offline_run, run_experiment
-from irs_bringup.figure10 import run_metrics, write_report
+from irs_bringup.figure10 import write_report
 from irs_bringup.run_series import lateral_run
 
 

@@ -4,7 +4,6 @@ import subprocess
 import sys
 
 import irs_msgs.msg as irs
-import pytest
 from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
 
 TYPES = ['SteeringCommand', 'SteeringActuatorState', 'TreadmillDriveCommand', 'TreadmillState',

@@ -5,7 +5,6 @@ Each test plays the lateral controller: it answers every rig step with a steerin
 import math
 
 import numpy as np
-import pytest
 
 from irs_vehicle_sim.rig import RigConfig, RigInputs, simulate
 

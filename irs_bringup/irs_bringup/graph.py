@@ -36,10 +36,6 @@ class GraphWatcher:
         wanted = {n if n.startswith('/') else '/' + n for n in names}
         return self.spin_until(lambda: wanted <= self.node_names(), timeout)
 
-    def wait_for_node_gone(self, name, timeout: float = 15.0) -> bool:
-        fq = name if name.startswith('/') else '/' + name
-        return self.spin_until(lambda: fq not in self.node_names(), timeout)
-
     def wait_for_endpoints(self, topic: str, publishers: int = 0, subscribers: int = 0,
                            timeout: float = 15.0) -> bool:
         """Wait until ``topic`` has at least that many publishers and subscriptions."""

@@ -131,17 +131,6 @@ class NodeProcess:
             pass
 
 
-def group_alive(pgid: int) -> bool:
-    """True while any process of the process group ``pgid`` exists."""
-    try:
-        os.killpg(pgid, 0)
-    except ProcessLookupError:
-        return False
-    except PermissionError:
-        return True
-    return True
-
-
 def wait_until(predicate, timeout: float, interval: float = 0.02) -> bool:
     """Poll ``predicate`` until it is true or ``timeout`` s have passed; return its last value."""
     deadline = time.monotonic() + timeout

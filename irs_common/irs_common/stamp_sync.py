@@ -47,16 +47,3 @@ class StampSync:
             self._pending.pop(min(self._pending))
             self.dropped += 1
         return released
-
-    def has(self, stamp_ns: int) -> bool:
-        """True when a complete set for ``stamp_ns`` is pending (it never is after ``add``)."""
-        vals = self._pending.get(int(stamp_ns), {})
-        return len(vals) == len(self.inputs)
-
-    @property
-    def pending(self) -> int:
-        """Number of stamps with an incomplete set."""
-        return len(self._pending)
-
-    def clear(self) -> None:
-        self._pending.clear()

@@ -22,7 +22,7 @@ from irs_common import qos
 from irs_common.node_main import run_node
 from irs_common.params import declare_table, unflatten
 from irs_common.stamp_sync import StampSync
-from irs_common.stamps import to_ns, to_sec
+from irs_common.stamps import to_ns
 from irs_msgs.msg import BeltSpeed, TreadmillDriveCommand, TreadmillState
 
 from .regulator import BeltSpeedRegulator, RegulatorParams

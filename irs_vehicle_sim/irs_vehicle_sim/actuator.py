@@ -40,7 +40,7 @@ from __future__ import annotations
 
 import math
 from collections import deque
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 
 __all__ = ["ActuatorParams", "ActuatorState", "SteeringActuator",
            "DEFAULT_STEER_LIMIT_RAD", "DEFAULT_RATE_LIMIT_RAD_S"]

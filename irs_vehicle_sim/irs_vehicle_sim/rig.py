@@ -35,7 +35,7 @@ from typing import Callable, Optional
 
 import numpy as np
 
-from .actuator import ActuatorParams, ActuatorState, SteeringActuator, DEFAULT_STEER_LIMIT_RAD
+from .actuator import ActuatorParams, ActuatorState, SteeringActuator
 from .identified import IdentifiedParams, IdentifiedPlant
 from .lateral_plant import BicyclePlant, LateralPlant
 from .car_on_belt import CarParams, CarOnBelt, wheel_speeds

@@ -75,7 +75,6 @@ def test_max_model_never_faster_than_friction_or_linear():
     p = BeltParams(delay=0.0)
     belt = TreadmillBelt(p)
     rng = np.random.default_rng(3)
-    v = 0.0
     for _ in range(2000):
         u = rng.uniform(0, 10)
         v_prev = belt.speed

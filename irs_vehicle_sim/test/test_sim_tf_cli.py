@@ -4,6 +4,8 @@ import sys
 
 import re
 
+import importlib.util
+
 import numpy as np
 import pytest
 
@@ -70,9 +72,7 @@ def test_plots_saved_as_png(tmp_path, capsys):
 def test_identified_available_or_skipped(capsys):
     assert main(["--preset", "irs_4ws", "--identified"]) == 0
     cap = capsys.readouterr()
-    try:
-        from irs_control.paper_design import identified_plant  # noqa: F401
-    except ImportError:
+    if importlib.util.find_spec("irs_control") is None:
         assert "--identified skipped" in cap.err
     else:
         zeros = _roots_line(cap.out, "Identified plant", "zeros")
