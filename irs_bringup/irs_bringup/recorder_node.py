@@ -369,6 +369,18 @@ class Recorder(Node):
 
 
 def main(args=None) -> int:
+    # Signals are ours from the first instant (rclpy's handlers are off): a Ctrl-C that arrives
+    # while the node is still being built must end the run cleanly too.
+    stop = threading.Event()
+    holder = {}
+
+    def on_signal(signum, frame):
+        stop.set()
+        if 'node' in holder:
+            holder['node'].stop_requested.set()
+
+    signal.signal(signal.SIGINT, on_signal)
+    signal.signal(signal.SIGTERM, on_signal)
     rclpy.init(args=args, signal_handler_options=SignalHandlerOptions.NO)
     node = None
     executor = None
@@ -379,12 +391,9 @@ def main(args=None) -> int:
         except ValueError as exc:
             print(f'[FATAL] recorder: configuration error: {exc}', file=sys.stderr)
             return 2
-
-        def on_signal(signum, frame):
+        holder['node'] = node
+        if stop.is_set():
             node.stop_requested.set()
-
-        signal.signal(signal.SIGINT, on_signal)
-        signal.signal(signal.SIGTERM, on_signal)
         executor = SingleThreadedExecutor()
         executor.add_node(node)
 
