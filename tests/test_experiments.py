@@ -86,6 +86,22 @@ def _alive(pid):
     return True
 
 
+def test_the_car_leaving_the_belt_stops_the_run(tmp_path):
+    exp = load_experiment('treadmill_regulation')
+    exp.duration = 10.0
+    reg = exp.node('irs_treadmill', 'treadmill_regulator')
+    reg.params['enabled'] = False          # drive held at 0 V: the belt coasts down ...
+    rig = exp.node('irs_vehicle_sim', 'vehicle_sim')
+    rig.params.update({'u0': 1.2, 'belt_speed0': 1.2})   # ... under a car driving at 1.2 m/s
+    driver = exp.node('irs_bringup', 'driver')
+    driver.params.update({'profile.times': [0.0], 'profile.speeds': [1.2]})
+    result = ExperimentRunner(exp, runs_dir=tmp_path, progress=False).run()
+    assert not result.completed
+    assert 'the car left the belt (off_belt:front)' in result.message, result.message
+    assert result.sim_time < exp.duration
+    assert all(code == 0 for code in result.exit_codes.values()), result.exit_codes
+
+
 def _children_of_run(run_dir):
     """PIDs of node processes whose command line names files in ``run_dir``."""
     out = subprocess.run(['pgrep', '-f', str(run_dir)], capture_output=True, text=True).stdout

@@ -8,7 +8,8 @@ Order of events:
 3. the runner waits until every node is in the graph and every topic has its expected
    publishers and subscriptions (``experiment.expected_endpoints``), then calls ``rig/start``;
 4. it follows the run (``/clock`` in lock-step, wall time in real time) with a progress line,
-   checking every process: if one dies the run stops, naming the node and its last output;
+   checking every process: if one dies the run stops, naming the node and its last output; if
+   the rig reports that the car left the belt, the run stops too;
 5. on completion or Ctrl-C every node is stopped with SIGINT (then SIGTERM/SIGKILL per process
    group), the recorder last so it writes everything it received; no process is left behind.
 """
@@ -175,7 +176,7 @@ class ExperimentRunner:
             node.create_subscription(Clock, '/clock', lambda m: clock.__setitem__('t', to_sec(m.clock)),
                                      qos.CLOCK)
             node.create_subscription(RigStatus, 'rig/status',
-                                     lambda m: clock.__setitem__('complete', m.run_complete), qos.STATUS)
+                                     lambda m: clock.update(complete=m.run_complete, rig=m), qos.STATUS)
             self._start_rig(watcher)
             self.phase = 'running'
             t_start = time.monotonic()
@@ -255,6 +256,10 @@ class ExperimentRunner:
                         f'{t:6.2f}/{exp.duration:.2f} s (wall {now - t_start:5.1f} s)')
                 sys.stdout.write('\r' + line if tty else line + '\n')
                 sys.stdout.flush()
+            rig = clock.get('rig')
+            if rig is not None and not rig.car_on_belt:
+                raise ExperimentFailed(f'the car left the belt ({rig.fault_text}) at '
+                                       f't = {t:.3f} s; the run is stopped')
             rig_done = clock.get('complete') or (self.exp.node(*RIG_KEY) is None and t >= end)
             if rig_done or (exp.clock == 'realtime' and t >= end + 5.0):
                 if self.progress and tty:
