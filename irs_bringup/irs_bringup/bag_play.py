@@ -168,10 +168,7 @@ def main(argv: Optional[List[str]] = None) -> int:
     except UsageError as exc:
         print(f'bag play: error: {exc}', file=sys.stderr)
         return 2
-    except BagError as exc:
-        print(f'bag play: error: {exc}', file=sys.stderr)
-        return 1
-    except OSError as exc:
+    except (BagError, OSError) as exc:
         print(f'bag play: error: {exc}', file=sys.stderr)
         return 1
 

@@ -19,7 +19,7 @@ import numpy as np
 
 from irs_common.params import unflatten
 from irs_control.controller_factory import CONTROLLER_DEFAULTS, make_controller
-from irs_control.reference_generator_node import signal_from_params as _signal  # pure function
+from irs_control.reference_params import PARAMS as REF_PARAMS, signal_from_params
 from irs_sensing.calibration import ArmCalibration
 from irs_sensing.estimator_params import estimator_parameter_table
 from irs_sensing.pose_estimator import PoseEstimator, PoseEstimatorParams
@@ -28,7 +28,7 @@ from irs_treadmill.regulator_params import regulator_parameter_table
 from irs_treadmill.safety import SafetyMonitor, SafetyParams
 from irs_vehicle_sim.rig import RigConfig, RigInputs, RigSimulation
 
-from .speed_profile import SpeedProfile
+from .speed_profile import DRIVER_PARAMS, SpeedProfile
 
 
 def _defaults(table) -> dict:
@@ -78,9 +78,8 @@ class ClosedLoop:
         if cfg.controller is not None:
             ctl = {k: v for k, v in cfg.controller.items() if k in CONTROLLER_DEFAULTS}
             self.controller = make_controller(ctl).controller
-        from irs_control.reference_generator_node import PARAMS as REF_PARAMS
         ref = {**_defaults(REF_PARAMS), **(cfg.reference or {})}
-        self.signal = _signal(ref) if cfg.reference is not None else (lambda t: 0.0)
+        self.signal = signal_from_params(ref) if cfg.reference is not None else (lambda t: 0.0)
         self.regulator = self.safety = None
         if cfg.regulator is not None:
             reg = unflatten({**_defaults(regulator_parameter_table()), **cfg.regulator})
@@ -91,8 +90,7 @@ class ClosedLoop:
             self.reg_use_velocity = reg['use_velocity_input']
         self.profile = None
         if cfg.driver is not None:
-            d = {'profile.times': [0.0], 'profile.speeds': [1.2], 'profile.interpolation': 'step',
-                 **cfg.driver}
+            d = {**_defaults(DRIVER_PARAMS), **cfg.driver}
             self.profile = SpeedProfile(d['profile.times'], d['profile.speeds'],
                                         d['profile.interpolation'])
         self.running = False

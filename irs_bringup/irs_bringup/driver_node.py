@@ -9,22 +9,12 @@ from rclpy.node import Node
 
 from irs_common import qos
 from irs_common.node_main import run_node
-from irs_common.params import Param, declare_table
+from irs_common.params import declare_table
 from irs_common.stamps import to_sec
 from irs_common.ticker import create_ticker
 from irs_msgs.msg import DriverCommand
 
-from .speed_profile import SpeedProfile
-
-PARAMS = [
-    Param('profile.times', [0.0], 'breakpoint times of the speed profile', 's', read_only=True),
-    Param('profile.speeds', [1.2], 'car speed over the belt at each breakpoint', 'm/s',
-          read_only=True),
-    Param('profile.interpolation', 'step', "'step' (hold) or 'linear' between breakpoints", '-',
-          read_only=True),
-    Param('rate', 1000.0, 'publication rate without sim time', 'Hz', 0.1, 10000.0, read_only=True),
-]
-
+from .speed_profile import DRIVER_PARAMS as PARAMS, SpeedProfile
 
 class DriverNode(Node):
     def __init__(self):

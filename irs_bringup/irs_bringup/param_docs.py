@@ -6,9 +6,9 @@ from irs_common.params import markdown_table
 
 def node_tables():
     """``[(package, node, table)]`` for every node (imports the node modules, so needs ROS)."""
-    from irs_bringup.driver_node import PARAMS as DRIVER
+    from irs_bringup.speed_profile import DRIVER_PARAMS as DRIVER
     from irs_control.lateral_controller_node import PARAMS as CONTROLLER
-    from irs_control.reference_generator_node import PARAMS as REFERENCE
+    from irs_control.reference_params import PARAMS as REFERENCE
     from irs_sensing.estimator_params import estimator_parameter_table
     from irs_treadmill.regulator_params import regulator_parameter_table
     from irs_vehicle_sim.rig_params import rig_parameter_table

@@ -7,6 +7,8 @@ first breakpoint it is ``v_0``, after the last ``v_n``.
 import bisect
 import math
 
+from irs_common.params import Param
+
 
 class SpeedProfile:
     """Piecewise speed command ``v(t)`` [m/s]."""
@@ -33,3 +35,14 @@ class SpeedProfile:
         t0, t1 = self.times[i], self.times[i + 1]
         v0, v1 = self.speeds[i], self.speeds[i + 1]
         return v0 + (v1 - v0) * (t - t0) / (t1 - t0)
+
+
+#: Parameters of the ``driver`` node (shared with the offline closed loop).
+DRIVER_PARAMS = [
+    Param('profile.times', [0.0], 'breakpoint times of the speed profile', 's', read_only=True),
+    Param('profile.speeds', [1.2], 'car speed over the belt at each breakpoint', 'm/s',
+          read_only=True),
+    Param('profile.interpolation', 'step', "'step' (hold) or 'linear' between breakpoints", '-',
+          read_only=True),
+    Param('rate', 1000.0, 'publication rate without sim time', 'Hz', 0.1, 10000.0, read_only=True),
+]
