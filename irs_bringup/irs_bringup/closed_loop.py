@@ -5,7 +5,9 @@ Data flow per step k (exactly the ROS graph's, see docs/architecture.md):
 1. rig outputs at t_k (``vehicle_sim``): arm angles, belt encoder speed;
 2. ``arm_pose_estimator``: pose, velocity and sensor point from the angles (NaN when rejected);
 3. ``reference_generator``: r(t_k);  ``driver``: speed command v(t_k);
-4. ``lateral_controller``: steer_k from (r_k, y_s,k); zero steer for a NaN measurement;
+4. ``lateral_controller``: steer_k from (r_k, y_s,k) by the controller's ``step_checked`` (its
+   bad-input rule: zero steer and a reset for a NaN/out-of-range measurement, the last valid
+   reference held for an invalid one);
 5. ``treadmill_regulator``: drive voltage_k from pose_k, velocity_k, belt speed_k, safety-gated;
 6. the rig steps t_k -> t_{k+1} with those commands held.
 
@@ -18,7 +20,8 @@ import math
 import numpy as np
 
 from irs_common.params import unflatten
-from irs_control.controller_factory import CONTROLLER_DEFAULTS, make_controller
+from irs_control.controller_factory import (CONTROLLER_DEFAULTS, INPUT_CHECK_DEFAULTS,
+                                            make_controller)
 from irs_control.reference_params import PARAMS as REF_PARAMS, signal_from_params
 from irs_sensing.calibration import ArmCalibration
 from irs_sensing.estimator_params import estimator_parameter_table
@@ -76,7 +79,8 @@ class ClosedLoop:
         self.estimator = PoseEstimator(PoseEstimatorParams.from_ros_params(nested))
         self.controller = None
         if cfg.controller is not None:
-            ctl = {k: v for k, v in cfg.controller.items() if k in CONTROLLER_DEFAULTS}
+            ctl = {k: v for k, v in cfg.controller.items()
+                   if k in CONTROLLER_DEFAULTS or k in INPUT_CHECK_DEFAULTS}
             self.controller = make_controller(ctl).controller
         ref = {**_defaults(REF_PARAMS), **(cfg.reference or {})}
         self.signal = signal_from_params(ref) if cfg.reference is not None else (lambda t: 0.0)
@@ -93,7 +97,6 @@ class ClosedLoop:
             d = {**_defaults(DRIVER_PARAMS), **cfg.driver}
             self.profile = SpeedProfile(d['profile.times'], d['profile.speeds'],
                                         d['profile.interpolation'])
-        self.running = False
 
     def _control(self, out):
         t = out.time
@@ -108,13 +111,7 @@ class ClosedLoop:
         ref = float(self.signal(t))
         steer = 0.0
         if self.controller is not None:
-            if math.isfinite(y_s) and math.isfinite(ref):
-                if not self.running:
-                    self.controller.reset()
-                    self.running = True
-                steer = self.controller.step(ref, y_s).u_sat
-            else:
-                self.running = False
+            steer = self.controller.step_checked(ref, y_s).u_sat
         voltage = self.cfg.default_drive_voltage
         if self.regulator is not None:
             x = est.x_cg if est is not None else math.nan

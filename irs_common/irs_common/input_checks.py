@@ -6,7 +6,7 @@ wording, so a log or a status message says the same thing whichever node found t
 Rules
 -----
 Values (:func:`finite_problem`, :func:`range_problem`)
-    A value is *usable* when it is a real number (``int`` or ``float``, not ``bool``), finite
+    A value is *usable* when it is a real number (``int``, ``float``, numpy scalars; not ``bool``), finite
     (not NaN, not +-inf) and, for a range check, ``low <= value <= high`` (limits in the value's
     unit, inclusive). Each check returns ``None`` for a usable value or one sentence saying what
     is wrong (naming the input, its value and the expected range). Finite-but-absurd values such
@@ -38,6 +38,7 @@ from __future__ import annotations
 
 import enum
 import math
+import numbers
 from dataclasses import dataclass, field
 from typing import Callable, Optional, Tuple
 
@@ -50,7 +51,7 @@ DEFAULT_FUTURE_TOLERANCE_NS = 500_000_000
 
 
 def _is_real(value) -> bool:
-    return isinstance(value, (int, float)) and not isinstance(value, bool)
+    return isinstance(value, numbers.Real) and not isinstance(value, bool)
 
 
 def finite_problem(name: str, value) -> Optional[str]:

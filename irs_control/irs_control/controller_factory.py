@@ -14,13 +14,18 @@ Plant used for an MRC design (steer [rad] -> sensor-point lateral displacement y
 The reference model (``reference_model_num``/``_den``) and observer polynomial (``observer``;
 ``[0.0]`` = the paper's choice: ``(s+12)^2`` with the actuator, ``s+12`` without) are
 coefficient lists, highest power first.
+
+Bad-input bounds (:data:`INPUT_CHECK_DEFAULTS`, optional keys of :func:`make_controller`, not
+required from the node): ``measurement_limit`` and ``reference_limit`` [m] bound ``|y|`` and
+``|u_c|`` (see :mod:`.discrete_rst`, bad-input rule), ``initial_reference`` [m] is held until a
+valid reference arrives.
 """
 from dataclasses import dataclass
 
 import numpy as np
 
 from .discrete_pi import DiscretePiController
-from .discrete_rst import DiscreteRstController
+from .discrete_rst import DEFAULT_INPUT_LIMIT, DiscreteRstController
 from .paper_design import PAPER_PLANT_GAIN, identified_plant, reference_model
 from .rst_design import RstDesign, design_rst
 
@@ -44,6 +49,15 @@ CONTROLLER_DEFAULTS = {
     'ki': 3.0,
     'steer_limit': 0.2618,
     'anti_windup': True,
+}
+
+
+#: Optional keys of :func:`make_controller`: the bad-input rule's bounds [m] (see the module
+#: docstring); not in :data:`CONTROLLER_DEFAULTS` so that a node need not declare them.
+INPUT_CHECK_DEFAULTS = {
+    'measurement_limit': DEFAULT_INPUT_LIMIT,
+    'reference_limit': DEFAULT_INPUT_LIMIT,
+    'initial_reference': 0.0,
 }
 
 
@@ -88,17 +102,19 @@ def observer_polynomial(cfg: dict) -> np.ndarray:
 
 def make_controller(params: dict | None = None) -> LateralControllerSpec:
     """Design and discretise the controller that ``params`` describe (missing keys: defaults)."""
-    cfg = {**CONTROLLER_DEFAULTS, **(params or {})}
-    unknown = set(cfg) - set(CONTROLLER_DEFAULTS)
+    cfg = {**CONTROLLER_DEFAULTS, **INPUT_CHECK_DEFAULTS, **(params or {})}
+    unknown = set(cfg) - set(CONTROLLER_DEFAULTS) - set(INPUT_CHECK_DEFAULTS)
     if unknown:
         raise ValueError(f'unknown controller parameter(s) {sorted(unknown)}')
+    guard = {k: float(cfg[k]) for k in INPUT_CHECK_DEFAULTS}
     limit = float(cfg['steer_limit'])
     if not limit > 0.0:
         raise ValueError(f'steer_limit must be a positive angle in rad, got {limit}')
     dt = float(cfg['dt'])
     if cfg['mode'] == 'pi':
         ctl = DiscretePiController(kp=float(cfg['kp']), ki=float(cfg['ki']), dt=dt,
-                                   limits=(-limit, limit), anti_windup=bool(cfg['anti_windup']))
+                                   limits=(-limit, limit), anti_windup=bool(cfg['anti_windup']),
+                                   **guard)
         return LateralControllerSpec(ctl, None, f"PI: Kp = {cfg['kp']} rad/m, Ki = {cfg['ki']} rad/(m s)")
     if cfg['mode'] != 'mrc':
         raise ValueError(f"mode must be 'mrc' or 'pi', got {cfg['mode']!r}")
@@ -107,7 +123,7 @@ def make_controller(params: dict | None = None) -> LateralControllerSpec:
                         np.asarray(cfg['reference_model_den'], float), observer_polynomial(cfg),
                         cancel=cfg['cancel_zeros'])
     ctl = DiscreteRstController(design, dt=dt, u_min=-limit, u_max=limit,
-                                anti_windup=bool(cfg['anti_windup']))
+                                anti_windup=bool(cfg['anti_windup']), **guard)
     fmt = lambda p: '[' + ', '.join(f'{c:.6g}' for c in p) + ']'  # noqa: E731
     summary = (f"MRC on plant '{cfg['plant']}' ({'with' if cfg['include_actuator'] else 'without'} "
                f"actuator): R = {fmt(design.R)}, S = {fmt(design.S)}, T = {fmt(design.T)}")

@@ -10,15 +10,23 @@
 integrator is bled towards the value that makes ``u = v`` with tracking time constant
 ``T_t`` [s] (default ``T_t = K_p / K_i``, the integral time, the usual choice for PI).
 Units: ``e`` [m], ``u`` [rad], ``K_p`` [rad/m], ``K_i`` [rad/(m s)].
+
+Bad inputs: the rule of :mod:`.discrete_rst` (:class:`~.discrete_rst.InputGuard`): an invalid
+reference (NaN, inf, ``|r| > reference_limit``) is replaced by the last valid one, the integrator
+untouched; an invalid measurement (NaN, inf, ``|y| > measurement_limit``) gives zero steer and
+resets the integrator (INVALID); a non-finite integrator or output is never stored (reset,
+INVALID). The steer is always finite and within the limits.
 """
 from __future__ import annotations
 
-from .discrete_rst import STEER_LIMIT, ControlOutput
+import math
+
+from .discrete_rst import DEFAULT_INPUT_LIMIT, STEER_LIMIT, ControlOutput, InputGuard
 
 __all__ = ["DiscretePiController"]
 
 
-class DiscretePiController:
+class DiscretePiController(InputGuard):
     """PI controller, forward-Euler integral, back-calculation anti-windup.
 
     Parameters
@@ -35,18 +43,26 @@ class DiscretePiController:
         Back-calculation time constant ``T_t`` [s]; default ``kp / ki``.
     anti_windup : bool
         Disable to compare with a plain clipped PI.
+    measurement_limit, reference_limit : float
+        Bounds on ``|y|`` and ``|r|`` [m] beyond which an input is invalid; default 2 m.
+    initial_reference : float
+        Reference held [m] until a valid one arrives (default 0).
     """
 
     def __init__(self, kp: float = 5.0, ki: float = 3.0, dt: float = 1e-3,
                  limits=(-STEER_LIMIT, STEER_LIMIT), tracking_time: float | None = None,
-                 anti_windup: bool = True):
+                 anti_windup: bool = True, measurement_limit: float = DEFAULT_INPUT_LIMIT,
+                 reference_limit: float = DEFAULT_INPUT_LIMIT, initial_reference: float = 0.0):
         if not dt > 0:
             raise ValueError(f"dt must be a positive sample time in seconds; got {dt}.")
         if kp < 0 or ki < 0:
             raise ValueError(f"Expected non-negative gains kp, ki; got {kp}, {ki}.")
         u_min, u_max = limits
-        if not u_min < u_max:
-            raise ValueError(f"Expected limits (u_min, u_max) with u_min < u_max; got {limits}.")
+        if not (math.isfinite(u_min) and math.isfinite(u_max) and u_min < u_max):
+            raise ValueError(f"Expected finite limits (u_min, u_max) with u_min < u_max; got {limits}.")
+        if not (math.isfinite(kp) and math.isfinite(ki)):
+            raise ValueError(f"Expected finite gains kp, ki; got {kp}, {ki}.")
+        self._init_guard(measurement_limit, reference_limit, initial_reference)
         if tracking_time is None:
             tracking_time = kp / ki if ki > 0 and kp > 0 else 1.0
         if not tracking_time > 0:
@@ -62,10 +78,21 @@ class DiscretePiController:
         self.integral = 0.0
 
     def step(self, reference: float, measurement: float) -> ControlOutput:
-        """Advance one sample; ``reference``, ``measurement`` in m, steer in rad."""
-        e = reference - measurement
+        """Advance one sample; ``reference``, ``measurement`` in m, steer in rad.
+
+        Bad inputs: see the module docstring; never raises for bad data.
+        """
+        ref, ref_problem, meas_problem = self._screen(reference, measurement)
+        if meas_problem is not None:
+            return self._measurement_invalid(ref, ref_problem, meas_problem)
+        e = ref - measurement
         u = self.kp * e + self.integral
         v = min(max(u, self.u_min), self.u_max)
         aw = (v - u) / self.tracking_time if self.anti_windup else 0.0
-        self.integral += self.dt * (self.ki * e + aw)
-        return ControlOutput(u_unsat=u, u_sat=v, saturated=(v != u))
+        integral = self.integral + self.dt * (self.ki * e + aw)
+        if not (math.isfinite(u) and math.isfinite(integral)):
+            return self._invalid(ref, f"PI state became non-finite (u = {u!r}, integral = "
+                                      f"{integral!r}): integrator reset, zero steer")
+        self.integral = integral
+        return ControlOutput(u_unsat=u, u_sat=v, saturated=(v != u), reason=ref_problem or "",
+                             reference=ref)

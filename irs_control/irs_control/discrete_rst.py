@@ -41,21 +41,56 @@ continuous high-frequency gain ``t_0/r_0`` (no extra feed-through from Tustin's 
 and the error it makes -- treating the sampled ``y`` as held, a delay of about ``dt/2`` --
 costs ``w dt/2 = 0.9 deg`` of phase at 30 rad/s at 1 kHz; the unit test measures the
 resulting step-response error against ``Bm/Am`` (< 1 %).
+
+Bad inputs (the rule of both lateral controllers, :class:`InputGuard`)
+---------------------------------------------------------------------
+``step(reference, measurement)`` never raises for bad data and always returns a finite steer
+within ``[u_min, u_max]``; :attr:`ControlOutput.state` and :attr:`ControlOutput.reason` say what
+happened. With ``L_y = measurement_limit`` and ``L_r = reference_limit`` [m] (default 2 m each:
+the belt is 1.22 m wide, so no genuine lateral position or set point comes near):
+
+1. **Reference** ``u_c`` NaN, +-inf, not a number or ``|u_c| > L_r``: the step uses the *last
+   valid reference* (``initial_reference``, default 0 m, before any valid one) and the controller
+   keeps running, its state untouched by the bad value; the output says ``reason = "reference
+   ... holding the last valid reference ..."`` with ``state = RUNNING``. A glitch in the
+   reference stream therefore neither resets the loop nor reaches the plant.
+2. **Measurement** ``y`` NaN, +-inf, not a number or ``|y| > L_y``: no valid feedback, so zero
+   steer (0 rad clipped into the limits) this step, the controller state is **reset** (rest, as
+   after :meth:`reset`) and ``state = INVALID``, ``reset = True``. The next valid measurement
+   starts from rest: from then on the output equals that of a freshly built controller fed the
+   same inputs (the recovery the unit tests check).
+3. **State**: should the next state or the output ever be non-finite (only possible with
+   limits raised towards ``inf``), the state is reset, the step answers zero steer with
+   ``state = INVALID``, ``reset = True`` and a reason; nothing non-finite is ever stored.
+
+For valid inputs the arithmetic is exactly the unchecked law above (bit-identical results).
+The stale case (no measurement for a while) is the node's: it calls :meth:`reset` and reports
+STALE; the controller has no clock.
 """
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 import numpy as np
 from scipy.linalg import expm
 
+from irs_common.input_checks import abs_limit_problem
+
 from .polynomials import degree, is_hurwitz, poly_from_roots, poly_mul, trim
 from .rst_design import RstDesign
 
-__all__ = ["ControlOutput", "DiscreteRstController", "anti_windup_polynomial",
-           "observable_canonical_miso", "zoh_discretize"]
+__all__ = ["ControlOutput", "DiscreteRstController", "InputGuard", "anti_windup_polynomial",
+           "observable_canonical_miso", "zoh_discretize", "STATE_RUNNING", "STATE_INVALID",
+           "DEFAULT_INPUT_LIMIT"]
 
 STEER_LIMIT = 0.2618  # rad, +-15 deg
+#: Default bound on |measurement| and |reference| [m] (the belt is 4 x 8 ft: |y| < 0.61 m).
+DEFAULT_INPUT_LIMIT = 2.0
+#: ``ControlOutput.state``: the loop was closed this step.
+STATE_RUNNING = "RUNNING"
+#: ``ControlOutput.state``: no valid feedback (or a non-finite state): zero steer, state reset.
+STATE_INVALID = "INVALID"
 
 
 @dataclass(frozen=True)
@@ -65,16 +100,92 @@ class ControlOutput:
     Attributes
     ----------
     u_unsat : float
-        Steer the linear law asks for [rad].
+        Steer the linear law asks for [rad] (0 when the step was INVALID).
     u_sat : float
-        Steer actually commanded, clipped to ``[u_min, u_max]`` [rad].
+        Steer actually commanded, clipped to ``[u_min, u_max]`` [rad]; always finite.
     saturated : bool
         True when clipping was active.
+    state : str
+        :data:`STATE_RUNNING` (loop closed) or :data:`STATE_INVALID` (zero steer, see the module
+        docstring's bad-input rule).
+    reason : str
+        Empty when every input was valid, else one sentence per problem (a held reference is
+        reported with ``state = RUNNING``).
+    reference : float
+        The reference the step used [m] (the held one when the given one was invalid).
+    reset : bool
+        True when this step reset the controller state.
     """
 
     u_unsat: float
     u_sat: float
     saturated: bool
+    state: str = STATE_RUNNING
+    reason: str = ""
+    reference: float = 0.0
+    reset: bool = False
+
+    @property
+    def valid(self) -> bool:
+        """True when the loop was closed this step (``state == STATE_RUNNING``)."""
+        return self.state == STATE_RUNNING
+
+
+class InputGuard:
+    """The bad-input rule shared by the lateral controllers (module docstring, items 1-3).
+
+    Subclasses call :meth:`_init_guard` in ``__init__``, define ``reset()``, ``u_min``, ``u_max``
+    and use :meth:`_screen` / :meth:`_invalid` in ``step``.
+    """
+
+    def _init_guard(self, measurement_limit: float, reference_limit: float,
+                    initial_reference: float) -> None:
+        for name, v in (("measurement_limit", measurement_limit),
+                        ("reference_limit", reference_limit)):
+            if isinstance(v, bool) or not isinstance(v, (int, float)) or not v > 0:
+                raise ValueError(f"{name} must be a positive bound in m (inf allowed); got {v!r}.")
+        if abs_limit_problem("initial_reference", initial_reference, reference_limit) is not None:
+            raise ValueError(f"initial_reference must be a finite reference in m within "
+                             f"+-reference_limit = {reference_limit}; got {initial_reference!r}.")
+        self.measurement_limit = float(measurement_limit)
+        self.reference_limit = float(reference_limit)
+        self._held_reference = float(initial_reference)
+
+    @property
+    def held_reference(self) -> float:
+        """The last valid reference [m] (used in place of an invalid one)."""
+        return self._held_reference
+
+    def _screen(self, reference, measurement):
+        """``(reference to use, reference problem or None, measurement problem or None)``."""
+        ref_problem = abs_limit_problem("reference", reference, self.reference_limit, "m")
+        if ref_problem is None:
+            ref = self._held_reference = float(reference)
+        else:
+            ref = self._held_reference
+            ref_problem += f"; holding the last valid reference {ref:.6g} m"
+        meas_problem = abs_limit_problem("measurement", measurement, self.measurement_limit, "m")
+        return ref, ref_problem, meas_problem
+
+    def _invalid(self, ref: float, reason: str) -> ControlOutput:
+        """Reset the state and answer zero steer (clipped into the limits), INVALID."""
+        self.reset()
+        zero = min(max(0.0, self.u_min), self.u_max)
+        return ControlOutput(u_unsat=zero, u_sat=zero, saturated=False, state=STATE_INVALID,
+                             reason=reason, reference=ref, reset=True)
+
+    def _measurement_invalid(self, ref: float, ref_problem, meas_problem: str) -> ControlOutput:
+        reason = f"{meas_problem}: no valid feedback, zero steer and controller reset"
+        return self._invalid(ref, reason if ref_problem is None else f"{reason}; {ref_problem}")
+
+    def step_checked(self, reference, measurement) -> ControlOutput:
+        """The node's entry point: :meth:`step` (which applies the bad-input rule itself).
+
+        Returns the :class:`ControlOutput` with ``state`` (RUNNING/INVALID), ``reason`` (empty
+        when all inputs were valid) and ``reset``; the node publishes ``u_sat`` and maps
+        ``state`` onto ``LateralControllerStatus.STATE_*``.
+        """
+        return self.step(reference, measurement)
 
 
 def anti_windup_polynomial(design: RstDesign) -> np.ndarray:
@@ -148,7 +259,7 @@ def zoh_discretize(A, B, dt: float):
     return E[:n, :n], E[:n, n:]
 
 
-class DiscreteRstController:
+class DiscreteRstController(InputGuard):
     """Discrete-time RST controller with steer saturation and anti-windup.
 
     Parameters
@@ -165,14 +276,22 @@ class DiscreteRstController:
     aw_poly : array_like, optional
         Anti-windup polynomial ``F`` (monic, Hurwitz, degree ``deg R``); default
         :func:`anti_windup_polynomial`.
+    measurement_limit, reference_limit : float
+        Bounds on ``|y|`` and ``|u_c|`` [m] beyond which an input is invalid (module docstring,
+        bad-input rule); default 2 m; ``inf`` allowed.
+    initial_reference : float
+        Reference held [m] until a valid one arrives (default 0).
     """
 
     def __init__(self, design: RstDesign, dt: float = 1e-3, u_min: float = -STEER_LIMIT,
-                 u_max: float = STEER_LIMIT, anti_windup: bool = True, aw_poly=None):
+                 u_max: float = STEER_LIMIT, anti_windup: bool = True, aw_poly=None,
+                 measurement_limit: float = DEFAULT_INPUT_LIMIT,
+                 reference_limit: float = DEFAULT_INPUT_LIMIT, initial_reference: float = 0.0):
         if not dt > 0:
             raise ValueError(f"dt must be a positive sample time in seconds; got {dt}.")
-        if not u_min < u_max:
-            raise ValueError(f"Expected u_min < u_max; got {u_min} and {u_max}.")
+        if not (math.isfinite(u_min) and math.isfinite(u_max) and u_min < u_max):
+            raise ValueError(f"Expected finite steer limits u_min < u_max; got {u_min} and {u_max}.")
+        self._init_guard(measurement_limit, reference_limit, initial_reference)
         R = trim(design.R)
         if abs(R[0]) < 1e-12:
             raise ValueError("design.R has a zero leading coefficient.")
@@ -218,6 +337,10 @@ class DiscreteRstController:
     def step(self, reference: float, measurement: float) -> ControlOutput:
         """Advance one sample: compute the steer for ``u_c = reference``, ``y = measurement``.
 
+        Bad inputs follow the rule of the module docstring (invalid reference: last valid one
+        held; invalid measurement: zero steer and reset; non-finite state: reset); never raises
+        for bad data, the steer is always finite and within ``[u_min, u_max]``.
+
         Parameters
         ----------
         reference : float
@@ -229,9 +352,17 @@ class DiscreteRstController:
         -------
         ControlOutput
         """
+        ref, ref_problem, meas_problem = self._screen(reference, measurement)
+        if meas_problem is not None:
+            return self._measurement_invalid(ref, ref_problem, meas_problem)
         x = self._x
-        w = np.array([reference, measurement], dtype=float)
+        w = np.array([ref, measurement], dtype=float)
         u = float(self._C @ x + self._D @ w)
         u_sat = min(max(u, self.u_min), self.u_max)
-        self._x = self._Ad @ x + self._Bd @ w + self._L * (u_sat - u)
-        return ControlOutput(u_unsat=u, u_sat=u_sat, saturated=(u_sat != u))
+        x_next = self._Ad @ x + self._Bd @ w + self._L * (u_sat - u)
+        if not (math.isfinite(u) and np.all(np.isfinite(x_next))):
+            return self._invalid(ref, f"controller state became non-finite (u = {u!r}): state "
+                                      "reset, zero steer")
+        self._x = x_next
+        return ControlOutput(u_unsat=u, u_sat=u_sat, saturated=(u_sat != u),
+                             reason=ref_problem or "", reference=ref)

@@ -75,7 +75,7 @@ def test_default_aw_polynomial_and_validation():
 
 def test_step_output_and_reset():
     d = design_rst([1.0], [1, 0, 0], [4.0], [1, 2.8, 4.0], [1, 4.0])
-    c = DiscreteRstController(d, dt=1e-3, u_min=-1.0, u_max=1.0)
+    c = DiscreteRstController(d, dt=1e-3, u_min=-1.0, u_max=1.0, reference_limit=20.0)
     o = c.step(10.0, 0.0)  # direct term t0/r0 * 10 = 40 -> clipped
     assert o.saturated and o.u_sat == 1.0 and o.u_unsat == pytest.approx(40.0)
     c.step(10.0, 0.0)

@@ -1,0 +1,177 @@
+"""Bad inputs cannot make a lateral controller emit a non-finite or out-of-limit steer, and it
+recovers (issue 10). The rule is documented in irs_control.discrete_rst (module docstring)."""
+import copy
+import math
+
+import numpy as np
+import pytest
+from hypothesis import given, settings, strategies as st
+
+from irs_control.controller_factory import make_controller
+from irs_control.discrete_pi import DiscretePiController
+from irs_control.discrete_rst import STATE_INVALID, STATE_RUNNING, DiscreteRstController
+from irs_control.loop_sim import simulate_loop
+from irs_control.paper_design import identified_plant, paper_mrc_design
+
+LIMIT = 0.2618
+NASTY = [math.nan, math.inf, -math.inf, 1e308, -1e308, 1.7976931348623157e308, 5e-324, -5e-324,
+         2.0000001, -3.0, 1e10]
+ANY = st.one_of(st.floats(allow_nan=True, allow_infinity=True, allow_subnormal=True),
+                st.sampled_from(NASTY), st.floats(-0.6, 0.6))
+GOOD = st.floats(-0.6, 0.6, allow_subnormal=True)
+
+_PROTOS = {
+    'mrc': DiscreteRstController(paper_mrc_design(True)),
+    'mrc_no_actuator': DiscreteRstController(paper_mrc_design(False)),
+    'mrc_no_aw': DiscreteRstController(paper_mrc_design(True), anti_windup=False),
+    'pi': DiscretePiController(kp=5.0, ki=3.0),
+    'pi_no_aw': DiscretePiController(kp=5.0, ki=3.0, anti_windup=False),
+}
+KINDS = sorted(_PROTOS)
+
+
+def fresh(kind):
+    return copy.deepcopy(_PROTOS[kind])
+
+
+def state_of(c):
+    return c.state if isinstance(c, DiscreteRstController) else np.array([c.integral])
+
+
+def check_output(c, o):
+    assert math.isfinite(o.u_sat) and math.isfinite(o.u_unsat)
+    assert c.u_min <= o.u_sat <= c.u_max
+    assert o.state in (STATE_RUNNING, STATE_INVALID)
+    assert np.all(np.isfinite(state_of(c)))
+    assert math.isfinite(o.reference) and abs(o.reference) <= c.reference_limit
+
+
+@pytest.mark.parametrize('kind', KINDS)
+@settings(max_examples=40, deadline=None)
+@given(seq=st.lists(st.tuples(ANY, ANY), min_size=1, max_size=60))
+def test_output_always_finite_and_within_limits(kind, seq):
+    c = fresh(kind)
+    for r, y in seq:
+        o = c.step_checked(r, y)
+        check_output(c, o)
+        y_ok = math.isfinite(y) and abs(y) <= c.measurement_limit
+        assert o.valid == y_ok
+        if not y_ok:
+            assert o.u_sat == 0.0 and o.reset and 'no valid feedback' in o.reason
+            assert np.all(state_of(c) == 0.0)
+        r_ok = math.isfinite(r) and abs(r) <= c.reference_limit
+        assert (o.reference == r) if r_ok else ('holding the last valid reference' in o.reason)
+
+
+@pytest.mark.parametrize('kind', KINDS)
+@settings(max_examples=30, deadline=None)
+@given(prefix=st.lists(st.tuples(ANY, ANY), max_size=30),
+       bad_y=st.sampled_from(NASTY[:5]),
+       tail=st.lists(st.tuples(GOOD, GOOD), min_size=1, max_size=40))
+def test_after_a_bad_measurement_output_equals_a_fresh_controller(kind, prefix, bad_y, tail):
+    """Recovery: a bad measurement resets to rest, so from the next valid sample on the output is
+    exactly that of a freshly built controller fed the same inputs."""
+    c = fresh(kind)
+    for r, y in prefix:
+        c.step_checked(r, y)
+    o = c.step_checked(0.0, bad_y)
+    assert o.state == STATE_INVALID and o.u_sat == 0.0
+    ref = fresh(kind)
+    for r, y in tail:
+        a, b = c.step_checked(r, y), ref.step_checked(r, y)
+        assert (a.u_sat, a.u_unsat, a.saturated) == (b.u_sat, b.u_unsat, b.saturated)
+
+
+@pytest.mark.parametrize('kind', KINDS)
+@settings(max_examples=30, deadline=None)
+@given(seq=st.lists(st.tuples(st.one_of(GOOD, st.sampled_from(NASTY)), GOOD), min_size=1,
+                    max_size=60))
+def test_bad_reference_is_the_last_valid_one_held(kind, seq):
+    """A bad reference neither resets the controller nor reaches it: the run equals the run with
+    every bad reference replaced by the last valid one (0 before the first), bit for bit."""
+    c, ref = fresh(kind), fresh(kind)
+    held = 0.0
+    for r, y in seq:
+        if math.isfinite(r) and abs(r) <= 2.0:
+            held = r
+        a, b = c.step_checked(r, y), ref.step(held, y)
+        assert a.valid and not a.reset
+        assert (a.u_sat, a.u_unsat) == (b.u_sat, b.u_unsat)
+        assert a.reference == held
+    np.testing.assert_array_equal(state_of(c), state_of(ref))
+
+
+@pytest.mark.parametrize('kind', KINDS)
+def test_one_huge_measurement_does_not_poison_later_steps(kind):
+    """The fuzzer's case: one y = 1e308 used to overflow the state to inf/NaN for good."""
+    c, ref = fresh(kind), fresh(kind)
+    for _ in range(100):
+        c.step(0.05, 0.0)
+    o = c.step(0.05, 1e308)
+    assert o.state == STATE_INVALID and o.u_sat == 0.0 and '1e+308' in o.reason
+    for k in range(200):
+        a, b = c.step(0.05, 0.001 * k), ref.step(0.05, 0.001 * k)
+        assert a.u_sat == b.u_sat and math.isfinite(a.u_sat)
+
+
+@pytest.mark.filterwarnings('ignore:overflow:RuntimeWarning',
+                            'ignore:invalid value:RuntimeWarning')
+@pytest.mark.parametrize('kind', ['mrc', 'pi'])
+@settings(max_examples=20, deadline=None)
+@given(seq=st.lists(st.tuples(ANY, ANY), min_size=1, max_size=30))
+def test_unbounded_limits_state_overflow_is_reset_and_reported(kind, seq):
+    """With the input bounds switched off (inf) the state can overflow; it is never stored:
+    the step answers zero steer, resets and says so."""
+    if kind == 'mrc':
+        c = DiscreteRstController(paper_mrc_design(True), measurement_limit=math.inf,
+                                  reference_limit=math.inf)
+    else:
+        c = DiscretePiController(measurement_limit=math.inf, reference_limit=math.inf)
+    for r, y in seq + [(1e308, -1e308), (0.0, 0.0)]:
+        o = c.step(r, y)
+        assert math.isfinite(o.u_sat) and c.u_min <= o.u_sat <= c.u_max
+        assert np.all(np.isfinite(state_of(c)))
+    o = c.step(1e308, -1e308)
+    assert o.state == STATE_INVALID and o.reset and 'non-finite' in o.reason
+    assert math.isfinite(c.step(0.01, 0.0).u_sat)
+
+
+def test_nan_references_mixed_with_valid_ones_track_like_a_clean_run():
+    """The fuzzer's case: NaN references between valid ones used to reset the controller each
+    time (the car went to 0.104 m against a 0.05 m reference)."""
+    B, A = identified_plant(True)
+    for kind in ('mrc', 'pi'):
+        clean = simulate_loop(fresh(kind), B, A, lambda t: 0.05, 3.0)
+        k = iter(range(10 ** 9))
+        noisy = simulate_loop(fresh(kind), B, A,
+                              lambda t: math.nan if next(k) % 7 == 3 else 0.05, 3.0)
+        np.testing.assert_array_equal(noisy.y, clean.y)
+        np.testing.assert_array_equal(noisy.u, clean.u)
+
+
+def test_limits_are_configurable_and_validated():
+    c = DiscretePiController(measurement_limit=0.5, reference_limit=0.3, initial_reference=0.1)
+    assert c.step(0.4, 0.0).reference == 0.1          # 0.4 > 0.3: held initial reference
+    assert c.step(0.0, 0.6).state == STATE_INVALID     # 0.6 > 0.5
+    for bad in (0.0, -1.0, math.nan, True, None):
+        with pytest.raises(ValueError, match='measurement_limit'):
+            DiscretePiController(measurement_limit=bad)
+    with pytest.raises(ValueError, match='initial_reference'):
+        DiscretePiController(initial_reference=5.0)
+    spec = make_controller({'mode': 'pi', 'measurement_limit': 1.0, 'reference_limit': 0.5})
+    assert (spec.controller.measurement_limit, spec.controller.reference_limit) == (1.0, 0.5)
+    spec = make_controller({'reference_limit': 0.5})
+    assert spec.controller.reference_limit == 0.5
+    assert make_controller().controller.measurement_limit == 2.0
+    with pytest.raises(ValueError, match='unknown controller parameter'):
+        make_controller({'input_limit': 1.0})
+
+
+def test_non_numeric_inputs_are_invalid_not_exceptions():
+    c = fresh('mrc')
+    for y in (None, 'x', [0.0], True):
+        o = c.step_checked(0.0, y)
+        assert o.state == STATE_INVALID and o.u_sat == 0.0
+    o = c.step_checked(None, 0.0)
+    assert o.valid and o.reference == 0.0 and 'reference' in o.reason
+    assert c.step_checked(np.float64(0.01), np.float32(0.0)).valid
