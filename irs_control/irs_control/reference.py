@@ -13,13 +13,25 @@ returns its ``offset``):
 * ``square``: ``r = offset + amplitude`` in the first half of each period after ``t0``,
   ``offset - amplitude`` in the second half (``duty`` changes the first-half fraction)
 * ``sine``: ``r = offset + amplitude sin(2 pi (t - t0)/period + phase)``
+
+Console reference (``source: console`` of ``reference_generator``): :func:`console_reference`
+screens each value typed at the driver console. A value is accepted when it is a finite number
+with ``|value| <= limit`` (default :data:`CONSOLE_LIMIT` = 0.5 m: the belt half width 0.6096 m
+less the treadmill safety's 0.10 m edge margin); anything else (NaN, +-inf, 1e308, a value
+beyond the belt) is **refused**: the last valid value stays in force and a reason is returned.
+Refusing rather than clamping, because an absurd value is a typing or transport error, not a
+request to drive to the belt edge. The result is always finite.
 """
 from __future__ import annotations
 
 import math
 from dataclasses import dataclass, fields
 
-__all__ = ["Constant", "Step", "Square", "Sine", "from_dict", "SIGNALS"]
+__all__ = ["Constant", "Step", "Square", "Sine", "from_dict", "SIGNALS", "console_reference",
+           "CONSOLE_LIMIT"]
+
+#: Default bound on a console reference [m] (belt half width 0.6096 m less a 0.10 m margin).
+CONSOLE_LIMIT = 0.5
 
 
 def _finite(name, v):
@@ -131,3 +143,39 @@ def from_dict(spec: dict):
             f"Unknown parameter(s) {sorted(unknown)} for reference type {kind!r}; allowed: {sorted(allowed)}."
         )
     return cls(**params)
+
+
+def console_reference(value, last_valid: float = 0.0, limit: float = CONSOLE_LIMIT):
+    """Screen one console reference value [m]; returns ``(reference [m], reason or None)``.
+
+    Accepted (``reason`` None): ``value`` is a finite real number with ``|value| <= limit``; the
+    reference is ``float(value)``. Refused: the reference stays ``last_valid`` and ``reason``
+    says why; a non-finite ``last_valid`` (or one beyond ``limit``) is replaced by 0 m so that the
+    result is always finite and within the limit.
+
+    Parameters
+    ----------
+    value : float
+        The console's value [m] (std_msgs/Float64 ``data``).
+    last_valid : float
+        The reference in force before this value [m].
+    limit : float
+        Largest accepted ``|value|`` [m] (> 0).
+
+    Raises
+    ------
+    ValueError
+        ``limit`` not a positive finite number (a configuration error).
+    """
+    from irs_common.input_checks import abs_limit_problem
+
+    if isinstance(limit, bool) or not isinstance(limit, (int, float)) or \
+            not (math.isfinite(limit) and limit > 0):
+        raise ValueError(f"The console reference limit must be a positive finite distance in m; "
+                         f"got {limit!r}.")
+    if abs_limit_problem("last_valid", last_valid, limit) is not None:
+        last_valid = 0.0
+    problem = abs_limit_problem("console reference", value, limit, "m")
+    if problem is None:
+        return float(value), None
+    return float(last_valid), f"{problem}: refused, keeping {float(last_valid):.6g} m"

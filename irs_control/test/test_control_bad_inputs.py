@@ -175,3 +175,29 @@ def test_non_numeric_inputs_are_invalid_not_exceptions():
     o = c.step_checked(None, 0.0)
     assert o.valid and o.reference == 0.0 and 'reference' in o.reason
     assert c.step_checked(np.float64(0.01), np.float32(0.0)).valid
+
+
+@settings(max_examples=300, deadline=None)
+@given(values=st.lists(ANY, min_size=1, max_size=30))
+def test_console_reference_is_always_finite_and_refuses_bad_values(values):
+    from irs_control.reference import CONSOLE_LIMIT, console_reference
+    ref = 0.0
+    for v in values:
+        new, why = console_reference(v, ref)
+        assert math.isfinite(new) and abs(new) <= CONSOLE_LIMIT
+        if math.isfinite(v) and abs(v) <= CONSOLE_LIMIT:
+            assert (new, why) == (v, None)
+        else:
+            assert new == ref and 'refused' in why
+        ref = new
+
+
+def test_console_reference_examples():
+    from irs_control.reference import console_reference
+    assert console_reference(0.05, 0.0) == (0.05, None)
+    ref, why = console_reference(1e308, 0.05)
+    assert ref == 0.05 and '1e+308' in why and 'refused, keeping 0.05 m' in why
+    assert console_reference(math.nan, math.nan)[0] == 0.0   # a bad last value is not kept
+    assert console_reference(0.8, 0.1, limit=1.0) == (0.8, None)
+    with pytest.raises(ValueError, match='positive finite'):
+        console_reference(0.0, 0.0, limit=math.inf)
