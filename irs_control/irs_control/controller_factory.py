@@ -27,6 +27,7 @@ import numpy as np
 from .discrete_pi import DiscretePiController
 from .discrete_rst import DEFAULT_INPUT_LIMIT, DiscreteRstController
 from .paper_design import PAPER_PLANT_GAIN, identified_plant, reference_model
+from .polynomials import require_polynomial
 from .rst_design import RstDesign, design_rst
 
 _BM, _AM = reference_model()
@@ -91,25 +92,75 @@ def plant_polynomials(cfg: dict):
 
 def observer_polynomial(cfg: dict) -> np.ndarray:
     """The observer polynomial Ao; ``[0.0]`` selects the paper's choice for the plant."""
-    ao = [float(c) for c in cfg['observer']]
+    try:
+        ao = [float(c) for c in cfg['observer']]
+    except (TypeError, ValueError):
+        ao = None
     if ao == [0.0]:
         return np.array([1.0, 24.0, 144.0]) if cfg['include_actuator'] else np.array([1.0, 12.0])
-    if not ao or ao[0] == 0.0:
-        raise ValueError(f'observer must be polynomial coefficients with a non-zero leading '
-                         f'coefficient, or [0.0] for the paper choice; got {ao}')
+    if not ao or ao[0] == 0.0 or not all(np.isfinite(ao)):
+        raise ValueError(f'observer must be finite polynomial coefficients with a non-zero '
+                         f"leading coefficient, or [0.0] for the paper choice; got {cfg['observer']!r}")
     return np.array(ao)
 
 
+def _finite_number(cfg: dict, key: str, positive: bool = False) -> float:
+    v = cfg[key]
+    if isinstance(v, bool) or not isinstance(v, (int, float)) or not np.isfinite(v) \
+            or (positive and not v > 0):
+        kind = 'a positive finite number' if positive else 'a finite number'
+        raise ValueError(f'{key} must be {kind}; got {v!r}')
+    return float(v)
+
+
+def check_controller_params(cfg: dict) -> None:
+    """Validate the numbers and polynomials of a complete controller mapping, before any design
+    arithmetic; raises ``ValueError`` with one sentence naming the parameter.
+
+    Numbers: ``dt``, ``steer_limit``, ``actuator_pole``, ``speed`` positive and finite;
+    ``ds``, ``plant_gain`` (>= 0), ``kp``, ``ki`` (>= 0), the input bounds (> 0, inf allowed) and
+    ``initial_reference`` finite. Reference model (MRC only): ``reference_model_num`` a non-empty
+    list of finite coefficients, not all zero; ``reference_model_den`` the same, monic and
+    stable (Hurwitz), of higher degree than the numerator (a strictly proper model).
+    """
+    for key in ('dt', 'steer_limit', 'actuator_pole', 'speed'):
+        _finite_number(cfg, key, positive=True)
+    for key in ('ds', 'plant_gain', 'kp', 'ki', 'initial_reference'):
+        _finite_number(cfg, key)
+    for key in ('plant_gain', 'kp', 'ki'):
+        if cfg[key] < 0:
+            raise ValueError(f'{key} must be >= 0; got {cfg[key]!r}')
+    for key in ('measurement_limit', 'reference_limit'):
+        v = cfg[key]
+        if isinstance(v, bool) or not isinstance(v, (int, float)) or not v > 0:
+            raise ValueError(f'{key} must be a positive bound in m (inf allowed); got {v!r}')
+    if cfg['mode'] != 'mrc':
+        return
+    bm = require_polynomial('reference_model_num', cfg['reference_model_num'])
+    am = require_polynomial('reference_model_den', cfg['reference_model_den'], monic=True,
+                            hurwitz=True)
+    if bm.size >= am.size:
+        raise ValueError(f'the reference model reference_model_num/reference_model_den must be '
+                         f'strictly proper (deg num < deg den); got degrees {bm.size - 1} and '
+                         f'{am.size - 1}')
+
+
 def make_controller(params: dict | None = None) -> LateralControllerSpec:
-    """Design and discretise the controller that ``params`` describe (missing keys: defaults)."""
+    """Design and discretise the controller that ``params`` describe (missing keys: defaults).
+
+    Raises
+    ------
+    ValueError
+        Unknown keys, or a bad number/polynomial (:func:`check_controller_params`, checked
+        before any arithmetic), or an impossible design (:class:`.rst_design.RstDesignError`).
+    """
     cfg = {**CONTROLLER_DEFAULTS, **INPUT_CHECK_DEFAULTS, **(params or {})}
     unknown = set(cfg) - set(CONTROLLER_DEFAULTS) - set(INPUT_CHECK_DEFAULTS)
     if unknown:
         raise ValueError(f'unknown controller parameter(s) {sorted(unknown)}')
+    check_controller_params(cfg)
     guard = {k: float(cfg[k]) for k in INPUT_CHECK_DEFAULTS}
     limit = float(cfg['steer_limit'])
-    if not limit > 0.0:
-        raise ValueError(f'steer_limit must be a positive angle in rad, got {limit}')
     dt = float(cfg['dt'])
     if cfg['mode'] == 'pi':
         ctl = DiscretePiController(kp=float(cfg['kp']), ki=float(cfg['ki']), dt=dt,

@@ -77,7 +77,7 @@ from scipy.linalg import expm
 
 from irs_common.input_checks import abs_limit_problem
 
-from .polynomials import degree, is_hurwitz, poly_from_roots, poly_mul, trim
+from .polynomials import degree, is_hurwitz, poly_from_roots, poly_mul, require_polynomial, trim
 from .rst_design import RstDesign
 
 __all__ = ["ControlOutput", "DiscreteRstController", "InputGuard", "anti_windup_polynomial",
@@ -298,7 +298,8 @@ class DiscreteRstController(InputGuard):
         # Normalise so R is monic (R u = T uc - S y is invariant to scaling all three).
         r0 = R[0]
         R, S, T = R / r0, trim(design.S) / r0, trim(design.T) / r0
-        F = trim(np.asarray(aw_poly, dtype=float)) if aw_poly is not None else anti_windup_polynomial(design)
+        F = require_polynomial("aw_poly", aw_poly) if aw_poly is not None \
+            else anti_windup_polynomial(design)
         if degree(F) != degree(R) or abs(F[0] - 1.0) > 1e-12 or not is_hurwitz(F):
             raise ValueError(
                 f"The anti-windup polynomial must be monic, Hurwitz and of degree deg R = "

@@ -105,8 +105,10 @@ def identified_plant(include_actuator: bool = True, actuator_pole: float = PAPER
         ``B = gain (s+2.4)(s+4.8)``, ``A = s^2 (s+8)(s+20)(s+p)`` (with actuator) or
         ``B = (gain/p)(s+2.4)(s+4.8)``, ``A = s^2 (s+8)(s+20)`` (without).
     """
-    if not actuator_pole > 0:
-        raise ValueError(f"actuator_pole must be a positive magnitude in rad/s; got {actuator_pole}.")
+    if not (np.isfinite(actuator_pole) and actuator_pole > 0):
+        raise ValueError(f"actuator_pole must be a positive finite magnitude in rad/s; got {actuator_pole}.")
+    if not (np.isfinite(gain) and gain != 0):
+        raise ValueError(f"gain must be a finite non-zero plant gain b0 in m rad^-1 s^-3; got {gain}.")
     poles = list(PAPER_VEHICLE_POLES)
     if include_actuator:
         poles.append(-float(actuator_pole))

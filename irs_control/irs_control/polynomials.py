@@ -8,12 +8,18 @@ The central routine is :func:`solve_diophantine`, which solves
 .. math:: A(s) X(s) + B(s) Y(s) = C(s), \\qquad \\deg Y < \\deg A,
 
 (the minimum-degree solution in ``Y``) through a Sylvester-type linear system.
+
+Bad coefficients: every entry point of the design path validates its polynomials with
+:func:`require_polynomial` before any arithmetic (one ``ValueError`` naming the parameter for
+NaN/inf, empty, non-numeric or all-zero coefficients), and :func:`trim` itself refuses
+non-finite coefficients with a ``ValueError`` instead of failing inside numpy.
 """
 from __future__ import annotations
 
 import numpy as np
 
 __all__ = [
+    "require_polynomial",
     "trim",
     "poly_from_roots",
     "poly_add",
@@ -34,6 +40,40 @@ class DiophantineError(ValueError):
     """Raised when the Diophantine equation has no solution of the requested form."""
 
 
+def require_polynomial(name: str, p, monic: bool = False, hurwitz: bool = False) -> np.ndarray:
+    """Validate the coefficient list ``p`` (highest power first) of parameter ``name``.
+
+    Accepted: a non-empty, one-dimensional sequence of finite real numbers that are not all zero
+    (leading zeros are trimmed); with ``monic`` the leading (trimmed) coefficient must be 1 (to
+    1e-12), with ``hurwitz`` every root must have a negative real part (a stable polynomial).
+
+    Returns
+    -------
+    numpy.ndarray
+        ``trim(p)``.
+
+    Raises
+    ------
+    ValueError
+        With one sentence naming ``name``, what was expected and what was given.
+    """
+    expected = (f"{name} must be a non-empty list of finite polynomial coefficients, highest "
+                "power first, not all zero")
+    try:
+        arr = np.asarray(p, dtype=float)
+    except (TypeError, ValueError):
+        raise ValueError(f"{expected}; got {p!r}.") from None
+    if arr.ndim > 1 or arr.size == 0 or not np.all(np.isfinite(arr)) or not np.any(arr != 0.0):
+        raise ValueError(f"{expected}; got {p!r}.")
+    arr = trim(arr)
+    if monic and abs(arr[0] - 1.0) > 1e-12:
+        raise ValueError(f"{name} must be monic (leading coefficient 1); got {arr.tolist()}.")
+    if hurwitz and arr.size > 1 and not np.all(np.real(np.roots(arr)) < 0.0):
+        raise ValueError(f"{name} must be stable (all roots with negative real part); got roots "
+                         f"{np.roots(arr)} of {arr.tolist()}.")
+    return arr
+
+
 def trim(p, tol: float = 0.0) -> np.ndarray:
     """Remove leading coefficients whose magnitude is <= ``tol * max|p|``.
 
@@ -48,10 +88,17 @@ def trim(p, tol: float = 0.0) -> np.ndarray:
     -------
     numpy.ndarray
         Trimmed coefficients (``[0.0]`` for the zero polynomial).
+
+    Raises
+    ------
+    ValueError
+        A coefficient is NaN or infinite.
     """
     p = np.atleast_1d(np.asarray(p, dtype=float))
     if p.size == 0:
         return np.array([0.0])
+    if not np.all(np.isfinite(p)):
+        raise ValueError(f"Polynomial coefficients must be finite numbers; got {p.tolist()}.")
     scale = np.max(np.abs(p))
     if scale == 0.0:
         return np.array([0.0])

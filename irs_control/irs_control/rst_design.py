@@ -27,7 +27,9 @@ The closed loop is
 with characteristic polynomial ``A_m A_o B+`` (the cancelled factors ``A_o B+`` are
 unobservable / uncontrollable from ``u_c`` but must be stable).
 
-Checks (each raises :class:`RstDesignError` with an explanatory sentence): ``A`` monic,
+Checks (each raises :class:`RstDesignError` with an explanatory sentence): first, before any
+arithmetic, every polynomial is a non-empty list of finite coefficients, not all zero (NaN, inf,
+empty -> :class:`RstDesignError` naming it); then ``A`` monic,
 ``A`` and ``B-`` coprime (the common root is named), cancelled zeros stable, ``Am`` and
 ``Ao`` stable, causality ``deg S <= deg R`` and ``deg T <= deg R``, and that the computed
 closed loop equals the model to ``verify_rtol`` (coefficient comparison).
@@ -48,6 +50,7 @@ from .polynomials import (
     poly_div_exact,
     poly_from_roots,
     poly_mul,
+    require_polynomial,
     solve_diophantine,
     trim,
 )
@@ -219,7 +222,11 @@ def design_rst(B, A, Bm, Am, Ao, cancel="stable", zeta_min: float = 0.5,
     ------
     RstDesignError
     """
-    A, B, Am, Bm, Ao = (trim(np.asarray(p, dtype=float)) for p in (A, B, Am, Bm, Ao))
+    try:
+        A, B, Am, Bm, Ao = (require_polynomial(name, p) for name, p in
+                            (("A", A), ("B", B), ("Am", Am), ("Bm", Bm), ("Ao", Ao)))
+    except ValueError as exc:
+        raise RstDesignError(str(exc)) from None
     for name, p in (("A", A), ("Am", Am), ("Ao", Ao)):
         if abs(p[0] - 1.0) > 1e-12:
             raise RstDesignError(f"{name} must be monic (leading coefficient 1); got {p[0]}.")

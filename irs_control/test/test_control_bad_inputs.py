@@ -201,3 +201,76 @@ def test_console_reference_examples():
     assert console_reference(0.8, 0.1, limit=1.0) == (0.8, None)
     with pytest.raises(ValueError, match='positive finite'):
         console_reference(0.0, 0.0, limit=math.inf)
+
+
+# ---------------------------------------------------------------- design path: ValueError only
+@pytest.mark.parametrize('params, words', [
+    ({'reference_model_num': [math.nan]}, 'reference_model_num must be a non-empty list of finite'),
+    ({'reference_model_num': []}, 'reference_model_num must be a non-empty list'),
+    ({'reference_model_num': [0.0, 0.0]}, 'not all zero'),
+    ({'reference_model_num': ['a']}, 'reference_model_num'),
+    ({'reference_model_den': [1.0, math.inf, 2.0]}, 'reference_model_den must be'),
+    ({'reference_model_den': [1.0, -1.0, 2.0]}, 'reference_model_den must be stable'),
+    ({'reference_model_den': [2.0, 1.0, 2.0]}, 'reference_model_den must be monic'),
+    ({'reference_model_num': [1.0, 2.0, 3.0], 'reference_model_den': [1.0, 2.0, 3.0]},
+     'strictly proper'),
+    ({'observer': [1.0, math.nan]}, 'observer must be finite'),
+    ({'observer': []}, 'observer must be'),
+    ({'plant_gain': math.nan}, 'plant_gain must be a finite number'),
+    ({'dt': math.inf}, 'dt must be a positive finite'),
+    ({'steer_limit': math.nan}, 'steer_limit must be a positive finite'),
+    ({'mode': 'pi', 'kp': math.inf}, 'kp must be a finite'),
+    ({'mode': 'pi', 'ki': -1.0}, 'ki must be >= 0'),
+    ({'reference_limit': math.nan}, 'reference_limit must be a positive bound'),
+])
+def test_bad_design_parameters_raise_one_clear_value_error(params, words):
+    with pytest.raises(ValueError, match=words.replace('(', r'\(')):
+        make_controller(params)
+
+
+COEF = st.one_of(st.floats(allow_nan=True, allow_infinity=True, allow_subnormal=True),
+                 st.sampled_from([math.nan, math.inf, 0.0, 1.0, 1e308, -1e308]),
+                 st.floats(-100.0, 100.0))
+
+
+@settings(max_examples=60, deadline=None)
+@given(num=st.lists(COEF, max_size=4), den=st.lists(COEF, max_size=6),
+       observer=st.one_of(st.just([0.0]), st.lists(COEF, max_size=4)))
+def test_make_controller_raises_only_value_errors(num, den, observer):
+    """Whatever polynomials are given, the design either succeeds with a finite controller or
+    raises ValueError (never IndexError, LinAlgError, ZeroDivisionError, ...)."""
+    try:
+        spec = make_controller({'reference_model_num': num, 'reference_model_den': den,
+                                'observer': observer})
+    except ValueError:
+        return
+    c = spec.controller
+    o = c.step(0.02, 0.0)
+    assert math.isfinite(o.u_sat) and abs(o.u_sat) <= LIMIT
+
+
+@settings(max_examples=60, deadline=None)
+@given(B=st.lists(COEF, max_size=4), A=st.lists(COEF, max_size=5), Bm=st.lists(COEF, max_size=3),
+       Am=st.lists(COEF, max_size=5), Ao=st.lists(COEF, max_size=3))
+def test_design_rst_raises_only_value_errors(B, A, Bm, Am, Ao):
+    from irs_control.rst_design import RstDesignError, design_rst
+    try:
+        d = design_rst(B, A, Bm, Am, Ao)
+    except RstDesignError:
+        return
+    assert all(np.all(np.isfinite(p)) for p in (d.R, d.S, d.T))
+
+
+def test_trim_and_paper_design_refuse_non_finite():
+    from irs_control.polynomials import require_polynomial, trim
+    with pytest.raises(ValueError, match='finite'):
+        trim([math.nan])
+    with pytest.raises(ValueError, match='finite'):
+        trim([1.0, math.inf])
+    np.testing.assert_array_equal(require_polynomial('p', [0.0, 1.0, 2.0]), [1.0, 2.0])
+    with pytest.raises(ValueError, match='gain must be a finite'):
+        identified_plant(True, 29.0, math.nan)
+    with pytest.raises(ValueError, match='actuator_pole'):
+        identified_plant(True, math.inf)
+    with pytest.raises(ValueError, match='aw_poly'):
+        DiscreteRstController(paper_mrc_design(True), aw_poly=[1.0, math.nan, 1.0, 1.0, 1.0])
