@@ -4,11 +4,56 @@ Each :class:`Param` becomes a parameter declared with a ``ParameterDescriptor`` 
 the unit, range, read-only flag). ``declare_table`` declares them all and returns a plain ``dict``
 of values, which is what the ROS-free cores take. ``markdown_table`` renders the same table for
 the docs, so the docs cannot drift from the code.
+
+Parameters tell the truth
+-------------------------
+* **Read-only unless a parameter says otherwise.** ``Param(..., writable=True)`` is a parameter
+  the node applies while running; every other parameter has a read-only descriptor and rclpy
+  refuses to set it after start-up. (The older spelling ``read_only=True`` is still accepted
+  and means the default; ``read_only=False`` means ``writable=True``.)
+* **A writable parameter needs a handler.** The node passes ``on_change(name, value)`` to
+  :func:`declare_table`; declaring a writable parameter without one raises ``TypeError``::
+
+      self.p = declare_table(self, TABLE, on_change=self._on_parameter)
+
+      def _on_parameter(self, name, value):   # called after rclpy stored the accepted value
+          if name == 'command_timeout':
+              self.timeout = value
+
+  Before that, the change was validated (one ``on_set`` callback per node): type, range,
+  finiteness of doubles, non-empty arrays, and the parameter's own ``validator``; a refused
+  change returns ``SetParametersResult(successful=False, reason=...)`` naming the parameter, the
+  value and what was expected. The ``dict`` ``declare_table`` returned is kept current too.
+* **Integers are doubles where a double is expected.** ``-p x0:=0`` or ``x0: 0`` in a params
+  file (an INTEGER) for a double parameter is taken as ``0.0``, likewise ``[1, 2]`` for a double
+  array: at start-up the node's parameter overrides are converted before declaration, at run
+  time a ``pre_set`` callback converts the request before rclpy's type check (rclpy 7.1 checks
+  the type against the descriptor before any ``on_set`` callback, so an ``on_set`` callback
+  cannot do it). ``ParameterDescriptor.dynamic_typing`` would also let integers in, but it drops
+  rclpy's type check altogether (a string would then replace a double), so it is not used.
+* **Start-up errors are one ``ValueError``** naming the parameter, the value and what was
+  expected (``run_node`` turns it into one line and exit code 2), also when a second params
+  file gives a parameter another type.
+* **Unknown names are reported.** Overrides (params files, ``-p``) naming no declared parameter
+  are listed in one warning at the end of ``declare_table``, with the closest declared names;
+  ``strict=True`` makes that an error. Warning by default, because a params file with a ``/**``
+  section may legitimately carry parameters for other nodes. A node that declares several tables
+  should pass them in one call (``declare_table(node, A + B)``), or ``check_unknown=False`` to
+  all but the last call, so that names of a later table are not reported.
 """
 from dataclasses import dataclass
+import difflib
 import math
+from typing import Callable
 
-from rcl_interfaces.msg import FloatingPointRange, IntegerRange, ParameterDescriptor
+from rcl_interfaces.msg import (FloatingPointRange, IntegerRange, ParameterDescriptor,
+                                ParameterType, SetParametersResult)
+
+#: Relative tolerance at range edges, as rclpy's own range check (``Node.PARAM_REL_TOL``).
+EDGE_REL_TOL = 1e-6
+
+#: Overrides that are not the node's parameters yet are not unknown (declared later by rclpy).
+_NOT_UNKNOWN_PREFIXES = ('qos_overrides.',)
 
 
 @dataclass(frozen=True)
@@ -16,7 +61,11 @@ class Param:
     """One node parameter.
 
     ``unit`` is required ('1' for dimensionless, '-' for names and flags) and is shown in the
-    description as ``[unit]``. ``low``/``high`` give an inclusive range for numbers.
+    description as ``[unit]``. ``low``/``high`` give an inclusive range for numbers (for arrays:
+    of every element). ``writable`` parameters may be set while the node runs (the node's
+    ``on_change`` handler applies them); all others are read-only. ``validator(value)`` returns
+    ``None`` for a good value or a string saying what is wrong (or raises ``ValueError``); it is
+    applied at start-up and to every change. Arrays must be non-empty unless ``allow_empty``.
     """
 
     name: str
@@ -25,7 +74,19 @@ class Param:
     unit: str
     low: float | None = None
     high: float | None = None
-    read_only: bool = False
+    read_only: bool | None = None     # deprecated spelling; normalised to ``not writable``
+    writable: bool = False
+    validator: Callable[[object], str | None] | None = None
+    allow_empty: bool = False
+
+    def __post_init__(self):
+        writable = self.writable
+        if self.read_only is not None:
+            if self.read_only and self.writable:
+                raise ValueError(f'parameter {self.name}: read_only=True and writable=True')
+            writable = writable or not self.read_only
+        object.__setattr__(self, 'writable', bool(writable))
+        object.__setattr__(self, 'read_only', not writable)
 
     def descriptor(self) -> ParameterDescriptor:
         desc = ParameterDescriptor(description=f'{self.description} [{self.unit}]',
@@ -43,37 +104,356 @@ class Param:
                                                                 to_value=float(high), step=0.0)]
         return desc
 
+    # ------------------------------------------------------------------ validation (no rclpy)
+    @property
+    def kind(self) -> str:
+        """'bool', 'int', 'double', 'string', or one of those + '[]' for arrays."""
+        return _kind(self.default)
 
-def declare_table(node, table) -> dict:
-    """Declare every parameter of ``table`` on ``node``; return ``{name: value}``."""
+    def expected(self) -> str:
+        """What a value must be, in words (used in every error message)."""
+        kind = self.kind
+        rng = self._range_text()
+        if kind.endswith('[]'):
+            elem = _KIND_WORDS[kind[:-2]][1]
+            empty = '' if self.allow_empty else 'non-empty '
+            return f'a {empty}array of {elem}' + (f' in {rng}' if rng else '')
+        return _KIND_WORDS[kind][0] + (f' in {rng}' if rng else '')
+
+    def _range_text(self) -> str:
+        if self.low is None and self.high is None:
+            return ''
+        return f'[{self.low}, {self.high}]'
+
+    def coerce(self, value):
+        """``value`` as this parameter's type (ints become doubles); ``ValueError`` if not valid.
+
+        The message names the parameter, the value and what was expected.
+        """
+        kind = self.kind
+        try:
+            if kind.endswith('[]'):
+                if value is None or (isinstance(value, (list, tuple)) and not value):
+                    if not self.allow_empty:
+                        raise _Bad('an empty array')
+                    return []
+                if isinstance(value, (str, bytes)) or not hasattr(value, '__iter__'):
+                    raise _Bad()
+                out = [self._scalar(kind[:-2], v) for v in value]
+            else:
+                out = self._scalar(kind, value)
+        except _Bad as bad:
+            got = bad.what or f'{value!r} ({_type_word(value)})'
+            raise ValueError(f"parameter '{self.name}': got {got}, expected {self.expected()}") \
+                from None
+        if self.validator is not None:
+            try:
+                reason = self.validator(out)
+            except ValueError as exc:
+                reason = str(exc) or 'refused by its validator'
+            if reason:
+                raise ValueError(f"parameter '{self.name}': {out!r} refused: {reason}")
+        return out
+
+    def _scalar(self, kind, v):
+        if kind == 'bool':
+            if not isinstance(v, bool):
+                raise _Bad()
+            return v
+        if kind == 'string':
+            if not isinstance(v, str):
+                raise _Bad()
+            return v
+        if isinstance(v, bool) or not isinstance(v, (int, float)):
+            raise _Bad()
+        if kind == 'int':
+            if not isinstance(v, int):
+                raise _Bad()
+        else:
+            v = float(v)
+            if not math.isfinite(v):
+                raise _Bad(f'{v!r} (not a finite number)')
+        if not _in_range(v, self.low, self.high):
+            raise _Bad(f'{v!r} (out of range)')
+        return v
+
+
+class _Bad(Exception):
+    def __init__(self, what=''):
+        super().__init__(what)
+        self.what = what
+
+
+_KIND_WORDS = {'bool': ('a boolean (true/false)', 'booleans'),
+               'int': ('an integer', 'integers'),
+               'double': ('a finite double', 'finite doubles'),
+               'string': ('a string', 'strings')}
+
+
+def _kind(default) -> str:
+    if isinstance(default, bool):
+        return 'bool'
+    if isinstance(default, int):
+        return 'int'
+    if isinstance(default, float):
+        return 'double'
+    if isinstance(default, str):
+        return 'string'
+    if isinstance(default, (list, tuple)) and default:
+        elem = _kind(default[0])
+        if not elem.endswith('[]'):
+            if elem == 'int' and any(isinstance(x, float) for x in default):
+                elem = 'double'
+            return elem + '[]'
+    raise ValueError(f'cannot tell the parameter type of the default {default!r}: use a bool, '
+                     'int, float, str or a non-empty list of one of those')
+
+
+def _type_word(value) -> str:
+    if value is None:
+        return 'no value'
+    if isinstance(value, bool):
+        return 'boolean'
+    if isinstance(value, int):
+        return 'integer'
+    if isinstance(value, float):
+        return 'double'
+    if isinstance(value, str):
+        return 'string'
+    if isinstance(value, (list, tuple)) or hasattr(value, '__iter__'):
+        return 'array of ' + (_type_word(value[0]) + 's' if len(value) else 'nothing')
+    return type(value).__name__
+
+
+def _in_range(v, low, high) -> bool:
+    if low is not None and v < low and not math.isclose(v, low, rel_tol=EDGE_REL_TOL):
+        return False
+    if high is not None and v > high and not math.isclose(v, high, rel_tol=EDGE_REL_TOL):
+        return False
+    return True
+
+
+def check_values(table, values: dict, unknown: bool = True) -> dict:
+    """``{name: message}`` of every problem of ``values`` against ``table`` (no rclpy).
+
+    With ``unknown`` names that are not in the table are problems too. Used where parameters are
+    checked without a node (experiment files, the offline closed loop).
+    """
+    by_name = {p.name: p for p in table}
+    problems = {}
+    for name, value in values.items():
+        p = by_name.get(name)
+        if p is None:
+            if unknown:
+                problems[name] = f"'{name}' is not a parameter" + _did_you_mean(name, by_name)
+            continue
+        try:
+            p.coerce(value)
+        except ValueError as exc:
+            problems[name] = str(exc)
+    return problems
+
+
+def _did_you_mean(name, names) -> str:
+    close = difflib.get_close_matches(name, list(names), n=2, cutoff=0.6)
+    return f" (did you mean {' or '.join(close)}?)" if close else ''
+
+
+# ---------------------------------------------------------------------------------- rclpy side
+_DOUBLE_TYPES = {ParameterType.PARAMETER_DOUBLE: ParameterType.PARAMETER_INTEGER,
+                 ParameterType.PARAMETER_DOUBLE_ARRAY: ParameterType.PARAMETER_INTEGER_ARRAY}
+_ARRAY_TYPES = (ParameterType.PARAMETER_BYTE_ARRAY, ParameterType.PARAMETER_BOOL_ARRAY,
+                ParameterType.PARAMETER_INTEGER_ARRAY, ParameterType.PARAMETER_DOUBLE_ARRAY,
+                ParameterType.PARAMETER_STRING_ARRAY)
+
+
+class ParameterGuard:
+    """The node's parameter callbacks, one set per node (see :func:`declare_table`).
+
+    rclpy concatenates what several ``pre_set`` callbacks return, so a node must have exactly
+    one that passes every parameter through; this object is it, shared by all of the node's
+    tables. It also holds one ``on_set`` (validation) and one ``post_set`` (apply) callback.
+    """
+
+    ATTRIBUTE = '_irs_parameter_guard'
+
+    def __init__(self, node):
+        self.node = node
+        self.params = {}      # name -> Param (declared through declare_table)
+        self.handlers = {}    # name -> on_change(name, value), writable parameters only
+        self.values = {}      # name -> the dict declare_table returned for it (kept current)
+        node.add_pre_set_parameters_callback(self.pre_set)
+        node.add_on_set_parameters_callback(self.on_set)
+        node.add_post_set_parameters_callback(self.post_set)
+
+    @classmethod
+    def of(cls, node) -> 'ParameterGuard':
+        guard = getattr(node, cls.ATTRIBUTE, None)
+        if guard is None:
+            guard = cls(node)
+            setattr(node, cls.ATTRIBUTE, guard)
+        return guard
+
+    def pre_set(self, parameters):
+        """Integers for double (array) parameters become doubles before rclpy's type check."""
+        out = []
+        for param in parameters:
+            p = self.params.get(param.name)
+            if p is None:
+                pass
+            elif p.kind in ('double', 'double[]') and param.type_.value == _DOUBLE_TYPES[_ptype(p)]:
+                value = float(param.value) if p.kind == 'double' else \
+                    [float(v) for v in param.value]
+                param = type(param)(param.name, value=value)
+            elif p.kind.endswith('[]') and param.type_.value in _ARRAY_TYPES and not len(param.value):
+                # [] has no element type: give it the parameter's, so on_set can say what is wrong
+                param = _parameter(param, p, [])
+            out.append(param)
+        return out
+
+    def on_set(self, parameters) -> SetParametersResult:
+        """Validate changes of our parameters; refuse the whole set with the first reason."""
+        for param in parameters:
+            p = self.params.get(param.name)
+            if p is None:
+                continue      # not ours (use_sim_time, another mechanism's): not our business
+            if p.read_only:
+                return SetParametersResult(successful=False, reason=(
+                    f"parameter '{p.name}' is read-only (set it at start-up)"))
+            try:
+                p.coerce(param.value)
+            except ValueError as exc:
+                return SetParametersResult(successful=False, reason=str(exc))
+        return SetParametersResult(successful=True)
+
+    def post_set(self, parameters):
+        """Hand every accepted change of a writable parameter to its node's handler."""
+        for param in parameters:
+            handler = self.handlers.get(param.name)
+            if handler is None:
+                continue
+            value = self.params[param.name].coerce(param.value)
+            self.values[param.name][param.name] = value
+            try:
+                handler(param.name, value)
+            except Exception as exc:
+                self.node.get_logger().error(
+                    f"parameter '{param.name}' = {value!r} accepted but its handler failed: {exc}")
+                raise
+
+
+def _ptype(p: Param) -> int:
+    return {'double': ParameterType.PARAMETER_DOUBLE,
+            'double[]': ParameterType.PARAMETER_DOUBLE_ARRAY}[p.kind]
+
+
+def declare_table(node, table, on_change=None, *, strict: bool = False,
+                  check_unknown: bool = True) -> dict:
+    """Declare every parameter of ``table`` on ``node``; return ``{name: value}``.
+
+    ``on_change(name, value)`` is called after a change of a writable parameter was accepted
+    (``value`` converted: a double for a double parameter, a list for arrays); it is required
+    when the table has a writable parameter (``TypeError`` otherwise). Initial values (defaults,
+    params files, ``-p``) are validated like changes; a bad one raises one ``ValueError``.
+    Override names that are no declared parameter are logged as one warning
+    (``strict``: ``ValueError``) unless ``check_unknown`` is false.
+    """
+    writable = [p.name for p in table if p.writable]
+    if writable and on_change is None:
+        raise TypeError(f'writable parameter(s) {writable} of node {node.get_name()!r} need an '
+                        'on_change(name, value) handler: declare_table(node, table, on_change=...)')
+    guard = ParameterGuard.of(node)
+    overrides = getattr(node, '_parameter_overrides', {})
     values = {}
     for p in table:
         if p.default is None:
             raise ValueError(f'parameter {p.name}: a default is required to fix its type')
-        node.declare_parameter(p.name, p.default, p.descriptor())
-        values[p.name] = node.get_parameter(p.name).value
+        try:
+            p.coerce(p.default)
+        except ValueError as exc:
+            raise ValueError(f'default of {exc}') from None
+        override = overrides.get(p.name)
+        if override is not None:
+            try:
+                value = p.coerce(override.value)
+            except ValueError as exc:
+                raise ValueError(f"{exc} (node '{node.get_name()}', set by a params file or -p; "
+                                 'of several params files the last one wins)') from None
+            overrides[p.name] = _parameter(override, p, value)   # e.g. 0 -> 0.0 for a double
+        try:
+            node.declare_parameter(p.name, p.default, p.descriptor())
+        except Exception as exc:
+            if type(exc).__module__ != 'rclpy.exceptions':
+                raise
+            raise ValueError(f"parameter '{p.name}' (node '{node.get_name()}'): {exc}; "
+                             f'expected {p.expected()}') from None
+        value = node.get_parameter(p.name).value
+        values[p.name] = list(value) if isinstance(value, tuple) else value
+    for p in table:
+        guard.params[p.name] = p
+        guard.values[p.name] = values
+        if p.writable:
+            guard.handlers[p.name] = on_change
+    if check_unknown:
+        report_unknown_overrides(node, strict=strict)
     return values
 
 
+def _parameter(override, p: Param, value):
+    """A parameter object of the override's class (rclpy's ``Parameter``) holding ``value``."""
+    cls = type(override)
+    if isinstance(value, list) and not value:    # an empty array: its type cannot be inferred
+        return cls(p.name, cls.Type.from_parameter_value(p.default), [])
+    return cls(p.name, value=value)
+
+
+def unknown_overrides(node) -> list:
+    """Names given to ``node`` (params files, ``-p``) that it has not declared, sorted."""
+    overrides = getattr(node, '_parameter_overrides', {})
+    return sorted(name for name in overrides
+                  if not node.has_parameter(name) and not name.startswith(_NOT_UNKNOWN_PREFIXES))
+
+
+def report_unknown_overrides(node, strict: bool = False) -> list:
+    """Warn about (``strict``: raise ``ValueError`` for) :func:`unknown_overrides`; return them."""
+    unknown = unknown_overrides(node)
+    if unknown:
+        declared = node.list_parameters([], 0).names
+        listed = ', '.join(name + _did_you_mean(name, declared) for name in unknown)
+        msg = f"unknown parameter(s) given to node '{node.get_name()}' (misspelt?): {listed}"
+        if strict:
+            raise ValueError(msg)
+        node.get_logger().warning(msg + '; ignored')
+    return unknown
+
+
 def markdown_table(table) -> str:
-    """The parameter table as Markdown (name, default, unit, range, description)."""
-    rows = ['| name | default | unit | range | description |', '|---|---|---|---|---|']
+    """The parameter table as Markdown (name, default, unit, range, writable, description)."""
+    rows = ['| name | default | unit | range | writable | description |',
+            '|---|---|---|---|---|---|']
     for p in table:
         rng = '' if p.low is None and p.high is None else f'[{p.low}, {p.high}]'
-        ro = ' (read-only)' if p.read_only else ''
-        rows.append(f'| `{p.name}` | `{p.default!r}` | {p.unit} | {rng} | {p.description}{ro} |')
+        rw = 'yes' if p.writable else ''
+        rows.append(f'| `{p.name}` | `{p.default!r}` | {p.unit} | {rng} | {rw} | {p.description} |')
     return '\n'.join(rows)
 
 
-def table_from_defaults(defaults: dict, meta: dict, read_only=()) -> list:
+def table_from_defaults(defaults: dict, meta: dict, read_only=(), writable=(),
+                        validators=None) -> list:
     """A parameter table from ``{name: default}`` and ``{name: (unit, low, high, description)}``.
 
     Defaults come from the ROS-free core (its dataclasses), units and descriptions from ``meta``;
-    a name missing from ``meta`` is an error, so no parameter goes undocumented.
+    a name missing from ``meta`` is an error, so no parameter goes undocumented. Parameters are
+    read-only unless named in ``writable`` (``read_only`` is accepted for compatibility: those
+    are read-only anyway); ``validators`` maps names to ``Param.validator`` functions.
     """
     missing = sorted(set(defaults) - set(meta))
     if missing:
         raise ValueError(f'no unit/description for parameter(s) {missing}')
+    both = sorted(set(read_only) & set(writable))
+    if both:
+        raise ValueError(f'parameter(s) {both} both read-only and writable')
+    validators = validators or {}
     table = []
     for name, default in defaults.items():
         unit, low, high, desc = meta[name]
@@ -82,7 +462,8 @@ def table_from_defaults(defaults: dict, meta: dict, read_only=()) -> list:
         if isinstance(default, float):
             low = None if low is None else float(low)
             high = None if high is None else float(high)
-        table.append(Param(name, default, desc, unit, low, high, name in read_only))
+        table.append(Param(name, default, desc, unit, low, high, writable=name in writable,
+                           validator=validators.get(name)))
     return table
 
 
