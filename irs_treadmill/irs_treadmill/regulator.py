@@ -46,6 +46,20 @@ Default tuning: ``k_x = 2.0 1/s``, ``k_v = 1.0`` -> characteristic ``s^2 + 9 s +
 belt centre because the car can only be pushed *back* quickly (the belt can accelerate at
 > 10 m/s^2 but decelerate only at the friction rate), so deceleration transients are much
 larger than acceleration ones; see ``docs/treadmill.md`` for the closed-loop results.
+
+Bad inputs (rule of :meth:`BeltSpeedRegulator.update`; the voltage is always finite and within
+``[0, u_max]``, and :attr:`RegulatorOutput.reason` says what was wrong)
+-------------------------------------------------------------------------------------------
+* ``x`` not a finite number or ``|x| > position_limit`` (default 5 m; the belt is 2.44 m long),
+  or ``belt_speed`` not finite or ``|belt_speed| > speed_limit`` (default 20 m/s; top speed
+  6.7 m/s): no usable feedback -> 0 V and :meth:`~BeltSpeedRegulator.reset` (integral, slew
+  memory, velocity filter), exactly as for ``enabled = False``. From the next valid sample on
+  the regulator is a fresh one: its outputs equal a new regulator's fed the same inputs.
+* ``xdot`` None, not finite or ``|xdot| > speed_limit``: the internal estimate (filtered
+  difference of ``x``) is used instead (reported unless ``xdot`` is None).
+* Should the internal velocity filter or the voltage ever come out non-finite (e.g. a
+  subnormal ``dt``), the regulator resets and answers 0 V; nothing non-finite is stored.
+* ``dt`` not a finite positive period is a programming error: ``ValueError``.
 """
 from __future__ import annotations
 
@@ -53,7 +67,10 @@ import math
 from dataclasses import dataclass
 from typing import Optional
 
-__all__ = ["RegulatorParams", "RegulatorOutput", "BeltSpeedRegulator"]
+from irs_common.input_checks import abs_limit_problem
+
+__all__ = ["RegulatorParams", "RegulatorOutput", "BeltSpeedRegulator", "DEFAULT_POSITION_LIMIT",
+           "DEFAULT_SPEED_LIMIT"]
 
 
 def dataclass_from_mapping(cls, d):
@@ -119,13 +136,31 @@ class RegulatorOutput:
     car_speed_estimate: float
     saturated: bool
     integrating: bool
+    reason: str = ""     # empty, or what was wrong with the inputs (module docstring rule)
+
+
+#: Default bound on |x| [m] beyond which a position is not a measurement of the car.
+DEFAULT_POSITION_LIMIT = 5.0
+#: Default bound on |belt_speed| and |xdot| [m/s] beyond which a speed is not a measurement.
+DEFAULT_SPEED_LIMIT = 20.0
 
 
 class BeltSpeedRegulator:
-    """Cascade belt-speed regulator (see module docstring)."""
+    """Cascade belt-speed regulator (see module docstring).
 
-    def __init__(self, params: Optional[RegulatorParams] = None) -> None:
+    ``position_limit`` [m] and ``speed_limit`` [m/s] bound the inputs it accepts (bad-input rule
+    in the module docstring).
+    """
+
+    def __init__(self, params: Optional[RegulatorParams] = None,
+                 position_limit: float = DEFAULT_POSITION_LIMIT,
+                 speed_limit: float = DEFAULT_SPEED_LIMIT) -> None:
         self.params = params if params is not None else RegulatorParams()
+        for name, v in (("position_limit", position_limit), ("speed_limit", speed_limit)):
+            if isinstance(v, bool) or not isinstance(v, (int, float)) or not v > 0:
+                raise ValueError(f"{name} must be a positive bound (inf allowed), got {v!r}.")
+        self.position_limit = float(position_limit)
+        self.speed_limit = float(speed_limit)
         self.reset()
 
     def reset(self) -> None:
@@ -158,18 +193,34 @@ class BeltSpeedRegulator:
         dt : float
             Sample period [s].
         xdot : float, optional
-            Car velocity in the treadmill frame [m/s]; internal filter used if None/NaN.
+            Car velocity in the treadmill frame [m/s]; internal filter used if None, non-finite
+            or beyond ``speed_limit``.
         enabled : bool
             False (e.g. safety fault) -> output 0 V and reset the controller state.
+
+        Never raises for bad ``x``, ``belt_speed``, ``xdot`` (module docstring rule); the
+        voltage is always finite and within ``[0, u_max]``.
         """
         p = self.params
         if not math.isfinite(dt) or dt <= 0:
             raise ValueError(f"dt must be a finite sample period > 0 s, got {dt!r}.")
-        if not enabled or not math.isfinite(x) or not math.isfinite(belt_speed):
+        problem = (abs_limit_problem("x", x, self.position_limit, "m")
+                   or abs_limit_problem("belt_speed", belt_speed, self.speed_limit, "m/s"))
+        if not enabled or problem is not None:
             self.reset()
-            return RegulatorOutput(0.0, 0.0, math.nan, math.nan, False, False)
+            reason = "" if problem is None else f"{problem}: drive 0 V, regulator reset"
+            return RegulatorOutput(0.0, 0.0, math.nan, math.nan, False, False, reason)
+        reason = ""
         xd_int = self._xdot_internal(x, dt)
-        xd = xdot if (xdot is not None and math.isfinite(xdot)) else xd_int
+        if not math.isfinite(xd_int):
+            return self._fail(f"internal velocity estimate became non-finite ({xd_int!r})")
+        xd = xd_int
+        if xdot is not None:
+            xdot_problem = abs_limit_problem("xdot", xdot, self.speed_limit, "m/s")
+            if xdot_problem is None:
+                xd = xdot
+            else:
+                reason = f"{xdot_problem}: internal velocity estimate used"
         e = x - p.x_ref
         u_car = belt_speed + xd
         v_star_raw = u_car + p.k_x * e + p.k_i * self.integral
@@ -179,6 +230,8 @@ class BeltSpeedRegulator:
         u_clip = min(p.u_max, max(0.0, u_raw))
         du_max = p.slew_rate * dt
         u = min(self.voltage + du_max, max(self.voltage - du_max, u_clip))
+        if not (math.isfinite(u) and math.isfinite(v_star)):
+            return self._fail(f"voltage became non-finite (u = {u!r}, V* = {v_star!r})")
         sat_low = u_raw <= 0.0 or v_star_raw <= 0.0
         sat_high = u_raw >= p.u_max or v_star_raw >= p.v_top
         slew_up = u < u_clip - 1e-12
@@ -196,4 +249,9 @@ class BeltSpeedRegulator:
         return RegulatorOutput(voltage=u, speed_setpoint=v_star, error=e,
                                car_speed_estimate=u_car,
                                saturated=bool(sat_low or sat_high or slew_up or slew_down),
-                               integrating=integrating)
+                               integrating=integrating, reason=reason)
+
+    def _fail(self, what: str) -> RegulatorOutput:
+        self.reset()
+        return RegulatorOutput(0.0, 0.0, math.nan, math.nan, False, False,
+                               f"{what}: drive 0 V, regulator reset")

@@ -8,6 +8,15 @@ latched until :meth:`SafetyMonitor.reset` is called.  Faults:
 * no valid position for longer than ``stale_timeout`` [s] (checked in :meth:`check`), or a
   non-finite position / time stamp.
 
+Stamps (:meth:`SafetyMonitor.update_position` with the node's clock ``now``): a position whose
+stamp is more than ``future_tolerance`` [s] ahead of ``now`` (``FUTURE``), or older than the last
+stored one (``OLD``), or equal to it (``REPEAT``) is *rejected for timing*: its stamp is never
+stored as the last position time and it does not refresh the stale timer (so a reading stamped a
+day ahead, or at the largest time, can neither make later readings look old nor hide a stale
+input); the rejection is counted in ``rejected_stamps`` and described in ``last_rejection``. Its
+x, y are still checked against the belt ends and edges (a car near an edge is a fault whatever
+its stamp). Without ``now`` (offline use) only OLD/REPEAT are rejected.
+
 Before the first valid position the drive is inhibited (``drive_permitted`` False) without a
 latched fault.  After ``reset()`` the conditions are re-evaluated on the next call, so a
 persisting condition re-latches immediately.  Belt geometry: ``docs/conventions.md``.
@@ -18,9 +27,16 @@ import enum
 import math
 from dataclasses import dataclass
 from typing import Optional
+
+from irs_common.input_checks import StampVerdict
+
 from .regulator import dataclass_from_mapping
 
-__all__ = ["FaultCode", "SafetyParams", "SafetyMonitor"]
+__all__ = ["FaultCode", "SafetyParams", "SafetyMonitor", "DEFAULT_FUTURE_TOLERANCE"]
+
+
+def _finite(v) -> bool:
+    return isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(v)
 
 
 class FaultCode(enum.IntEnum):
@@ -79,14 +95,29 @@ class SafetyParams:
         return dataclass_from_mapping(cls, d)
 
 
-class SafetyMonitor:
-    """Latched drive-cut logic (see module docstring)."""
+#: Default ``future_tolerance`` [s]: how far ahead of the node's clock a stamp may be.
+DEFAULT_FUTURE_TOLERANCE = 0.5
 
-    def __init__(self, params: Optional[SafetyParams] = None) -> None:
+
+class SafetyMonitor:
+    """Latched drive-cut logic (see module docstring).
+
+    ``future_tolerance`` [s] (>= 0): stamps further ahead of the clock are rejected for timing.
+    """
+
+    def __init__(self, params: Optional[SafetyParams] = None,
+                 future_tolerance: float = DEFAULT_FUTURE_TOLERANCE) -> None:
         self.params = params if params is not None else SafetyParams()
+        if isinstance(future_tolerance, bool) or not isinstance(future_tolerance, (int, float)) \
+                or not (math.isfinite(future_tolerance) and future_tolerance >= 0):
+            raise ValueError(f"future_tolerance must be a finite time >= 0 s, got "
+                             f"{future_tolerance!r}.")
+        self.future_tolerance = float(future_tolerance)
         self.fault = FaultCode.NONE
         self.fault_detail = ""
         self._last_stamp: Optional[float] = None
+        self.rejected_stamps = 0
+        self.last_rejection = ""
 
     # ------------------------------------------------------------------ inputs
     def _latch(self, code: FaultCode, detail: str) -> None:
@@ -94,14 +125,26 @@ class SafetyMonitor:
             self.fault = code
             self.fault_detail = detail
 
-    def update_position(self, x: float, y: float, stamp: float) -> FaultCode:
-        """Register a car c.g. position [m] measured at ``stamp`` [s]; return the fault state."""
+    def update_position(self, x: float, y: float, stamp: float,
+                        now: Optional[float] = None) -> FaultCode:
+        """Register a car c.g. position [m] measured at ``stamp`` [s]; return the fault state.
+
+        ``now`` [s] is the node's clock (sim time in lock-step): a stamp more than
+        ``future_tolerance`` ahead of it, or not newer than the last stored stamp, is rejected
+        for timing (module docstring); the belt limits are checked either way. Non-finite x, y
+        or stamp latch ``INVALID_INPUT``.
+        """
         p = self.params
-        if not (math.isfinite(x) and math.isfinite(y) and math.isfinite(stamp)):
+        if not (_finite(x) and _finite(y) and _finite(stamp)):
             self._latch(FaultCode.INVALID_INPUT, f"x={x!r}, y={y!r}, stamp={stamp!r}")
             return self.fault
-        self.check(stamp)
-        self._last_stamp = float(stamp)
+        verdict, why = self.stamp_verdict(stamp, now)
+        if verdict is StampVerdict.OK:
+            self.check(stamp)
+            self._last_stamp = float(stamp)
+        else:
+            self.rejected_stamps += 1
+            self.last_rejection = f"position {verdict.value}: {why}"
         if x > p.belt_half_length - p.end_margin:
             self._latch(FaultCode.NEAR_FRONT_END, f"x = {x:.3f} m")
         elif x < -p.belt_half_length + p.end_margin:
@@ -111,6 +154,22 @@ class SafetyMonitor:
         elif y < -p.belt_half_width + p.edge_margin:
             self._latch(FaultCode.NEAR_RIGHT_EDGE, f"y = {y:.3f} m")
         return self.fault
+
+    def stamp_verdict(self, stamp: float, now: Optional[float] = None):
+        """``(StampVerdict, reason or None)`` of a finite position stamp [s] against ``now`` [s]
+        and the last stored stamp: the rule of :func:`irs_common.input_checks.stamp_problem`,
+        evaluated in float seconds (a stamp of 1e308 s has no integer nanoseconds)."""
+        if now is not None and _finite(now) and stamp - now > self.future_tolerance:
+            return StampVerdict.FUTURE, (
+                f"stamp {stamp:.9g} s is {stamp - now:.3g} s ahead of the clock ({now:.9g} s; "
+                f"tolerance {self.future_tolerance:.3g} s)")
+        last = self._last_stamp
+        if last is not None and stamp == last:
+            return StampVerdict.REPEAT, f"stamp {stamp:.9g} s repeats the last one"
+        if last is not None and stamp < last:
+            return StampVerdict.OLD, (f"stamp {stamp:.9g} s is older than the last accepted one "
+                                      f"({last:.9g} s)")
+        return StampVerdict.OK, None
 
     def check(self, now: float) -> FaultCode:
         """Check the position age at time ``now`` [s]; call every control period."""
@@ -150,3 +209,4 @@ class SafetyMonitor:
         self.fault = FaultCode.NONE
         self.fault_detail = ""
         self._last_stamp = None
+        self.last_rejection = ""
