@@ -1,8 +1,16 @@
 """Arm pose estimator core: joint angles -> validated pose and velocities (paper Sec. 3.2).
 
-Pipeline per sample ``update(theta1, theta2, theta3, stamp, belt_speed)``:
+Pipeline per sample ``update(theta1, theta2, theta3, stamp, belt_speed, now)``:
 
-1. Reject non-finite angles / stamp, non-increasing stamps.
+1. Reject bad values first (:func:`reading_problem`): an angle that is not a finite number or
+   beyond ``+-ANGLE_LIMIT`` (100 rad, 16 turns: no potentiometer reads that), a stamp that is not
+   a finite number, a belt speed that is not finite or beyond ``+-BELT_SPEED_LIMIT`` (20 m/s).
+   Values come before stamps, so a NaN reading is always rejected *as a NaN reading* with its
+   reason, whatever its stamp (also a zero stamp, or one that repeats the last).
+   Then stamps: with the node's clock ``now`` [s] given, a stamp more than
+   ``future_tolerance`` [s] ahead of it is rejected and **never stored** (otherwise one reading
+   stamped a day ahead, or at the largest time, makes every later reading "not increasing" and
+   hides staleness); then a stamp not later than the last accepted one is rejected.
 2. Reject joint angles outside the configured mechanical ranges ``[joint_min, joint_max]``,
    compared modulo 2 pi (a reading ``a`` is accepted if some ``a + 2 pi k`` lies in the range),
    so wrapped (-pi, pi] angles and unwrapped potentiometer angles are treated alike.
@@ -33,6 +41,7 @@ A rejected sample returns ``(None, reason)``; nothing computed from it is kept (
 from __future__ import annotations
 
 import math
+import numbers
 from dataclasses import dataclass, field
 from typing import Optional, Tuple
 
@@ -40,10 +49,41 @@ from .arm_kinematics import (ArmGeometry, forward_kinematics, sensor_point, sing
                              wrap_angle)
 from .differentiator import make_differentiator
 
-__all__ = ["PoseEstimatorParams", "PoseEstimate", "PoseEstimator"]
+__all__ = ["PoseEstimatorParams", "PoseEstimate", "PoseEstimator", "reading_problem",
+           "ANGLE_LIMIT", "BELT_SPEED_LIMIT", "DEFAULT_FUTURE_TOLERANCE"]
 
 _BELT_HALF_LENGTH = 1.2192  # [m]
 _BELT_HALF_WIDTH = 0.6096   # [m]
+#: Largest |joint angle| [rad] that is a reading at all (16 turns; wrapped or unwrapped pots).
+ANGLE_LIMIT = 100.0
+#: Largest |belt speed| [m/s] that is a reading at all (top speed 6.7 m/s).
+BELT_SPEED_LIMIT = 20.0
+#: Default ``future_tolerance`` [s] of :class:`PoseEstimator`.
+DEFAULT_FUTURE_TOLERANCE = 0.5
+
+
+def _real(v) -> bool:
+    return isinstance(v, numbers.Real) and not isinstance(v, bool)
+
+
+def reading_problem(theta1, theta2, theta3, stamp, belt_speed=0.0) -> Optional[str]:
+    """The value checks of step 1 (module docstring): ``None`` or the reason a reading is bad.
+
+    Pure function, no state: a node may call it before its own stamp bookkeeping so that a NaN
+    reading is reported as such whatever its stamp.
+    """
+    for i, a in enumerate((theta1, theta2, theta3)):
+        if a is None or not _real(a) or not math.isfinite(a):
+            return f"joint {i + 1} angle is not a finite number ({a!r})"
+        if abs(a) > ANGLE_LIMIT:
+            return f"joint {i + 1} angle {a:.6g} rad is beyond +-{ANGLE_LIMIT:g} rad"
+    if stamp is None or not _real(stamp) or not math.isfinite(stamp):
+        return f"time stamp is not a finite number ({stamp!r})"
+    if belt_speed is None or not _real(belt_speed) or not math.isfinite(belt_speed):
+        return f"belt speed is not a finite number ({belt_speed!r})"
+    if abs(belt_speed) > BELT_SPEED_LIMIT:
+        return f"belt speed {belt_speed:.6g} m/s is beyond +-{BELT_SPEED_LIMIT:g} m/s"
+    return None
 
 
 @dataclass(frozen=True)
@@ -153,9 +193,19 @@ class PoseEstimate:
 
 
 class PoseEstimator:
-    """Stateful pose estimator (see module docstring)."""
+    """Stateful pose estimator (see module docstring).
 
-    def __init__(self, params: Optional[PoseEstimatorParams] = None) -> None:
+    ``future_tolerance`` [s] (>= 0): how far ahead of the clock passed as ``now`` to
+    :meth:`update` a stamp may be.
+    """
+
+    def __init__(self, params: Optional[PoseEstimatorParams] = None,
+                 future_tolerance: float = DEFAULT_FUTURE_TOLERANCE) -> None:
+        if not _real(future_tolerance) or not (math.isfinite(future_tolerance)
+                                                and future_tolerance >= 0):
+            raise ValueError(f"future_tolerance must be a finite time >= 0 s, got "
+                             f"{future_tolerance!r}.")
+        self.future_tolerance = float(future_tolerance)
         self.params = params if params is not None else PoseEstimatorParams()
         p = self.params
         self._diff = [make_differentiator(p.differentiator, p.dt, p.cutoff_hz, p.window, p.order)
@@ -194,20 +244,24 @@ class PoseEstimator:
         return None, reason
 
     def update(self, theta1: float, theta2: float, theta3: float, stamp: float,
-               belt_speed: float = 0.0) -> Tuple[Optional[PoseEstimate], str]:
+               belt_speed: float = 0.0,
+               now: Optional[float] = None) -> Tuple[Optional[PoseEstimate], str]:
         """Process one reading of the joint angles [rad] taken at ``stamp`` [s].
+
+        ``now`` [s] is the node's clock (sim time in lock-step); None skips the future-stamp
+        check (offline use). Never raises for bad data.
 
         Returns ``(PoseEstimate, "")`` or ``(None, reason)``.
         """
         p = self.params
         angles = (theta1, theta2, theta3)
-        for i, a in enumerate(angles):
-            if a is None or not isinstance(a, (int, float)) or not math.isfinite(a):
-                return self._reject(f"joint {i + 1} angle is not a finite number ({a!r})")
-        if stamp is None or not math.isfinite(stamp):
-            return self._reject(f"time stamp is not a finite number ({stamp!r})")
-        if not math.isfinite(belt_speed):
-            return self._reject(f"belt speed is not a finite number ({belt_speed!r})")
+        problem = reading_problem(theta1, theta2, theta3, stamp, belt_speed)
+        if problem is not None:
+            return self._reject(problem)
+        if now is not None and _real(now) and math.isfinite(now) and \
+                stamp - now > self.future_tolerance:
+            return self._reject(f"time stamp {stamp:.9g} s is {stamp - now:.3g} s ahead of the "
+                                f"clock ({now:.9g} s; tolerance {self.future_tolerance:.3g} s)")
         if self._last is not None and stamp <= self._last[0]:
             return self._reject(f"time stamp {stamp:.6f} s does not increase "
                                 f"(last {self._last[0]:.6f} s)")
