@@ -341,6 +341,41 @@ class RigSimulation:
         self._outputs = self._make_outputs((), None)
         return self._outputs
 
+    def reset_to_start(self, belt_speed: float | None = None) -> RigOutputs:
+        """Put the car back at its start pose and clear the latched fault; time runs on.
+
+        For a ``rig/reset`` service in the middle of a run (``reset()`` would restart the clock
+        at t = 0, which a running graph cannot follow). Afterwards:
+
+        * the car is at its configured start (``x0``, ``y0``, heading 0, zero lateral and yaw
+          velocities, forward speed ``u0``; the remembered speed command is ``u0``);
+        * both steering actuators are at 0 rad with empty delay lines;
+        * the latched fault (off-belt edge or arm reach) is cleared; it re-latches on the
+          outputs formed here if the start pose itself is off the belt;
+        * the time ``t_k`` and step counter are unchanged, the arm-noise stream continues (not
+          re-seeded: a deterministic run stays deterministic);
+        * the belt keeps its speed and delay line (it is not teleported) unless ``belt_speed``
+          [m/s] is given: then it is reset to that speed in equilibrium, its encoder too.
+
+        Returns the outputs at the current time (``outputs`` afterwards), with the reset pose.
+
+        Raises
+        ------
+        ValueError
+            ``belt_speed`` outside ``[0, belt.v_top]`` or not finite.
+        """
+        c = self.config
+        if belt_speed is not None:
+            self.belt.reset(float(belt_speed))   # validates the speed before anything changes
+        self.act_front.reset(0.0)
+        self.act_rear.reset(0.0)
+        self.plant.reset(c.y0)
+        self.car.reset(c.x0, c.u0)
+        self._speed_cmd = c.u0
+        self._fault_reason = ""
+        self._outputs = self._make_outputs((), None)
+        return self._outputs
+
     @property
     def time(self) -> float:
         """t_k = k dt [s]."""
