@@ -6,10 +6,12 @@ import threading
 
 import numpy as np
 import pytest
+import yaml
 
 from irs_bringup.bag_reader import BagReader, validate
-from irs_bringup.experiment import load_experiment
-from irs_bringup.experiment_cli import offline_run
+from irs_bringup.experiment import ExperimentError, NodeEntry, load_experiment
+from irs_bringup.experiment_cli import main as experiment_main, offline_run
+from irs_bringup.experiment_schema import ExperimentModel, NodeModel
 from irs_bringup.executables import resolve_executable
 from irs_bringup.experiment_runner import ExperimentRunner
 from irs_bringup.processes import wait_until
@@ -129,3 +131,238 @@ def test_stopping_the_runner_leaves_no_process_behind(tmp_path, sig):
             os.kill(pid, signal.SIGKILL)
         if runner.poll() is None:
             runner.kill()
+
+
+# ---------------------------------------------------------------- experiment files: the schema
+# Fast tests (no graph): every malformed file gives one ExperimentError line
+# '<file>: <key>: <what is wrong>', and the CLI prints it as 'experiment: ...' with exit code 2.
+
+VALID = {
+    'name': 'schema_test', 'description': 'minimal', 'clock': 'lockstep', 'duration': 0.5,
+    'nodes': {
+        'vehicle_sim': {'package': 'irs_vehicle_sim', 'executable': 'vehicle_sim',
+                        'params_files': ['pkg://irs_vehicle_sim/config/rig.yaml'],
+                        'params': {'x0': 0.3}},
+        'treadmill_regulator': {'package': 'irs_treadmill', 'executable': 'treadmill_regulator',
+                                'params_files': ['pkg://irs_treadmill/config/treadmill.yaml']}},
+    'record': {'topics': ['/pose']}}
+
+
+def _doc(**changes):
+    """VALID with changes; keys are dotted paths, value DELETE removes the key."""
+    import copy
+    doc = copy.deepcopy(VALID)
+    for dotted, value in changes.items():
+        *parents, leaf = dotted.split('__')
+        target = doc
+        for part in parents:
+            target = target[part]
+        if value is DELETE:
+            del target[leaf]
+        else:
+            target[leaf] = value
+    return doc
+
+
+DELETE = object()
+VS = 'nodes__vehicle_sim__'
+
+BAD_FILES = {
+    'unknown executable': (_doc(**{VS + 'executable': 'vehicle_simm'}), 'nodes.vehicle_sim.executable',
+                           "no executable 'vehicle_simm' in package 'irs_vehicle_sim' (it has: "),
+    'unknown package': (_doc(**{VS + 'package': 'irs_nothing'}), 'nodes.vehicle_sim.package',
+                        "package 'irs_nothing' is not in the ament index"),
+    'nodes a list': (_doc(nodes=['vehicle_sim']), 'nodes',
+                     "expected a valid dictionary, got ['vehicle_sim']"),
+    'node entry not a mapping': (_doc(nodes={'vehicle_sim': 'irs_vehicle_sim'}),
+                                 'nodes.vehicle_sim', "expected a valid dictionary, got 'irs_vehicle_sim'"),
+    'node without executable': (_doc(**{VS + 'executable': DELETE}), 'nodes.vehicle_sim.executable',
+                                'required but missing'),
+    'unknown node key': (_doc(**{VS + 'param': {}}), 'nodes.vehicle_sim.param',
+                         'unknown key (expected one of: package, executable, params_files, params, '
+                         'remaps, process)'),
+    'params a list': (_doc(**{VS + 'params': ['x0', 0.3]}), 'nodes.vehicle_sim.params',
+                      "expected a valid dictionary, got ['x0', 0.3]"),
+    'params nested': (_doc(**{VS + 'params': {'actuator_front': {'lag_hz': 4.0}}}),
+                      'nodes.vehicle_sim.params.actuator_front',
+                      'a nested mapping: give flat names (<name>.<key>: value)'),
+    'param without value': (_doc(**{VS + 'params': {'x0': None}}), 'nodes.vehicle_sim.params.x0',
+                            'a boolean, number, string or list of one of those expected, got None'),
+    'param empty list': (_doc(**{VS + 'params': {'lockstep_inputs': []}}), 'nodes.vehicle_sim.params.lockstep_inputs',
+                         'an empty list cannot be passed'),
+    'param mixed list': (_doc(**{VS + 'params': {'lockstep_inputs': ['drive', 1]}}),
+                         'nodes.vehicle_sim.params.lockstep_inputs',
+                         "all elements of a list must have one type, got ['drive', 1]"),
+    'remaps a list': (_doc(**{VS + 'remaps': ['a:=b']}), 'nodes.vehicle_sim.remaps',
+                      'expected a valid dictionary'),
+    'remap to a number': (_doc(**{VS + 'remaps': {'pose': 3}}), 'nodes.vehicle_sim.remaps.pose',
+                          'expected a valid string, got 3'),
+    'params_files a string': (_doc(**{VS + 'params_files': 'pkg://irs_vehicle_sim/config/rig.yaml'}),
+                              'nodes.vehicle_sim.params_files', 'expected a valid list'),
+    'record a list': (_doc(record=['/pose']), 'record', "expected a valid dictionary, got ['/pose']"),
+    'record topics a string': (_doc(record={'topics': '/pose'}), 'record.topics',
+                               "expected a valid list, got '/pose'"),
+    'record unknown key': (_doc(record={'topic': ['/pose']}), 'record.topic',
+                           'unknown key (expected one of: topics)'),
+    'params file of an unknown package': (
+        _doc(**{VS + 'params_files': ['pkg://irs_nothing/config/rig.yaml']}),
+        'nodes.vehicle_sim.params_files[0]',
+        "'pkg://irs_nothing/config/rig.yaml': package 'irs_nothing' is not in the ament index"),
+    'missing params file': (_doc(**{VS + 'params_files': ['/nonexistent/rig.yaml']}),
+                            'nodes.vehicle_sim.params_files[0]',
+                            "parameter file '/nonexistent/rig.yaml' not found"),
+    'missing file in a package': (_doc(**{VS + 'params_files': ['pkg://irs_vehicle_sim/config/no.yaml']}),
+                                  'nodes.vehicle_sim.params_files[0]', 'not found'),
+    'duration below one step': (_doc(duration=0.0001), 'duration',
+                                '0.0001 s is shorter than one rig step (dt = 0.001 s)'),
+    'duration below one step of the rig dt': (_doc(duration=0.003, **{VS + 'params': {'dt': 0.004}}),
+                                              'duration', 'shorter than one rig step (dt = 0.004 s)'),
+    'duration true': (_doc(duration=True), 'duration', 'expected a number of seconds, got True'),
+    'duration a string': (_doc(duration='8 s'), 'duration', "expected a number of seconds, got '8 s'"),
+    'duration zero': (_doc(duration=0), 'duration', 'expected a number of seconds greater than 0, got 0'),
+    'duration infinite': (_doc(duration=float('inf')), 'duration',
+                          'expected a finite number of seconds, got inf'),
+    'duration missing': (_doc(duration=DELETE), 'duration', 'required but missing'),
+    'name with ../': (_doc(name='../escape'), 'name', "'../escape' is not a plain name"),
+    'name with /': (_doc(name='a/b'), 'name', "'a/b' is not a plain name"),
+    'name with a space': (_doc(name='a b'), 'name', 'is not a plain name'),
+    'name a number': (_doc(name=10), 'name', 'expected a valid string, got 10'),
+    'clock unknown': (_doc(clock='fast'), 'clock', "expected 'lockstep' or 'realtime', got 'fast'"),
+    'unknown top-level key': (_doc(durration=1.0), 'durration',
+                              'unknown key (expected one of: name, description, clock, duration'),
+    'no nodes': (_doc(nodes={}), 'nodes', 'at least one entry expected, got {}'),
+    'two rigs': (_doc(nodes__rig2=dict(VALID['nodes']['vehicle_sim'])), 'nodes',
+                 "more than one vehicle_sim: ['vehicle_sim', 'rig2']"),
+    'bad node name': (_doc(nodes={'my-node': VALID['nodes']['vehicle_sim']}), 'nodes',
+                      "node names must be ROS names"),
+    'process not a plain name': (_doc(**{VS + 'process': '../p'}), 'nodes.vehicle_sim.process',
+                                 "'../p' is not a plain name for a process group"),
+    'process a list': (_doc(**{VS + 'process': ['a']}), 'nodes.vehicle_sim.process',
+                       'expected a valid string'),
+    'parameter of the wrong type': (_doc(**{VS + 'params': {'x0': 'abc'}}), 'nodes.vehicle_sim.params.x0',
+                                    "parameter 'x0': got 'abc' (string), expected a finite double in "
+                                    '[-1.2192, 1.2192]'),
+    'parameter out of range': (_doc(**{VS + 'params': {'x0': 5.0}}), 'nodes.vehicle_sim.params.x0',
+                               'got 5.0 (out of range)'),
+    'boolean for a double parameter': (_doc(**{VS + 'params': {'ds': True}}),
+                                       'nodes.vehicle_sim.params.ds', 'got True (boolean)'),
+    'misspelt parameter of a node with a whole table': (
+        _doc(nodes__treadmill_regulator__params={'enabeld': False}),
+        'nodes.treadmill_regulator.params.enabeld', "'enabeld' is not a parameter (did you mean enabled"),
+}
+
+
+def _write(tmp_path, doc, name='exp.yaml'):
+    path = tmp_path / name
+    path.write_text(yaml.safe_dump(doc, sort_keys=False) if not isinstance(doc, str) else doc)
+    return path
+
+
+def test_schema_installed_experiments_load():
+    from irs_bringup.experiment import experiments_dir
+    names = ['figure10_mrc_with_actuator', 'figure10_mrc_without_actuator', 'figure10_pi',
+             'treadmill_regulation']
+    assert set(names) <= {p.stem for p in experiments_dir().glob('*.yaml')}
+    for name in names:
+        exp = load_experiment(name)
+        assert exp.name == name and exp.nodes and all(n.process is None for n in exp.nodes)
+
+
+def test_schema_the_valid_document_loads_with_its_values(tmp_path):
+    exp = load_experiment(str(_write(tmp_path, _doc(**{VS + 'process': 'rig_group',
+                                                       VS + 'params': {'x0': 0, 'lockstep_inputs': ['drive']}}))))
+    rig = exp.node('irs_vehicle_sim', 'vehicle_sim')
+    assert (exp.name, exp.clock, exp.duration, exp.record_topics) == ('schema_test', 'lockstep', 0.5, ['/pose'])
+    assert rig == NodeEntry('vehicle_sim', 'irs_vehicle_sim', 'vehicle_sim',
+                            ['pkg://irs_vehicle_sim/config/rig.yaml'],
+                            {'x0': 0, 'lockstep_inputs': ['drive']}, {}, 'rig_group')
+    assert exp.node('irs_treadmill', 'treadmill_regulator').process is None
+    # one rig step is enough; an integer duration is a number
+    assert load_experiment(str(_write(tmp_path, _doc(duration=0.001)))).duration == 0.001
+    assert load_experiment(str(_write(tmp_path, _doc(duration=2)))).duration == 2.0
+    # empty sections (YAML null) are empty, a number list with ints is doubles
+    doc = _doc(record=None, **{VS + 'remaps': None, VS + 'params': {'x0': 0.3}})
+    assert load_experiment(str(_write(tmp_path, doc))).record_topics == []
+    assert NodeModel(package='p', executable='e', params={'poles': [1, 2.5]}).params == {'poles': [1.0, 2.5]}
+    assert 'process' in ExperimentModel.model_fields['nodes'].annotation.__args__[1].model_fields
+
+
+@pytest.mark.parametrize('case', sorted(BAD_FILES))
+def test_schema_bad_file_is_one_line_naming_file_key_and_problem(tmp_path, case):
+    doc, key, what = BAD_FILES[case]
+    path = _write(tmp_path, doc)
+    with pytest.raises(ExperimentError) as info:
+        load_experiment(str(path))
+    msg = str(info.value)
+    assert msg.startswith(f'{path}: {key}: ') and what in msg, msg
+    assert '\n' not in msg
+
+
+def test_schema_not_yaml_and_not_a_mapping(tmp_path):
+    for text, what in (('name: [unclosed\n', 'not valid YAML'),
+                       ('- a\n- b\n', "(top level): a mapping of keys expected, got ['a', 'b']")):
+        path = _write(tmp_path, text)
+        with pytest.raises(ExperimentError) as info:
+            load_experiment(str(path))
+        assert str(info.value).startswith(f'{path}: ') and what in str(info.value)
+        assert '\n' not in str(info.value)
+
+
+def test_schema_file_name_must_be_a_plain_name_without_name_key(tmp_path):
+    path = _write(tmp_path, _doc(name=DELETE), name='my exp.yaml')
+    with pytest.raises(ExperimentError, match=r"name: the file name 'my exp' is not a plain name"):
+        load_experiment(str(path))
+    assert load_experiment(str(_write(tmp_path, _doc(name=DELETE), name='plain-1.yaml'))).name == 'plain-1'
+
+
+def test_schema_bad_parameter_in_a_params_file_names_that_file(tmp_path):
+    params = tmp_path / 'reg.yaml'
+    params.write_text('treadmill_regulator:\n  ros__parameters:\n    rate_hz: fast\n')
+    doc = _doc(nodes__treadmill_regulator__params_files=['pkg://irs_treadmill/config/treadmill.yaml',
+                                                         str(params)])
+    with pytest.raises(ExperimentError, match=r"nodes\.treadmill_regulator\.params_files\[1\]: "
+                                              r"parameter 'rate_hz': got 'fast' \(string\)"):
+        load_experiment(str(_write(tmp_path, doc)))
+    params.write_text('- not a parameter file\n')
+    with pytest.raises(ExperimentError, match=r"params_files\[1\]: .*reg.yaml: expected <node name>"):
+        load_experiment(str(_write(tmp_path, doc)))
+
+
+@pytest.mark.parametrize('case', ['unknown executable', 'nodes a list', 'missing params file',
+                                  'params file of an unknown package', 'duration below one step',
+                                  'duration true', 'name with ../', 'parameter of the wrong type',
+                                  'record topics a string'])
+def test_schema_cli_prints_one_line_and_exits_2(tmp_path, capsys, case):
+    doc, key, what = BAD_FILES[case]
+    path = _write(tmp_path, doc)
+    for offline in ([], ['--offline']):
+        code = experiment_main(['run', str(path), '--runs-dir', str(tmp_path / 'runs'), *offline])
+        out, err = capsys.readouterr()
+        assert code == 2 and out == ''
+        assert err.startswith(f'experiment: {path}: {key}: ') and what in err, err
+        assert err.count('\n') == 1
+    assert not (tmp_path / 'runs').exists() and not (tmp_path.parent / 'escape').exists()
+
+
+def test_schema_offline_run_with_a_parameter_only_the_cores_check_is_one_line(tmp_path, capsys):
+    doc = _doc(nodes__lateral_controller={'package': 'irs_control', 'executable': 'lateral_controller',
+                                          'params': {'mode': 'bogus'}})
+    path = _write(tmp_path, doc)
+    assert experiment_main(['run', str(path), '--offline']) == 2
+    _out, err = capsys.readouterr()
+    assert err == (f'experiment: {path}: nodes: the offline closed loop refuses a parameter: '
+                   "mode must be 'mrc' or 'pi', got 'bogus'\n")
+
+
+def test_schema_the_installed_command_prints_one_line_and_exits_2(tmp_path):
+    """Through the real executable (as `./irs run irs_bringup experiment run <file>`)."""
+    exe = resolve_executable('irs_bringup', 'experiment')
+    for case, extra in (('name with ../', []), ('parameter of the wrong type', ['--offline'])):
+        doc, key, what = BAD_FILES[case]
+        path = _write(tmp_path, doc)
+        res = subprocess.run([exe, 'run', str(path), '--runs-dir',
+                               str(tmp_path / 'runs'), *extra],
+                             capture_output=True, text=True, timeout=120)
+        assert res.returncode == 2, res.stderr
+        assert res.stderr.startswith(f'experiment: {path}: {key}: ') and what in res.stderr
+        assert res.stderr.count('\n') == 1 and 'Traceback' not in res.stderr

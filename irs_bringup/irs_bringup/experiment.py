@@ -13,6 +13,7 @@ An experiment file (YAML, see ``config/experiments/``)::
         params_files: [pkg://irs_vehicle_sim/config/rig.yaml]   # share/<pkg>/... or a path
         params: {plant: identified}                              # overrides, flat names
         remaps: {}
+        process: rig           # optional process group: nodes with the same one share a process
     record:
       topics: [arm/joint_states, ...]     # what the recorder writes to the bag ([] = no bag)
 
@@ -61,6 +62,7 @@ class NodeEntry:
     params_files: list = field(default_factory=list)
     params: dict = field(default_factory=dict)
     remaps: dict = field(default_factory=dict)
+    process: str | None = None      # process group (same value: one process); None = its own
 
     @property
     def key(self):
@@ -105,52 +107,82 @@ def find_experiment(name_or_path: str) -> Path:
 
 def resolve_params_file(ref: str) -> Path:
     """``pkg://<package>/<path>`` -> ``share/<package>/<path>``; other strings are paths."""
-    if ref.startswith('pkg://'):
-        from ament_index_python.packages import get_package_share_directory
-        package, _, rel = ref[len('pkg://'):].partition('/')
-        path = Path(get_package_share_directory(package)) / rel
-    else:
-        path = Path(ref)
-    if not path.is_file():
-        raise ExperimentError(f'parameter file {ref} not found ({path})')
-    return path
+    from .experiment_schema import resolve_params_ref
+    try:
+        return resolve_params_ref(ref)
+    except ValueError as exc:
+        raise ExperimentError(str(exc)) from None
 
 
 def load_experiment(name_or_path: str) -> Experiment:
+    """Read and validate an experiment file (``experiment_schema``) before anything starts.
+
+    Checked: the shape (keys, types: booleans are not numbers), the names (the experiment's is a
+    plain file name, nodes' are ROS names), that packages, executables and parameter files exist,
+    the nodes' parameters against their ROS-free tables, and that ``duration`` is at least one rig
+    step. Any problem raises one :class:`ExperimentError` line: ``<file>: <key>: <what>``.
+    """
+    from .experiment_schema import SAFE_NAME, environment_problems, one_line, validate_document
     path = find_experiment(name_or_path)
-    text = path.read_text()
+    try:
+        text = path.read_text()
+    except (OSError, UnicodeDecodeError) as exc:
+        raise ExperimentError(f'{path}: cannot be read: {exc}') from None
     try:
         doc = yaml.safe_load(text)
     except yaml.YAMLError as exc:
-        raise ExperimentError(f'{path}: not valid YAML: {exc}') from None
-    if not isinstance(doc, dict):
-        raise ExperimentError(f'{path}: expected a mapping at the top level')
-    unknown = set(doc) - {'name', 'description', 'clock', 'duration', 'nodes', 'record'}
-    if unknown:
-        raise ExperimentError(f'{path}: unknown keys {sorted(unknown)}')
-    clock = doc.get('clock', 'lockstep')
-    if clock not in ('lockstep', 'realtime'):
-        raise ExperimentError(f"{path}: clock must be 'lockstep' or 'realtime', got {clock!r}")
-    duration = doc.get('duration')
-    if not isinstance(duration, (int, float)) or not math.isfinite(duration) or duration <= 0:
-        raise ExperimentError(f'{path}: duration must be a positive number of seconds, got {duration!r}')
-    nodes = []
-    for name, entry in (doc.get('nodes') or {}).items():
-        if not isinstance(entry, dict) or 'package' not in entry or 'executable' not in entry:
-            raise ExperimentError(f'{path}: node {name} needs package and executable')
-        extra = set(entry) - {'package', 'executable', 'params_files', 'params', 'remaps'}
-        if extra:
-            raise ExperimentError(f'{path}: node {name}: unknown keys {sorted(extra)}')
-        nodes.append(NodeEntry(name, entry['package'], entry['executable'],
-                               list(entry.get('params_files') or []),
-                               dict(entry.get('params') or {}), dict(entry.get('remaps') or {})))
-    if not nodes:
-        raise ExperimentError(f'{path}: no nodes')
-    if sum(n.key == RIG_KEY for n in nodes) > 1:
-        raise ExperimentError(f'{path}: more than one vehicle_sim')
-    record = (doc.get('record') or {}).get('topics') or []
-    return Experiment(doc.get('name', path.stem), doc.get('description', ''), clock,
-                      float(duration), nodes, list(record), path, text)
+        raise ExperimentError(f'{path}: not valid YAML: {" ".join(str(exc).split())}') from None
+    model, problems = validate_document(doc)
+    if model is None:
+        raise ExperimentError(one_line(path, problems))
+    name = model.name or path.stem
+    if not SAFE_NAME.fullmatch(name):
+        raise ExperimentError(one_line(path, [('name', f'the file name {name!r} is not a plain '
+                                                       "name for the run directory: set 'name:'")]))
+    problems = environment_problems(model)
+    if problems:
+        raise ExperimentError(one_line(path, problems))
+    nodes = [NodeEntry(n, e.package, e.executable, list(e.params_files), dict(e.params),
+                       dict(e.remaps), e.process) for n, e in model.nodes.items()]
+    exp = Experiment(name, model.description, model.clock, float(model.duration), nodes,
+                     list(model.record.topics), path, text)
+    problems = _parameter_problems(exp) or _duration_problems(exp)
+    if problems:
+        raise ExperimentError(one_line(path, problems))
+    return exp
+
+
+def _parameter_problems(exp: Experiment) -> list:
+    """``[(key path, message)]`` of node parameters their ROS-free tables refuse."""
+    from irs_common.params import check_values
+
+    from .experiment_schema import RCLPY_PARAMETERS, parameter_table
+    problems = []
+    for entry in exp.nodes:
+        table, complete = parameter_table(entry.key)
+        if table is None:
+            continue
+        values = {k: v for k, v in node_parameters(entry).items() if k not in RCLPY_PARAMETERS}
+        for pname, message in check_values(table, values, unknown=complete).items():
+            if pname in entry.params:
+                where = f'nodes.{entry.name}.params.{pname}'
+            else:
+                files = [i for i, ref in enumerate(entry.params_files)
+                         if pname in node_parameters(NodeEntry(entry.name, entry.package,
+                                                               entry.executable, [ref]))]
+                where = f'nodes.{entry.name}.params_files[{files[-1] if files else 0}]'
+            problems.append((where, message))
+    return problems
+
+
+def _duration_problems(exp: Experiment) -> list:
+    """The run must be at least one rig step: 0 steps would mean 'run forever' on the rig."""
+    rig = exp.node(*RIG_KEY)
+    dt = float(node_parameters(rig).get('dt', 0.001)) if rig is not None else 0.001
+    if exp.duration < dt and not math.isclose(exp.duration, dt, rel_tol=1e-9):
+        return [('duration', f'{exp.duration!r} s is shorter than one rig step (dt = {dt} s): '
+                             'at least one step is needed')]
+    return []
 
 
 def node_parameters(entry: NodeEntry) -> dict:

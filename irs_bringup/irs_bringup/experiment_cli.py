@@ -63,7 +63,14 @@ def offline_run(name):
     from .offline import loop_config_from_experiment
     from .closed_loop import ClosedLoop
     exp = load_experiment(name)
-    return ClosedLoop(loop_config_from_experiment(exp)).run(exp.duration)
+    try:
+        loop = ClosedLoop(loop_config_from_experiment(exp))
+    except (ValueError, TypeError, KeyError) as exc:
+        # what the ROS-free tables could not check (e.g. the lateral controller's parameters)
+        msg = exc.args[0] if isinstance(exc, KeyError) and exc.args else exc
+        raise ExperimentError(f'{exp.path}: nodes: the offline closed loop refuses a parameter: '
+                              f'{" ".join(str(msg).split())}') from None
+    return loop.run(exp.duration)
 
 
 def figure10(out_dir, offline=False, runs_dir='runs', log=print) -> int:
