@@ -8,8 +8,15 @@ Usage::
     bag plots BAG --out DIR                          (irs_bringup.bag_plots)
     bag rerun BAG --out FILE.rrd                     (irs_bringup.rerun_export)
     bag validate BAG                                 (bag_reader.validate, CRCs + indexes)
+    bag recover BAG [--out DIR]                      (irs_bringup.bag_recover)
 
-Exit codes: 0 ok, 1 bad/unreadable bag, 2 usage error. Errors are one line, no traceback.
+Every verb reads unfinished or damaged bags too: the readable part (a damaged summary is
+replaced by a scan of the data section; an unfinished bag gives its complete chunks), with one
+warning line on stderr saying so.
+
+Exit codes: 0 ok; 1 the bag was read but found wanting (``validate``: problems; ``plots`` /
+``rerun``: no usable topic; ``play``: subscriber timeout); 2 unreadable bag (one line naming
+the file and what is wrong) or usage error. Errors are one line, never a traceback.
 """
 from __future__ import annotations
 
@@ -23,6 +30,7 @@ COMMANDS = {
     'plots': 'PNG plots (lateral, steering, belt, car position)',
     'rerun': 'a rerun .rrd recording (top-down view + time series)',
     'validate': 'check CRCs, indexes and metadata.yaml',
+    'recover': 'write a valid bag from an unfinished or damaged one',
 }
 
 
@@ -50,13 +58,18 @@ def _validate(argv: List[str]) -> int:
         rep = validate(args.bag)
     except (BagError, OSError) as exc:
         print(f'bag validate: error: {exc}', file=sys.stderr)
-        return 1
+        return 2
     if rep.ok:
-        print(f'OK: {rep.message_count} messages, {rep.chunk_count} chunks, CRCs valid')
+        if rep.warnings:
+            print('bag validate: warning: ' + '; '.join(rep.warnings), file=sys.stderr)
+        what = 'OK' if rep.complete else 'OK (recovered prefix of an unfinished bag)'
+        print(f'{what}: {rep.message_count} messages, {rep.chunk_count} chunks, CRCs valid')
         return 0
     print('FAILED:')
     for prob in rep.problems:
         print(f'  - {prob}')
+    for note in rep.warnings:
+        print(f'  (note: {note})')
     more = f' (+{len(rep.problems) - 1} more problems)' if len(rep.problems) > 1 else ''
     first = rep.problems[0] if rep.problems else 'invalid bag'
     print(f'bag validate: error: {first}{more}', file=sys.stderr)
@@ -81,6 +94,8 @@ def main(argv: Optional[List[str]] = None) -> int:
         from .rerun_export import main as run
     elif cmd == 'validate':
         run = _validate
+    elif cmd == 'recover':
+        from .bag_recover import main as run
     else:
         print(f"bag: error: unknown command '{cmd}'\n{_usage()}", file=sys.stderr)
         return 2
@@ -88,6 +103,11 @@ def main(argv: Optional[List[str]] = None) -> int:
         return int(run(rest) or 0)
     except KeyboardInterrupt:
         return 130
+    except Exception as exc:  # a last resort: one line, never a traceback
+        from .bag_scan import one_line
+        print(f'bag {cmd}: error: unexpected {one_line(exc)} (please report this bag)',
+              file=sys.stderr)
+        return 2
 
 
 if __name__ == '__main__':

@@ -14,7 +14,9 @@ Column naming (``flatten``):
 File name: the topic with the leading ``/`` removed and other ``/`` replaced by ``__``, plus
 ``.csv`` (``/arm/joint_states`` -> ``arm__joint_states.csv``).
 
-Exit codes: 0 ok, 1 unreadable bag / write error, 2 usage error (e.g. unknown topic).
+Works on unfinished or damaged bags too (their readable part, one warning line on stderr).
+Exit codes: 0 ok, 2 unreadable bag / write error / usage error (e.g. unknown topic); errors
+are one line on stderr.
 """
 
 from __future__ import annotations
@@ -26,7 +28,7 @@ import sys
 from pathlib import Path
 from typing import Any, Dict, Iterator, List, Optional, Sequence, TextIO, Tuple
 
-from .bag_reader import BagError, BagReader
+from .bag_reader import BagError, open_bag, reading
 
 __all__ = ['flatten', 'export_topics', 'topic_file_name', 'main']
 
@@ -66,9 +68,11 @@ def topic_file_name(topic: str) -> str:
     return topic.lstrip('/').replace('/', '__') + '.csv'
 
 
-def export_topics(bag: str, out_dir: str, topics: Optional[Sequence[str]] = None
+def export_topics(bag, out_dir: str, topics: Optional[Sequence[str]] = None
                   ) -> Dict[str, Tuple[Path, int]]:
     """Write one CSV per topic; returns ``{topic: (csv path, rows)}``.
+
+    ``bag`` is a path (opened strictly) or an open :class:`BagReader`.
 
     Two passes over the bag: the first collects the columns (so variable-length arrays get a
     stable header), the second writes rows, so memory stays bounded for long recordings.
@@ -81,7 +85,7 @@ def export_topics(bag: str, out_dir: str, topics: Optional[Sequence[str]] = None
         A requested topic is not in the bag.
     """
     out = Path(out_dir)
-    with BagReader(bag) as r:
+    with reading(bag) as r:
         available = r.topics
         wanted = list(available) if not topics else list(dict.fromkeys(topics))
         missing = [t for t in wanted if t not in available]
@@ -131,13 +135,11 @@ def main(argv: Optional[List[str]] = None, out: Optional[TextIO] = None) -> int:
     p.add_argument('--out', required=True, metavar='DIR', help='output directory')
     args = p.parse_args(argv)
     try:
-        res = export_topics(args.bag, args.out, args.topics)
-    except ValueError as exc:
+        with open_bag(args.bag, 'irs-bag export') as r:
+            res = export_topics(r, args.out, args.topics)
+    except (BagError, OSError, ValueError) as exc:
         print(f'irs-bag export: error: {exc}', file=sys.stderr)
         return 2
-    except (BagError, OSError) as exc:
-        print(f'irs-bag export: error: {exc}', file=sys.stderr)
-        return 1
     for t, (path, n) in res.items():
         print(f'{t}: {n} rows -> {path}', file=out)
     return 0

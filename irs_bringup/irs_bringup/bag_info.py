@@ -4,7 +4,9 @@ Usage::
 
     python -m irs_bringup.bag_info BAG [--validate] [--no-metadata]
 
-Exit codes: 0 ok, 1 unreadable/invalid bag (one-line message on stderr), 2 usage error.
+Works on unfinished or damaged bags too (their readable part, one warning line on stderr).
+Exit codes: 0 ok, 1 ``--validate`` found problems, 2 unreadable bag (one line on stderr naming
+the file and what is wrong) or usage error.
 """
 
 from __future__ import annotations
@@ -14,7 +16,7 @@ import datetime as _dt
 import sys
 from typing import List, Optional, TextIO
 
-from .bag_reader import BagError, BagReader, validate
+from .bag_reader import BagError, BagReader, open_bag, validate
 
 __all__ = ['main', 'format_info']
 
@@ -83,24 +85,22 @@ def main(argv: Optional[List[str]] = None, out: Optional[TextIO] = None) -> int:
     p.add_argument('--no-metadata', action='store_true', help='do not list metadata records')
     args = p.parse_args(argv)
     try:
-        with BagReader(args.bag) as r:
+        with open_bag(args.bag, 'irs-bag info') as r:
             print(format_info(r, show_metadata=not args.no_metadata), file=out)
         if args.validate:
             rep = validate(args.bag)
             if rep.ok:
-                print(f'Validation:   OK ({rep.message_count} messages, {rep.chunk_count} '
-                      f'chunks, CRCs valid)', file=out)
+                part = '' if rep.complete else ' (recovered prefix of an unfinished bag)'
+                print(f'Validation:   OK{part} ({rep.message_count} messages, '
+                      f'{rep.chunk_count} chunks, CRCs valid)', file=out)
             else:
                 print('Validation:   FAILED', file=out)
                 for prob in rep.problems:
                     print(f'  - {prob}', file=out)
                 return 1
-    except BagError as exc:
+    except (BagError, OSError) as exc:
         print(f'irs-bag info: error: {exc}', file=sys.stderr)
-        return 1
-    except OSError as exc:
-        print(f'irs-bag info: error: {exc}', file=sys.stderr)
-        return 1
+        return 2
     return 0
 
 

@@ -17,7 +17,9 @@ without a namespace, i.e. any topic whose name ends with the given suffix):
 Time axis: seconds from the first message of the bag, from the message's ``header.stamp`` when
 it has one (sim time for lock-step runs), else the log time.
 
-Exit codes: 0 ok, 1 unreadable bag or no plottable topic, 2 usage error.
+Works on unfinished or damaged bags too (their readable part, one warning line on stderr).
+Exit codes: 0 ok, 1 no plottable topic, 2 unreadable bag / write error / usage error (one
+line on stderr).
 """
 from __future__ import annotations
 
@@ -27,7 +29,7 @@ import sys
 from pathlib import Path
 from typing import Callable, Dict, List, Optional, Tuple
 
-from .bag_reader import BagError, BagReader
+from .bag_reader import BagError, open_bag, reading
 
 __all__ = ['make_plots', 'load_series', 'main', 'NoPlottableTopics', 'BELT_LENGTH',
            'BELT_WIDTH']
@@ -106,13 +108,15 @@ SERIES = {
 def load_series(bag_path, wanted=None) -> Dict[str, Tuple[List[float], List[float]]]:
     """label -> (t [s], values) for every series of :data:`SERIES` whose topic is in the bag.
 
+    ``bag_path`` is a path (opened strictly) or an open :class:`BagReader`.
+
     Raises
     ------
     BagError
         Unreadable bag.
     """
     groups = SERIES if wanted is None else {k: SERIES[k] for k in wanted}
-    with BagReader(bag_path) as r:
+    with reading(bag_path) as r:
         topics = r.topics
         plan: Dict[str, List[Tuple[str, Callable]]] = {}
         for series in groups.values():
@@ -137,7 +141,8 @@ def load_series(bag_path, wanted=None) -> Dict[str, Tuple[List[float], List[floa
 
 
 def make_plots(bag_path, out_dir) -> List[Path]:
-    """Write the PNG plots of ``bag_path`` into ``out_dir``; return their paths.
+    """Write the PNG plots of ``bag_path`` (path or open reader) into ``out_dir``; return
+    their paths.
 
     Raises
     ------
@@ -153,7 +158,7 @@ def make_plots(bag_path, out_dir) -> List[Path]:
     data = load_series(bag_path)
     if not data:
         raise NoPlottableTopics(
-            f'{bag_path}: none of the plotted topics is in the bag (looked for '
+            f'{getattr(bag_path, "path", bag_path)}: none of the plotted topics is in the bag (looked for '
             + ', '.join(sorted({s for v in SERIES.values() for s, _, _ in v})) + ')')
     t0 = min(xs[0] for xs, _ in data.values() if xs)
     out = Path(out_dir)
@@ -249,10 +254,14 @@ def main(argv: Optional[List[str]] = None) -> int:
     p.add_argument('--out', required=True, help='output directory for the PNG files')
     args = p.parse_args(argv)
     try:
-        paths = make_plots(args.bag, args.out)
-    except (BagError, OSError) as exc:
+        with open_bag(args.bag, 'bag plots') as r:
+            paths = make_plots(r, args.out)
+    except NoPlottableTopics as exc:
         print(f'bag plots: error: {exc}', file=sys.stderr)
         return 1
+    except (BagError, OSError) as exc:
+        print(f'bag plots: error: {exc}', file=sys.stderr)
+        return 2
     for path in paths:
         print(path)
     return 0

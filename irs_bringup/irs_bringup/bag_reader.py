@@ -1,18 +1,24 @@
-"""Read, validate and recover rosbag2 MCAP bags (no rclpy).
+"""Read rosbag2 MCAP bags, also unfinished or damaged ones (no rclpy).
 
 * :class:`BagReader` opens a bag directory (``metadata.yaml`` + ``*.mcap``) or a single
   ``.mcap`` file and iterates :class:`BagMessage` ``(topic, type, log_time_ns, data)`` in
   log-time order, optionally for some topics only; ``data`` is the raw CDR bytes.
-* :func:`validate` reads every record with the mcap library's CRC checks on (chunk CRCs,
-  data-section CRC) plus the summary CRC, and checks that statistics, chunk indexes, message
-  indexes and ``metadata.yaml`` agree with what is actually in the file.
-* :func:`recover` returns the messages of every complete chunk of a truncated or damaged file
-  (e.g. a recorder that was killed) using the sequential stream reader, stopping at the first
-  bad record.
-* :func:`deserialize` / :meth:`BagReader.decoded` decode CDR with ``mcap_ros2`` using the
-  definitions stored in the bag.
+* A file is read through its summary section (indexes, statistics) when the summary is sound:
+  footer present, summary CRC right, indexes consistent with each other and the file. Otherwise
+  the data section is scanned sequentially (:mod:`irs_bringup.bag_scan`) and the messages are
+  held in memory: with a complete data section that is the whole bag (one warning in
+  :attr:`BagReader.warnings`); with an unfinished one (no footer, e.g. a killed recorder) or a
+  damaged one it is the prefix of complete chunks, which ``allow_partial=True`` accepts (with
+  a warning) and the default refuses with a :class:`BagError`.
+* A ``metadata.yaml`` that is not UTF-8, not YAML or not a rosbag2 one is ignored with a
+  warning, and the directory's ``*.mcap`` files are read.
+* :func:`validate` (:mod:`irs_bringup.bag_validate`) checks CRCs, indexes and metadata.yaml;
+  :func:`recover` returns the complete chunks of a truncated or damaged bag.
+* :func:`deserialize` / :meth:`BagReader.decoded` decode CDR with
+  ``mcap_ros2.decoder.DecoderFactory`` using the definitions stored in the bag.
 
-Every failure is a :class:`BagError` with a one-line message (never a raw library traceback).
+Times are integer nanoseconds (log time = receive time). Every failure is a :class:`BagError`
+with a one-line message (never a raw library traceback).
 """
 
 from __future__ import annotations
@@ -20,16 +26,21 @@ from __future__ import annotations
 import heapq
 import io
 import os
+import struct
 import zlib
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from pathlib import Path
-from typing import Any, Dict, Iterable, Iterator, List, NamedTuple, Optional, Tuple, Union
+from typing import Any, Dict, Iterable, Iterator, List, Optional, Tuple, Union
 
 import yaml
-from mcap.reader import make_reader
-from mcap.records import (Channel, Chunk, ChunkIndex, DataEnd, Footer, Header, Message,
-                          MessageIndex, Metadata, Schema, Statistics)
-from mcap.stream_reader import StreamReader, breakup_chunk
+from mcap.data_stream import ReadDataStream
+from mcap.reader import SeekingReader
+from mcap.records import Channel, MessageIndex, Metadata, Schema
+from mcap.stream_reader import StreamReader
+
+from .bag_scan import MAGIC, BagError, BagMessage, Recovered, ScanResult, scan_file
+from .bag_scan import one_line as _one_line
+from .bag_scan import recover as _recover
 
 __all__ = [
     'BagError',
@@ -39,33 +50,21 @@ __all__ = [
     'TopicInfo',
     'ValidationReport',
     'deserialize',
+    'open_bag',
     'read_messages',
+    'reading',
     'recover',
     'validate',
 ]
 
-_MAGIC = b'\x89MCAP0\r\n'
 _FOOTER_LEN = 1 + 8 + 8 + 8 + 4  # opcode, length, summary_start, summary_offset_start, crc
 
 PathLike = Union[str, os.PathLike]
 
 
-class BagError(Exception):
-    """A bag cannot be opened, read or validated; ``str()`` is a one-line explanation."""
-
-
-class BagMessage(NamedTuple):
-    """One recorded message: raw CDR ``data`` as written."""
-
-    topic: str
-    type: str
-    log_time_ns: int
-    data: bytes
-
-
 @dataclass
 class TopicInfo:
-    """A topic in a bag."""
+    """A topic in a bag; times in ns (log time)."""
 
     name: str
     type: str
@@ -85,45 +84,68 @@ class TopicInfo:
         return (self.message_count - 1) * 1e9 / (self.last_log_time_ns - self.first_log_time_ns)
 
 
-def _one_line(exc: BaseException) -> str:
-    text = str(exc).strip().replace('\n', ' ')
-    name = type(exc).__name__
-    return f'{name}: {text}' if text else name
+def _read_metadata_yaml(meta_path: Path) -> dict:
+    """The ``rosbag2_bagfile_information`` mapping; ValueError (one line) if unusable."""
+    try:
+        text = meta_path.read_bytes().decode('utf-8')
+    except UnicodeDecodeError as exc:
+        raise ValueError(f'not UTF-8 (byte {exc.start})') from None
+    try:
+        doc = yaml.safe_load(text)
+    except yaml.YAMLError as exc:
+        raise ValueError(f'not YAML ({_one_line(exc, 120)})') from None
+    meta = doc.get('rosbag2_bagfile_information') if isinstance(doc, dict) else None
+    if not isinstance(meta, dict):
+        raise ValueError('no rosbag2_bagfile_information mapping')
+    paths = meta.get('relative_file_paths')
+    if not isinstance(paths, list) or not all(isinstance(x, str) and x for x in paths):
+        raise ValueError('relative_file_paths is not a list of file names')
+    return meta
 
 
-def _resolve(path: PathLike) -> Tuple[Path, List[Path], Optional[dict]]:
-    """(bag path, mcap files, rosbag2_bagfile_information or None)."""
+def _resolve(path: PathLike, warnings: Optional[List[str]] = None
+             ) -> Tuple[Path, List[Path], Optional[dict]]:
+    """(bag path, mcap files, rosbag2_bagfile_information or None).
+
+    An unusable metadata.yaml is ignored (one line appended to ``warnings``, or a
+    :class:`BagError` if ``warnings`` is None) and the directory's ``*.mcap`` files are used.
+    """
     p = Path(path)
     if not p.exists():
         raise BagError(f'{p}: no such bag directory or file')
-    if p.is_dir():
-        meta_path = p / 'metadata.yaml'
-        meta = None
-        if meta_path.is_file():
-            try:
-                doc = yaml.safe_load(meta_path.read_text(encoding='utf-8'))
-                meta = doc['rosbag2_bagfile_information']
-                files = [p / Path(x).name for x in meta['relative_file_paths']]
-            except (OSError, yaml.YAMLError, KeyError, TypeError) as exc:
-                raise BagError(f'{meta_path}: not a valid rosbag2 metadata.yaml '
-                               f'({_one_line(exc)})') from None
-            missing = [str(f) for f in files if not f.is_file()]
-            if missing:
-                raise BagError(f'{p}: files listed in metadata.yaml are missing: {missing}')
+    if not p.is_dir():
+        if p.suffix != '.mcap':
+            raise BagError(f'{p}: expected a bag directory or a .mcap file')
+        return p, [p], None
+    meta_path = p / 'metadata.yaml'
+    meta, files, problem = None, [], None
+    if meta_path.is_file():
+        try:
+            meta = _read_metadata_yaml(meta_path)
+            files = [p / Path(x).name for x in meta['relative_file_paths']]
+            missing = [f.name for f in files if not f.is_file()]
             bad = [f.name for f in files if f.suffix != '.mcap']
+            if missing:
+                raise ValueError(f'lists missing files {missing}')
             if bad:
-                raise BagError(f'{p}: only MCAP storage is supported, got {bad}')
-        else:
-            files = sorted(p.glob('*.mcap'))
-            if not files:
-                raise BagError(f'{p}: no metadata.yaml and no .mcap file in this directory')
-        return p, files, meta
-    if p.suffix != '.mcap':
-        raise BagError(f'{p}: expected a bag directory or a .mcap file')
-    return p, [p], None
+                raise ValueError(f'lists non-MCAP files {bad} (only MCAP storage is supported)')
+        except (OSError, ValueError) as exc:
+            why = exc if isinstance(exc, ValueError) else _one_line(exc)
+            problem = f'{meta_path}: unusable metadata.yaml ({why})'
+            meta, files = None, []
+    if not files:
+        files = sorted(p.glob('*.mcap'))
+        if not files:
+            raise BagError(problem or f'{p}: no metadata.yaml and no .mcap file in this directory')
+    if problem:
+        if warnings is None:
+            raise BagError(problem)
+        warnings.append(f'{problem}; ignored it and read {", ".join(f.name for f in files)}')
+    return p, files, meta
 
 
 def _check_complete(path: Path) -> None:
+    """BagError unless ``path`` starts with the MCAP magic and ends with a footer + magic."""
     try:
         size = path.stat().st_size
         with open(path, 'rb') as f:
@@ -133,38 +155,194 @@ def _check_complete(path: Path) -> None:
             tail = f.read(8)
     except OSError as exc:
         raise BagError(f'{path}: cannot read ({_one_line(exc)})') from None
-    if head != _MAGIC:
+    if head != MAGIC:
         raise BagError(f'{path}: not an MCAP file (bad magic)')
-    if size < 16 + _FOOTER_LEN or tail != _MAGIC:
+    if size < 16 + _FOOTER_LEN or tail != MAGIC:
         raise BagError(f'{path}: truncated or not closed (no MCAP footer); '
-                       f'use bag_reader.recover() to get the complete chunks')
+                       f'`bag recover` / bag_reader.recover() give back its complete chunks')
 
 
-class _File:
-    """One opened MCAP file with its summary."""
+class _SummaryBad(Exception):
+    """The summary section cannot be trusted (message says why)."""
+
+
+class _Indexed:
+    """One MCAP file read through its summary, which is checked before it is trusted."""
 
     def __init__(self, path: Path, validate_crcs: bool) -> None:
-        _check_complete(path)
         self.path = path
+        self.f = open(path, 'rb')
         try:
-            self.f = open(path, 'rb')
-        except OSError as exc:
-            raise BagError(f'{path}: cannot open ({_one_line(exc)})') from None
+            self._load(validate_crcs)
+        except BaseException:
+            self.f.close()
+            raise
+
+    def _load(self, validate_crcs: bool) -> None:
+        f = self.f
+        size = f.seek(0, io.SEEK_END)
+        f.seek(size - 8 - _FOOTER_LEN)
+        op, length, s_start, _, s_crc = struct.unpack('<BQQQI', f.read(_FOOTER_LEN))
+        if op != 0x02 or length != _FOOTER_LEN - 9:
+            raise _SummaryBad('damaged footer')
+        if not 8 < s_start < size - 8 - _FOOTER_LEN:
+            raise _SummaryBad('no summary section' if s_start == 0 else
+                              f'footer points at summary offset {s_start} outside the file')
+        f.seek(s_start)
+        if s_crc and zlib.crc32(f.read(size - 8 - 4 - s_start)) != s_crc:
+            raise _SummaryBad('damaged summary section (summary CRC mismatch)')
+        self.warnings: List[str] = []
         try:
-            self.reader = make_reader(self.f, validate_crcs=validate_crcs)
-            self.header = self.reader.get_header()
+            f.seek(0)
+            self.reader = SeekingReader(f, validate_crcs=validate_crcs, record_size_limit=size)
             summary = self.reader.get_summary()
         except Exception as exc:
-            self.f.close()
-            raise BagError(f'{path}: unreadable MCAP header/summary ({_one_line(exc)})') from None
+            raise _SummaryBad(f'unreadable summary section ({_one_line(exc)})') from None
+        try:
+            self.header = self.reader.get_header()
+        except Exception as exc:
+            self.header = None
+            self.warnings.append(f'{self.path}: damaged MCAP header record ({_one_line(exc)}); '
+                                 f'profile and library unknown')
         if summary is None or summary.statistics is None:
-            self.f.close()
-            raise BagError(f'{path}: MCAP file has no summary/statistics (not closed?); '
-                           f'use bag_reader.recover()')
+            raise _SummaryBad('summary section without statistics')
         self.summary = summary
+        self.schemas: Dict[int, Schema] = dict(summary.schemas)
+        self.channels: Dict[int, Channel] = dict(summary.channels)
+        stats = summary.statistics
+        self.counts: Dict[int, int] = dict(stats.channel_message_counts)
+        if any(c.schema_id and c.schema_id not in self.schemas for c in self.channels.values()):
+            raise _SummaryBad('summary channel refers to a missing schema')
+        if not set(self.counts) <= set(self.channels) or (
+                self.counts and sum(self.counts.values()) != stats.message_count):
+            raise _SummaryBad('summary statistics disagree with its channels')
+        self.message_count = stats.message_count
+        self.start, self.end = stats.message_start_time, stats.message_end_time
+        self.ranges = self._index_ranges(s_start)
+        self.metadata: List[Tuple[str, Dict[str, str]]] = []
+        for md in summary.metadata_indexes:
+            if not 8 <= md.offset < s_start:
+                raise _SummaryBad('metadata index points outside the data section')
+            try:
+                f.seek(md.offset)
+                rec = next(StreamReader(f, skip_magic=True, record_size_limit=size).records)
+                if not isinstance(rec, Metadata):
+                    raise ValueError('no Metadata record there')
+                self.metadata.append((rec.name, dict(rec.metadata)))
+            except Exception as exc:
+                self.warnings.append(f'{self.path}: damaged metadata record {md.name!r} '
+                                     f'skipped ({_one_line(exc, 120)})')
+
+    def _index_ranges(self, data_end: int) -> Dict[int, Tuple[int, int]]:
+        """Per-channel (first, last) log time [ns] from the chunk and message indexes."""
+        ranges: Dict[int, Tuple[int, int]] = {}
+        for ci in self.summary.chunk_indexes:
+            if not (8 <= ci.chunk_start_offset and
+                    ci.chunk_start_offset + ci.chunk_length <= data_end):
+                raise _SummaryBad('chunk index points outside the data section')
+            for cid, off in ci.message_index_offsets.items():
+                if cid not in self.channels or not 8 <= off < data_end:
+                    raise _SummaryBad('chunk index lists a bad message index')
+                try:
+                    self.f.seek(off + 1 + 8)
+                    idx = MessageIndex.read(ReadDataStream(self.f))
+                except Exception as exc:
+                    raise _SummaryBad(f'unreadable message index ({_one_line(exc)})') from None
+                ts = [t for t, _ in idx.records]
+                if idx.channel_id != cid or (ts and (
+                        min(ts) < ci.message_start_time or max(ts) > ci.message_end_time)):
+                    raise _SummaryBad('message index disagrees with its chunk index')
+                if ts:
+                    lo, hi = min(ts), max(ts)
+                    old = ranges.get(cid)
+                    ranges[cid] = (lo, hi) if old is None else (min(lo, old[0]),
+                                                                max(hi, old[1]))
+        return ranges
+
+    def iter_messages(self, topics: Optional[List[str]]) -> Iterator[BagMessage]:
+        try:
+            for schema, channel, msg in self.reader.iter_messages(topics=topics,
+                                                                  log_time_order=True):
+                yield BagMessage(channel.topic, schema.name if schema else '', msg.log_time,
+                                 msg.data)
+        except Exception as exc:
+            raise BagError(f'{self.path}: damaged data section, cannot read its messages '
+                           f'({_one_line(exc)}); `bag recover` gives back the complete '
+                           f'chunks') from None
+
+    def metadata_records(self) -> List[Tuple[str, Dict[str, str]]]:
+        return list(self.metadata)
 
     def close(self) -> None:
         self.f.close()
+
+
+class _Scanned:
+    """One MCAP file whose data section was scanned; messages held in memory."""
+
+    def __init__(self, scan: ScanResult) -> None:
+        self.path = scan.path
+        self.header = scan.header
+        self.schemas, self.channels = scan.schemas, scan.channels
+        self._metadata = scan.metadata
+        by_topic = {c.topic: cid for cid, c in self.channels.items()}
+        self.messages = sorted(scan.messages, key=lambda m: m.log_time_ns)
+        self.counts: Dict[int, int] = {}
+        self.ranges: Dict[int, Tuple[int, int]] = {}
+        for m in self.messages:
+            cid = by_topic[m.topic]
+            self.counts[cid] = self.counts.get(cid, 0) + 1
+            lo, hi = self.ranges.get(cid, (m.log_time_ns, m.log_time_ns))
+            self.ranges[cid] = (min(lo, m.log_time_ns), max(hi, m.log_time_ns))
+        self.message_count = len(self.messages)
+        self.start = self.messages[0].log_time_ns if self.messages else 0
+        self.end = self.messages[-1].log_time_ns if self.messages else 0
+
+    def iter_messages(self, topics: Optional[List[str]]) -> Iterator[BagMessage]:
+        wanted = None if topics is None else set(topics)
+        return (m for m in self.messages if wanted is None or m.topic in wanted)
+
+    def metadata_records(self) -> List[Tuple[str, Dict[str, str]]]:
+        return list(self._metadata)
+
+    def close(self) -> None:
+        pass
+
+
+def _open_file(path: Path, validate_crcs: bool, allow_partial: bool,
+               warnings: List[str]):
+    """An :class:`_Indexed` file, or a :class:`_Scanned` one with a warning (see module doc)."""
+    try:
+        size = path.stat().st_size
+        with open(path, 'rb') as f:
+            head = f.read(8)
+            f.seek(max(size - 8, 0))
+            tail = f.read(8)
+        if head != MAGIC:
+            raise BagError(f'{path}: not an MCAP file (bad magic)')
+        reason = 'unfinished (no MCAP footer: not closed, or cut off)'
+        if size >= 16 + _FOOTER_LEN and tail == MAGIC:
+            try:
+                indexed = _Indexed(path, validate_crcs)
+                warnings.extend(indexed.warnings)
+                return indexed
+            except _SummaryBad as exc:
+                reason = str(exc)
+        scan = scan_file(path)
+    except OSError as exc:
+        raise BagError(f'{path}: cannot read ({_one_line(exc)})') from None
+    n = len(scan.messages)
+    if scan.error is None:
+        warnings.append(f'{path}: {reason}; read its data section instead ({n} messages)')
+        return _Scanned(scan)
+    cut = (f'{n} messages in {scan.chunks} complete chunks; the scan stopped at: '
+           f'{scan.error}')
+    if not allow_partial:
+        raise BagError(f'{path}: {reason}; only a prefix is readable ({cut}); '
+                       f'`bag recover` writes it as a valid bag')
+    warnings.append(f'{path}: {reason}; reading its recovered prefix ({cut}; '
+                    f'`bag recover` writes a valid copy)')
+    return _Scanned(scan)
 
 
 class BagReader:
@@ -176,24 +354,39 @@ class BagReader:
         Bag directory or ``.mcap`` file.
     validate_crcs : bool
         Check chunk CRCs while reading messages (default True).
+    allow_partial : bool
+        Accept a bag of which only a prefix is readable (unfinished or damaged: its complete
+        chunks are read, with a warning); default False: :class:`BagError`.
+
+    Attributes
+    ----------
+    warnings : list of str
+        One line per thing worked around (unusable metadata.yaml, summary not used, prefix
+        only); empty for a sound bag.
 
     Raises
     ------
     BagError
-        Missing/invalid files, truncated file (no footer), unreadable summary.
+        Not a bag, unreadable file, or (without ``allow_partial``) only a prefix readable.
     """
 
-    def __init__(self, path: PathLike, *, validate_crcs: bool = True) -> None:
-        self.path, self.mcap_paths, self.bag_metadata = _resolve(path)
-        self._files: List[_File] = []
+    def __init__(self, path: PathLike, *, validate_crcs: bool = True,
+                 allow_partial: bool = False) -> None:
+        self.warnings: List[str] = []
+        self.path, self.mcap_paths, self.bag_metadata = _resolve(path, self.warnings)
+        self._files: list = []
         try:
             for p in self.mcap_paths:
-                self._files.append(_File(p, validate_crcs))
+                self._files.append(_open_file(p, validate_crcs, allow_partial, self.warnings))
         except BagError:
             self.close()
             raise
-        self._decoders: Dict[Tuple[str, bytes], Any] = {}
         self._topics: Optional[Dict[str, TopicInfo]] = None
+
+    @property
+    def partial(self) -> bool:
+        """True if some file is read from a scan of its data section (see :attr:`warnings`)."""
+        return any(isinstance(f, _Scanned) for f in self._files)
 
     # -------------------------------------------------------------- context
     def close(self) -> None:
@@ -212,30 +405,30 @@ class BagReader:
     @property
     def profile(self) -> str:
         """MCAP header profile of the first file (``ros2`` for rosbag2 bags)."""
-        return self._files[0].header.profile
+        h = self._files[0].header
+        return h.profile if h is not None else ''
 
     @property
     def library(self) -> str:
         """MCAP header library string of the first file."""
-        return self._files[0].header.library
+        h = self._files[0].header
+        return h.library if h is not None else ''
 
     @property
     def message_count(self) -> int:
-        """Total number of messages (from the MCAP statistics)."""
-        return sum(f.summary.statistics.message_count for f in self._files)
+        """Total number of messages."""
+        return sum(f.message_count for f in self._files)
 
     @property
     def start_time_ns(self) -> int:
         """Earliest log time [ns] (0 for an empty bag)."""
-        ts = [f.summary.statistics.message_start_time for f in self._files
-              if f.summary.statistics.message_count]
+        ts = [f.start for f in self._files if f.message_count]
         return min(ts) if ts else 0
 
     @property
     def end_time_ns(self) -> int:
         """Latest log time [ns] (0 for an empty bag)."""
-        ts = [f.summary.statistics.message_end_time for f in self._files
-              if f.summary.statistics.message_count]
+        ts = [f.end for f in self._files if f.message_count]
         return max(ts) if ts else 0
 
     @property
@@ -248,7 +441,7 @@ class BagReader:
         """Message type -> stored (``ros2msg``) definition text."""
         out: Dict[str, str] = {}
         for f in self._files:
-            for s in f.summary.schemas.values():
+            for s in f.schemas.values():
                 out.setdefault(s.name, s.data.decode('utf-8', 'replace'))
         return out
 
@@ -262,55 +455,28 @@ class BagReader:
     def _collect_topics(self) -> Dict[str, TopicInfo]:
         topics: Dict[str, TopicInfo] = {}
         for f in self._files:
-            counts = f.summary.statistics.channel_message_counts
-            for cid, ch in f.summary.channels.items():
-                schema = f.summary.schemas.get(ch.schema_id)
+            for cid, ch in f.channels.items():
+                schema = f.schemas.get(ch.schema_id)
                 info = topics.get(ch.topic)
                 if info is None:
                     info = topics[ch.topic] = TopicInfo(
                         ch.topic, schema.name if schema else '', 0,
                         ch.metadata.get('offered_qos_profiles', ''),
                         ch.metadata.get('topic_type_hash', ''))
-                info.message_count += counts.get(cid, 0)
-            try:
-                ranges = self._index_ranges(f)
-            except Exception as exc:
-                raise BagError(f'{f.path}: bad message index ({_one_line(exc)})') from None
-            for cid, (lo, hi) in ranges.items():
-                info = topics[f.summary.channels[cid].topic]
-                info.first_log_time_ns = lo if info.first_log_time_ns is None else min(
-                    lo, info.first_log_time_ns)
-                info.last_log_time_ns = hi if info.last_log_time_ns is None else max(
-                    hi, info.last_log_time_ns)
+                info.message_count += f.counts.get(cid, 0)
+                if cid in f.ranges:
+                    lo, hi = f.ranges[cid]
+                    info.first_log_time_ns = lo if info.first_log_time_ns is None else min(
+                        lo, info.first_log_time_ns)
+                    info.last_log_time_ns = hi if info.last_log_time_ns is None else max(
+                        hi, info.last_log_time_ns)
         return topics
-
-    @staticmethod
-    def _index_ranges(f: _File) -> Dict[int, Tuple[int, int]]:
-        """Per-channel (first, last) log time from the message index records."""
-        from mcap.data_stream import ReadDataStream
-        ranges: Dict[int, Tuple[int, int]] = {}
-        for ci in f.summary.chunk_indexes:
-            for cid, off in ci.message_index_offsets.items():
-                f.f.seek(off + 1 + 8)
-                idx = MessageIndex.read(ReadDataStream(f.f))
-                if not idx.records:
-                    continue
-                ts = [t for t, _ in idx.records]
-                lo, hi = min(ts), max(ts)
-                old = ranges.get(cid)
-                ranges[cid] = (lo, hi) if old is None else (min(lo, old[0]), max(hi, old[1]))
-        return ranges
 
     def metadata_records(self) -> List[Tuple[str, Dict[str, str]]]:
         """All MCAP Metadata records as ``(name, dict)``, in file order."""
         out = []
         for f in self._files:
-            try:
-                for m in f.reader.iter_metadata():
-                    out.append((m.name, dict(m.metadata)))
-            except Exception as exc:
-                raise BagError(f'{f.path}: cannot read metadata records '
-                               f'({_one_line(exc)})') from None
+            out.extend(f.metadata_records())
         return out
 
     # -------------------------------------------------------------- messages
@@ -324,27 +490,13 @@ class BagReader:
         """
         tlist = None if topics is None else ([topics] if isinstance(topics, str)
                                               else list(topics))
-        iters = [self._iter_file(i, f, tlist) for i, f in enumerate(self._files)]
-        if len(iters) == 1:
-            for _, _, _, m in iters[0]:
-                yield m
-        else:
-            for _, _, _, m in heapq.merge(*iters):
-                yield m
-
-    def _iter_file(self, fi: int, f: _File, topics: Optional[List[str]]):
-        n = 0
-        try:
-            for schema, channel, msg in f.reader.iter_messages(topics=topics,
-                                                               log_time_order=True):
-                yield (msg.log_time, fi, n, BagMessage(channel.topic,
-                                                       schema.name if schema else '',
-                                                       msg.log_time, msg.data))
-                n += 1
-        except BagError:
-            raise
-        except Exception as exc:
-            raise BagError(f'{f.path}: error while reading messages ({_one_line(exc)})') from None
+        if len(self._files) == 1:
+            yield from self._files[0].iter_messages(tlist)
+            return
+        iters = [((m.log_time_ns, i, n, m) for n, m in enumerate(f.iter_messages(tlist)))
+                 for i, f in enumerate(self._files)]
+        for _, _, _, m in heapq.merge(*iters):
+            yield m
 
     def decoded(self, topics: Optional[Iterable[str]] = None
                 ) -> Iterator[Tuple[BagMessage, Any]]:
@@ -352,6 +504,27 @@ class BagReader:
         schemas = self.schemas
         for m in self.messages(topics):
             yield m, deserialize(m.type, schemas.get(m.type, ''), m.data)
+
+
+def open_bag(bag: Union[PathLike, BagReader], prog: str, stream=None) -> BagReader:
+    """What the ``bag`` verbs use: a :class:`BagReader` with ``allow_partial=True``; its
+    warnings (if any) are printed as one line ``<prog>: warning: ...`` on ``stream`` (stderr).
+    An already open reader is returned as it is."""
+    if isinstance(bag, BagReader):
+        return bag
+    r = BagReader(bag, allow_partial=True)
+    if r.warnings:
+        import sys
+        print(f'{prog}: warning: ' + '; '.join(r.warnings), file=stream or sys.stderr,
+              flush=True)
+    return r
+
+
+def reading(bag: Union[PathLike, BagReader]):
+    """Context manager: ``bag`` if it is an open :class:`BagReader` (left open), else a new
+    strict ``BagReader(bag)`` closed on exit."""
+    import contextlib
+    return contextlib.nullcontext(bag) if isinstance(bag, BagReader) else BagReader(bag)
 
 
 def read_messages(path: PathLike, topics: Optional[Iterable[str]] = None
@@ -363,6 +536,7 @@ def read_messages(path: PathLike, topics: Optional[Iterable[str]] = None
 
 # ------------------------------------------------------------------ decoding
 _DECODERS: Dict[Tuple[str, str], Any] = {}
+_FACTORY: List[Any] = []
 
 
 def deserialize(type_name: str, definition: str, data: bytes) -> Any:
@@ -377,8 +551,14 @@ def deserialize(type_name: str, definition: str, data: bytes) -> Any:
     dec = _DECODERS.get(key)
     if dec is None:
         try:
-            from mcap_ros2._dynamic import generate_dynamic
-            dec = generate_dynamic(type_name, definition)[type_name]
+            if not _FACTORY:
+                from mcap_ros2.decoder import DecoderFactory
+                _FACTORY.append(DecoderFactory())
+            schema = Schema(id=len(_DECODERS) + 1, name=type_name, encoding='ros2msg',
+                            data=definition.encode('utf-8'))
+            dec = _FACTORY[0].decoder_for('cdr', schema)
+            if dec is None:
+                raise ValueError('no decoder')
         except Exception as exc:
             raise BagError(f'cannot build a decoder for {type_name!r} from its definition '
                            f'({_one_line(exc)})') from None
@@ -389,405 +569,19 @@ def deserialize(type_name: str, definition: str, data: bytes) -> Any:
         raise BagError(f'cannot decode a {type_name!r} message ({_one_line(exc)})') from None
 
 
-# ------------------------------------------------------------------ recovery
-class Recovered(list):
-    """List of :class:`BagMessage` from :func:`recover`, plus what stopped the scan.
-
-    Attributes
-    ----------
-    error : str or None
-        One-line reason the scan stopped early (None if the whole file was read to its footer).
-    complete : bool
-        True if the file ended with a valid footer.
-    chunks : int
-        Number of complete chunks recovered.
-    metadata : list of (str, dict)
-        Metadata records found before the stop point.
-    """
-
-    def __init__(self, items=(), error=None, complete=False, chunks=0, metadata=None):
-        super().__init__(items)
-        self.error: Optional[str] = error
-        self.complete: bool = complete
-        self.chunks: int = chunks
-        self.metadata: List[Tuple[str, Dict[str, str]]] = metadata or []
-
-
 def recover(path: PathLike) -> Recovered:
     """Messages of every complete, CRC-valid chunk of a possibly truncated/corrupt bag.
 
-    Reads the file(s) sequentially with the mcap stream reader (CRCs validated) and stops at
-    the first record that is cut off or fails to parse, decompress or match its CRC. Chunks are
-    all-or-nothing. The result is sorted by log time (stable).
+    Reads the file(s) sequentially (see :mod:`irs_bringup.bag_scan`) and stops at the first
+    record that is cut off or fails to parse, decompress or match its CRC, or at the end of the
+    data section. Chunks are all-or-nothing. The result is sorted by log time (stable).
 
     Raises
     ------
     BagError
         Only if the path is not a bag at all (missing, no MCAP magic).
     """
-    p = Path(path)
-    if p.is_dir():
-        files = sorted(p.glob('*.mcap'))
-        if not files:
-            raise BagError(f'{p}: no .mcap file to recover')
-    elif p.is_file():
-        files = [p]
-    else:
-        raise BagError(f'{p}: no such bag directory or file')
-    out: List[BagMessage] = []
-    errors: List[str] = []
-    complete = True
-    chunks = 0
-    metadata: List[Tuple[str, Dict[str, str]]] = []
-    for fp in files:
-        try:
-            with open(fp, 'rb') as f:
-                if f.read(8) != _MAGIC:
-                    raise BagError(f'{fp}: not an MCAP file (bad magic)')
-                f.seek(0)
-                msgs, err, n, md = _scan(f)
-        except OSError as exc:
-            raise BagError(f'{fp}: cannot read ({_one_line(exc)})') from None
-        out.extend(msgs)
-        chunks += n
-        metadata.extend(md)
-        if err is not None:
-            complete = False
-            errors.append(f'{fp.name}: {err}')
-    out.sort(key=lambda m: m.log_time_ns)
-    return Recovered(out, '; '.join(errors) or None, complete, chunks, metadata)
+    return _recover(path)
 
 
-def _scan(f) -> Tuple[List[BagMessage], Optional[str], int, List[Tuple[str, Dict[str, str]]]]:
-    schemas: Dict[int, Schema] = {}
-    channels: Dict[int, Channel] = {}
-    msgs: List[BagMessage] = []
-    metadata: List[Tuple[str, Dict[str, str]]] = []
-    chunks = 0
-
-    def take(records) -> List[BagMessage]:
-        got = []
-        for r in records:
-            if isinstance(r, Schema):
-                schemas[r.id] = r
-            elif isinstance(r, Channel):
-                channels[r.id] = r
-            elif isinstance(r, Message):
-                ch = channels.get(r.channel_id)
-                if ch is None:
-                    raise ValueError(f'message on unknown channel {r.channel_id}')
-                sc = schemas.get(ch.schema_id)
-                got.append(BagMessage(ch.topic, sc.name if sc else '', r.log_time, r.data))
-        return got
-
-    reader = StreamReader(f, emit_chunks=True, validate_crcs=True)
-    footer = False
-    try:
-        for rec in reader.records:
-            if isinstance(rec, Chunk):
-                msgs.extend(take(breakup_chunk(rec, validate_crc=True)))
-                chunks += 1
-            elif isinstance(rec, (Schema, Channel, Message)):
-                msgs.extend(take([rec]))
-            elif isinstance(rec, Metadata):
-                metadata.append((rec.name, dict(rec.metadata)))
-            elif isinstance(rec, DataEnd):
-                pass
-            elif isinstance(rec, Footer):
-                footer = True  # the generator then checks the closing magic
-    except Exception as exc:  # truncated, corrupt, CRC mismatch, bad compression...
-        return msgs, _one_line(exc) or 'unreadable record', chunks, metadata
-    if footer:
-        return msgs, None, chunks, metadata
-    return msgs, 'file ended without footer', chunks, metadata
-
-
-# ------------------------------------------------------------------ validation
-@dataclass
-class ValidationReport:
-    """Result of :func:`validate`."""
-
-    path: str
-    message_count: int = 0
-    chunk_count: int = 0
-    topic_counts: Dict[str, int] = field(default_factory=dict)
-    metadata_names: List[str] = field(default_factory=list)
-    unordered_chunks: int = 0
-    problems: List[str] = field(default_factory=list)
-
-    @property
-    def ok(self) -> bool:
-        """True when no problem was found."""
-        return not self.problems
-
-
-def validate(path: PathLike, *, strict: bool = False) -> ValidationReport:
-    """Read the whole bag with CRC validation and cross-check summary and metadata.
-
-    Checks, per MCAP file: magic and footer; every record parses; chunk CRCs and the
-    data-section CRC (mcap ``StreamReader(validate_crcs=True)``); summary CRC; statistics
-    (message count, per-channel counts, start/end time, chunk/schema/channel/metadata counts)
-    equal what the data section holds; chunk indexes match the chunks; message indexes point
-    at the right messages; a seeking read (``make_reader(f, validate_crcs=True)``) in log-time
-    order yields the same number of messages; profile ``ros2``, schemas ``ros2msg``, channels
-    ``cdr``. For a directory, ``metadata.yaml`` counts/times/topics must agree too. Chunks whose
-    messages are not in log-time order are counted in ``unordered_chunks`` (allowed by MCAP).
-
-    Parameters
-    ----------
-    strict : bool
-        Raise :class:`BagError` (listing the problems) instead of returning a failed report.
-
-    Raises
-    ------
-    BagError
-        If the path is not a bag, or with ``strict=True`` if any problem is found.
-    """
-    bag, files, meta = _resolve(path)
-    rep = ValidationReport(str(bag))
-    stats_sum = {'count': 0, 'start': None, 'end': None}
-    per_topic: Dict[str, int] = {}
-    for fp in files:
-        _validate_file(fp, rep, per_topic, stats_sum)
-    rep.topic_counts = per_topic
-    if meta is not None:
-        _validate_metadata_yaml(meta, rep, per_topic, stats_sum, files)
-    if strict and rep.problems:
-        raise BagError(f'{bag}: invalid bag: ' + '; '.join(rep.problems))
-    return rep
-
-
-def _validate_file(fp: Path, rep: ValidationReport, per_topic: Dict[str, int],
-                   agg: Dict[str, Any]) -> None:
-    probs = rep.problems
-    name = fp.name
-    try:
-        _check_complete(fp)
-    except BagError as exc:
-        probs.append(str(exc))
-        return
-    data = fp.read_bytes()
-    schemas: Dict[int, Schema] = {}
-    channels: Dict[int, Channel] = {}
-    chan_counts: Dict[int, int] = {}
-    chunk_recs: Dict[int, Chunk] = {}
-    chunk_msgs: Dict[int, List[Tuple[int, int, int]]] = {}  # offset -> (channel, time, pos)
-    msg_index: Dict[Tuple[int, int], List[Tuple[int, int]]] = {}
-    meta_names: List[str] = []
-    header: Optional[Header] = None
-    stats: Optional[Statistics] = None
-    chunk_indexes: List[ChunkIndex] = []
-    footer: Optional[Footer] = None
-    count, tmin, tmax = 0, None, None
-    # 1. sequential pass with CRC validation; track offsets to cross-check indexes.
-    stream = io.BytesIO(data)
-    reader = StreamReader(stream, emit_chunks=True, validate_crcs=True)
-    last_chunk_off = None
-    try:
-        it = reader.records
-        while True:
-            off = stream.tell()
-            try:
-                rec = next(it)
-            except StopIteration:
-                break
-            if isinstance(rec, Header):
-                header = rec
-            elif isinstance(rec, Schema):
-                schemas.setdefault(rec.id, rec)
-            elif isinstance(rec, Channel):
-                channels.setdefault(rec.id, rec)
-            elif isinstance(rec, Chunk):
-                chunk_recs[off] = rec
-                last_chunk_off = off
-                recs = breakup_chunk(rec, validate_crc=True)
-                inner, times = [], []
-                pos = _chunk_positions(rec)
-                mi = 0
-                for r in recs:
-                    if isinstance(r, Schema):
-                        schemas.setdefault(r.id, r)
-                    elif isinstance(r, Channel):
-                        channels.setdefault(r.id, r)
-                    elif isinstance(r, Message):
-                        inner.append((r.channel_id, r.log_time, pos[mi]))
-                        mi += 1
-                        times.append(r.log_time)
-                        chan_counts[r.channel_id] = chan_counts.get(r.channel_id, 0) + 1
-                        count += 1
-                        tmin = r.log_time if tmin is None else min(tmin, r.log_time)
-                        tmax = r.log_time if tmax is None else max(tmax, r.log_time)
-                chunk_msgs[off] = inner
-                if times != sorted(times):
-                    rep.unordered_chunks += 1
-                if times and (rec.message_start_time != min(times)
-                              or rec.message_end_time != max(times)):
-                    probs.append(f'{name}: chunk at {off} start/end times do not match its '
-                                 f'messages')
-            elif isinstance(rec, MessageIndex):
-                if last_chunk_off is not None:
-                    msg_index[(last_chunk_off, rec.channel_id)] = list(rec.records)
-            elif isinstance(rec, Message):
-                chan_counts[rec.channel_id] = chan_counts.get(rec.channel_id, 0) + 1
-                count += 1
-                tmin = rec.log_time if tmin is None else min(tmin, rec.log_time)
-                tmax = rec.log_time if tmax is None else max(tmax, rec.log_time)
-            elif isinstance(rec, Metadata):
-                meta_names.append(rec.name)
-            elif isinstance(rec, Statistics):
-                stats = rec
-            elif isinstance(rec, ChunkIndex):
-                chunk_indexes.append(rec)
-            elif isinstance(rec, Footer):
-                footer = rec
-    except Exception as exc:
-        probs.append(f'{name}: sequential CRC-validated read failed ({_one_line(exc)})')
-        return
-    rep.metadata_names.extend(meta_names)
-    rep.message_count += count
-    rep.chunk_count += len(chunk_recs)
-    for cid, n in chan_counts.items():
-        ch = channels.get(cid)
-        if ch is None:
-            probs.append(f'{name}: messages on undeclared channel {cid}')
-            continue
-        per_topic[ch.topic] = per_topic.get(ch.topic, 0) + n
-    if count:
-        agg['start'] = tmin if agg['start'] is None else min(agg['start'], tmin)
-        agg['end'] = tmax if agg['end'] is None else max(agg['end'], tmax)
-    agg['count'] += count
-
-    # 2. header / encodings
-    if header is None or header.profile != 'ros2':
-        probs.append(f"{name}: header profile is {getattr(header, 'profile', None)!r}, "
-                     f"expected 'ros2'")
-    for s in schemas.values():
-        if s.encoding != 'ros2msg':
-            probs.append(f'{name}: schema {s.name!r} encoding {s.encoding!r}, expected ros2msg')
-    for c in channels.values():
-        if c.message_encoding != 'cdr':
-            probs.append(f'{name}: channel {c.topic!r} encoding {c.message_encoding!r}, '
-                         f'expected cdr')
-        if c.schema_id not in schemas:
-            probs.append(f'{name}: channel {c.topic!r} refers to missing schema {c.schema_id}')
-
-    # 3. footer / summary CRC
-    if footer is None or footer.summary_start == 0:
-        probs.append(f'{name}: no summary section')
-        return
-    if footer.summary_crc != 0:
-        crc = zlib.crc32(data[footer.summary_start:len(data) - 8 - 4])
-        if crc != footer.summary_crc:
-            probs.append(f'{name}: summary CRC mismatch ({crc:#010x} != '
-                         f'{footer.summary_crc:#010x})')
-
-    # 4. statistics
-    if stats is None:
-        probs.append(f'{name}: no statistics record')
-    else:
-        if stats.message_count != count:
-            probs.append(f'{name}: statistics message_count {stats.message_count} != '
-                         f'{count} messages in the file')
-        if dict(stats.channel_message_counts) != {k: v for k, v in chan_counts.items()}:
-            probs.append(f'{name}: statistics per-channel counts disagree with the data')
-        if count and (stats.message_start_time != tmin or stats.message_end_time != tmax):
-            probs.append(f'{name}: statistics start/end time disagree with the data')
-        if stats.chunk_count != len(chunk_recs):
-            probs.append(f'{name}: statistics chunk_count {stats.chunk_count} != '
-                         f'{len(chunk_recs)} chunks')
-        if stats.schema_count != len(schemas) or stats.channel_count != len(channels):
-            probs.append(f'{name}: statistics schema/channel counts disagree with the data')
-        if stats.metadata_count != len(meta_names):
-            probs.append(f'{name}: statistics metadata_count {stats.metadata_count} != '
-                         f'{len(meta_names)} metadata records')
-
-    # 5. chunk + message indexes
-    if len(chunk_indexes) != len(chunk_recs):
-        probs.append(f'{name}: {len(chunk_indexes)} chunk indexes for {len(chunk_recs)} chunks')
-    for ci in chunk_indexes:
-        ch = chunk_recs.get(ci.chunk_start_offset)
-        if ch is None:
-            probs.append(f'{name}: chunk index points at {ci.chunk_start_offset}, no chunk there')
-            continue
-        if (ci.message_start_time != ch.message_start_time
-                or ci.message_end_time != ch.message_end_time
-                or ci.uncompressed_size != ch.uncompressed_size
-                or ci.compression != ch.compression):
-            probs.append(f'{name}: chunk index at {ci.chunk_start_offset} disagrees with chunk')
-        expect: Dict[int, List[Tuple[int, int]]] = {}
-        for cid, t, pos in chunk_msgs[ci.chunk_start_offset]:
-            expect.setdefault(cid, []).append((t, pos))
-        got = {cid: msg_index.get((ci.chunk_start_offset, cid)) for cid in
-               ci.message_index_offsets}
-        if set(got) != set(expect):
-            probs.append(f'{name}: message index channels of chunk at {ci.chunk_start_offset} '
-                         f'do not match its messages')
-            continue
-        for cid, recs in got.items():
-            if recs is None or sorted(recs) != sorted(expect[cid]):
-                probs.append(f'{name}: message index of channel {cid} in chunk at '
-                             f'{ci.chunk_start_offset} does not match the chunk')
-
-    # 6. seeking, log-time-ordered read with CRC validation
-    try:
-        with open(fp, 'rb') as f:
-            r = make_reader(f, validate_crcs=True)
-            n, last = 0, None
-            for _, _, m in r.iter_messages(log_time_order=True):
-                if last is not None and m.log_time < last:
-                    probs.append(f'{name}: seeking reader returned messages out of time order')
-                    break
-                last = m.log_time
-                n += 1
-            if n != count:
-                probs.append(f'{name}: indexed read gave {n} messages, sequential read {count}')
-    except Exception as exc:
-        probs.append(f'{name}: indexed CRC-validated read failed ({_one_line(exc)})')
-
-
-def _chunk_positions(chunk: Chunk) -> List[int]:
-    """Offsets of the Message records inside a chunk's decompressed records."""
-    from mcap.stream_reader import get_chunk_data_stream
-    stream, length = get_chunk_data_stream(chunk, validate_crc=False)
-    out = []
-    while stream.count < length:
-        pos = stream.count
-        opcode = stream.read1()
-        n = stream.read8()
-        stream.read(n)
-        if opcode == 0x05:  # Message
-            out.append(pos)
-    return out
-
-
-def _validate_metadata_yaml(meta: dict, rep: ValidationReport, per_topic: Dict[str, int],
-                            agg: Dict[str, Any], files: List[Path]) -> None:
-    probs = rep.problems
-    try:
-        if meta.get('storage_identifier') != 'mcap':
-            probs.append(f"metadata.yaml storage_identifier is "
-                         f"{meta.get('storage_identifier')!r}, expected 'mcap'")
-        if int(meta['message_count']) != agg['count']:
-            probs.append(f"metadata.yaml message_count {meta['message_count']} != "
-                         f"{agg['count']} messages in the MCAP file(s)")
-        yaml_topics = {t['topic_metadata']['name']: int(t['message_count'])
-                       for t in meta.get('topics_with_message_count') or []}
-        for t, n in per_topic.items():
-            if yaml_topics.get(t) != n:
-                probs.append(f'metadata.yaml topic {t}: count {yaml_topics.get(t)} != {n}')
-        for t, n in yaml_topics.items():
-            if n and t not in per_topic:
-                probs.append(f'metadata.yaml lists {n} messages on {t}, none in the file')
-        if agg['count']:
-            start = int(meta['starting_time']['nanoseconds_since_epoch'])
-            dur = int(meta['duration']['nanoseconds'])
-            if start != agg['start'] or start + dur != agg['end']:
-                probs.append('metadata.yaml starting_time/duration disagree with message times')
-        listed = [Path(x).name for x in meta.get('relative_file_paths') or []]
-        if listed != [f.name for f in files]:
-            probs.append('metadata.yaml relative_file_paths do not match the files')
-        fcount = sum(int(x.get('message_count', 0)) for x in meta.get('files') or [])
-        if meta.get('files') and fcount != agg['count']:
-            probs.append(f'metadata.yaml files message_count {fcount} != {agg["count"]}')
-    except (KeyError, TypeError, ValueError) as exc:
-        probs.append(f'metadata.yaml malformed ({_one_line(exc)})')
+from .bag_validate import ValidationReport, validate  # noqa: E402  (re-export)

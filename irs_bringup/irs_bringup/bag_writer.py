@@ -312,8 +312,11 @@ class BagWriter:
 
     # ------------------------------------------------------------------ API
     def add_topic(self, topic: str, type_name: str, offered_qos_profiles: str = '',
-                  type_hash: Optional[str] = None) -> None:
+                  type_hash: Optional[str] = None, definition: Optional[str] = None) -> None:
         """Declare a topic (optional: :meth:`write` declares unknown topics itself).
+
+        ``definition`` (the full ``ros2msg`` text, e.g. from another bag) is used for the
+        type's schema instead of the installed ``.msg`` files, if the type has none yet.
 
         Declaring up front records QoS and puts the topic in the bag even if no message
         arrives. Re-declaring a topic with the same type is a no-op; with another type it is an
@@ -328,7 +331,7 @@ class BagWriter:
         """
         with self._lock:
             self._check_open()
-            self._declare(topic, type_name, offered_qos_profiles, type_hash)
+            self._declare(topic, type_name, offered_qos_profiles, type_hash, definition)
 
     def write(self, topic: str, type_name: str, data: Union[bytes, bytearray, memoryview],
               log_time_ns: int, publish_time_ns: Optional[int] = None,
@@ -480,7 +483,8 @@ class BagWriter:
             raise BagWriterError(f'{what} must be in [0, 2**64) ns, got {t}')
         return t
 
-    def _declare(self, topic: str, type_name: str, qos: str, type_hash: Optional[str]) -> None:
+    def _declare(self, topic: str, type_name: str, qos: str, type_hash: Optional[str],
+                 definition: Optional[str] = None) -> None:
         if not isinstance(topic, str) or not _TOPIC_RE.match(topic):
             raise BagWriterError(f'invalid topic name {topic!r}')
         if topic in self._topics:
@@ -491,10 +495,13 @@ class BagWriter:
         if not isinstance(qos, str):
             raise BagWriterError('offered_qos_profiles must be a YAML string (may be empty)')
         if type_name not in self._schemas:
-            definition = get_message_definition(type_name, self._prefixes)
+            if definition is None:
+                definition = get_message_definition(type_name, self._prefixes)
+                self._hash[type_name] = type_description_hash(type_name, self._prefixes)
+            else:
+                self._hash[type_name] = str(type_hash or '')
             self._schemas[type_name] = self._writer.register_schema(
                 name=type_name, encoding='ros2msg', data=definition.encode('utf-8'))
-            self._hash[type_name] = type_description_hash(type_name, self._prefixes)
         thash = self._hash[type_name] if type_hash is None else str(type_hash)
         self._channels[topic] = self._writer.register_channel(
             topic=topic, message_encoding='cdr', schema_id=self._schemas[type_name],

@@ -17,7 +17,9 @@ Timeline ``time``: seconds from the first message, from ``header.stamp`` (sim ti
 runs), else log time. The 2-D view is decimated to ``--view-rate`` Hz (default 50), the series
 to ``--series-rate`` Hz (default 200; 0 = every message).
 
-Exit codes: 0 ok, 1 unreadable bag / nothing to export / write error, 2 usage error.
+Works on unfinished or damaged bags too (their readable part, one warning line on stderr).
+Exit codes: 0 ok, 1 nothing to export, 2 unreadable bag / write error / usage error (one line
+on stderr).
 """
 from __future__ import annotations
 
@@ -28,9 +30,9 @@ from pathlib import Path
 from typing import Dict, List, Optional
 
 from .bag_plots import BELT_LENGTH, BELT_WIDTH, _find, _stamp_s
-from .bag_reader import BagError, BagReader
+from .bag_reader import BagError, open_bag, reading
 
-__all__ = ['export_rrd', 'main', 'ENTITY_PATHS']
+__all__ = ['export_rrd', 'main', 'ENTITY_PATHS', 'NothingToExport']
 
 ENTITY_PATHS = ['world/belt', 'world/arm/base', 'world/car', 'world/car/heading', 'world/arm',
                 'series/lateral/ground_truth', 'series/lateral/sensed',
@@ -48,6 +50,10 @@ SERIES = {
     'series/belt/speed': ('belt/speed', 'speed'),
     'series/belt/regulator_speed': ('treadmill/state', 'belt_speed'),
 }
+
+
+class NothingToExport(BagError):
+    """The bag has none of the topics (or no usable message) the export uses."""
 
 
 def _field(msg, path):
@@ -75,7 +81,8 @@ class _Decimator:
 def export_rrd(bag_path, rrd_path, *, view_rate: float = 50.0, series_rate: float = 200.0,
                geometry=None, car_length: float = 0.40, car_width: float = 0.20,
                application_id: str = 'irs') -> Dict[str, int]:
-    """Write ``rrd_path`` from ``bag_path``; return the number of rows logged per entity.
+    """Write ``rrd_path`` from ``bag_path`` (a path, opened strictly, or an open
+    :class:`BagReader`); return the number of rows logged per entity.
 
     ``geometry`` is an :class:`irs_sensing.arm_kinematics.ArmGeometry` (default: defaults of
     docs/conventions.md, l1 = l2 = 1 m, base (0, 0.85) m).
@@ -94,7 +101,7 @@ def export_rrd(bag_path, rrd_path, *, view_rate: float = 50.0, series_rate: floa
     series: Dict[str, tuple] = {}
     cars: List[tuple] = []
     arms: List[tuple] = []
-    with BagReader(bag_path) as r:
+    with reading(bag_path) as r:
         topics = r.topics
         plan: Dict[str, List[tuple]] = {}
         for ent, (suffix, path) in SERIES.items():
@@ -108,9 +115,10 @@ def export_rrd(bag_path, rrd_path, *, view_rate: float = 50.0, series_rate: floa
         if arm_topic is not None:
             plan.setdefault(arm_topic, []).append(('arm', None, None, _Decimator(view_rate)))
         if not plan:
-            raise BagError(f'{bag_path}: none of the topics used by the rerun export is in the '
-                           'bag (arm/joint_states, ground_truth/odom, pose, '
-                           + ', '.join(s for s, _ in SERIES.values()) + ')')
+            raise NothingToExport(
+                f'{r.path}: none of the topics used by the rerun export is in the bag '
+                '(arm/joint_states, ground_truth/odom, pose, '
+                + ', '.join(s for s, _ in SERIES.values()) + ')')
         for m, msg in r.decoded(list(plan)):
             ts = _stamp_s(msg, m.log_time_ns)
             for kind, ent, path, dec in plan[m.topic]:
@@ -136,7 +144,8 @@ def export_rrd(bag_path, rrd_path, *, view_rate: float = 50.0, series_rate: floa
     starts = [xs[0] for xs, _ in series.values() if xs] + [c[0] for c in cars[:1]] + \
         [a[0] for a in arms[:1]]
     if not starts:
-        raise BagError(f'{bag_path}: no usable messages for the rerun export')
+        raise NothingToExport(f'{getattr(bag_path, "path", bag_path)}: no usable messages for '
+                              'the rerun export')
     t0 = min(starts)
 
     rec = rr.RecordingStream(application_id)
@@ -218,12 +227,16 @@ def main(argv: Optional[List[str]] = None) -> int:
         print(f'bag rerun: error: {exc}', file=sys.stderr)
         return 2
     try:
-        rows = export_rrd(args.bag, args.out, view_rate=args.view_rate,
-                          series_rate=args.series_rate, geometry=geom,
-                          car_length=args.car_length, car_width=args.car_width)
-    except (BagError, OSError) as exc:
+        with open_bag(args.bag, 'bag rerun') as r:
+            rows = export_rrd(r, args.out, view_rate=args.view_rate,
+                              series_rate=args.series_rate, geometry=geom,
+                              car_length=args.car_length, car_width=args.car_width)
+    except NothingToExport as exc:
         print(f'bag rerun: error: {exc}', file=sys.stderr)
         return 1
+    except (BagError, OSError) as exc:
+        print(f'bag rerun: error: {exc}', file=sys.stderr)
+        return 2
     print(f'{args.out}: ' + ', '.join(f'{k} ({v})' for k, v in sorted(rows.items())))
     return 0
 

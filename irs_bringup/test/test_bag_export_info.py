@@ -114,7 +114,7 @@ def test_export_errors_are_messages(bag, tmp_path, capsys):
     assert bag_export.main([str(d), '--topics', '/nope', '--out', str(tmp_path)]) == 2
     err = capsys.readouterr().err
     assert 'topics not in the bag: /nope' in err and 'Traceback' not in err
-    assert bag_export.main([str(tmp_path / 'missing'), '--out', str(tmp_path)]) == 1
+    assert bag_export.main([str(tmp_path / 'missing'), '--out', str(tmp_path)]) == 2
     assert 'no such bag' in capsys.readouterr().err
     with pytest.raises(SystemExit) as ei:
         bag_export.main([str(d)])  # --out missing
@@ -141,10 +141,10 @@ def test_info_output(bag):
 
 
 def test_info_errors(tmp_path, capsys):
-    assert bag_info.main([str(tmp_path / 'nothing')]) == 1
+    assert bag_info.main([str(tmp_path / 'nothing')]) == 2
     assert 'no such bag' in capsys.readouterr().err
     (tmp_path / 'junk.mcap').write_bytes(b'not an mcap file at all' * 10)
-    assert bag_info.main([str(tmp_path / 'junk.mcap')]) == 1
+    assert bag_info.main([str(tmp_path / 'junk.mcap')]) == 2
     err = capsys.readouterr().err
     assert 'not an MCAP file' in err and 'Traceback' not in err
     with pytest.raises(SystemExit) as ei:

@@ -69,6 +69,12 @@ def _expected_count(ends, cut):
 CUTS = [0, 5, 8, 40, 0.05, 0.2, 0.37, 0.5, 0.61, 0.83, 0.97, -200, -40, -1]
 
 
+def _summary_start(data):
+    """Where the summary section starts (= the end of the data section), from the footer."""
+    import struct
+    return struct.unpack_from('<Q', data, len(data) - 8 - 29 + 9)[0]
+
+
 @pytest.mark.parametrize('cut', CUTS)
 def test_truncated_file(bag, tmp_path, cut):
     d, path, written, ends = bag
@@ -77,20 +83,36 @@ def test_truncated_file(bag, tmp_path, cut):
         len(data) + cut if isinstance(cut, int) else int(len(data) * cut))
     bad = tmp_path / 'cut.mcap'
     bad.write_bytes(data[:n])
-    # normal reading refuses with a one-line BagError
-    with pytest.raises(BagError) as ei:
-        with BagReader(bad) as r:
-            list(r.messages())
-    assert '\n' not in str(ei.value) and 'cut.mcap' in str(ei.value)
-    assert not validate(bad).ok
-    # recovery gives exactly the messages of the complete chunks, as a prefix
-    if n < 8:
-        with pytest.raises(BagError, match='not an MCAP file'):
-            recover(bad)
+    if n < 8:   # not even the magic: not a bag
+        for call in (BagReader, recover):
+            with pytest.raises(BagError, match='not an MCAP file'):
+                call(bad)
+        assert not validate(bad).ok
         return
-    rec = recover(bad)
-    assert not rec.complete and rec.error
     expected = _expected_count(ends, n)
+    rep = validate(bad)
+    assert rep.ok and not rep.complete and rep.message_count == expected, rep
+    assert len(rep.warnings) == 1 and 'unfinished' in rep.warnings[0]
+    rec = recover(bad)
+    if n >= _summary_start(data):
+        # cut inside the summary: the data section is whole, read without the summary
+        assert rec.complete and rec.error is None and len(rec) == N
+        with BagReader(bad) as r:
+            assert [m.data for m in r.messages()] == [w[3] for w in written]
+            assert len(r.warnings) == 1 and 'unfinished' in r.warnings[0]
+        return
+    # the default refuses a prefix with a one-line BagError that names the file ...
+    with pytest.raises(BagError, match='recover') as ei:
+        BagReader(bad)
+    assert '\n' not in str(ei.value) and 'cut.mcap' in str(ei.value)
+    # ... allow_partial reads it, with one warning line
+    with BagReader(bad, allow_partial=True) as r:
+        assert r.partial and len(r.warnings) == 1 and 'recovered prefix' in r.warnings[0]
+        assert [m.data for m in r.messages()] == [w[3] for w in written[:expected]]
+        assert r.message_count == expected
+        assert sum(t.message_count for t in r.topics.values()) == expected
+    # recovery gives exactly the messages of the complete chunks, as a prefix
+    assert not rec.complete and rec.error
     assert len(rec) == expected
     assert [(m.topic, m.type, m.log_time_ns, m.data) for m in rec] == written[:expected]
     assert rec.chunks == sum(1 for end, _ in ends if end <= n)
@@ -138,7 +160,7 @@ def test_copy_of_unclosed_bag_is_recoverable(tmp_path):
             assert len(rec) >= len(written) - unflushed // 60 - 1
             with pytest.raises(BagError, match='recover'):
                 BagReader(snap)
-            assert bag_info.main([str(snap)]) == 1
+            assert bag_info.main([str(snap)]) == 0   # on the prefix, with a warning
     w.flush()
     snap = tmp_path / 'flushed'
     shutil.copytree(d, snap)
