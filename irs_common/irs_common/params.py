@@ -419,7 +419,9 @@ def report_unknown_overrides(node, strict: bool = False) -> list:
     unknown = unknown_overrides(node)
     if unknown:
         declared = node.list_parameters([], 0).names
-        listed = ', '.join(name + _did_you_mean(name, declared) for name in unknown)
+        listed = ', '.join(name + _did_you_mean(name, declared) for name in unknown[:10])
+        if len(unknown) > 10:
+            listed += f' and {len(unknown) - 10} more'
         msg = f"unknown parameter(s) given to node '{node.get_name()}' (misspelt?): {listed}"
         if strict:
             raise ValueError(msg)

@@ -224,3 +224,12 @@ def _fuzz_node():
     yield
     node.destroy_node()
     rclpy.try_shutdown(context=context)
+
+
+def test_a_long_list_of_unknown_names_is_shortened(ctx):
+    args = [a for i in range(12) for a in ('-p', f'zz{i:02d}:=1.0')]
+    node = ctx(*args)
+    with pytest.raises(ValueError) as info:
+        _declare(node, strict=True)
+    assert 'zz00, zz01' in str(info.value) and 'zz09 and 2 more' in str(info.value)
+    assert 'zz10' not in str(info.value)
