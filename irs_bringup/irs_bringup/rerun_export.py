@@ -149,7 +149,11 @@ def export_rrd(bag_path, rrd_path, *, view_rate: float = 50.0, series_rate: floa
     t0 = min(starts)
 
     rec = rr.RecordingStream(application_id)
-    rec.save(str(rrd_path))
+    try:
+        Path(rrd_path).parent.mkdir(parents=True, exist_ok=True)
+        rec.save(str(rrd_path))
+    except (OSError, RuntimeError) as exc:
+        raise BagError(f'cannot write {rrd_path} ({exc})') from None
     rows: Dict[str, int] = {}
     rec.log('world', rr.ViewCoordinates.RIGHT_HAND_Z_UP, static=True)
     hl, hw = BELT_LENGTH / 2, BELT_WIDTH / 2
