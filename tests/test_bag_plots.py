@@ -18,9 +18,11 @@ def _stamp(msg, k):
     return msg
 
 
-def make_bag(path, topics=None):
-    """A bag with every topic the plots and the rerun export use, N samples at 1 kHz."""
+def make_bag(path, topics=None, clock=False):
+    """A bag with every topic the plots and the rerun export use, N samples at 1 kHz (plus
+    /clock at every step with ``clock``, as a lock-step experiment records it)."""
     from geometry_msgs.msg import PointStamped, PoseStamped
+    from rosgraph_msgs.msg import Clock
     from nav_msgs.msg import Odometry
     from rclpy.serialization import serialize_message
     from sensor_msgs.msg import JointState
@@ -70,11 +72,36 @@ def make_bag(path, topics=None):
             js.name = ['arm_joint1', 'arm_joint2', 'arm_joint3']
             js.position = list(inverse_kinematics(x, y, psi, geom))
             msgs['/arm/joint_states'] = js
+            if clock:
+                msgs = {'/clock': Clock(clock=js.header.stamp), **msgs}
             for topic, msg in msgs.items():
                 if topics is None or topic in topics:
                     w.write(topic, _type_name(msg),
                             serialize_message(msg), 10**9 + k * DT_NS)
     return path
+
+
+def test_an_extra_clock_topic_changes_nothing(small_bag, tmp_path):
+    """Lock-step experiments record /clock: the Figure 10 series, the plots and the rerun
+    export of such a bag are those of the same bag without it."""
+    import numpy as np
+
+    from irs_bringup.bag_plots import load_series, make_plots
+    from irs_bringup.bag_reader import BagReader
+    from irs_bringup.rerun_export import export_rrd
+    from irs_bringup.run_series import lateral_run
+
+    with_clock = make_bag(tmp_path / 'with_clock', clock=True)
+    with BagReader(with_clock) as r:
+        assert r.topics['/clock'].message_count == N
+    a, b = lateral_run(small_bag), lateral_run(with_clock)
+    assert set(a) == set(b) and len(a['time']) == N
+    for k in a:
+        assert np.array_equal(a[k], b[k], equal_nan=True), k
+    assert load_series(small_bag) == load_series(with_clock)
+    assert [p.name for p in make_plots(with_clock, tmp_path / 'p')] == \
+        [p.name for p in make_plots(small_bag, tmp_path / 'q')]
+    assert export_rrd(with_clock, tmp_path / 'c.rrd') == export_rrd(small_bag, tmp_path / 'd.rrd')
 
 
 def _type_name(msg):

@@ -307,3 +307,16 @@ def test_recorder_bad_output_is_a_configuration_error(tmp_path):
                          timeout=60)
     assert res.returncode == 2, res.stderr
     assert 'not empty' in res.stderr and 'Traceback' not in res.stderr
+
+
+def test_lockstep_experiments_record_clock():
+    """/clock (published by the lock-step rig, recorded by the tests above) is in the record
+    list of every lock-step experiment, so `bag play` paces their bags by sim time; the
+    runner waits for the recorder's /clock subscription before step 0."""
+    from irs_bringup.experiment import expected_endpoints, load_experiment
+    for name in ('figure10_mrc_with_actuator', 'figure10_mrc_without_actuator', 'figure10_pi',
+                 'treadmill_regulation'):
+        exp = load_experiment(name)
+        assert exp.clock == 'lockstep' and '/clock' in exp.record_topics, name
+        non_rig = sum(1 for e in exp.nodes if e.key != ('irs_vehicle_sim', 'vehicle_sim'))
+        assert expected_endpoints(exp)['/clock'] == (1, non_rig + 1), name
