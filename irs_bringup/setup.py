@@ -27,6 +27,12 @@ setup(
             'bag = irs_bringup.bag_cli:main',
             'recorder = irs_bringup.recorder_node:main',
             'driver = irs_bringup.driver_node:main',
+            'container = irs_bringup.container:main',
+        ],
+        # Node classes the container composes in one process (rclpy's analogue of
+        # rclcpp_components): <executable name> = <module>:<Node subclass>.
+        'irs_components': [
+            'driver = irs_bringup.driver_node:DriverNode',
         ],
     },
 )

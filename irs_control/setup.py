@@ -26,5 +26,11 @@ setup(
             'reference_generator = irs_control.reference_generator_node:main',
             'rst_design = irs_control.design_cli:main',
         ],
+        # Node classes the container composes in one process (rclpy's analogue of
+        # rclcpp_components): <executable name> = <module>:<Node subclass>.
+        'irs_components': [
+            'lateral_controller = irs_control.lateral_controller_node:LateralControllerNode',
+            'reference_generator = irs_control.reference_generator_node:ReferenceGeneratorNode',
+        ],
     },
 )

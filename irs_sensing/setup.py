@@ -24,5 +24,10 @@ setup(
         'console_scripts': [
             'arm_pose_estimator = irs_sensing.arm_pose_estimator_node:main',
         ],
+        # Node classes the container composes in one process (rclpy's analogue of
+        # rclcpp_components): <executable name> = <module>:<Node subclass>.
+        'irs_components': [
+            'arm_pose_estimator = irs_sensing.arm_pose_estimator_node:ArmPoseEstimatorNode',
+        ],
     },
 )

@@ -24,5 +24,10 @@ setup(
         'console_scripts': [
             'treadmill_regulator = irs_treadmill.treadmill_regulator_node:main',
         ],
+        # Node classes the container composes in one process (rclpy's analogue of
+        # rclcpp_components): <executable name> = <module>:<Node subclass>.
+        'irs_components': [
+            'treadmill_regulator = irs_treadmill.treadmill_regulator_node:TreadmillRegulatorNode',
+        ],
     },
 )

@@ -25,5 +25,10 @@ setup(
             'vehicle_sim = irs_vehicle_sim.vehicle_sim_node:main',
             'vehicle_tf = irs_vehicle_sim.tf_cli:main',
         ],
+        # Node classes the container composes in one process (rclpy's analogue of
+        # rclcpp_components): <executable name> = <module>:<Node subclass>.
+        'irs_components': [
+            'vehicle_sim = irs_vehicle_sim.vehicle_sim_node:VehicleSimNode',
+        ],
     },
 )

@@ -54,7 +54,8 @@ def reset(ros):
 
 
 def test_regulates_then_latches_stale_and_off_belt_faults(ros, launch):
-    launch(NodeSpec('irs_treadmill', 'treadmill_regulator', params={'safety.stale_timeout': 0.2}))
+    launch(NodeSpec('irs_treadmill', 'treadmill_regulator', params={'safety.stale_timeout': 1.0,
+                                                                  'state_decimation': 1}))
     f = Feeder(ros)
     assert ros.wait_for_matched([f.pose, f.vel, f.belt, *f.subs], timeout=30.0)
 

@@ -3,32 +3,32 @@
 Publishes ``driver/command`` (irs_msgs/DriverCommand, the car's forward speed over the belt
 [m/s]) from the profile in the parameters (``profile.times`` [s], ``profile.speeds`` [m/s],
 ``profile.interpolation``): once per ``/clock`` tick with ``use_sim_time`` (lock-step runs list
-``driver`` among the rig's lock-step inputs), otherwise at ``rate`` on a wall timer.
+``driver`` among the rig's lock-step inputs), otherwise at ``rate`` on a wall timer, with the profile's time counted from the node's first tick.
 """
 from rclpy.node import Node
 
 from irs_common import qos
 from irs_common.node_main import run_node
 from irs_common.params import declare_table
-from irs_common.stamps import to_sec
 from irs_common.ticker import create_ticker
 from irs_msgs.msg import DriverCommand
 
 from .speed_profile import DRIVER_PARAMS as PARAMS, SpeedProfile
 
+
 class DriverNode(Node):
-    def __init__(self):
-        super().__init__('driver')
+    def __init__(self, **node_options):
+        super().__init__('driver', **node_options)
         self.p = declare_table(self, PARAMS)
         self.profile = SpeedProfile(self.p['profile.times'], self.p['profile.speeds'],
                                     self.p['profile.interpolation'])
         self.pub = self.create_publisher(DriverCommand, 'driver/command', qos.COMMAND)
-        create_ticker(self, self.p['rate'], self._publish)
+        self.ticker = create_ticker(self, self.p['rate'], self._publish)
 
-    def _publish(self, stamp):
+    def _publish(self, stamp, t):
         msg = DriverCommand()
         msg.header.stamp = stamp
-        msg.speed = float(self.profile(to_sec(stamp)))
+        msg.speed = float(self.profile(t))
         self.pub.publish(msg)
 
 

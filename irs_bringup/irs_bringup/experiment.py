@@ -34,7 +34,7 @@ RIG_KEY = ('irs_vehicle_sim', 'vehicle_sim')
 NODE_TOPICS = {
     ('irs_vehicle_sim', 'vehicle_sim'): {
         'pub': ['/clock', 'arm/joint_states', 'belt/speed', 'steering/state', 'ground_truth/odom',
-                'ground_truth/sensor_point', 'rig/status'],
+                'ground_truth/sensor_point', 'rig/status', 'rig/timing'],
         'sub': ['steering/command', 'treadmill/drive', 'driver/command']},
     ('irs_sensing', 'arm_pose_estimator'): {
         'pub': ['pose', 'velocity', 'lateral_position', 'sensing/status'],
@@ -42,11 +42,11 @@ NODE_TOPICS = {
     ('irs_control', 'lateral_controller'): {
         'pub': ['steering/command', 'lateral/status'],
         'sub': ['lateral_position', 'lateral/reference']},
-    ('irs_control', 'reference_generator'): {'pub': ['lateral/reference'], 'sub': ['/clock']},
+    ('irs_control', 'reference_generator'): {'pub': ['lateral/reference'], 'sub': []},
     ('irs_treadmill', 'treadmill_regulator'): {
         'pub': ['treadmill/drive', 'treadmill/state'],
         'sub': ['pose', 'velocity', 'belt/speed', 'treadmill/reset']},
-    ('irs_bringup', 'driver'): {'pub': ['driver/command'], 'sub': ['/clock']},
+    ('irs_bringup', 'driver'): {'pub': ['driver/command'], 'sub': []},
 }
 
 
@@ -230,7 +230,8 @@ def expected_endpoints(exp: Experiment) -> dict:
     for topic in exp.record_topics:
         counts.setdefault(absolute(topic), [0, 0])[1] += 1
     if exp.clock == 'lockstep' and '/clock' in counts:
-        # every node but the rig runs on sim time: its time source subscribes /clock too
+        # every node but the rig runs on sim time: it subscribes /clock once (its TimeSource, which
+        # the ticker of the reference generator and the driver rides on)
         counts['/clock'][1] += sum(1 for e in exp.nodes if e.key != RIG_KEY)
     else:
         counts.pop('/clock', None)  # only the lock-step rig publishes /clock

@@ -5,9 +5,12 @@ Order of events:
 1. a run directory ``<runs>/<name>-<time>/`` with ``logs/`` (one log per node) and ``bag/``;
 2. the recorder (if the experiment records) and every node start through their ament-resolved
    executables, with the experiment's parameter files and overrides plus the clock parameters;
+   nodes that share a ``process:`` name start together in one ``container`` process
+   (composition: one executor, the nodes still separate on topics);
 3. the runner waits until every node is in the graph and every topic has its expected
    publishers and subscriptions (``experiment.expected_endpoints``), then calls ``rig/start``;
-4. it follows the run (``/clock`` in lock-step, wall time in real time) with a progress line,
+4. it follows the run (the rig's ``rig/status``, 10 Hz of simulated time, in lock-step; wall
+   time in real time) with a progress line,
    checking every process: if one dies the run stops, naming the node and its last output; if
    the rig reports that the car left the belt, the run stops too;
 5. on completion or Ctrl-C every node is stopped with SIGINT (then SIGTERM/SIGKILL per process
@@ -27,8 +30,9 @@ import time
 
 import rclpy
 from rclpy.context import Context
-from rosgraph_msgs.msg import Clock
+from diagnostic_msgs.msg import DiagnosticArray
 from std_srvs.srv import Trigger
+import yaml
 
 from irs_common import qos
 from irs_common.stamps import to_sec
@@ -38,6 +42,13 @@ from .experiment import (Experiment, RIG_KEY, clock_overrides, expected_endpoint
                          node_parameters, resolve_params_file)
 from .graph import make_watcher
 from .processes import NodeProcess, NodeSpec
+
+
+def _number(text: str):
+    try:
+        return int(text)
+    except ValueError:
+        return float(text)
 
 
 class ExperimentFailed(RuntimeError):
@@ -53,6 +64,8 @@ class RunResult:
     wall_time: float
     exit_codes: dict = field(default_factory=dict)
     message: str = ''
+    timing: dict = field(default_factory=dict)   # real time: the rig's loop figures (rig/timing)
+    cpu: dict = field(default_factory=dict)      # process label -> CPU seconds used in the run
 
 
 def _git_commit() -> str:
@@ -85,7 +98,7 @@ class ExperimentRunner:
     """Runs one :class:`~irs_bringup.experiment.Experiment` (see module docstring)."""
 
     def __init__(self, exp: Experiment, runs_dir='runs', log=print, graph_timeout=60.0,
-                 stall_timeout=30.0, progress=True):
+                 stall_timeout=30.0, progress=True, rt_priority=0):
         self.exp = exp
         stamp = datetime.datetime.now().strftime('%Y%m%d-%H%M%S')
         self.run_dir = Path(runs_dir).resolve() / f'{exp.name}-{stamp}'
@@ -98,6 +111,8 @@ class ExperimentRunner:
         self.stall_timeout = stall_timeout
         self.progress = progress
         self.procs = {}
+        self.members = {}    # container process label -> its node names
+        self.rt_priority = int(rt_priority)
         self.dt = _rig_dt(exp)
         self.phase = 'created'   # -> starting -> running -> stopping -> done (for observers)
 
@@ -108,23 +123,44 @@ class ExperimentRunner:
             for ref in entry.params_files:
                 resolve_params_file(ref)  # fail early with a clear message
             params = {**entry.params, **clock_overrides(self.exp, entry, self.dt)}
-            specs.append(NodeSpec(entry.package, entry.executable, entry.name,
-                                  [str(resolve_params_file(r)) for r in entry.params_files],
-                                  params, entry.remaps))
+            specs.append((getattr(entry, 'process', None),
+                          NodeSpec(entry.package, entry.executable, entry.name,
+                                   [str(resolve_params_file(r)) for r in entry.params_files],
+                                   params, entry.remaps)))
         return specs
 
+    def _start_nodes(self, logs: Path, env):
+        """One process per node, or one ``container`` per ``process:`` group."""
+        groups = {}
+        for process, spec in self._specs():
+            if process is None:
+                self.procs[spec.name] = NodeProcess(spec, logs, env=env)
+            else:
+                groups.setdefault(process, []).append(spec)
+        for process, specs in groups.items():
+            spec_file = logs / f'{process}.container.yaml'
+            spec_file.write_text(yaml.safe_dump({'nodes': [
+                {'package': s.package, 'executable': s.executable,
+                 'ros_args': s.ros_args(logs / f'{s.name}.params.yaml')} for s in specs]},
+                sort_keys=False))
+            container = NodeSpec('irs_bringup', 'container', args=[str(spec_file)])
+            self.procs[process] = NodeProcess(container, logs, env=env, label=process)
+            self.members[process] = [s.name for s in specs]
+
     def _recorder_spec(self, bag_dir):
+        # No use_sim_time: the recorder logs receive times on the system clock either way, and
+        # without it it does not take /clock every step (unless /clock is recorded).
         params = {'topics': list(self.exp.record_topics), 'output': str(bag_dir),
                   'metadata': json.dumps(experiment_metadata(self.exp))}
-        if self.exp.clock == 'lockstep':
-            params['use_sim_time'] = True
         return NodeSpec('irs_bringup', 'recorder', 'recorder', params=params)
 
     def _check_alive(self):
         for name, proc in self.procs.items():
             code = proc.poll()
             if code is not None:
-                raise ExperimentFailed(f"node '{name}' died (exit code {code}); its last output:\n"
+                what = (f"process '{name}' (nodes {', '.join(self.members[name])})"
+                        if name in self.members else f"node '{name}'")
+                raise ExperimentFailed(f'{what} died (exit code {code}); its last output:\n'
                                        f'{proc.tail(15)}')
 
     def _stop_all(self) -> dict:
@@ -161,23 +197,29 @@ class ExperimentRunner:
         watcher = make_watcher('irs_experiment_runner', context=context)
         t_wall0 = time.monotonic()
         clock = {'t': 0.0}
+        cpu0 = {}
         completed = False
         message = ''
         self.phase = 'starting'
         try:
+            env = None
+            if self.rt_priority:
+                env = dict(os.environ, IRS_RT_PRIORITY=str(self.rt_priority))
             if bag_dir is not None:
                 self.procs['recorder'] = NodeProcess(self._recorder_spec(bag_dir), logs)
-            for spec in self._specs():
-                self.procs[spec.name] = NodeProcess(spec, logs)
+            self._start_nodes(logs, env)
             self.log(f'[experiment] {exp.name}: started {len(self.procs)} processes, '
                      f'logs in {logs}')
             self._wait_for_graph(watcher)
             node = watcher.node
-            node.create_subscription(Clock, '/clock', lambda m: clock.__setitem__('t', to_sec(m.clock)),
-                                     qos.CLOCK)
-            node.create_subscription(RigStatus, 'rig/status',
-                                     lambda m: clock.update(complete=m.run_complete, rig=m), qos.STATUS)
+            node.create_subscription(
+                RigStatus, 'rig/status', lambda m: clock.update(
+                    t=to_sec(m.header.stamp), complete=m.run_complete, rig=m), qos.STATUS)
+            node.create_subscription(
+                DiagnosticArray, 'rig/timing', lambda m: clock.update(
+                    timing={kv.key: _number(kv.value) for kv in m.status[0].values}), qos.STATUS)
             self._start_rig(watcher)
+            cpu0 = {label: proc.cpu_seconds() for label, proc in self.procs.items()}
             self.phase = 'running'
             t_start = time.monotonic()
             completed = self._follow(watcher, clock, t_start)
@@ -195,11 +237,19 @@ class ExperimentRunner:
             rclpy.try_shutdown(context=context)
             self.phase = 'done'
         sim_time = clock['t'] if exp.clock == 'lockstep' else time.monotonic() - t_wall0
+        timing = clock.get('timing', {})
+        if timing:
+            (self.run_dir / 'timing.json').write_text(json.dumps(timing, indent=1))
+            self.log('[experiment] real-time loop: {steps} steps, {miss_pct:.3f} % deadline misses, '
+                     'latency p50 {latency_p50_ms:.3f} / p99 {latency_p99_ms:.3f} / max '
+                     '{latency_max_ms:.3f} ms, {late_ticks} late ticks'.format(**timing))
+        cpu = {label: getattr(proc, 'cpu_at_stop', float('nan')) - cpu0.get(label, float('nan'))
+               for label, proc in self.procs.items()}   # CPU of the run itself, start-up excluded
         return RunResult(self.run_dir, bag_dir, completed, sim_time, time.monotonic() - t_wall0,
-                         codes, message)
+                         codes, message, timing, cpu)
 
     def _wait_for_graph(self, watcher):
-        names = list(self.procs)
+        names = [n for label in self.procs for n in self.members.get(label, [label])]
         expected = expected_endpoints(self.exp)
         deadline = time.monotonic() + self.graph_timeout
 

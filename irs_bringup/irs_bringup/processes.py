@@ -50,6 +50,11 @@ class NodeSpec:
         -- and are passed as ``-p name:=value`` otherwise.
         """
         cmd = [resolve_executable(self.package, self.executable), *map(str, self.args)]
+        ros = self.ros_args(overrides_file)
+        return cmd + (['--ros-args', *ros] if ros else [])
+
+    def ros_args(self, overrides_file=None) -> list:
+        """What follows ``--ros-args``: node name, parameter files, overrides, remaps."""
         ros = []
         if self.name:
             ros += ['-r', f'__node:={self.name}']
@@ -65,7 +70,7 @@ class NodeSpec:
                 ros += ['-p', f'{key}:={_param_text(value)}']
         for src, dst in self.remaps.items():
             ros += ['-r', f'{src}:={dst}']
-        return cmd + (['--ros-args', *ros] if ros else [])
+        return ros
 
 
 def _param_text(value) -> str:
@@ -81,9 +86,9 @@ def _param_text(value) -> str:
 class NodeProcess:
     """A running node process (see module docstring)."""
 
-    def __init__(self, spec: NodeSpec, log_dir, env=None):
+    def __init__(self, spec: NodeSpec, log_dir, env=None, label=None):
         self.spec = spec
-        self.label = spec.name or spec.executable
+        self.label = label or spec.name or spec.executable
         self.log_path = Path(log_dir) / f'{self.label}.log'
         self.log_path.parent.mkdir(parents=True, exist_ok=True)
         self.cmd = spec.command(overrides_file=Path(log_dir) / f'{self.label}.params.yaml')
@@ -109,8 +114,17 @@ class NodeProcess:
     def tail(self, lines: int = 20) -> str:
         return '\n'.join(self.output().splitlines()[-lines:])
 
+    def cpu_seconds(self) -> float:
+        """User + system CPU time [s] the process has used so far (Linux /proc), NaN if gone."""
+        try:
+            fields = Path(f'/proc/{self.popen.pid}/stat').read_text().rsplit(')', 1)[1].split()
+        except OSError:
+            return float('nan')
+        return (int(fields[11]) + int(fields[12])) / os.sysconf('SC_CLK_TCK')
+
     def stop(self, timeout: float = 10.0) -> int:
         """SIGINT, then SIGTERM, then SIGKILL (process group), each after ``timeout`` s."""
+        self.cpu_at_stop = self.cpu_seconds()
         for sig, wait in ((signal.SIGINT, timeout), (signal.SIGTERM, timeout / 2),
                           (signal.SIGKILL, timeout)):
             if self.popen.poll() is not None:

@@ -1,37 +1,107 @@
-"""Run a node the way the ROS 2 examples do, so that SIGINT/SIGTERM end it with exit code 0."""
+"""Run one node, or several composed in one process, on the lean executor; exit cleanly.
+
+``run_node(NodeClass)`` is every IRS executable's ``main``: ``rclpy.init``, build the node, spin it
+on :class:`~irs_common.executor.LeanExecutor` until SIGINT/SIGTERM (exit code 0), clean up.
+``run_nodes([...])`` does the same for several nodes in one process (composition, see
+``irs_bringup``'s ``container``): they stay separate nodes on topics, sharing one executor.
+
+Start-up failures are one line on stderr and exit code 2, never a traceback: a configuration
+error raised by a node's constructor (``ValueError``), an rclpy parameter exception (wrong type,
+out of range), and an ``RCLError`` from a bad ``--ros-args`` or ``--params-file``.
+
+Real-time priority: with ``IRS_RT_PRIORITY=<1..99>`` in the environment the process switches to
+``SCHED_FIFO`` at that priority before rclpy starts its DDS threads (which inherit it), as
+ros2_control's real-time loops do. It needs root or ``CAP_SYS_NICE`` (``ulimit -r``); if the
+switch is refused, a warning says so and the node runs at normal priority.
+"""
+import os
 import sys
 
 import rclpy
-from rclpy.executors import ExternalShutdownException, SingleThreadedExecutor
+from rclpy.exceptions import ParameterException
+from rclpy.executors import ExternalShutdownException
+from rclpy.impl.implementation_singleton import rclpy_implementation as _rclpy
+
+from .executor import LeanExecutor
+from .sim_time import guard_clock
+
+#: Exceptions that mean "the command line or the parameters are wrong", reported in one line.
+_START_ERRORS = (ValueError, ParameterException, _rclpy.RCLError, _rclpy.RCLInvalidROSArgsError,
+                 _rclpy.UnknownROSArgsError)
 
 
-def run_node(node_factory, args=None) -> int:
-    """``rclpy.init``, build the node, spin until shutdown, clean up; return the exit code.
-
-    Configuration errors raised by the node's constructor (``ValueError``) are reported as one
-    log line and exit code 2, not a traceback. A SIGINT/SIGTERM at any moment, also while the node
-    is still being built, ends it with exit code 0.
-    """
-    rclpy.init(args=args)
-    node = None
+def set_realtime_priority(env=os.environ) -> str:
+    """Apply ``IRS_RT_PRIORITY`` (SCHED_FIFO) if set; return a note for the log ('' if unset)."""
+    text = env.get('IRS_RT_PRIORITY', '').strip()
+    if not text:
+        return ''
     try:
-        node = node_factory()
-        executor = SingleThreadedExecutor()
-        executor.add_node(node)
+        prio = int(text)
+        if not 1 <= prio <= 99:
+            raise ValueError
+    except ValueError:
+        return f'IRS_RT_PRIORITY={text!r} ignored: expected an integer 1..99'
+    try:
+        os.sched_setscheduler(0, os.SCHED_FIFO, os.sched_param(prio))
+    except OSError as exc:
+        return f'SCHED_FIFO {prio} refused ({exc.strerror}); running at normal priority'
+    return f'SCHED_FIFO priority {prio}'
+
+
+def _fail(text: str) -> int:
+    print(f'[FATAL] {text}', file=sys.stderr, flush=True)
+    return 2
+
+
+def run_nodes(factories, args=None) -> int:
+    """Build every node of ``factories`` (callables, in order), spin them on one executor.
+
+    Returns the process exit code: 0 after SIGINT/SIGTERM, 2 after a start-up error.
+    """
+    rt_note = set_realtime_priority()
+    try:
+        rclpy.init(args=args)
+    except _START_ERRORS as exc:
+        return _fail(f'bad command line: {_one_line(exc)}')
+    nodes = []
+    executor = None
+    try:
+        for factory in factories:
+            nodes.append(factory())
+            guard_clock(nodes[-1])   # a bad /clock message is dropped, not fatal
+        if rt_note:
+            nodes[0].get_logger().info(rt_note)
+        executor = LeanExecutor()
+        for node in nodes:
+            executor.add_node(node)
         executor.spin()
     except (KeyboardInterrupt, ExternalShutdownException):
         pass
-    except ValueError as exc:
-        if not rclpy.ok():
-            return 0  # shut down by a signal while starting up
-        print(f'[FATAL] configuration error: {exc}', file=sys.stderr)
-        return 2
+    except _START_ERRORS as exc:
+        if not rclpy.ok() or executor is not None:
+            if executor is not None:
+                raise   # a failure while running is a bug: keep its traceback
+            return 0    # shut down by a signal while starting up
+        return _fail(f'configuration error: {_one_line(exc)}')
     except Exception:
         if rclpy.ok():
             raise
-        return 0  # a signal shut the context down while the node was being built
+        return 0  # a signal shut the context down while a node was being built
     finally:
-        if node is not None:
+        if executor is not None:
+            executor.shutdown(timeout_sec=0)
+        for node in nodes:
             node.destroy_node()
         rclpy.try_shutdown()
     return 0
+
+
+def run_node(node_factory, args=None) -> int:
+    """``run_nodes([node_factory], args)``: the ``main`` of a single-node executable."""
+    return run_nodes([node_factory], args)
+
+
+def _one_line(exc) -> str:
+    """The exception's message on one line (rcl errors carry a trailing ', at file:line')."""
+    text = ' '.join(str(exc).split())
+    return text.split(', at /')[0] or type(exc).__name__

@@ -3,7 +3,8 @@
 Subscribes ``lateral_position`` (geometry_msgs/PointStamped, y = sensed lateral displacement of
 the sensor point [m]) and ``lateral/reference`` (irs_msgs/LateralReference); publishes
 ``steering/command`` (irs_msgs/SteeringCommand, front axle) stamped with the measurement's stamp,
-and ``lateral/status`` (irs_msgs/LateralControllerStatus) every step.
+every step, and ``lateral/status`` (irs_msgs/LateralControllerStatus) every
+``status_decimation`` steps and whenever the state changes (telemetry, not part of the loop).
 
 One control step per measurement (the measurement stream sets the rate; ``dt`` must equal its
 period, 1 kHz by default). With ``reference_sync`` (lock-step runs) a measurement is answered
@@ -61,14 +62,16 @@ PARAMS = [
     Param('reference_sync', False, 'pair each measurement with the reference of the same stamp '
           '(lock-step runs)', '-', read_only=True),
     Param('default_reference', 0.0, 'reference used until one arrives', 'm', -1.0, 1.0),
+    Param('status_decimation', 10, 'publish lateral/status every this many steps (and on a state '
+          'change); 0 = on state changes only', '1', 0, 1_000_000, read_only=True),
 ]
 
 
 class LateralControllerNode(Node):
     """Thin wrapper around the controller built by :func:`make_controller`."""
 
-    def __init__(self):
-        super().__init__('lateral_controller')
+    def __init__(self, **node_options):
+        super().__init__('lateral_controller', **node_options)
         self.p = declare_table(self, PARAMS)
         spec = make_controller({k: self.p[k] for k in CONTROLLER_DEFAULTS})
         self.controller = spec.controller
@@ -79,6 +82,8 @@ class LateralControllerNode(Node):
         self.last_answer = None
         self.last_meas_time = None
         self.state = LateralControllerStatus.STATE_STALE
+        self.published_state = None
+        self.steps = 0
         self.pub_cmd = self.create_publisher(SteeringCommand, 'steering/command', qos.COMMAND)
         self.pub_status = self.create_publisher(LateralControllerStatus, 'lateral/status', qos.SENSOR)
         self.create_subscription(PointStamped, 'lateral_position', self._on_measurement, qos.SENSOR)
@@ -134,12 +139,16 @@ class LateralControllerNode(Node):
         cmd.front_angle = float(steer)
         cmd.rear_angle = 0.0
         self.pub_cmd.publish(cmd)
-        status.state = self.state
-        status.output_unsaturated = float(unsat)
-        status.output = float(steer)
-        status.saturated = bool(saturated)
-        self.pub_status.publish(status)
-        self.last_answer = [(self.pub_cmd, cmd), (self.pub_status, status)]
+        self.last_answer = [(self.pub_cmd, cmd)]
+        every = self.p['status_decimation']
+        self.steps += 1
+        if self.state != self.published_state or (every and self.steps % every == 1 % every):
+            status.state = self.published_state = self.state
+            status.output_unsaturated = float(unsat)
+            status.output = float(steer)
+            status.saturated = bool(saturated)
+            self.pub_status.publish(status)
+            self.last_answer.append((self.pub_status, status))
 
     def _check_stale(self):
         if self.state != LateralControllerStatus.STATE_RUNNING or self.last_meas_time is None:

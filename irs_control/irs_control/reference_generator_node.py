@@ -6,23 +6,26 @@ step, square, sine or constant, see :mod:`.reference`) or the driver console
 
 Publishes ``lateral/reference`` (irs_msgs/LateralReference). With ``use_sim_time`` it publishes
 once per ``/clock`` tick, stamped with that tick (lock-step runs pair it with the measurement of
-the same stamp); otherwise at ``rate`` on a wall timer.
+the same stamp); otherwise at ``rate`` on a wall timer. The signal's time counts from the start of
+the run (simulation time, or the node's first tick in real time; ``reference/restart``,
+std_srvs/Trigger, starts it again), not from the Unix epoch.
 """
 from rclpy.node import Node
 from std_msgs.msg import Float64
+from std_srvs.srv import Trigger
 
 from irs_common import qos
 from irs_common.node_main import run_node
 from irs_common.params import declare_table
-from irs_common.stamps import to_sec
 from irs_common.ticker import create_ticker
 from irs_msgs.msg import LateralReference
 
 from .reference_params import PARAMS, signal_from_params
 
+
 class ReferenceGeneratorNode(Node):
-    def __init__(self):
-        super().__init__('reference_generator')
+    def __init__(self, **node_options):
+        super().__init__('reference_generator', **node_options)
         self.p = declare_table(self, PARAMS)
         if self.p['source'] not in ('function', 'console'):
             raise ValueError(f"source must be 'function' or 'console', got {self.p['source']!r}")
@@ -32,19 +35,26 @@ class ReferenceGeneratorNode(Node):
         if self.p['source'] == 'console':
             self.create_subscription(Float64, 'console/lateral_position', self._on_console,
                                      qos.COMMAND)
-        create_ticker(self, self.p['rate'], self._publish)
+        self.ticker = create_ticker(self, self.p['rate'], self._publish)
+        self.create_service(Trigger, 'reference/restart', self._on_restart)
+
+    def _on_restart(self, _request, response):
+        self.ticker.restart()
+        response.success = True
+        response.message = 'the reference starts again at the next tick'
+        return response
 
     def _on_console(self, msg):
         self.console_value = msg.data
 
-    def _publish(self, stamp):
+    def _publish(self, stamp, t):
         ref = LateralReference()
         ref.header.stamp = stamp
         if self.p['source'] == 'console':
             ref.lateral_position = float(self.console_value)
             ref.source = LateralReference.SOURCE_CONSOLE
         else:
-            ref.lateral_position = float(self.signal(to_sec(stamp)))
+            ref.lateral_position = float(self.signal(t))
             ref.source = LateralReference.SOURCE_FUNCTION
         self.pub.publish(ref)
 

@@ -37,8 +37,8 @@ NAN = math.nan
 
 
 class ArmPoseEstimatorNode(Node):
-    def __init__(self):
-        super().__init__('arm_pose_estimator')
+    def __init__(self, **node_options):
+        super().__init__('arm_pose_estimator', **node_options)
         values = declare_table(self, estimator_parameter_table())
         nested = unflatten(values)
         self.input = nested.pop('input')

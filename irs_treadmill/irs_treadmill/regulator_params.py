@@ -32,6 +32,8 @@ NODE = [
     Param('sync_belt_speed', True, 'pair each pose with the belt speed of the same stamp (lock-step '
           'and rig-synchronous sampling); false: latest belt speed', '-', read_only=True),
     Param('enabled', True, 'regulate (false: drive held at 0 V, belt coasts)', '-'),
+    Param('state_decimation', 10, 'publish treadmill/state every this many steps (and on a mode '
+          'change); 0 = on mode changes only', '1', 0, 1_000_000, read_only=True),
 ]
 
 

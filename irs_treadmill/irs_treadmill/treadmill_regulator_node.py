@@ -4,7 +4,8 @@ Inputs: ``pose`` (PoseStamped, car c.g. in the treadmill frame), ``velocity`` (T
 velocity in the car frame relative to the treadmill), ``belt/speed`` (irs_msgs/BeltSpeed). Pose
 and velocity of the same stamp are paired (they come from the same arm reading); the belt speed
 too when ``sync_belt_speed`` is set. One regulator step per pose: ``treadmill/drive``
-(TreadmillDriveCommand, stamped like the pose) and ``treadmill/state`` (TreadmillState).
+(TreadmillDriveCommand, stamped like the pose) every step and ``treadmill/state``
+(TreadmillState) every ``state_decimation`` steps and whenever the mode changes.
 
 Safety (irs_treadmill.safety): a car near a belt end or edge, a NaN pose, or no pose for
 ``safety.stale_timeout`` s cuts the drive (0 V: the belt coasts) and latches a fault, published in
@@ -35,8 +36,8 @@ def _yaw(q) -> float:
 
 
 class TreadmillRegulatorNode(Node):
-    def __init__(self):
-        super().__init__('treadmill_regulator')
+    def __init__(self, **node_options):
+        super().__init__('treadmill_regulator', **node_options)
         self.p = declare_table(self, regulator_parameter_table())
         nested = unflatten(self.p)
         self.regulator = BeltSpeedRegulator(RegulatorParams.from_dict(nested['regulator']))
@@ -49,6 +50,8 @@ class TreadmillRegulatorNode(Node):
         self.last_stamp_ns = -1
         self.last_answer = None
         self.reported_fault = None
+        self.published_mode = None
+        self.steps = 0
         self.pub_drive = self.create_publisher(TreadmillDriveCommand, 'treadmill/drive', qos.COMMAND)
         self.pub_state = self.create_publisher(TreadmillState, 'treadmill/state', qos.SENSOR)
         self.create_subscription(PoseStamped, 'pose', lambda m: self._add('pose', m), qos.SENSOR)
@@ -111,8 +114,13 @@ class TreadmillRegulatorNode(Node):
             st.mode = TreadmillState.MODE_COAST if coasting else TreadmillState.MODE_DRIVE
         st.fault_code = int(self.safety.fault)
         st.fault_text = self.safety.status_text() if self.safety.faulted else ''
-        self.pub_state.publish(st)
-        self.last_answer = [(self.pub_drive, drive), (self.pub_state, st)]
+        self.last_answer = [(self.pub_drive, drive)]
+        every = self.p['state_decimation']
+        self.steps += 1
+        if st.mode != self.published_mode or (every and self.steps % every == 1 % every):
+            self.published_mode = st.mode
+            self.pub_state.publish(st)
+            self.last_answer.append((self.pub_state, st))
         if self.safety.faulted and self.reported_fault != self.safety.fault:
             self.reported_fault = self.safety.fault
             self.get_logger().error(f'treadmill fault latched, drive cut: {st.fault_text}')

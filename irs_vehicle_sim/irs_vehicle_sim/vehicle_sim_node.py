@@ -11,6 +11,19 @@ Clock modes (parameter ``clock_mode``, read-only):
   If nothing arrives for ``lockstep_resend_period`` s of wall time (a subscriber matched late and
   missed step k), step k's outputs are published again; consumers ignore stamps they have seen.
 
+Start in real time: with ``autostart`` the rig holds the car at its start pose (publishing its
+sensors stamped with the current time, the simulation not advancing) until every input in
+``start_inputs`` has delivered a command, so a graph started by hand in any order does not lose
+the car while its nodes are still joining. ``rig/start`` (std_srvs/Trigger) starts it at once.
+
+Message budget per step (see docs/architecture.md): ``arm/joint_states``, ``belt/speed`` and, in
+lock-step, ``/clock`` every step; the ground truth (``ground_truth/odom``,
+``ground_truth/sensor_point``) every ``ground_truth_decimation`` steps and ``steering/state``
+every ``actuator_state_decimation`` steps (0 = off: simulation-only extras a real-time run can
+drop); ``rig/status`` on a change and every ``status_period`` s. In real time the rig measures its
+own loop (deadline misses, loop latency: :mod:`irs_common.loop_timing`) and publishes it on
+``rig/timing`` (diagnostic_msgs/DiagnosticArray) every second.
+
 Commands that are NaN, inf or out of range are replaced by the safe value (steer 0 rad, drive 0 V,
 driver speed held) with a throttled warning; the counts are on ``rig/status``. In real time a
 steering or drive command older than ``command_timeout`` is stale and the safe value is used too.
@@ -18,6 +31,7 @@ steering or drive command older than ``command_timeout`` is stale and the safe v
 import math
 import time
 
+from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
 from geometry_msgs.msg import PointStamped
 from nav_msgs.msg import Odometry
 from rclpy.node import Node
@@ -26,6 +40,7 @@ from sensor_msgs.msg import JointState
 from std_srvs.srv import Trigger
 
 from irs_common import qos
+from irs_common.loop_timing import LoopTiming
 from irs_common.node_main import run_node
 from irs_common.params import Param, declare_table
 from irs_common.stamp_sync import StampSync
@@ -59,9 +74,19 @@ NODE_PARAMS = [
     Param('child_frame_id', 'base_link', 'car body frame (ground-truth odometry)', '-'),
     Param('publish_wheel_speeds', False, 'publish the four wheel speeds (independent-wheel-torque '
           'car encoders)', '-'),
-    Param('autostart', True, 'start stepping at once; false: wait for a call of the rig/start '
-          'service (std_srvs/Trigger), e.g. once the experiment graph is connected', '-',
+    Param('autostart', True, 'start by itself: lock-step at once; real time once every input in '
+          'start_inputs has delivered a command (the car is held at its start pose until then). '
+          'false: wait for a call of the rig/start service (std_srvs/Trigger)', '-',
           read_only=True),
+    Param('start_inputs', ['steering', 'drive'], "real time with autostart: inputs ('steering', "
+          "'drive', 'driver') that must have delivered a command before the car is released; "
+          "[''] = none", '-', read_only=True),
+    Param('ground_truth_decimation', 1, 'publish ground_truth/odom and ground_truth/sensor_point '
+          'every this many steps (0 = never)', '1', 0, 1_000_000, read_only=True),
+    Param('actuator_state_decimation', 1, 'publish steering/state every this many steps '
+          '(0 = never)', '1', 0, 1_000_000, read_only=True),
+    Param('status_period', 0.1, 'rig/status is published on a change and at least this often '
+          '(simulated time)', 's', 0.001, 3600.0, read_only=True),
     Param('start_subscribers', '', "lock-step: before publishing step 0, wait until these of the "
           "rig's topics have matched this many subscriptions ('topic=count,...'; the experiment "
           'runner sets it), so no consumer misses the first step', '-', read_only=True),
@@ -80,11 +105,11 @@ def _quat_z(psi: float):
 class VehicleSimNode(Node):
     """Publishes what the rig's sensors report; takes steering, drive and driver commands."""
 
-    def __init__(self):
-        super().__init__('vehicle_sim')
-        self.p = declare_table(self, NODE_PARAMS)
-        rig_values = declare_table(self, rig_parameter_table())
-        self.config = RigConfig.from_dict(rig_values)
+    def __init__(self, **node_options):
+        super().__init__('vehicle_sim', **node_options)
+        values = declare_table(self, NODE_PARAMS + rig_parameter_table())
+        self.p = {p.name: values[p.name] for p in NODE_PARAMS}
+        self.config = RigConfig.from_dict({k: v for k, v in values.items() if k not in self.p})
         if self.p['clock_mode'] not in ('realtime', 'lockstep'):
             raise ValueError(f"clock_mode must be 'realtime' or 'lockstep', got {self.p['clock_mode']!r}")
         self.lockstep = self.p['clock_mode'] == 'lockstep'
@@ -94,6 +119,12 @@ class VehicleSimNode(Node):
             raise ValueError(f'lockstep_inputs: unknown input(s) {sorted(unknown)}; '
                              f'expected some of {sorted(INPUTS)}')
         self.required = tuple(required) if self.lockstep else ()
+        self.start_inputs = tuple(n for n in self.p['start_inputs'] if n)
+        unknown = set(self.start_inputs) - set(INPUTS)
+        if unknown:
+            raise ValueError(f'start_inputs: unknown input(s) {sorted(unknown)}; '
+                             f'expected some of {sorted(INPUTS)}')
+        self.status_every = max(1, int(round(self.p['status_period'] / self.config.dt)))
         self.sim = RigSimulation(self.config)
         self.dt_ns = int(round(self.config.dt * 1e9))
         if abs(self.dt_ns * 1e-9 - self.config.dt) > 1e-15:
@@ -117,6 +148,11 @@ class VehicleSimNode(Node):
         self.pub_wheels = (self.create_publisher(JointState, 'wheel_speeds', qos.SENSOR)
                            if self.p['publish_wheel_speeds'] else None)
         self.pub_status = self.create_publisher(RigStatus, 'rig/status', qos.STATUS)
+        self.pub_timing = (None if self.lockstep else
+                           self.create_publisher(DiagnosticArray, 'rig/timing', qos.STATUS))
+        self.timing = LoopTiming()
+        self.arm_sent = {}               # real time: arm stamp [ns] -> monotonic time of publishing
+        self.last_steer_stamp = -1       # real time: stamp of the newest steering command
         self.subs = {name: self.create_subscription(
             mtype, topic, lambda msg, n=name: self._on_command(n, msg), qos.COMMAND)
             for name, (topic, mtype) in INPUTS.items()}
@@ -127,13 +163,37 @@ class VehicleSimNode(Node):
         self.stamp0_ns = 0
         self.timer = None
         self.create_service(Trigger, 'rig/start', self._on_start)
+        self.holding = False
+        self.status_k = -1
         if self.p['autostart']:
-            self._start()
+            if self.lockstep or not self.start_inputs:
+                self._start()
+            else:
+                self._hold()
         self.get_logger().info(
             f"rig up: {self.p['clock_mode']}, dt = {self.config.dt} s, plant = {self.config.plant}"
             + (f", lock-step inputs {list(self.required)}" if self.lockstep else ''))
 
+    def _hold(self):
+        """Real time, before the start: publish the start pose at the step rate, stamped now."""
+        self.holding = True
+        self.get_logger().info(f'holding the car at its start pose until {list(self.start_inputs)} '
+                               'have delivered a command (or rig/start is called)')
+
+        def hold_tick():
+            missing = [n for n in self.start_inputs if n not in self.received_at]
+            if missing:
+                self.stamp0_ns = self.get_clock().now().nanoseconds
+                self._publish_outputs()
+                return
+            self.get_logger().info(f'inputs {list(self.start_inputs)} present: starting')
+            self._start()
+        self.timer = self.create_timer(self.config.dt, hold_tick)
+
     def _start(self):
+        if self.holding:
+            self.holding = False
+            self.destroy_timer(self.timer)
         self.started = True
         if self.lockstep:
             self.stamp0_ns = 0
@@ -154,7 +214,7 @@ class VehicleSimNode(Node):
             self.timer = self.create_timer(0.01, begin)
         else:
             self.stamp0_ns = self.get_clock().now().nanoseconds
-            self.wall0 = time.monotonic()
+            self.wall0 = self.next_timing = time.monotonic()
             self.timer = self.create_timer(self.config.dt, self._realtime_tick)
 
     def _start_waits(self) -> dict:
@@ -174,7 +234,7 @@ class VehicleSimNode(Node):
         return waits
 
     def _on_start(self, _request, response):
-        if self.started:
+        if self.started and not self.holding:
             response.success = False
             response.message = 'already running'
         else:
@@ -205,7 +265,14 @@ class VehicleSimNode(Node):
                     self._lockstep_step(values)
         else:
             self.latest[name] = value
-            self.received_at[name] = time.monotonic()
+            now = time.monotonic()
+            self.received_at[name] = now
+            if name == 'steering' and self.started:
+                stamp = to_ns(msg.header.stamp)
+                sent = self.arm_sent.pop(stamp, None)
+                if sent is not None:
+                    self.timing.add_latency(now - sent)
+                self.last_steer_stamp = max(self.last_steer_stamp, stamp)
 
     # ---------------------------------------------------------------- stepping
     def _stamp_ns(self) -> int:
@@ -274,16 +341,40 @@ class VehicleSimNode(Node):
 
     def _realtime_tick(self):
         due = int((time.monotonic() - self.wall0) / self.config.dt)
+        if due - self.sim.k > 1:
+            self.timing.late_ticks += 1    # the tick came late: steps are taken back to back
         for _ in range(min(due - self.sim.k, 100)):   # catch up, at most 0.1 s per tick
             if self._done():
                 self._complete()
                 return
+            if 'steering' in self.received_at:
+                self.timing.step(self.last_steer_stamp >= self._stamp_ns())
             self._step({})
+        now = time.monotonic()
+        if now >= self.next_timing:
+            self.next_timing = now + 1.0
+            self._publish_timing()
+
+    def _publish_timing(self):
+        summary = self.timing.summary()
+        status = DiagnosticStatus(level=DiagnosticStatus.OK, name='vehicle_sim: real-time loop',
+                                  hardware_id='irs_rig',
+                                  message=(f"{summary['miss_pct']:.2f} % deadline misses, latency "
+                                           f"p99 {summary['latency_p99_ms']:.3f} ms"))
+        status.values = [KeyValue(key=k, value=f'{v:.6g}' if isinstance(v, float) else str(v))
+                         for k, v in summary.items()]
+        array = DiagnosticArray(status=[status])
+        array.header.stamp = self.get_clock().now().to_msg()
+        self.pub_timing.publish(array)
+        if len(self.arm_sent) > 2000:   # stamps never answered (e.g. no controller running)
+            self.arm_sent.clear()
 
     def _complete(self):
         if not self.run_complete:
             self.run_complete = True
             self.get_logger().info(f'run complete: {self.sim.k} steps ({self.sim.time:.3f} s)')
+            if self.pub_timing is not None:
+                self._publish_timing()
             self._publish_status(self.sim.outputs, from_ns(self._stamp_ns()))
 
     # ---------------------------------------------------------------- outputs
@@ -291,6 +382,7 @@ class VehicleSimNode(Node):
         out = self.sim.outputs
         stamp = from_ns(self._stamp_ns())
         frame = self.p['frame_id']
+        k = self.sim.k
         if self.pub_clock is not None:
             self.pub_clock.publish(Clock(clock=stamp))
 
@@ -299,6 +391,8 @@ class VehicleSimNode(Node):
         js.header.frame_id = frame
         js.name = ARM_JOINTS
         js.position = [float(a) for a in out.arm_angles]
+        if self.started and not self.lockstep:
+            self.arm_sent[self._stamp_ns()] = time.monotonic()
         self.pub_arm.publish(js)
 
         belt = BeltSpeed()
@@ -308,6 +402,28 @@ class VehicleSimNode(Node):
         belt.encoder_count = int(self.sim.belt.encoder.count)
         self.pub_belt.publish(belt)
 
+        every = self.p['actuator_state_decimation']
+        if every and k % every == 0:
+            self._publish_actuator(stamp, out)
+        every = self.p['ground_truth_decimation']
+        if every and k % every == 0:
+            self._publish_ground_truth(stamp, frame, out)
+
+        if self.pub_wheels is not None:
+            ws = JointState()
+            ws.header.stamp = stamp
+            ws.name = WHEELS
+            ws.velocity = [float(w) for w in out.wheel_speeds]
+            self.pub_wheels.publish(ws)
+
+        fault = (out.fault, out.fault_reason)
+        if fault != self.last_fault or (k % self.status_every == 0 and k != self.status_k):
+            if out.fault and fault != self.last_fault:
+                self.get_logger().error(f'rig fault: {out.fault_reason}')
+            self.last_fault = fault
+            self._publish_status(out, stamp)
+
+    def _publish_actuator(self, stamp, out):
         act = SteeringActuatorState()
         act.header.stamp = stamp
         af, ar = out.actuator_front, out.actuator_rear
@@ -316,6 +432,7 @@ class VehicleSimNode(Node):
         act.front_saturated, act.rear_saturated = bool(af.saturated), bool(ar.saturated)
         self.pub_act.publish(act)
 
+    def _publish_ground_truth(self, stamp, frame, out):
         odom = Odometry()
         odom.header.stamp = stamp
         odom.header.frame_id = frame
@@ -337,21 +454,8 @@ class VehicleSimNode(Node):
         pt.point.y = float(out.y_s)
         self.pub_point.publish(pt)
 
-        if self.pub_wheels is not None:
-            ws = JointState()
-            ws.header.stamp = stamp
-            ws.name = WHEELS
-            ws.velocity = [float(w) for w in out.wheel_speeds]
-            self.pub_wheels.publish(ws)
-
-        fault = (out.fault, out.fault_reason)
-        if fault != self.last_fault or self.sim.k % 1000 == 0:
-            if out.fault and fault != self.last_fault:
-                self.get_logger().error(f'rig fault: {out.fault_reason}')
-            self.last_fault = fault
-            self._publish_status(out, stamp)
-
     def _publish_status(self, out, stamp):
+        self.status_k = self.sim.k
         st = RigStatus()
         st.header.stamp = stamp
         st.car_on_belt = not out.fault_reason.startswith('off_belt')
