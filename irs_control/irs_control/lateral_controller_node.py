@@ -14,12 +14,14 @@ older than ``stale_timeout`` (checked on a timer), gives zero steer and a STALE/
 the controller restarts from rest when valid measurements return.
 """
 import math
+import time
 
 from geometry_msgs.msg import PointStamped
 from rclpy.node import Node
 
 from irs_common import qos
 from irs_common.node_main import run_node
+from irs_common.input_checks import ThrottledWarner
 from irs_common.params import Param, declare_table
 from irs_common.stamp_sync import StampSync
 from irs_common.stamps import to_ns
@@ -84,6 +86,9 @@ class LateralControllerNode(Node):
         self.state = LateralControllerStatus.STATE_STALE
         self.published_state = None
         self.steps = 0
+        # rclpy's throttled logging inspects the caller's source on every call (~1 ms): at 1 kHz
+        # that alone overloads the loop, so per-step warnings are throttled before rclpy.
+        self.warner = ThrottledWarner(self.get_logger().warning, 1.0)
         self.pub_cmd = self.create_publisher(SteeringCommand, 'steering/command', qos.COMMAND)
         self.pub_status = self.create_publisher(LateralControllerStatus, 'lateral/status', qos.SENSOR)
         self.create_subscription(PointStamped, 'lateral_position', self._on_measurement, qos.SENSOR)
@@ -121,8 +126,8 @@ class LateralControllerNode(Node):
         status.measurement = float(y)
         if not (math.isfinite(y) and math.isfinite(reference)):
             self.state = LateralControllerStatus.STATE_INVALID
-            self.get_logger().warning(f'invalid measurement {y!r} or reference {reference!r}: '
-                                      'zero steer', throttle_duration_sec=1.0)
+            self.warner.warn('invalid', f'invalid measurement {y!r} or reference {reference!r}: '
+                             'zero steer', time.monotonic())
             self._publish(msg.header, 0.0, status, 0.0, False)
             return
         if self.state != LateralControllerStatus.STATE_RUNNING:

@@ -18,6 +18,7 @@ action for that step and a lock-step run does not stall), and ``sensing/status``
 latched) says why. No reading for ``stale_timeout`` s is reported as STALE.
 """
 import math
+import time
 
 from geometry_msgs.msg import PointStamped, PoseStamped, TwistStamped
 from rclpy.node import Node
@@ -25,6 +26,7 @@ from sensor_msgs.msg import JointState
 
 from irs_common import qos
 from irs_common.node_main import run_node
+from irs_common.input_checks import ThrottledWarner
 from irs_common.params import declare_table, unflatten
 from irs_common.stamps import to_ns, to_sec
 from irs_msgs.msg import SensingStatus
@@ -46,6 +48,8 @@ class ArmPoseEstimatorNode(Node):
             raise ValueError(f"input must be 'angles' or 'raw', got {self.input!r}")
         self.frame_id = nested.pop('frame_id')
         self.child_frame_id = nested.pop('child_frame_id')
+        self.pose_every = nested.pop('pose_decimation')
+        self.readings = 0
         self.calibration = ArmCalibration.from_dict(nested.pop('calibration'))
         self.estimator = PoseEstimator(PoseEstimatorParams.from_ros_params(nested))
         self.accepted = 0
@@ -54,6 +58,8 @@ class ArmPoseEstimatorNode(Node):
         self.last_answer = []   # the messages published for last_stamp_ns (re-sent on a repeat)
         self.last_state = None
         self.last_reason = ''
+        # rclpy's throttled logging costs ~1 ms per call: per-step warnings are throttled first.
+        self.warner = ThrottledWarner(self.get_logger().warning, 1.0)
         self.pub_pose = self.create_publisher(PoseStamped, 'pose', qos.SENSOR)
         self.pub_twist = self.create_publisher(TwistStamped, 'velocity', qos.SENSOR)
         self.pub_point = self.create_publisher(PointStamped, 'lateral_position', qos.SENSOR)
@@ -85,7 +91,7 @@ class ArmPoseEstimatorNode(Node):
             est, reason = None, str(exc)
         if est is None:
             self.rejected += 1
-            self.get_logger().warning(f'arm reading rejected: {reason}', throttle_duration_sec=1.0)
+            self.warner.warn('rejected', f'arm reading rejected: {reason}', time.monotonic())
             self._publish(msg.header.stamp, NAN, NAN, NAN, NAN, NAN, NAN, NAN, NAN)
             self._status(msg.header.stamp, SensingStatus.REJECTED, reason, 0.0)
             return
@@ -96,6 +102,17 @@ class ArmPoseEstimatorNode(Node):
             self._status(msg.header.stamp, SensingStatus.OK, '', 0.0)
 
     def _publish(self, stamp, x, y, psi, x_s, y_s, vx, vy, r):
+        self.readings += 1
+        if self.pose_every == 1 or self.readings % self.pose_every == 1:
+            self._publish_pose(stamp, x, y, psi, vx, vy, r)
+        point = PointStamped()
+        point.header.stamp = stamp
+        point.header.frame_id = self.frame_id
+        point.point.x, point.point.y = float(x_s), float(y_s)
+        self.pub_point.publish(point)
+        self.last_answer.append((self.pub_point, point))
+
+    def _publish_pose(self, stamp, x, y, psi, vx, vy, r):
         pose = PoseStamped()
         pose.header.stamp = stamp
         pose.header.frame_id = self.frame_id
@@ -111,12 +128,6 @@ class ArmPoseEstimatorNode(Node):
         twist.twist.angular.z = float(r)
         self.pub_twist.publish(twist)
         self.last_answer.append((self.pub_twist, twist))
-        point = PointStamped()
-        point.header.stamp = stamp
-        point.header.frame_id = self.frame_id
-        point.point.x, point.point.y = float(x_s), float(y_s)
-        self.pub_point.publish(point)
-        self.last_answer.append((self.pub_point, point))
 
     def _status(self, stamp, state, reason, age):
         self.last_state, self.last_reason = state, reason

@@ -49,6 +49,9 @@ NODE = [
           'calibrated with calibration.*)', '-', read_only=True),
     Param('frame_id', 'treadmill', 'frame of the published pose and sensor point', '-'),
     Param('child_frame_id', 'base_link', 'frame of the published velocity (car body)', '-'),
+    Param('pose_decimation', 1, 'publish pose and velocity every this many readings (the '
+          'treadmill loop needs less than the lateral loop); lateral_position goes every reading',
+          '1', 1, 1_000_000, read_only=True),
 ]
 
 

@@ -1,12 +1,15 @@
-"""Latched safety monitor for the treadmill drive.
+"""Safety monitor for the treadmill drive: latched position faults, transient input faults.
 
-A fault cuts the drive (0 V; the belt then coasts down by friction, it cannot brake) and stays
-latched until :meth:`SafetyMonitor.reset` is called.  Faults:
+A fault cuts the drive (0 V; the belt then coasts down by friction, it cannot brake). Two kinds:
 
-* the car's c.g. within ``end_margin`` [m] of the front (+x) or rear (-x) belt end, or within
-  ``edge_margin`` [m] of the left (+y) or right (-y) belt edge;
-* no valid position for longer than ``stale_timeout`` [s] (checked in :meth:`check`), or a
-  non-finite position / time stamp.
+* *latched* (the car is somewhere dangerous): the car's c.g. within ``end_margin`` [m] of the
+  front (+x) or rear (-x) belt end, or within ``edge_margin`` [m] of the left (+y) or right (-y)
+  belt edge. It stays until :meth:`SafetyMonitor.reset` is called;
+* *transient* (the input is missing or bad, not the car): no valid position for longer than
+  ``stale_timeout`` [s] (checked in :meth:`check`), or a non-finite position / time stamp. The
+  drive stays cut while it lasts and the fault clears by itself with the next valid position
+  (counted in ``recoveries``): a start-up transient, a scheduling stall or one rejected arm
+  reading must not latch the belt off and lose the car.
 
 Stamps (:meth:`SafetyMonitor.update_position` with the node's clock ``now``): a position whose
 stamp is more than ``future_tolerance`` [s] ahead of ``now`` (``FUTURE``), or older than the last
@@ -99,6 +102,10 @@ class SafetyParams:
 DEFAULT_FUTURE_TOLERANCE = 0.5
 
 
+#: Input faults that clear with the next valid position (module docstring).
+TRANSIENT = frozenset({FaultCode.STALE_POSITION, FaultCode.INVALID_INPUT})
+
+
 class SafetyMonitor:
     """Latched drive-cut logic (see module docstring).
 
@@ -118,10 +125,11 @@ class SafetyMonitor:
         self._last_stamp: Optional[float] = None
         self.rejected_stamps = 0
         self.last_rejection = ""
+        self.recoveries = 0
 
     # ------------------------------------------------------------------ inputs
     def _latch(self, code: FaultCode, detail: str) -> None:
-        if self.fault == FaultCode.NONE:
+        if self.fault == FaultCode.NONE or (self.fault in TRANSIENT and code not in TRANSIENT):
             self.fault = code
             self.fault_detail = detail
 
@@ -140,6 +148,9 @@ class SafetyMonitor:
             return self.fault
         verdict, why = self.stamp_verdict(stamp, now)
         if verdict is StampVerdict.OK:
+            if self.fault in TRANSIENT:          # valid input again: the input fault is over
+                self.fault, self.fault_detail = FaultCode.NONE, ""
+                self.recoveries += 1
             self.check(stamp)
             self._last_stamp = float(stamp)
         else:

@@ -7,10 +7,11 @@ too when ``sync_belt_speed`` is set. One regulator step per pose: ``treadmill/dr
 (TreadmillDriveCommand, stamped like the pose) every step and ``treadmill/state``
 (TreadmillState) every ``state_decimation`` steps and whenever the mode changes.
 
-Safety (irs_treadmill.safety): a car near a belt end or edge, a NaN pose, or no pose for
-``safety.stale_timeout`` s cuts the drive (0 V: the belt coasts) and latches a fault, published in
-``treadmill/state`` until reset through the ``treadmill/reset_fault`` service (std_srvs/Trigger)
-or a message on ``treadmill/reset`` (std_msgs/Empty).
+Safety (irs_treadmill.safety): a car near a belt end or edge cuts the drive (0 V: the belt
+coasts) and latches a fault, published in ``treadmill/state`` until reset through the
+``treadmill/reset_fault`` service (std_srvs/Trigger) or a message on ``treadmill/reset``
+(std_msgs/Empty). A NaN pose or no pose for ``safety.stale_timeout`` s cuts the drive too, until
+the next valid pose (an input fault, not a dangerous car: it is not latched).
 """
 import math
 
@@ -28,7 +29,7 @@ from irs_msgs.msg import BeltSpeed, TreadmillDriveCommand, TreadmillState
 
 from .regulator import BeltSpeedRegulator, RegulatorParams
 from .regulator_params import regulator_parameter_table
-from .safety import SafetyMonitor, SafetyParams
+from .safety import TRANSIENT, SafetyMonitor, SafetyParams
 
 
 def _yaw(q) -> float:
@@ -123,7 +124,13 @@ class TreadmillRegulatorNode(Node):
             self.last_answer.append((self.pub_state, st))
         if self.safety.faulted and self.reported_fault != self.safety.fault:
             self.reported_fault = self.safety.fault
-            self.get_logger().error(f'treadmill fault latched, drive cut: {st.fault_text}')
+            kind = 'until the input is valid again' if self.safety.fault in TRANSIENT else \
+                'latched until reset'
+            self.get_logger().error(f'treadmill fault, drive cut ({kind}): {st.fault_text}')
+        elif not self.safety.faulted and self.reported_fault is not None:
+            self.get_logger().info(f'treadmill input valid again: drive resumes (was: '
+                                   f'{self.reported_fault.text})')
+            self.reported_fault = None
 
     def _check_stale(self):
         if self.safety.faulted or self.last_stamp_ns < 0:

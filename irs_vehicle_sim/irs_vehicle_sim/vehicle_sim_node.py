@@ -40,6 +40,7 @@ from sensor_msgs.msg import JointState
 from std_srvs.srv import Trigger
 
 from irs_common import qos
+from irs_common.input_checks import ThrottledWarner
 from irs_common.loop_timing import LoopTiming
 from irs_common.node_main import run_node
 from irs_common.params import Param, declare_table
@@ -83,6 +84,8 @@ NODE_PARAMS = [
           "[''] = none", '-', read_only=True),
     Param('ground_truth_decimation', 1, 'publish ground_truth/odom and ground_truth/sensor_point '
           'every this many steps (0 = never)', '1', 0, 1_000_000, read_only=True),
+    Param('belt_speed_decimation', 1, 'publish belt/speed every this many steps (the treadmill '
+          'regulator may run slower than the lateral loop)', '1', 1, 1_000_000, read_only=True),
     Param('actuator_state_decimation', 1, 'publish steering/state every this many steps '
           '(0 = never)', '1', 0, 1_000_000, read_only=True),
     Param('status_period', 0.1, 'rig/status is published on a change and at least this often '
@@ -139,6 +142,8 @@ class VehicleSimNode(Node):
         self.sync = StampSync(self.required) if self.required else None
         self.resends = 0
 
+        # rclpy's throttled logging costs ~1 ms per call: per-step warnings are throttled first.
+        self.warner = ThrottledWarner(self.get_logger().warning, 1.0)
         self.pub_clock = self.create_publisher(Clock, '/clock', qos.CLOCK) if self.lockstep else None
         self.pub_arm = self.create_publisher(JointState, 'arm/joint_states', qos.SENSOR)
         self.pub_belt = self.create_publisher(BeltSpeed, 'belt/speed', qos.SENSOR)
@@ -315,7 +320,7 @@ class VehicleSimNode(Node):
         for reason in out.input_warnings:
             kind = 'steering' if 'steer' in reason else 'drive' if 'drive' in reason else 'driver'
             self.rejected[kind] += 1
-            self.get_logger().warning(f'rejected command: {reason}', throttle_duration_sec=1.0)
+            self.warner.warn(kind, f'rejected command: {reason}', time.monotonic())
         self._publish_outputs()
 
     def _lockstep_step(self, values):
@@ -395,12 +400,13 @@ class VehicleSimNode(Node):
             self.arm_sent[self._stamp_ns()] = time.monotonic()
         self.pub_arm.publish(js)
 
-        belt = BeltSpeed()
-        belt.header.stamp = stamp
-        belt.header.frame_id = frame
-        belt.speed = float(out.belt_speed_measured)
-        belt.encoder_count = int(self.sim.belt.encoder.count)
-        self.pub_belt.publish(belt)
+        if k % self.p['belt_speed_decimation'] == 0:
+            belt = BeltSpeed()
+            belt.header.stamp = stamp
+            belt.header.frame_id = frame
+            belt.speed = float(out.belt_speed_measured)
+            belt.encoder_count = int(self.sim.belt.encoder.count)
+            self.pub_belt.publish(belt)
 
         every = self.p['actuator_state_decimation']
         if every and k % every == 0:
