@@ -66,13 +66,15 @@ class ClosedLoop:
                       if k not in ('clock_mode', 'lockstep_inputs', 'lockstep_resend_period',
                                    'default_drive_voltage', 'frame_id', 'child_frame_id',
                                    'publish_wheel_speeds', 'max_steps', 'use_sim_time',
-                                   'autostart')}
+                                   'autostart', 'start_inputs', 'start_subscribers',
+                                   'ground_truth_decimation', 'actuator_state_decimation',
+                                   'belt_speed_decimation', 'status_period')}
         self.rig = RigSimulation(RigConfig.from_dict(rig_params))
         self.dt = self.rig.config.dt
         est = {**_defaults(estimator_parameter_table()), **cfg.estimator}
         est.pop('use_sim_time', None)
         nested = unflatten(est)
-        for key in ('input', 'frame_id', 'child_frame_id'):
+        for key in ('input', 'frame_id', 'child_frame_id', 'pose_decimation'):
             nested.pop(key)
         self.calibration = ArmCalibration.from_dict(nested.pop('calibration'))
         self.raw_input = est['input'] == 'raw'

@@ -46,11 +46,11 @@ def _post_process(result, log=print):
     return written
 
 
-def run_experiment(name, runs_dir='runs', plots=True, log=print):
+def run_experiment(name, runs_dir='runs', plots=True, log=print, rt_priority=0):
     """Run one experiment through the graph; returns the RunResult."""
     from .experiment_runner import ExperimentRunner
     exp = load_experiment(name)
-    result = ExperimentRunner(exp, runs_dir=runs_dir, log=log).run()
+    result = ExperimentRunner(exp, runs_dir=runs_dir, log=log, rt_priority=rt_priority).run()
     log(f'[experiment] {exp.name}: {result.message}; simulated {result.sim_time:.3f} s in '
         f'{result.wall_time:.1f} s wall; run directory {result.run_dir}')
     if plots:
@@ -103,6 +103,9 @@ def main(argv=None) -> int:
     p_run.add_argument('--runs-dir', default='runs', help='where run directories go (default: runs)')
     p_run.add_argument('--no-plots', action='store_true', help='skip plots and the .rrd')
     p_run.add_argument('--offline', action='store_true', help='simulate the cores without ROS')
+    p_run.add_argument('--rt-priority', type=int, default=0, metavar='N',
+                       help='run every node process with SCHED_FIFO priority N (1-99; needs root '
+                       'or CAP_SYS_NICE; 0 = normal scheduling)')
     for cmd in ('figure10', 'demo'):
         p = sub.add_parser(cmd, help='the three Figure 10 runs and their report')
         p.add_argument('--offline', action='store_true', help='simulate the cores without ROS')
@@ -120,7 +123,10 @@ def main(argv=None) -> int:
                 res = offline_run(args.experiment)
                 print(f'offline: {len(res["time"])} samples, final y_s = {res["y_s"][-1]:.6f} m')
                 return 0
-            result = run_experiment(args.experiment, args.runs_dir, plots=not args.no_plots)
+            if not 0 <= args.rt_priority <= 99:
+                parser.error('--rt-priority must be 0..99')
+            result = run_experiment(args.experiment, args.runs_dir, plots=not args.no_plots,
+                                    rt_priority=args.rt_priority)
             return 0 if result.completed else 1
         out = args.out or str(Path(args.runs_dir) / 'figure10')
         return figure10(out, offline=args.offline, runs_dir=args.runs_dir)

@@ -66,6 +66,7 @@ class RunResult:
     message: str = ''
     timing: dict = field(default_factory=dict)   # real time: the rig's loop figures (rig/timing)
     cpu: dict = field(default_factory=dict)      # process label -> CPU seconds used in the run
+    running_time: float = float('nan')           # wall time from rig/start to the end [s]
 
 
 def _git_commit() -> str:
@@ -198,6 +199,7 @@ class ExperimentRunner:
         t_wall0 = time.monotonic()
         clock = {'t': 0.0}
         cpu0 = {}
+        running = float('nan')
         completed = False
         message = ''
         self.phase = 'starting'
@@ -223,6 +225,7 @@ class ExperimentRunner:
             self.phase = 'running'
             t_start = time.monotonic()
             completed = self._follow(watcher, clock, t_start)
+            running = clock.get('done_at', time.monotonic()) - t_start
             message = 'completed' if completed else 'stopped'
         except KeyboardInterrupt:
             message = 'interrupted (Ctrl-C)'
@@ -246,7 +249,7 @@ class ExperimentRunner:
         cpu = {label: getattr(proc, 'cpu_at_stop', float('nan')) - cpu0.get(label, float('nan'))
                for label, proc in self.procs.items()}   # CPU of the run itself, start-up excluded
         return RunResult(self.run_dir, bag_dir, completed, sim_time, time.monotonic() - t_wall0,
-                         codes, message, timing, cpu)
+                         codes, message, timing, cpu, running)
 
     def _wait_for_graph(self, watcher):
         names = [n for label in self.procs for n in self.members.get(label, [label])]
@@ -314,6 +317,7 @@ class ExperimentRunner:
             if rig_done or (exp.clock == 'realtime' and t >= end + 5.0):
                 if self.progress and tty:
                     sys.stdout.write('\n')
+                clock['done_at'] = time.monotonic()
                 self._drain(watcher)
                 return True
 

@@ -1,0 +1,243 @@
+"""The IRS benchmark suite: every figure next to its floor, measured in the same run.
+
+    ./irs exec python bench/run.py                 # everything (about 10 min on 2 cores)
+    ./irs exec python bench/run.py --quick         # shorter runs (about 4 min), noisier figures
+    ./irs exec python bench/run.py --only floor lockstep
+
+Sections (each a function below; results go to ``bench/results/<time>.json`` and a table):
+
+- ``floor``: the minimal 3-hop loop (bench/floor.py) with rclpy's SingleThreadedExecutor, a raw
+  wait set, our LeanExecutor, and the lean loop composed in one process: lock-step steps/s and
+  CPU per hop; real time 1 kHz deadline misses and loop latency;
+- ``realtime``: the Figure 10 graph in real time at 1 kHz (``realtime_figure10`` and its
+  composed twin), recorder on, with and without SCHED_FIFO: deadline misses, loop latency (arm
+  sample published -> steering command received by the rig), per-topic rates and losses from the
+  bag, CPU per step per process;
+- ``lockstep``: Figure 10 in lock-step, process per node and composed: multiple of real time,
+  CPU per step, and whether the two bags carry identical messages;
+- ``offline``: the offline cores (irs_bringup.closed_loop) in steps/s against a vectorised
+  linear reference: the identified plant stepped by our core and by ``scipy.signal.dlsim``;
+- ``replay``: ``bag play`` timing error at 1x and what the recorder keeps of 13 topics x 1 kHz
+  (irs_bringup.bench_replay).
+
+Speed is measured here, never asserted in tests. Timing figures are noisy on a shared 2-core
+machine: compare ratios within one run (the floor is in the same JSON).
+"""
+import argparse
+import datetime
+import json
+import os
+from pathlib import Path
+import sys
+import tempfile
+import time
+
+HERE = Path(__file__).resolve().parent
+sys.path.insert(0, str(HERE))
+
+SECTIONS = ('floor', 'realtime', 'lockstep', 'offline', 'replay')
+
+
+def _domain(offset: int) -> None:
+    os.environ['ROS_DOMAIN_ID'] = str(150 + (os.getpid() + offset) % 60)
+    os.environ.setdefault('ROS_AUTOMATIC_DISCOVERY_RANGE', 'LOCALHOST')
+
+
+def floor(seconds: float) -> list:
+    import floor as fl
+    rows = []
+    for clock in ('lockstep', 'realtime'):
+        for mode, composed in (('single', False), ('waitset', False), ('lean', False),
+                               ('lean', True)):
+            _domain(len(rows))
+            r = fl.run(mode, clock, composed, seconds)
+            r['name'] = f"floor {mode}{' composed' if composed else ''} {clock}"
+            rows.append(r)
+            print(_floor_line(r), flush=True)
+    return rows
+
+
+def _floor_line(r) -> str:
+    return (f"{r['name']:34s} {r['steps_per_s']:8.0f} steps/s  {r['cpu_per_hop_us']:6.0f} us CPU/hop"
+            f"  misses {r['miss_pct']:5.2f} %  latency p50/p99 {r['latency_p50_ms']:.3f}/"
+            f"{r['latency_p99_ms']:.3f} ms")
+
+
+def _bag_figures(bag_dir) -> dict:
+    """Per-topic message counts and rates, and the losses the recorder counted."""
+    from irs_bringup.bag_reader import BagReader
+    with BagReader(bag_dir) as reader:
+        custom = (reader.bag_metadata or {}).get('custom_data') or {}
+        topics = {name: {'count': info.message_count, 'rate_hz': info.rate_hz}
+                  for name, info in sorted(reader.topics.items())}
+    return {'topics': topics, 'dropped_total': int(custom.get('irs.dropped_messages', 0) or 0)}
+
+
+def _run_experiment(path_or_name, rt_priority=0, duration=None, runs_dir=None):
+    from irs_bringup.experiment import load_experiment
+    from irs_bringup.experiment_runner import ExperimentRunner
+    exp = load_experiment(path_or_name)
+    if duration is not None:
+        exp.duration = float(duration)
+    runner = ExperimentRunner(exp, runs_dir=runs_dir or tempfile.mkdtemp(prefix='irs_bench_'),
+                              progress=False, rt_priority=rt_priority, log=lambda *_: None)
+    return runner.run()
+
+
+def realtime(seconds: float) -> list:
+    rows = []
+    for name in ('realtime_figure10', 'realtime_figure10_composed'):
+        for prio in (0, 50):
+            _domain(10 + len(rows))
+            r = _run_experiment(name, prio, seconds)
+            steps = r.timing.get('steps') or 1
+            row = {'name': f"{name}{' SCHED_FIFO' if prio else ''}", 'completed': r.completed,
+                   'message': r.message, **r.timing,
+                   'cpu_per_step_us': {k: 1e6 * v / steps for k, v in r.cpu.items()},
+                   'cpu_total_per_step_us': 1e6 * sum(r.cpu.values()) / steps}
+            if r.bag_dir is not None and r.bag_dir.exists():
+                row['bag'] = _bag_figures(r.bag_dir)
+            rows.append(row)
+            print(f"{row['name']:40s} {'ok ' if r.completed else 'FAILED'} misses "
+                  f"{row.get('miss_pct', float('nan')):6.2f} %  latency p50/p99/max "
+                  f"{row.get('latency_p50_ms', float('nan')):.2f}/"
+                  f"{row.get('latency_p99_ms', float('nan')):.2f}/"
+                  f"{row.get('latency_max_ms', float('nan')):.1f} ms  CPU "
+                  f"{row['cpu_total_per_step_us']:.0f} us/step", flush=True)
+            if not r.completed:
+                print(f'    {r.message}', flush=True)
+    return rows
+
+
+def _composed_copy(name: str) -> Path:
+    """The installed experiment with every node in one ``process: loop``."""
+    import yaml
+    from irs_bringup.experiment import find_experiment
+    doc = yaml.safe_load(find_experiment(name).read_text())
+    doc['name'] = doc['name'] + '_composed'
+    for entry in doc['nodes'].values():
+        entry['process'] = 'loop'
+    path = Path(tempfile.mkdtemp(prefix='irs_bench_')) / f"{doc['name']}.yaml"
+    path.write_text(yaml.safe_dump(doc, sort_keys=False))
+    return path
+
+
+def _messages(bag_dir) -> dict:
+    """``{topic: sorted distinct CDR payloads}``: what 'identical bags' compares.
+
+    Receive times differ from run to run by nature; a lock-step resend (the rig publishing a
+    step again after ``lockstep_resend_period`` without progress) records byte-identical
+    duplicates, which are one message of the run's data.
+    """
+    from irs_bringup.bag_reader import BagReader
+    out = {}
+    with BagReader(bag_dir) as reader:
+        for m in reader.messages():
+            out.setdefault(m.topic, set()).add(bytes(m.data))
+    return {t: sorted(v) for t, v in out.items()}
+
+
+def lockstep() -> list:
+    rows, bags = [], {}
+    for label, exp in (('process per node', 'figure10_mrc_with_actuator'),
+                       ('composed', _composed_copy('figure10_mrc_with_actuator'))):
+        _domain(30 + len(rows))
+        r = _run_experiment(exp)
+        steps = r.sim_time / 0.001
+        row = {'name': f'lock-step Figure 10, {label}', 'completed': r.completed,
+               'sim_time_s': r.sim_time, 'running_time_s': r.running_time,
+               'x_real_time': r.sim_time / r.running_time,
+               'cpu_per_step_us': {k: 1e6 * v / steps for k, v in r.cpu.items()},
+               'cpu_total_per_step_us': 1e6 * sum(r.cpu.values()) / steps}
+        rows.append(row)
+        bags[label] = r.bag_dir
+        print(f"{row['name']:40s} {row['x_real_time']:5.2f}x real time  CPU "
+              f"{row['cpu_total_per_step_us']:.0f} us/step", flush=True)
+    a, b = (_messages(p) for p in bags.values())
+    same = a == b
+    rows.append({'name': 'lock-step bags identical (per topic, message bytes)', 'identical': same,
+                 'topics': len(a)})
+    print(f'lock-step bags identical across deployments: {same} ({len(a)} topics)', flush=True)
+    return rows
+
+
+def offline() -> list:
+    import numpy as np
+    from scipy import signal
+    from irs_bringup.closed_loop import ClosedLoop
+    from irs_bringup.experiment import load_experiment
+    from irs_bringup.offline import loop_config_from_experiment
+    from irs_vehicle_sim.identified import IdentifiedPlant
+    exp = load_experiment('figure10_mrc_with_actuator')
+    loop = ClosedLoop(loop_config_from_experiment(exp))
+    t0 = time.perf_counter()
+    run = loop.run(exp.duration)
+    t_loop = time.perf_counter() - t0
+    n = int(round(exp.duration / 0.001))
+    steer = np.nan_to_num(np.asarray(run.get('steer_achieved', run.get('steer_cmd')), float))[:n]
+    plant = IdentifiedPlant()
+    t0 = time.perf_counter()
+    ys_core = np.empty(n)
+    for k in range(n):
+        ys_core[k] = plant.y_s
+        plant.step(float(steer[k]), 0.0, 0.001)
+    t_core = time.perf_counter() - t0
+    Ad, Bd = plant.discrete(0.001)
+    t0 = time.perf_counter()
+    _, ys_ref, _ = signal.dlsim((Ad, Bd, plant.C, plant.D, 0.001), steer[:, None])
+    t_ref = time.perf_counter() - t0
+    err = float(np.max(np.abs(ys_core - ys_ref[:, 0])))
+    rows = [{'name': 'offline closed loop (all cores, Figure 10)', 'steps_per_s': n / t_loop},
+            {'name': 'identified plant, our core stepped in Python', 'steps_per_s': n / t_core},
+            {'name': 'identified plant, scipy.signal.dlsim (vectorised reference)',
+             'steps_per_s': n / t_ref, 'max_abs_difference_m': err}]
+    for r in rows:
+        print(f"{r['name']:60s} {r['steps_per_s']:12.0f} steps/s", flush=True)
+    print(f'    core vs dlsim: max |y_s difference| = {err:.2e} m', flush=True)
+    return rows
+
+
+def replay(seconds: float) -> list:
+    import contextlib
+    import io
+    from irs_bringup import bench_replay
+    _domain(50)
+    buf = io.StringIO()
+    with contextlib.redirect_stdout(buf):
+        bench_replay.main(['--topics', '13', '--hz', '1000', '--seconds', str(seconds),
+                           '--rates', '1', '--domain', os.environ['ROS_DOMAIN_ID']])
+    lines = buf.getvalue().strip().splitlines()
+    for line in lines[:-1]:
+        print('    ' + line, flush=True)
+    rows = json.loads(lines[-1])['rows']
+    return [{'name': 'replay 1x + recorder, 13 topics x 1 kHz', 'rate': r[0],
+             'timing_error_ms': {'mean': r[1][0], 'p99': r[1][1], 'max': r[1][2]},
+             'recorded': r[2], 'drops_reported': r[3], 'duration_s': r[4]} for r in rows]
+
+
+def main(argv=None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__,
+                                 formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap.add_argument('--quick', action='store_true', help='shorter runs (noisier figures)')
+    ap.add_argument('--only', nargs='+', choices=SECTIONS, default=list(SECTIONS))
+    ap.add_argument('--out', default=str(HERE / 'results'), help='folder for the JSON file')
+    a = ap.parse_args(argv)
+    floor_s, rt_s, replay_s = (5.0, 20.0, 3.0) if a.quick else (10.0, 60.0, 5.0)
+    results = {'started': datetime.datetime.now().isoformat(timespec='seconds'),
+               'load_before': os.getloadavg(), 'quick': a.quick}
+    for section in a.only:
+        print(f'== {section}', flush=True)
+        fn = globals()[section]
+        args = {'floor': (floor_s,), 'realtime': (rt_s,), 'replay': (replay_s,)}.get(section, ())
+        results[section] = fn(*args)
+    results['load_after'] = os.getloadavg()
+    out = Path(a.out)
+    out.mkdir(parents=True, exist_ok=True)
+    path = out / f"{datetime.datetime.now().strftime('%Y%m%d-%H%M%S')}.json"
+    path.write_text(json.dumps(results, indent=1, default=str))
+    print(f'results: {path}')
+    return 0
+
+
+if __name__ == '__main__':
+    sys.exit(main())
