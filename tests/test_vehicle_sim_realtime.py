@@ -8,7 +8,8 @@ from irs_bringup.processes import NodeSpec
 
 def test_invalid_and_stale_steering_commands_give_zero_steer(ros, launch):
     launch(NodeSpec('irs_vehicle_sim', 'vehicle_sim',
-                    params={'clock_mode': 'realtime', 'command_timeout': 0.2}))
+                    params={'clock_mode': 'realtime', 'command_timeout': 0.2,
+                            'start_inputs': ['steering']}))
     node = ros.node
     states, status = [], []
     pub = node.create_publisher(SteeringCommand, 'steering/command', qos.COMMAND)

@@ -4,6 +4,11 @@ Publishes ``driver/command`` (irs_msgs/DriverCommand, the car's forward speed ov
 [m/s]) from the profile in the parameters (``profile.times`` [s], ``profile.speeds`` [m/s],
 ``profile.interpolation``): once per ``/clock`` tick with ``use_sim_time`` (lock-step runs list
 ``driver`` among the rig's lock-step inputs), otherwise at ``rate`` on a wall timer, with the profile's time counted from the node's first tick.
+
+No data inputs: only ``/clock`` (with ``use_sim_time``). A negative ``/clock`` is dropped
+(irs_common.sim_time); time going back (``bag play --loop --clock``) restarts the profile's time
+base (irs_common.ticker calls :meth:`DriverNode._on_reset`); the profile is a function of that
+time, so nothing else is reset. All parameters are read-only.
 """
 from rclpy.node import Node
 
@@ -23,7 +28,12 @@ class DriverNode(Node):
         self.profile = SpeedProfile(self.p['profile.times'], self.p['profile.speeds'],
                                     self.p['profile.interpolation'])
         self.pub = self.create_publisher(DriverCommand, 'driver/command', qos.COMMAND)
-        self.ticker = create_ticker(self, self.p['rate'], self._publish)
+        self.time_resets = 0
+        self.ticker = create_ticker(self, self.p['rate'], self._publish, on_reset=self._on_reset)
+
+    def _on_reset(self):
+        """Time went back: the ticker restarts the profile's time; nothing else is time state."""
+        self.time_resets += 1
 
     def _publish(self, stamp, t):
         msg = DriverCommand()

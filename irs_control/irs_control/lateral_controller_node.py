@@ -12,6 +12,26 @@ only once the reference with the same stamp has arrived, so the run does not dep
 delivery order; otherwise the latest reference is used. A NaN/inf measurement, or a measurement
 older than ``stale_timeout`` (checked on a timer), gives zero steer and a STALE/INVALID status;
 the controller restarts from rest when valid measurements return.
+
+Bad input (the rule at this node's edge; see irs_common.stamp_gate and the controllers'
+bad-input rule in :mod:`.discrete_rst`):
+
+- values: every step goes through ``controller.step_checked``: an invalid reference (NaN, inf,
+  beyond 2 m) holds the last valid one (RUNNING, reason on ``lateral/status``); an invalid
+  measurement gives zero steer, resets the controller and reports INVALID. The published steer
+  is always finite and within ``steer_limit``;
+- stamps, against the node clock: a measurement or reference stamped more than
+  ``future_tolerance`` s ahead is dropped (not answered, not stored); one older than the last
+  step is dropped as out of order, unless it is more than 1 s older (a replay loop, a
+  restarted publisher): then the controller, the stamp memory and the pairing restart and the
+  message is taken; a measurement with the stamp of the last step is answered again with the
+  same command (lock-step resend);
+- the node clock jumping back (``/clock`` of ``bag play --loop --clock``) resets the same time
+  state; a STALE measurement resets the controller (it restarts from rest).
+
+Writable parameters (``ros2 param set``): ``stale_timeout`` and ``default_reference`` (applied at
+once: it is the reference until the next ``lateral/reference`` message; without
+``reference_sync``).
 """
 import math
 import time
@@ -23,11 +43,14 @@ from irs_common import qos
 from irs_common.node_main import run_node
 from irs_common.input_checks import ThrottledWarner
 from irs_common.params import Param, declare_table
+from irs_common.stamp_gate import FUTURE, OK, OLD, REPEAT, RESET, StampGate
 from irs_common.stamp_sync import StampSync
 from irs_common.stamps import to_ns
+from irs_common.time_jump import on_time_jump_back
 from irs_msgs.msg import LateralControllerStatus, LateralReference, SteeringCommand
 
 from .controller_factory import CONTROLLER_DEFAULTS, make_controller
+from .discrete_rst import STATE_RUNNING
 
 D = CONTROLLER_DEFAULTS
 PARAMS = [
@@ -59,11 +82,15 @@ PARAMS = [
           read_only=True),
     Param('anti_windup', D['anti_windup'], 'keep the controller state consistent with the '
           'saturated steer', '-', read_only=True),
-    Param('stale_timeout', 0.05, 'measurement age after which zero steer is commanded', 's',
-          0.001, 10.0),
+    Param('stale_timeout', 0.05, 'measurement age after which zero steer is commanded (and the '
+          'controller restarts from rest)', 's', 0.001, 10.0, writable=True),
     Param('reference_sync', False, 'pair each measurement with the reference of the same stamp '
           '(lock-step runs)', '-', read_only=True),
-    Param('default_reference', 0.0, 'reference used until one arrives', 'm', -1.0, 1.0),
+    Param('default_reference', 0.0, 'reference used until one arrives (set at run time: used at '
+          'once, until the next lateral/reference message; not with reference_sync)', 'm', -1.0,
+          1.0, writable=True),
+    Param('future_tolerance', 0.5, 'inputs stamped further ahead of the node clock are dropped',
+          's', 0.0, 3600.0, read_only=True),
     Param('status_decimation', 10, 'publish lateral/status every this many steps (and on a state '
           'change); 0 = on state changes only', '1', 0, 1_000_000, read_only=True),
 ]
@@ -74,18 +101,22 @@ class LateralControllerNode(Node):
 
     def __init__(self, **node_options):
         super().__init__('lateral_controller', **node_options)
-        self.p = declare_table(self, PARAMS)
+        self.p = declare_table(self, PARAMS, on_change=self._on_parameter)
         spec = make_controller({k: self.p[k] for k in CONTROLLER_DEFAULTS})
         self.controller = spec.controller
         self.get_logger().info(spec.summary)
         self.reference = self.p['default_reference']
+        tolerance_ns = int(round(self.p['future_tolerance'] * 1e9))
+        self.gate = StampGate(tolerance_ns)          # measurement stamps = the steps
+        self.ref_gate = StampGate(tolerance_ns)      # reference stamps (without reference_sync)
         self.sync = StampSync(('y', 'ref')) if self.p['reference_sync'] else None
-        self.last_stamp_ns = -1
         self.last_answer = None
         self.last_meas_time = None
         self.state = LateralControllerStatus.STATE_STALE
         self.published_state = None
         self.steps = 0
+        self.dropped = 0         # messages dropped for their stamps (future, out of order)
+        self.time_resets = 0
         # rclpy's throttled logging inspects the caller's source on every call (~1 ms): at 1 kHz
         # that alone overloads the loop, so per-step warnings are throttled before rclpy.
         self.warner = ThrottledWarner(self.get_logger().warning, 1.0)
@@ -94,48 +125,110 @@ class LateralControllerNode(Node):
         self.create_subscription(PointStamped, 'lateral_position', self._on_measurement, qos.SENSOR)
         self.create_subscription(LateralReference, 'lateral/reference', self._on_reference,
                                  qos.COMMAND)
-        self.create_timer(max(self.p['stale_timeout'] / 2.0, 0.001), self._check_stale)
+        self.stale_timer = self.create_timer(max(self.p['stale_timeout'] / 2.0, 0.001),
+                                             self._check_stale)
+        self.jump_handle = on_time_jump_back(self, lambda _delta: self._reset_time_state())
 
-    def _on_reference(self, msg):
+    # ------------------------------------------------------------------ parameters, time
+    def _on_parameter(self, name, value):
+        if name == 'stale_timeout':
+            self.destroy_timer(self.stale_timer)
+            self.stale_timer = self.create_timer(max(value / 2.0, 0.001), self._check_stale)
+        elif name == 'default_reference':
+            self.reference = value
+        self.get_logger().info(f'parameter {name} = {value!r} applied')
+
+    def _reset_time_state(self):
+        """Time went back: forget stamps, pairing and the controller state (restart from rest)."""
+        self.time_resets += 1
+        self.gate.clear()
+        self.ref_gate.clear()
         if self.sync is not None:
-            for _, vals in self.sync.add('ref', to_ns(msg.header.stamp), msg.lateral_position):
-                self._control_step(vals['y'], vals['ref'])
+            self.sync = StampSync(('y', 'ref'))
+        self.controller.reset()
+        self.last_answer = None
+        self.last_meas_time = None
+        self.state = LateralControllerStatus.STATE_STALE
+
+    def _drop(self, what, gate, verdict, stamp_ns, now_ns):
+        self.dropped += 1
+        self.warner.warn(f'{what}-{verdict}', f'{what}: {gate.reason(verdict, stamp_ns, now_ns)}',
+                         time.monotonic())
+
+    def _presync(self, what, stamp_ns) -> bool:
+        """Reference sync: only stamps that can still pair with a step enter the pairing."""
+        now_ns = self.get_clock().now().nanoseconds
+        gate = self.gate
+        if stamp_ns - now_ns > gate.future_tolerance_ns:
+            self._drop(what, gate, FUTURE, stamp_ns, now_ns)
+            return False
+        last = gate.last_ns
+        if last is not None and last - gate.reset_after_ns < stamp_ns < last:
+            self._drop(what, gate, OLD, stamp_ns, now_ns)
+            return False
+        return True
+
+    # ------------------------------------------------------------------ inputs
+    def _on_reference(self, msg):
+        stamp_ns = to_ns(msg.header.stamp)
+        if self.sync is not None:
+            if self._presync('reference', stamp_ns):
+                for _, vals in self.sync.add('ref', stamp_ns, msg.lateral_position):
+                    self._control_step(vals['y'], vals['ref'])
+            return
+        now_ns = self.get_clock().now().nanoseconds
+        verdict = self.ref_gate.check(stamp_ns, now_ns)
+        if verdict == OK or verdict == RESET or verdict == REPEAT:
+            self.reference = msg.lateral_position    # screened by the controller at each step
         else:
-            self.reference = msg.lateral_position
+            self._drop('reference', self.ref_gate, verdict, stamp_ns, now_ns)
 
     def _on_measurement(self, msg):
         if self.sync is not None:
-            for _, vals in self.sync.add('y', to_ns(msg.header.stamp), msg):
-                self._control_step(vals['y'], vals['ref'])
+            stamp_ns = to_ns(msg.header.stamp)
+            if self._presync('measurement', stamp_ns):
+                for _, vals in self.sync.add('y', stamp_ns, msg):
+                    self._control_step(vals['y'], vals['ref'])
         else:
             self._control_step(msg, self.reference)
 
     def _control_step(self, msg, reference):
         stamp_ns = to_ns(msg.header.stamp)
-        if stamp_ns <= self.last_stamp_ns:
-            if stamp_ns == self.last_stamp_ns and self.last_answer is not None:
-                for pub, out in self.last_answer:   # a repeated step: repeat the answer
-                    pub.publish(out)
-            return  # older than the last step: out of order, ignored
-        self.last_stamp_ns = stamp_ns
+        now = self.get_clock().now()
+        verdict = self.gate.check(stamp_ns, now.nanoseconds)
+        if verdict != OK:
+            if verdict == REPEAT:
+                if self.last_answer is not None:
+                    for pub, out in self.last_answer:   # a repeated step: repeat the answer
+                        pub.publish(out)
+                return
+            if verdict != RESET:
+                self._drop('measurement', self.gate, verdict, stamp_ns, now.nanoseconds)
+                return
+            self.warner.warn('reset', f'measurement {self.gate.reason(verdict, stamp_ns, None)}',
+                             time.monotonic())
+            last_ns = self.gate.last_ns
+            self._reset_time_state()
+            self.gate.last_ns = last_ns
         y = msg.point.y
+        if self.state != LateralControllerStatus.STATE_RUNNING:
+            self.controller.reset()  # restart from rest after a stale/invalid period
+        out = self.controller.step_checked(reference, y)
         status = LateralControllerStatus()
         status.header = msg.header
         status.mode = self.p['mode']
-        status.reference = float(reference)
+        status.reference = float(out.reference)
         status.measurement = float(y)
-        if not (math.isfinite(y) and math.isfinite(reference)):
-            self.state = LateralControllerStatus.STATE_INVALID
-            self.warner.warn('invalid', f'invalid measurement {y!r} or reference {reference!r}: '
-                             'zero steer', time.monotonic())
-            self._publish(msg.header, 0.0, status, 0.0, False)
-            return
-        if self.state != LateralControllerStatus.STATE_RUNNING:
-            self.controller.reset()  # restart from rest after a stale/invalid period
+        if out.state == STATE_RUNNING:
             self.state = LateralControllerStatus.STATE_RUNNING
-        self.last_meas_time = self.get_clock().now()
-        out = self.controller.step(reference, y)
-        status.error = float(reference - y)
+            self.last_meas_time = now
+            status.error = float(out.reference - y)
+            if out.reason:
+                self.warner.warn('reference', out.reason, time.monotonic())
+        else:
+            self.state = LateralControllerStatus.STATE_INVALID
+            status.error = math.nan
+            self.warner.warn('invalid', out.reason, time.monotonic())
         self._publish(msg.header, out.u_sat, status, out.u_unsat, out.saturated)
 
     def _publish(self, header, steer, status, unsat, saturated):
@@ -158,12 +251,15 @@ class LateralControllerNode(Node):
     def _check_stale(self):
         if self.state != LateralControllerStatus.STATE_RUNNING or self.last_meas_time is None:
             return
-        age = (self.get_clock().now() - self.last_meas_time).nanoseconds * 1e-9
+        now = self.get_clock().now()
+        age = (now - self.last_meas_time).nanoseconds * 1e-9
         if age > self.p['stale_timeout']:
-            self.state = LateralControllerStatus.STATE_STALE
-            self.get_logger().warning(f'lateral measurement stale ({age:.3f} s old): zero steer')
+            self.state = LateralControllerStatus.STATE_STALE    # logged once per transition
+            self.controller.reset()                             # restart from rest
+            self.warner.warn('stale', f'lateral measurement stale ({age:.3f} s old): zero steer, '
+                             'controller reset', time.monotonic())
             status = LateralControllerStatus()
-            status.header.stamp = self.get_clock().now().to_msg()
+            status.header.stamp = now.to_msg()
             status.mode = self.p['mode']
             status.reference = float(self.reference)
             status.measurement = math.nan

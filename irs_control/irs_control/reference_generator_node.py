@@ -9,34 +9,59 @@ once per ``/clock`` tick, stamped with that tick (lock-step runs pair it with th
 the same stamp); otherwise at ``rate`` on a wall timer. The signal's time counts from the start of
 the run (simulation time, or the node's first tick in real time; ``reference/restart``,
 std_srvs/Trigger, starts it again), not from the Unix epoch.
+
+Bad input: a console value that is NaN, +-inf or beyond ``console_limit`` is refused
+(:func:`.reference.console_reference`): the last valid console value (0 m before any) stays the
+reference, with a throttled warning, so ``lateral/reference`` is always finite and within the
+limit. Time going back (``/clock`` of ``bag play --loop --clock``) restarts the signal's time
+base (irs_common.ticker); the signal is a function of that time and the console value is not
+time state, so nothing else is reset. A bad ``/clock`` (negative) is dropped by
+irs_common.sim_time.
+
+Writable parameters (``ros2 param set``): ``signal.*``; the signal is rebuilt at once.
 """
+import time
+
 from rclpy.node import Node
 from std_msgs.msg import Float64
 from std_srvs.srv import Trigger
 
 from irs_common import qos
+from irs_common.input_checks import ThrottledWarner
 from irs_common.node_main import run_node
 from irs_common.params import declare_table
 from irs_common.ticker import create_ticker
 from irs_msgs.msg import LateralReference
 
+from .reference import console_reference
 from .reference_params import PARAMS, signal_from_params
 
 
 class ReferenceGeneratorNode(Node):
     def __init__(self, **node_options):
         super().__init__('reference_generator', **node_options)
-        self.p = declare_table(self, PARAMS)
+        self.p = declare_table(self, PARAMS, on_change=self._on_parameter)
         if self.p['source'] not in ('function', 'console'):
             raise ValueError(f"source must be 'function' or 'console', got {self.p['source']!r}")
         self.signal = signal_from_params(self.p)
         self.console_value = 0.0
+        self.console_refused = 0
+        self.time_resets = 0
+        self.warner = ThrottledWarner(self.get_logger().warning, 1.0)
         self.pub = self.create_publisher(LateralReference, 'lateral/reference', qos.COMMAND)
         if self.p['source'] == 'console':
             self.create_subscription(Float64, 'console/lateral_position', self._on_console,
                                      qos.COMMAND)
-        self.ticker = create_ticker(self, self.p['rate'], self._publish)
+        self.ticker = create_ticker(self, self.p['rate'], self._publish, on_reset=self._on_reset)
         self.create_service(Trigger, 'reference/restart', self._on_restart)
+
+    def _on_parameter(self, name, value):
+        self.signal = signal_from_params(self.p)    # self.p is kept current by declare_table
+        self.get_logger().info(f'parameter {name} = {value!r} applied: signal rebuilt')
+
+    def _on_reset(self):
+        """Time went back: the ticker restarts the signal's time; nothing else is time state."""
+        self.time_resets += 1
 
     def _on_restart(self, _request, response):
         self.ticker.restart()
@@ -45,7 +70,11 @@ class ReferenceGeneratorNode(Node):
         return response
 
     def _on_console(self, msg):
-        self.console_value = msg.data
+        value, reason = console_reference(msg.data, self.console_value, self.p['console_limit'])
+        if reason is not None:
+            self.console_refused += 1
+            self.warner.warn('console', reason, time.monotonic())
+        self.console_value = value
 
     def _publish(self, stamp, t):
         ref = LateralReference()

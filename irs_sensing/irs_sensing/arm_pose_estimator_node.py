@@ -15,8 +15,20 @@ A reading that is NaN, out of the joint ranges, out of the arm's reach, off the 
 implausible jump is rejected: no pose is computed from it. The three topics then carry NaN for
 that stamp (an explicit "no valid measurement" marker, so that downstream nodes take their safe
 action for that step and a lock-step run does not stall), and ``sensing/status`` (SensingStatus,
-latched) says why. No reading for ``stale_timeout`` s is reported as STALE.
+latched) says why. No valid reading for ``stale_timeout`` s is reported as STALE (logged once
+per transition, and once when valid readings return). ``sensing/status`` is published on every
+change of state and at most once a second while readings keep being rejected.
+
+Stamps (irs_common.stamp_gate, against the node clock): a reading stamped more than
+``future_tolerance`` s ahead is dropped (no answer, not stored: it cannot silence the input); one
+older than the last is dropped as out of order unless it is more than 1 s older (a replay loop, a
+restarted rig): then the estimator's history restarts and the reading is taken; a reading with
+the last stamp is answered again with the same messages (lock-step resend). The node clock
+jumping back (``/clock`` of ``bag play --loop --clock``) restarts the history too.
+
+Writable parameter: ``stale_timeout`` (``ros2 param set``; applied at once).
 """
+import dataclasses
 import math
 import time
 
@@ -28,7 +40,9 @@ from irs_common import qos
 from irs_common.node_main import run_node
 from irs_common.input_checks import ThrottledWarner
 from irs_common.params import declare_table, unflatten
+from irs_common.stamp_gate import OK, REPEAT, RESET, StampGate
 from irs_common.stamps import to_ns, to_sec
+from irs_common.time_jump import on_time_jump_back
 from irs_msgs.msg import SensingStatus
 
 from .calibration import ArmCalibration, CalibrationError
@@ -41,7 +55,7 @@ NAN = math.nan
 class ArmPoseEstimatorNode(Node):
     def __init__(self, **node_options):
         super().__init__('arm_pose_estimator', **node_options)
-        values = declare_table(self, estimator_parameter_table())
+        values = declare_table(self, estimator_parameter_table(), on_change=self._on_parameter)
         nested = unflatten(values)
         self.input = nested.pop('input')
         if self.input not in ('angles', 'raw'):
@@ -49,23 +63,46 @@ class ArmPoseEstimatorNode(Node):
         self.frame_id = nested.pop('frame_id')
         self.child_frame_id = nested.pop('child_frame_id')
         self.pose_every = nested.pop('pose_decimation')
+        future_tolerance = nested.pop('future_tolerance')
         self.readings = 0
         self.calibration = ArmCalibration.from_dict(nested.pop('calibration'))
-        self.estimator = PoseEstimator(PoseEstimatorParams.from_ros_params(nested))
+        self.estimator = PoseEstimator(PoseEstimatorParams.from_ros_params(nested),
+                                       future_tolerance=future_tolerance)
+        self.gate = StampGate(int(round(future_tolerance * 1e9)))
         self.accepted = 0
         self.rejected = 0
-        self.last_stamp_ns = -1
-        self.last_answer = []   # the messages published for last_stamp_ns (re-sent on a repeat)
+        self.dropped = 0            # readings dropped for their stamps (future, out of order)
+        self.time_resets = 0
+        self.last_answer = []   # the messages published for the last stamp (re-sent on a repeat)
         self.last_state = None
         self.last_reason = ''
+        self.last_status_wall = 0.0
+        self.stale_reported = False
         # rclpy's throttled logging costs ~1 ms per call: per-step warnings are throttled first.
         self.warner = ThrottledWarner(self.get_logger().warning, 1.0)
+        self.info_warner = ThrottledWarner(self.get_logger().info, 1.0)
         self.pub_pose = self.create_publisher(PoseStamped, 'pose', qos.SENSOR)
         self.pub_twist = self.create_publisher(TwistStamped, 'velocity', qos.SENSOR)
         self.pub_point = self.create_publisher(PointStamped, 'lateral_position', qos.SENSOR)
         self.pub_status = self.create_publisher(SensingStatus, 'sensing/status', qos.STATUS)
         self.create_subscription(JointState, 'arm/joint_states', self._on_joints, qos.SENSOR)
-        self.create_timer(max(self.estimator.params.stale_timeout / 2.0, 0.001), self._check_stale)
+        self.stale_timer = self.create_timer(
+            max(self.estimator.params.stale_timeout / 2.0, 0.001), self._check_stale)
+        self.jump_handle = on_time_jump_back(self, lambda _delta: self._reset_time_state())
+
+    def _on_parameter(self, name, value):
+        if name == 'stale_timeout':
+            self.estimator.params = dataclasses.replace(self.estimator.params, stale_timeout=value)
+            self.destroy_timer(self.stale_timer)
+            self.stale_timer = self.create_timer(max(value / 2.0, 0.001), self._check_stale)
+        self.get_logger().info(f'parameter {name} = {value!r} applied')
+
+    def _reset_time_state(self):
+        """Time went back: forget the stamps and the estimator's history."""
+        self.time_resets += 1
+        self.gate.clear()
+        self.estimator.reset()
+        self.last_answer = []
 
     def _angles(self, msg):
         if len(msg.position) != 3:
@@ -76,29 +113,45 @@ class ArmPoseEstimatorNode(Node):
 
     def _on_joints(self, msg):
         stamp_ns = to_ns(msg.header.stamp)
-        if stamp_ns <= self.last_stamp_ns:
-            if stamp_ns == self.last_stamp_ns:   # the rig repeated a step: repeat our answer
+        now_ns = self.get_clock().now().nanoseconds
+        verdict = self.gate.check(stamp_ns, now_ns)
+        if verdict != OK:
+            if verdict == REPEAT:    # the rig repeated a step: repeat our answer
                 for pub, out in self.last_answer:
                     pub.publish(out)
-            return
-        self.last_stamp_ns = stamp_ns
+                return
+            if verdict != RESET:     # future or out of order: dropped, not answered
+                self.dropped += 1
+                self.warner.warn(verdict, f'arm reading {self.gate.reason(verdict, stamp_ns, now_ns)}',
+                                 time.monotonic())
+                return
+            self.warner.warn(verdict, f'arm reading {self.gate.reason(verdict, stamp_ns, now_ns)}',
+                             time.monotonic())
+            self.time_resets += 1
+            self.estimator.reset()
         self.last_answer = []
         stamp = to_sec(msg.header.stamp)
         try:
             angles = self._angles(msg)
-            est, reason = self.estimator.update(*angles, stamp)
+            est, reason = self.estimator.update(*angles, stamp, now=now_ns * 1e-9)
         except (CalibrationError, ValueError) as exc:
             est, reason = None, str(exc)
         if est is None:
             self.rejected += 1
             self.warner.warn('rejected', f'arm reading rejected: {reason}', time.monotonic())
             self._publish(msg.header.stamp, NAN, NAN, NAN, NAN, NAN, NAN, NAN, NAN)
-            self._status(msg.header.stamp, SensingStatus.REJECTED, reason, 0.0)
+            wall = time.monotonic()
+            if self.last_state != SensingStatus.REJECTED or wall - self.last_status_wall >= 1.0:
+                self.last_status_wall = wall
+                self._status(msg.header.stamp, SensingStatus.REJECTED, reason, 0.0)
             return
         self.accepted += 1
         vx, vy, r = (est.u, est.v, est.yaw_rate) if est.velocity_valid else (NAN, NAN, NAN)
         self._publish(msg.header.stamp, est.x_cg, est.y_cg, est.psi, est.x_s, est.y_s, vx, vy, r)
         if self.last_state != SensingStatus.OK:
+            if self.stale_reported:
+                self.stale_reported = False
+                self.info_warner.warn('valid', 'arm input valid again', time.monotonic())
             self._status(msg.header.stamp, SensingStatus.OK, '', 0.0)
 
     def _publish(self, stamp, x, y, psi, x_s, y_s, vx, vy, r):
@@ -141,14 +194,17 @@ class ArmPoseEstimatorNode(Node):
         self.pub_status.publish(st)
 
     def _check_stale(self):
+        if self.stale_reported or self.estimator.last_valid_stamp is None:
+            return
         now = self.get_clock().now()
         t = now.nanoseconds * 1e-9
-        if self.estimator.last_valid_stamp is None or self.last_state == SensingStatus.STALE:
-            return
         if self.estimator.stale(t):
+            # once per transition: cleared by the next accepted reading (rejected readings in
+            # between change the status, not this flag)
+            self.stale_reported = True
             age = t - self.estimator.last_valid_stamp
             reason = self.estimator.stale_reason(t)
-            self.get_logger().warning(f'arm input stale: {reason}')
+            self.warner.warn('stale', f'arm input stale: {reason}', time.monotonic())
             self._status(now.to_msg(), SensingStatus.STALE, reason, age)
 
 

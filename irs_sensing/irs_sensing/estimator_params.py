@@ -20,7 +20,8 @@ _EST = {
     'max_yaw_rate': ('rad/s', 0.0, INF, 'plausibility bound on yaw rate between samples'),
     'jump_margin': ('m', 0.0, INF, 'extra allowance on the position jump'),
     'jump_margin_psi': ('rad', 0.0, INF, 'extra allowance on the heading jump'),
-    'stale_timeout': ('s', 0.0, INF, 'no valid reading for this long: input stale'),
+    'stale_timeout': ('s', 0.0, INF, 'no valid reading for this long: input stale (writable: '
+                      'applied at once)'),
     'dt_tolerance': ('1', 0.0, INF, 'relative sample-period deviation that resets the differentiators'),
     'singular_tolerance': ('rad', 0.0, math.pi, 'near-singular arm when |theta2| or pi-|theta2| is below this'),
     'differentiator': ('-', None, None, "'savgol' (causal least-squares line fit) or 'lowpass' (backward difference + low pass)"),
@@ -49,6 +50,8 @@ NODE = [
           'calibrated with calibration.*)', '-', read_only=True),
     Param('frame_id', 'treadmill', 'frame of the published pose and sensor point', '-'),
     Param('child_frame_id', 'base_link', 'frame of the published velocity (car body)', '-'),
+    Param('future_tolerance', 0.5, 'readings stamped further ahead of the node clock are dropped '
+          '(not answered, not stored)', 's', 0.0, 3600.0, read_only=True),
     Param('pose_decimation', 1, 'publish pose and velocity every this many readings (the '
           'treadmill loop needs less than the lateral loop); lateral_position goes every reading',
           '1', 1, 1_000_000, read_only=True),
@@ -70,4 +73,4 @@ def estimator_parameter_table() -> list:
                 value = 0.0
             defaults[f'calibration.{j}.{key}'] = value
             meta[f'calibration.{j}.{key}'] = _CAL[key]
-    return NODE + table_from_defaults(defaults, meta)
+    return NODE + table_from_defaults(defaults, meta, writable=('stale_timeout',))

@@ -31,12 +31,24 @@ NODE = [
           'instead of the internal filter', '-', read_only=True),
     Param('sync_belt_speed', True, 'pair each pose with the belt speed of the same stamp (lock-step '
           'and rig-synchronous sampling); false: latest belt speed', '-', read_only=True),
-    Param('enabled', True, 'regulate (false: drive held at 0 V, belt coasts)', '-'),
+    Param('enabled', True, 'regulate (false: drive held at 0 V, belt coasts)', '-', writable=True),
+    Param('future_tolerance', 0.5, 'poses stamped further ahead of the node clock are dropped',
+          's', 0.0, 3600.0, read_only=True),
     Param('state_decimation', 10, 'publish treadmill/state every this many steps (and on a mode '
           'change); 0 = on mode changes only', '1', 0, 1_000_000, read_only=True),
 ]
 
 
+#: Regulator parameters the node applies while running (``ros2 param set``).
+WRITABLE = ('regulator.x_ref', 'regulator.k_x', 'regulator.k_i', 'regulator.k_v',
+            'regulator.integral_limit')
+
+
+def _positive(v):
+    return None if v > 0 else 'must be > 0'
+
+
 def regulator_parameter_table() -> list:
     defaults = flatten({'regulator': asdict(RegulatorParams()), 'safety': asdict(SafetyParams())})
-    return NODE + table_from_defaults(defaults, _META)
+    return NODE + table_from_defaults(defaults, _META, writable=WRITABLE,
+                                      validators={'regulator.k_x': _positive})

@@ -214,6 +214,11 @@ class SafetyMonitor:
                 "drive inhibited: no position received yet"
         return f"{self.fault.text} ({self.fault_detail})"
 
+    def forget_time(self) -> None:
+        """Forget the last position stamp (time went back: a replay loop, a restarted rig); the
+        next valid position is accepted whatever its stamp. Latched faults stay latched."""
+        self._last_stamp = None
+
     def reset(self) -> None:
         """Clear the latched fault and the position history (drive inhibited until the next
         valid position arrives; a persisting condition re-latches on that update)."""

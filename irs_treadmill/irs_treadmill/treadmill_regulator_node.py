@@ -12,8 +12,29 @@ coasts) and latches a fault, published in ``treadmill/state`` until reset throug
 ``treadmill/reset_fault`` service (std_srvs/Trigger) or a message on ``treadmill/reset``
 (std_msgs/Empty). A NaN pose or no pose for ``safety.stale_timeout`` s cuts the drive too, until
 the next valid pose (an input fault, not a dangerous car: it is not latched).
+
+Bad input at this node's edge:
+
+- values: a pose with ``|x|`` or ``|y|`` beyond the regulator's position limit (5 m; the belt is
+  2.44 x 1.22 m) is not a measurement: treated like a NaN pose (drive cut, transient input
+  fault); a bad belt speed gives 0 V and a regulator reset; a bad velocity makes the regulator
+  use its internal estimate (``BeltSpeedRegulator.update`` rule). The reason is logged through
+  a throttled warner (at most once a second per kind) and the fault is on ``treadmill/state``;
+- stamps, against the node clock: a pose/velocity/belt speed stamped more than
+  ``future_tolerance`` s ahead is dropped (not answered, not stored); an older step than the
+  last is dropped as out of order unless it is more than 1 s older (a replay loop, a restarted
+  rig): then the regulator and the safety monitor's position timing restart (latched faults
+  stay) and the step is taken; the last step again is answered with the same command;
+- the node clock jumping back (``/clock`` of ``bag play --loop --clock``) restarts the same
+  time state.
+
+Writable parameters (``ros2 param set``, applied at once): ``enabled`` (false: 0 V, belt
+coasts), ``regulator.x_ref``, ``regulator.k_x``, ``regulator.k_i``, ``regulator.k_v``,
+``regulator.integral_limit``.
 """
+import dataclasses
 import math
+import time
 
 from geometry_msgs.msg import PoseStamped, TwistStamped
 from rclpy.node import Node
@@ -21,10 +42,13 @@ from std_msgs.msg import Empty
 from std_srvs.srv import Trigger
 
 from irs_common import qos
+from irs_common.input_checks import ThrottledWarner
 from irs_common.node_main import run_node
 from irs_common.params import declare_table, unflatten
+from irs_common.stamp_gate import FUTURE, OK, OLD, REPEAT, RESET, StampGate
 from irs_common.stamp_sync import StampSync
 from irs_common.stamps import to_ns
+from irs_common.time_jump import on_time_jump_back
 from irs_msgs.msg import BeltSpeed, TreadmillDriveCommand, TreadmillState
 
 from .regulator import BeltSpeedRegulator, RegulatorParams
@@ -39,20 +63,29 @@ def _yaw(q) -> float:
 class TreadmillRegulatorNode(Node):
     def __init__(self, **node_options):
         super().__init__('treadmill_regulator', **node_options)
-        self.p = declare_table(self, regulator_parameter_table())
+        self.p = declare_table(self, regulator_parameter_table(), on_change=self._on_parameter)
         nested = unflatten(self.p)
         self.regulator = BeltSpeedRegulator(RegulatorParams.from_dict(nested['regulator']))
-        self.safety = SafetyMonitor(SafetyParams.from_dict(nested['safety']))
+        self.safety = SafetyMonitor(SafetyParams.from_dict(nested['safety']),
+                                    future_tolerance=self.p['future_tolerance'])
+        self.gate = StampGate(int(round(self.p['future_tolerance'] * 1e9)))
         self.dt = 1.0 / self.p['rate_hz']
         inputs = ['pose'] + (['velocity'] if self.p['use_velocity_input'] else []) \
             + (['belt'] if self.p['sync_belt_speed'] else [])
-        self.sync = StampSync(tuple(inputs))
+        self.inputs = tuple(inputs)
+        self.sync = StampSync(self.inputs)
         self.belt_speed = math.nan
-        self.last_stamp_ns = -1
+        self.belt_seen = False
         self.last_answer = None
         self.reported_fault = None
         self.published_mode = None
         self.steps = 0
+        self.dropped = 0         # messages dropped for their stamps (future, out of order)
+        self.time_resets = 0
+        # rclpy's throttled logging costs ~1 ms per call: per-step warnings are throttled first.
+        self.warner = ThrottledWarner(self.get_logger().warning, 1.0)
+        self.fault_warner = ThrottledWarner(self.get_logger().error, 1.0)
+        self.info_warner = ThrottledWarner(self.get_logger().info, 1.0)
         self.pub_drive = self.create_publisher(TreadmillDriveCommand, 'treadmill/drive', qos.COMMAND)
         self.pub_state = self.create_publisher(TreadmillState, 'treadmill/state', qos.SENSOR)
         self.create_subscription(PoseStamped, 'pose', lambda m: self._add('pose', m), qos.SENSOR)
@@ -63,35 +96,96 @@ class TreadmillRegulatorNode(Node):
         self.create_subscription(Empty, 'treadmill/reset', lambda _m: self._reset(), qos.COMMAND)
         self.create_service(Trigger, 'treadmill/reset_fault', self._on_reset_service)
         self.create_timer(max(self.safety.params.stale_timeout / 4.0, 0.001), self._check_stale)
+        self.jump_handle = on_time_jump_back(self, lambda _delta: self._reset_time_state())
+
+    # ------------------------------------------------------------------ parameters, time
+    def _on_parameter(self, name, value):
+        if name.startswith('regulator.'):
+            key = name.split('.', 1)[1]
+            self.regulator.params = dataclasses.replace(self.regulator.params, **{key: value})
+        # 'enabled' is read from self.p (kept current by declare_table) at every step
+        self.get_logger().info(f'parameter {name} = {value!r} applied')
+
+    def _reset_time_state(self):
+        """Time went back: forget stamps, pairing, the regulator state and the position timing
+        (latched faults stay latched)."""
+        self.time_resets += 1
+        self.gate.clear()
+        self.sync = StampSync(self.inputs)
+        self.regulator.reset()
+        self.safety.forget_time()
+        self.last_answer = None
 
     def _on_belt(self, msg):
         if self.p['sync_belt_speed']:
             self._add('belt', msg)
         else:
-            self.belt_speed = msg.speed
+            now_ns = self.get_clock().now().nanoseconds
+            stamp_ns = to_ns(msg.header.stamp)
+            if stamp_ns - now_ns > self.gate.future_tolerance_ns:
+                self._drop('belt speed', FUTURE, stamp_ns, now_ns)
+            else:
+                self.belt_speed = msg.speed      # screened by the regulator at each step
+                self.belt_seen = True
+
+    def _drop(self, what, verdict, stamp_ns, now_ns):
+        self.dropped += 1
+        self.warner.warn(f'{what}-{verdict}', f'{what}: {self.gate.reason(verdict, stamp_ns, now_ns)}',
+                         time.monotonic())
 
     def _add(self, name, msg):
-        for stamp_ns, vals in self.sync.add(name, to_ns(msg.header.stamp), msg):
-            self._step(stamp_ns, vals)
+        stamp_ns = to_ns(msg.header.stamp)
+        now_ns = self.get_clock().now().nanoseconds
+        gate = self.gate
+        # only stamps that can still make a step enter the pairing (no unbounded pending sets)
+        if stamp_ns - now_ns > gate.future_tolerance_ns:
+            self._drop(name, FUTURE, stamp_ns, now_ns)
+            return
+        last = gate.last_ns
+        if last is not None and last - gate.reset_after_ns < stamp_ns < last:
+            self._drop(name, OLD, stamp_ns, now_ns)
+            return
+        for stamp_ns, vals in self.sync.add(name, stamp_ns, msg):
+            self._step(stamp_ns, vals, now_ns)
 
-    def _step(self, stamp_ns, vals):
-        if stamp_ns <= self.last_stamp_ns:
-            if stamp_ns == self.last_stamp_ns and self.last_answer is not None:
-                for pub, out in self.last_answer:   # a repeated step: repeat the answer
-                    pub.publish(out)
-            return  # older: out of order, ignored
-        self.last_stamp_ns = stamp_ns
+    def _step(self, stamp_ns, vals, now_ns):
+        verdict = self.gate.check(stamp_ns, now_ns)
+        if verdict != OK:
+            if verdict == REPEAT:
+                if self.last_answer is not None:
+                    for pub, out in self.last_answer:   # a repeated step: repeat the answer
+                        pub.publish(out)
+                return
+            if verdict != RESET:
+                self._drop('step', verdict, stamp_ns, now_ns)
+                return
+            self.warner.warn('reset', f'pose {self.gate.reason(verdict, stamp_ns, now_ns)}',
+                             time.monotonic())
+            last_ns = self.gate.last_ns
+            self._reset_time_state()
+            self.gate.last_ns = last_ns
         pose = vals['pose']
         x, y = pose.pose.position.x, pose.pose.position.y
-        belt = vals['belt'].speed if 'belt' in vals else self.belt_speed
+        if 'belt' in vals:
+            belt = belt_in = vals['belt'].speed
+        else:   # latest belt speed; none received yet: regulate as from a standing belt
+            belt = self.belt_speed
+            belt_in = belt if self.belt_seen else 0.0
         xdot = None
         if 'velocity' in vals:
             psi = _yaw(pose.pose.orientation)
             v = vals['velocity'].twist.linear
             xdot = v.x * math.cos(psi) - v.y * math.sin(psi)
-        self.safety.update_position(x, y, stamp_ns * 1e-9)
-        out = self.regulator.update(x, belt if math.isfinite(belt) else 0.0, self.dt, xdot=xdot,
+        limit = self.regulator.position_limit
+        if not (-limit <= x <= limit and -limit <= y <= limit):
+            # not a measurement of a car on a 2.44 m belt (NaN included): an input fault
+            self.safety.update_position(math.nan, math.nan, stamp_ns * 1e-9, now=now_ns * 1e-9)
+        else:
+            self.safety.update_position(x, y, stamp_ns * 1e-9, now=now_ns * 1e-9)
+        out = self.regulator.update(x, belt_in, self.dt, xdot=xdot,
                                     enabled=self.safety.drive_permitted and self.p['enabled'])
+        if out.reason:
+            self.warner.warn('input', f'treadmill input: {out.reason}', time.monotonic())
         voltage = self.safety.gate(out.voltage) if self.p['enabled'] else 0.0
         self._publish(pose.header.stamp, voltage, belt, x, out.voltage == 0.0 and out.speed_setpoint < belt)
 
@@ -126,14 +220,18 @@ class TreadmillRegulatorNode(Node):
             self.reported_fault = self.safety.fault
             kind = 'until the input is valid again' if self.safety.fault in TRANSIENT else \
                 'latched until reset'
-            self.get_logger().error(f'treadmill fault, drive cut ({kind}): {st.fault_text}')
+            # once per transition, and at most once a second per fault (input faults can come
+            # and go with every pose)
+            self.fault_warner.warn(f'fault-{int(self.safety.fault)}',
+                                   f'treadmill fault, drive cut ({kind}): {st.fault_text}',
+                                   time.monotonic())
         elif not self.safety.faulted and self.reported_fault is not None:
-            self.get_logger().info(f'treadmill input valid again: drive resumes (was: '
-                                   f'{self.reported_fault.text})')
+            self.info_warner.warn('resumed', f'treadmill input valid again: drive resumes (was: '
+                                  f'{self.reported_fault.text})', time.monotonic())
             self.reported_fault = None
 
     def _check_stale(self):
-        if self.safety.faulted or self.last_stamp_ns < 0:
+        if self.safety.faulted or self.gate.last_ns is None:
             return
         now = self.get_clock().now()
         if self.safety.check(now.nanoseconds * 1e-9):
@@ -144,7 +242,9 @@ class TreadmillRegulatorNode(Node):
         self.safety.reset()
         self.regulator.reset()
         self.reported_fault = None
-        self.last_stamp_ns = -1
+        self.gate.clear()
+        self.sync = StampSync(self.inputs)
+        self.last_answer = None
         self.get_logger().info('treadmill fault reset')
 
     def _on_reset_service(self, _request, response):

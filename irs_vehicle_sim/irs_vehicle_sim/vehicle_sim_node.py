@@ -27,6 +27,22 @@ own loop (deadline misses, loop latency: :mod:`irs_common.loop_timing`) and publ
 Commands that are NaN, inf or out of range are replaced by the safe value (steer 0 rad, drive 0 V,
 driver speed held) with a throttled warning; the counts are on ``rig/status``. In real time a
 steering or drive command older than ``command_timeout`` is stale and the safe value is used too.
+
+Stamps of commands (irs_common.stamp_gate): one stamped more than ``future_tolerance`` s ahead of
+the rig's time (lock-step: the current step; real time: the node clock) is dropped and counted as
+rejected (it is not applied and does not refresh the stale timer). In lock-step a command for an
+earlier step is a resend duplicate and ignored. In real time a command older than the last one of
+its input is ignored as out of order, unless it is more than 1 s older (a restarted publisher):
+then it is taken; a command with the same stamp as the last is taken (``ros2 topic pub`` sends
+stamp 0 every time).
+
+``rig/reset`` (std_srvs/Trigger): after the car left the belt (or at any time), put the car back
+at its start pose and clear the rig's latched fault (:meth:`RigSimulation.reset_to_start`; time
+runs on, the belt keeps its speed); ``rig/status`` says ``car_on_belt`` again. The treadmill
+regulator's own latched fault is reset through its ``treadmill/reset_fault``.
+
+Writable parameters (``ros2 param set``, applied at once): ``command_timeout``,
+``lockstep_resend_period``.
 """
 import math
 import time
@@ -44,6 +60,7 @@ from irs_common.input_checks import ThrottledWarner
 from irs_common.loop_timing import LoopTiming
 from irs_common.node_main import run_node
 from irs_common.params import Param, declare_table
+from irs_common.stamp_gate import FUTURE, OLD, StampGate
 from irs_common.stamp_sync import StampSync
 from irs_common.stamps import from_ns, to_ns
 from irs_msgs.msg import (BeltSpeed, DriverCommand, RigStatus, SteeringActuatorState,
@@ -65,10 +82,12 @@ NODE_PARAMS = [
     Param('lockstep_inputs', ['steering'], 'inputs whose command for step k must arrive before '
           "step k+1 in lockstep mode: any of 'steering', 'drive', 'driver'", '-', read_only=True),
     Param('lockstep_resend_period', 1.0, 'wall time without progress after which the outputs of '
-          'the current step are published again (lockstep)', 's', 0.01, 3600.0),
+          'the current step are published again (lockstep)', 's', 0.01, 3600.0, writable=True),
     Param('command_timeout', 0.1, 'real time: a steering or drive command older than this is stale '
           'and the safe value is used (steer 0 rad, drive 0 V); the driver speed is held', 's',
-          0.001, 3600.0),
+          0.001, 3600.0, writable=True),
+    Param('future_tolerance', 0.5, "commands stamped further ahead of the rig's time are dropped "
+          'and counted as rejected', 's', 0.0, 3600.0, read_only=True),
     Param('default_drive_voltage', 0.0, 'drive voltage used until the first drive command arrives '
           '(0 = belt coasts)', 'V', 0.0, 100.0),
     Param('frame_id', 'treadmill', 'fixed frame of poses and points', '-'),
@@ -110,7 +129,8 @@ class VehicleSimNode(Node):
 
     def __init__(self, **node_options):
         super().__init__('vehicle_sim', **node_options)
-        values = declare_table(self, NODE_PARAMS + rig_parameter_table())
+        values = declare_table(self, NODE_PARAMS + rig_parameter_table(),
+                               on_change=self._on_parameter)
         self.p = {p.name: values[p.name] for p in NODE_PARAMS}
         self.config = RigConfig.from_dict({k: v for k, v in values.items() if k not in self.p})
         if self.p['clock_mode'] not in ('realtime', 'lockstep'):
@@ -141,9 +161,13 @@ class VehicleSimNode(Node):
         self.stale_inputs = set()
         self.sync = StampSync(self.required) if self.required else None
         self.resends = 0
+        tolerance_ns = int(round(self.p['future_tolerance'] * 1e9))
+        self.gates = {name: StampGate(tolerance_ns) for name in INPUTS}   # real time
+        self.resets = 0
 
         # rclpy's throttled logging costs ~1 ms per call: per-step warnings are throttled first.
         self.warner = ThrottledWarner(self.get_logger().warning, 1.0)
+        self.info_warner = ThrottledWarner(self.get_logger().info, 1.0)
         self.pub_clock = self.create_publisher(Clock, '/clock', qos.CLOCK) if self.lockstep else None
         self.pub_arm = self.create_publisher(JointState, 'arm/joint_states', qos.SENSOR)
         self.pub_belt = self.create_publisher(BeltSpeed, 'belt/speed', qos.SENSOR)
@@ -168,6 +192,7 @@ class VehicleSimNode(Node):
         self.stamp0_ns = 0
         self.timer = None
         self.create_service(Trigger, 'rig/start', self._on_start)
+        self.create_service(Trigger, 'rig/reset', self._on_reset)
         self.holding = False
         self.status_k = -1
         if self.p['autostart']:
@@ -248,6 +273,23 @@ class VehicleSimNode(Node):
             response.message = f"started ({self.p['clock_mode']})"
         return response
 
+    def _on_reset(self, _request, response):
+        was = self.sim.outputs.fault_reason
+        self.sim.reset_to_start()
+        self.resets += 1
+        response.success = True
+        response.message = (f"car back at its start pose (x = {self.config.x0} m, y = "
+                            f"{self.config.y0} m) at t = {self.sim.time:.3f} s; was: {was or 'no fault'}")
+        self.get_logger().info(f'rig/reset: {response.message}')
+        if self.started and not self.holding:
+            self._publish_status(self.sim.outputs, from_ns(self._stamp_ns()))
+            self.last_fault = (self.sim.outputs.fault, self.sim.outputs.fault_reason)
+        return response
+
+    def _on_parameter(self, name, value):
+        self.p[name] = value    # read where used (watchdog, stale check)
+        self.get_logger().info(f'parameter {name} = {value!r} applied')
+
     # ---------------------------------------------------------------- inputs
     def _decode(self, name, msg):
         if name == 'steering':
@@ -258,26 +300,42 @@ class VehicleSimNode(Node):
 
     def _on_command(self, name, msg):
         value = self._decode(name, msg)
+        stamp = to_ns(msg.header.stamp)
         if name in self.required:
             if not self.started:
                 return
-            stamp = to_ns(msg.header.stamp)
             current = self._stamp_ns()
             if stamp < current:
                 return  # answer to a step already taken (a resend duplicate)
+            if stamp - current > self.gates[name].future_tolerance_ns:
+                self._reject_stamp(name, FUTURE, stamp, current)
+                return
             for stamp_ns, values in self.sync.add(name, stamp, value):
                 if stamp_ns == self._stamp_ns():
                     self._lockstep_step(values)
+            return
+        if self.lockstep:
+            now_ns = self._stamp_ns()
         else:
-            self.latest[name] = value
-            now = time.monotonic()
-            self.received_at[name] = now
-            if name == 'steering' and self.started:
-                stamp = to_ns(msg.header.stamp)
-                sent = self.arm_sent.pop(stamp, None)
-                if sent is not None:
-                    self.timing.add_latency(now - sent)
-                self.last_steer_stamp = max(self.last_steer_stamp, stamp)
+            now_ns = self.get_clock().now().nanoseconds
+        verdict = self.gates[name].check(stamp, now_ns)
+        if verdict == FUTURE or verdict == OLD:
+            self._reject_stamp(name, verdict, stamp, now_ns)
+            return
+        self.latest[name] = value
+        now = time.monotonic()
+        self.received_at[name] = now
+        if name == 'steering' and self.started:
+            sent = self.arm_sent.pop(stamp, None)
+            if sent is not None:
+                self.timing.add_latency(now - sent)
+            self.last_steer_stamp = stamp if verdict == 'reset' else max(self.last_steer_stamp, stamp)
+
+    def _reject_stamp(self, name, verdict, stamp, now_ns):
+        if verdict == FUTURE:
+            self.rejected[name] += 1
+        self.warner.warn(f'{name}-{verdict}', f'{name} command '
+                         f'{self.gates[name].reason(verdict, stamp, now_ns)}', time.monotonic())
 
     # ---------------------------------------------------------------- stepping
     def _stamp_ns(self) -> int:
@@ -294,12 +352,12 @@ class VehicleSimNode(Node):
             stale = seen is not None and now - seen > self.p['command_timeout']
             if stale:
                 latest[name] = safe
-                if name not in self.stale_inputs:
-                    self.get_logger().warning(
-                        f'{name} command stale (none for {now - seen:.3f} s > '
-                        f"{self.p['command_timeout']} s): using the safe value {safe}")
+                if name not in self.stale_inputs:    # once per transition, at most 1/s
+                    self.warner.warn(
+                        f'{name}-stale', f'{name} command stale (none for {now - seen:.3f} s > '
+                        f"{self.p['command_timeout']} s): using the safe value {safe}", now)
             elif name in self.stale_inputs:
-                self.get_logger().info(f'{name} commands are fresh again')
+                self.info_warner.warn(f'{name}-fresh', f'{name} commands are fresh again', now)
             if stale:
                 self.stale_inputs.add(name)
             else:
@@ -337,10 +395,10 @@ class VehicleSimNode(Node):
             return
         if time.monotonic() - self.last_progress > self.p['lockstep_resend_period']:
             self.resends += 1
-            self.get_logger().warning(
-                f'lock-step: no commands for t = {self._stamp_ns() * 1e-9:.3f} s from '
+            self.warner.warn(
+                'resend', f'lock-step: no commands for t = {self._stamp_ns() * 1e-9:.3f} s from '
                 f'{list(self.required)} for {self.p["lockstep_resend_period"]} s; '
-                'publishing the outputs of this step again', throttle_duration_sec=5.0)
+                'publishing the outputs of this step again', time.monotonic())
             self._publish_outputs()
             self.last_progress = time.monotonic()
 
