@@ -74,8 +74,8 @@ class ClosedLoop:
         est = {**_defaults(estimator_parameter_table()), **cfg.estimator}
         est.pop('use_sim_time', None)
         nested = unflatten(est)
-        for key in ('input', 'frame_id', 'child_frame_id', 'pose_decimation'):
-            nested.pop(key)
+        for key in ('input', 'frame_id', 'child_frame_id', 'pose_decimation', 'future_tolerance'):
+            nested.pop(key, None)
         self.calibration = ArmCalibration.from_dict(nested.pop('calibration'))
         self.raw_input = est['input'] == 'raw'
         self.estimator = PoseEstimator(PoseEstimatorParams.from_ros_params(nested))
