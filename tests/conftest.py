@@ -1,12 +1,39 @@
 """Fixtures for the topic-level tests: an isolated DDS domain, rclpy contexts, node processes."""
+import fcntl
 import os
 
 import pytest
 
+#: ROS domain ids Fast DDS can use on one machine (port arithmetic: 0-101 and 215-232); 0 is
+#: left out, it is every shell's default (a hand-started graph, ``make demo``).
+VALID_DOMAINS = list(range(1, 102)) + list(range(215, 233))
+_domain_lock = None      # the open lock file of our domain: held as long as this process lives
+
+
+def claim_domain(pid: int, lock_dir: str = '/tmp') -> tuple:
+    """``(domain id, open lock file)``: the first free domain from ``pid``'s place in
+    :data:`VALID_DOMAINS` on, held with an exclusive ``flock`` on
+    ``<lock_dir>/irs_test_domain_<id>.lock`` so that two concurrent runs never share one (the
+    lock goes with the process, also a killed one). ``RuntimeError`` if every domain is taken."""
+    n = len(VALID_DOMAINS)
+    for i in range(n):
+        domain = VALID_DOMAINS[(pid + i) % n]
+        f = open(os.path.join(lock_dir, f'irs_test_domain_{domain}.lock'), 'a')
+        try:
+            fcntl.flock(f, fcntl.LOCK_EX | fcntl.LOCK_NB)
+        except OSError:
+            f.close()
+            continue
+        return domain, f
+    raise RuntimeError(f'all {n} ROS domain ids are held by other test runs ({lock_dir}/irs_test_domain_*.lock)')
+
+
 # Every test run gets its own ROS_DOMAIN_ID (set before any rclpy context or child process
 # starts), so concurrent runs on one machine do not see each other's topics.
+# IRS_TEST_DOMAIN_FIXED keeps the ROS_DOMAIN_ID of the environment.
 if 'IRS_TEST_DOMAIN_FIXED' not in os.environ:
-    os.environ['ROS_DOMAIN_ID'] = str(10 + os.getpid() % 90)
+    _domain, _domain_lock = claim_domain(os.getpid())
+    os.environ['ROS_DOMAIN_ID'] = str(_domain)
 os.environ.setdefault('ROS_AUTOMATIC_DISCOVERY_RANGE', 'LOCALHOST')
 
 

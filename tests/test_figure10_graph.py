@@ -7,8 +7,16 @@ central result says (see docs/figure10.md for which of the paper's claims hold a
 import numpy as np
 
 from irs_bringup.experiment_cli import FIGURE10, offline_run, run_experiment
-from irs_bringup.figure10 import write_report
+from irs_bringup.figure10 import step_window, write_report
 from irs_bringup.run_series import lateral_run
+from irs_control.metrics import settling_time
+
+
+def settling(run, band):
+    """Settling time [s] of the run's step into +-band of the step (NaN if never)."""
+    t, y = np.asarray(run['time']), np.asarray(run['y_s'])
+    y0, sp, t_step, _t_end, i0, i1 = step_window(t, run['reference'])
+    return settling_time(t[i0:i1], y[i0:i1], sp, y0, band=band, t_step=t_step)
 
 
 def test_figure10_through_the_graph(tmp_path):
@@ -37,5 +45,9 @@ def test_figure10_through_the_graph(tmp_path):
     assert without_act['crossings_2pct'] > with_act['crossings_2pct']
     # ... and the PI cannot reach the fast transient: slower rise, far slower settling.
     assert pi['rise_time'] > with_act['rise_time']
-    assert not pi['settling_time'] <= 2 * with_act['settling_time']
+    # Neither settles into +-2 % within the run (the backlash/noise limit cycle; NaN), so compare
+    # at +-5 %, where both do (offline: 0.88 s and 5.3 s): the PI takes more than twice as long.
+    mrc5, pi5 = settling(runs['mrc_with_actuator'], 0.05), settling(runs['pi'], 0.05)
+    assert np.isfinite(mrc5) and np.isfinite(pi5), (mrc5, pi5)
+    assert pi5 > 2 * mrc5, (mrc5, pi5)
     assert (tmp_path / 'report' / 'figure10.png').stat().st_size > 10_000

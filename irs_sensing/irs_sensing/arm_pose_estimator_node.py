@@ -80,7 +80,7 @@ class ArmPoseEstimatorNode(Node):
         self.stale_reported = False
         # rclpy's throttled logging costs ~1 ms per call: per-step warnings are throttled first.
         self.warner = ThrottledWarner(self.get_logger().warning, 1.0)
-        self.info_warner = ThrottledWarner(self.get_logger().info, 1.0)
+        self.info_warner = ThrottledWarner(self._log_info, 1.0)
         self.pub_pose = self.create_publisher(PoseStamped, 'pose', qos.SENSOR)
         self.pub_twist = self.create_publisher(TwistStamped, 'velocity', qos.SENSOR)
         self.pub_point = self.create_publisher(PointStamped, 'lateral_position', qos.SENSOR)
@@ -89,6 +89,13 @@ class ArmPoseEstimatorNode(Node):
         self.stale_timer = self.create_timer(
             max(self.estimator.params.stale_timeout / 2.0, 0.001), self._check_stale)
         self.jump_handle = on_time_jump_back(self, lambda _delta: self._reset_time_state())
+
+
+    # rclpy fixes a logging call site's severity at its first call (a later call with another
+    # severity raises ValueError): warners that log at other severities than warning call rclpy
+    # from these lines, not from ThrottledWarner's one.
+    def _log_info(self, text):
+        self.get_logger().info(text)
 
     def _on_parameter(self, name, value):
         if name == 'stale_timeout':

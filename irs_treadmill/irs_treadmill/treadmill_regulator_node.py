@@ -84,8 +84,8 @@ class TreadmillRegulatorNode(Node):
         self.time_resets = 0
         # rclpy's throttled logging costs ~1 ms per call: per-step warnings are throttled first.
         self.warner = ThrottledWarner(self.get_logger().warning, 1.0)
-        self.fault_warner = ThrottledWarner(self.get_logger().error, 1.0)
-        self.info_warner = ThrottledWarner(self.get_logger().info, 1.0)
+        self.fault_warner = ThrottledWarner(self._log_error, 1.0)
+        self.info_warner = ThrottledWarner(self._log_info, 1.0)
         self.pub_drive = self.create_publisher(TreadmillDriveCommand, 'treadmill/drive', qos.COMMAND)
         self.pub_state = self.create_publisher(TreadmillState, 'treadmill/state', qos.SENSOR)
         self.create_subscription(PoseStamped, 'pose', lambda m: self._add('pose', m), qos.SENSOR)
@@ -99,6 +99,16 @@ class TreadmillRegulatorNode(Node):
         self.jump_handle = on_time_jump_back(self, lambda _delta: self._reset_time_state())
 
     # ------------------------------------------------------------------ parameters, time
+
+    # rclpy fixes a logging call site's severity at its first call (a later call with another
+    # severity raises ValueError): warners that log at other severities than warning call rclpy
+    # from these lines, not from ThrottledWarner's one.
+    def _log_info(self, text):
+        self.get_logger().info(text)
+
+    def _log_error(self, text):
+        self.get_logger().error(text)
+
     def _on_parameter(self, name, value):
         if name.startswith('regulator.'):
             key = name.split('.', 1)[1]

@@ -167,7 +167,7 @@ class VehicleSimNode(Node):
 
         # rclpy's throttled logging costs ~1 ms per call: per-step warnings are throttled first.
         self.warner = ThrottledWarner(self.get_logger().warning, 1.0)
-        self.info_warner = ThrottledWarner(self.get_logger().info, 1.0)
+        self.info_warner = ThrottledWarner(self._log_info, 1.0)
         self.pub_clock = self.create_publisher(Clock, '/clock', qos.CLOCK) if self.lockstep else None
         self.pub_arm = self.create_publisher(JointState, 'arm/joint_states', qos.SENSOR)
         self.pub_belt = self.create_publisher(BeltSpeed, 'belt/speed', qos.SENSOR)
@@ -203,6 +203,13 @@ class VehicleSimNode(Node):
         self.get_logger().info(
             f"rig up: {self.p['clock_mode']}, dt = {self.config.dt} s, plant = {self.config.plant}"
             + (f", lock-step inputs {list(self.required)}" if self.lockstep else ''))
+
+
+    # rclpy fixes a logging call site's severity at its first call (a later call with another
+    # severity raises ValueError): warners that log at other severities than warning call rclpy
+    # from these lines, not from ThrottledWarner's one.
+    def _log_info(self, text):
+        self.get_logger().info(text)
 
     def _hold(self):
         """Real time, before the start: publish the start pose at the step rate, stamped now."""
