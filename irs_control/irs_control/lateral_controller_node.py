@@ -139,12 +139,11 @@ class LateralControllerNode(Node):
         self.get_logger().info(f'parameter {name} = {value!r} applied')
 
     def _reset_time_state(self):
-        """Time went back: forget stamps, pairing and the controller state (restart from rest)."""
+        """Time went back: forget stamps and the controller state (restart from rest). Pending
+        pairs stay: they may hold a part of a newer step already taken from the other input."""
         self.time_resets += 1
         self.gate.clear()
         self.ref_gate.clear()
-        if self.sync is not None:
-            self.sync = StampSync(('y', 'ref'))
         self.controller.reset()
         self.last_answer = None
         self.last_meas_time = None

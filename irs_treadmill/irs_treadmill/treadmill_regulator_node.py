@@ -117,11 +117,11 @@ class TreadmillRegulatorNode(Node):
         self.get_logger().info(f'parameter {name} = {value!r} applied')
 
     def _reset_time_state(self):
-        """Time went back: forget stamps, pairing, the regulator state and the position timing
-        (latched faults stay latched)."""
+        """Time went back: forget stamps, the regulator state and the position timing (latched
+        faults stay latched). Pending pairs stay: they may hold parts of newer steps already
+        taken from another input."""
         self.time_resets += 1
         self.gate.clear()
-        self.sync = StampSync(self.inputs)
         self.regulator.reset()
         self.safety.forget_time()
         self.last_answer = None
@@ -253,7 +253,6 @@ class TreadmillRegulatorNode(Node):
         self.regulator.reset()
         self.reported_fault = None
         self.gate.clear()
-        self.sync = StampSync(self.inputs)
         self.last_answer = None
         self.get_logger().info('treadmill fault reset')
 
