@@ -117,9 +117,17 @@ def _composed_copy(name: str) -> Path:
     doc['name'] = doc['name'] + '_composed'
     for entry in doc['nodes'].values():
         entry['process'] = 'loop'
+    doc['record']['process'] = 'loop'
     path = Path(tempfile.mkdtemp(prefix='irs_bench_')) / f"{doc['name']}.yaml"
     path.write_text(yaml.safe_dump(doc, sort_keys=False))
     return path
+
+
+def _message_class(type_name: str):
+    """``'pkg/msg/Type'`` -> the message class."""
+    import importlib
+    package, kind, name = type_name.split('/')
+    return getattr(importlib.import_module(f'{package}.{kind}'), name)
 
 
 def _messages(bag_dir) -> dict:
@@ -129,18 +137,21 @@ def _messages(bag_dir) -> dict:
     step again after ``lockstep_resend_period`` without progress) records byte-identical
     duplicates, which are one message of the run's data.
     """
+    from rclpy.serialization import deserialize_message
     from irs_bringup.bag_reader import BagReader
     out = {}
-    with BagReader(bag_dir) as reader:
+    with BagReader(bag_dir) as reader:   # fields, not CDR bytes: padding bytes are arbitrary
+        types = {name: _message_class(info.type) for name, info in reader.topics.items()}
         for m in reader.messages():
-            out.setdefault(m.topic, set()).add(bytes(m.data))
+            msg = deserialize_message(bytes(m.data), types[m.topic])
+            out.setdefault(m.topic, set()).add(repr(msg))
     return {t: sorted(v) for t, v in out.items()}
 
 
 def lockstep() -> list:
     rows, bags = [], {}
     for label, exp in (('process per node', 'figure10_mrc_with_actuator'),
-                       ('composed', _composed_copy('figure10_mrc_with_actuator'))):
+                       ('composed (recorder too)', _composed_copy('figure10_mrc_with_actuator'))):
         _domain(30 + len(rows))
         r = _run_experiment(exp)
         steps = r.sim_time / 0.001

@@ -33,6 +33,7 @@ setup(
         # rclcpp_components): <executable name> = <module>:<Node subclass>.
         'irs_components': [
             'driver = irs_bringup.driver_node:DriverNode',
+            'recorder = irs_bringup.recorder_node:ComposableRecorder',
         ],
     },
 )

@@ -16,6 +16,7 @@ An experiment file (YAML, see ``config/experiments/``)::
         process: rig           # optional process group: nodes with the same one share a process
     record:
       topics: [arm/joint_states, ...]     # what the recorder writes to the bag ([] = no bag)
+      process: loop                       # optional: the recorder composed with that group
 
 Clock handling is the runner's job: for ``lockstep`` it sets ``clock_mode: lockstep``,
 ``autostart: false`` and ``max_steps`` on the rig and ``use_sim_time: true`` on every other node;
@@ -79,6 +80,7 @@ class Experiment:
     record_topics: list
     path: Path | None = None
     text: str = ''
+    record_process: str | None = None    # the recorder runs composed in this process group
 
     def node(self, package, executable):
         """The entry that runs ``package/executable``, or None."""
@@ -145,7 +147,7 @@ def load_experiment(name_or_path: str) -> Experiment:
     nodes = [NodeEntry(n, e.package, e.executable, list(e.params_files), dict(e.params),
                        dict(e.remaps), e.process) for n, e in model.nodes.items()]
     exp = Experiment(name, model.description, model.clock, float(model.duration), nodes,
-                     list(model.record.topics), path, text)
+                     list(model.record.topics), path, text, model.record.process)
     problems = _parameter_problems(exp) or _duration_problems(exp)
     if problems:
         raise ExperimentError(one_line(path, problems))

@@ -130,10 +130,10 @@ class ExperimentRunner:
                                    params, entry.remaps)))
         return specs
 
-    def _start_nodes(self, logs: Path, env):
+    def _start_nodes(self, logs: Path, env, extra=()):
         """One process per node, or one ``container`` per ``process:`` group."""
         groups = {}
-        for process, spec in self._specs():
+        for process, spec in [*self._specs(), *extra]:
             if process is None:
                 self.procs[spec.name] = NodeProcess(spec, logs, env=env)
             else:
@@ -207,9 +207,12 @@ class ExperimentRunner:
             env = None
             if self.rt_priority:
                 env = dict(os.environ, IRS_RT_PRIORITY=str(self.rt_priority))
-            if bag_dir is not None:
+            extra = []
+            if bag_dir is not None and exp.record_process is not None:
+                extra.append((exp.record_process, self._recorder_spec(bag_dir)))
+            elif bag_dir is not None:
                 self.procs['recorder'] = NodeProcess(self._recorder_spec(bag_dir), logs)
-            self._start_nodes(logs, env)
+            self._start_nodes(logs, env, extra)
             self.log(f'[experiment] {exp.name}: started {len(self.procs)} processes, '
                      f'logs in {logs}')
             self._wait_for_graph(watcher)

@@ -87,6 +87,12 @@ class NodeModel(_Strict):
 
 class RecordModel(_Strict):
     topics: list[str] = []
+    process: str | None = None        # compose the recorder into this node group's process
+
+    @field_validator('process')
+    @classmethod
+    def _process(cls, value):
+        return _safe_name(value, 'a process group')
 
     @field_validator('topics', mode='before')
     @classmethod

@@ -75,6 +75,7 @@ from rclpy.impl.implementation_singleton import rclpy_implementation as _rclpy
 from rclpy.node import Node
 from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
 from rclpy.signals import SignalHandlerOptions
+from rclpy.subscription import Subscription
 from rclpy.type_support import check_is_valid_msg_type
 from std_msgs.msg import String
 
@@ -155,8 +156,8 @@ class _Recorded:
 class Recorder(Node):
     """The recorder node (see the module docstring)."""
 
-    def __init__(self):
-        super().__init__('recorder')
+    def __init__(self, **node_options):
+        super().__init__('recorder', **node_options)
         self.p = declare_table(self, NODE_PARAMS)
         topics = [t for t in self.p['topics'] if t]
         if not topics:
@@ -248,12 +249,18 @@ class Recorder(Node):
                         else DurabilityPolicy.VOLATILE))
         self._ensure_writer().add_topic(name, type_name, ''.join(_qos_text(i) for i in pubs))
         check_is_valid_msg_type(msg_type)  # imports the type support
-        with self.handle:
-            handle = _rclpy.Subscription(self.handle, msg_type, name, qos.get_c_qos_profile())
-        self.recorded[name] = _Recorded(name, type_name, msg_type, handle)
+        rec = _Recorded(name, type_name, msg_type, None)
+        rec.handle = self._open(rec, qos)
+        self.recorded[name] = rec
         self.get_logger().info(
             f"subscribed {name} [{type_name}] ({'best effort' if best_effort else 'reliable'}"
             f"{', transient local' if latched else ''}, depth {self.p['qos_depth']})")
+
+    def _open(self, rec: _Recorded, qos):
+        """A bare subscription handle, drained by :meth:`run` (not seen by any executor)."""
+        with self.handle:
+            return _rclpy.Subscription(self.handle, rec.msg_type, rec.topic,
+                                       qos.get_c_qos_profile())
 
     def update_publisher_counts(self):
         for rec in self.recorded.values():
@@ -276,21 +283,23 @@ class Recorder(Node):
             got = rec.handle.take_message(rec.msg_type, True)
             if got is None:
                 return n
-            data, info = got
-            recv = info.get('received_timestamp') or time.time_ns()
-            src = info.get('source_timestamp') or recv
-            seq = info.get('publication_sequence_number')
-            if seq is not None and rec.single_pub:
-                if rec.last_seq is not None and seq > rec.last_seq + 1:
-                    lost = seq - rec.last_seq - 1
-                    writer.record_drop(rec.topic, lost)
-                    self.get_logger().warning(
-                        f'{rec.topic}: {lost} message(s) lost (publication sequence '
-                        f'{rec.last_seq} -> {seq})')
-                rec.last_seq = seq
-            writer.write(rec.topic, rec.type_name, data, recv, src,
-                         (seq or 0) & 0xFFFFFFFF)
+            self._write(writer, rec, *got)
             n += 1
+
+    def _write(self, writer, rec: _Recorded, data: bytes, info: dict):
+        """Write one message (CDR ``data``) with its receive time; count sequence gaps."""
+        recv = info.get('received_timestamp') or time.time_ns()
+        src = info.get('source_timestamp') or recv
+        seq = info.get('publication_sequence_number')
+        if seq is not None and rec.single_pub:
+            if rec.last_seq is not None and seq > rec.last_seq + 1:
+                lost = seq - rec.last_seq - 1
+                writer.record_drop(rec.topic, lost)
+                self.get_logger().warning(
+                    f'{rec.topic}: {lost} message(s) lost (publication sequence '
+                    f'{rec.last_seq} -> {seq})')
+            rec.last_seq = seq
+        writer.write(rec.topic, rec.type_name, data, recv, src, (seq or 0) & 0xFFFFFFFF)
 
     def run(self):
         """The drain loop (main thread) until a stop is requested; then close the bag."""
@@ -356,7 +365,8 @@ class Recorder(Node):
     def close(self) -> str:
         """Close the bag; return the one-line summary."""
         for rec in self.recorded.values():
-            rec.handle.destroy_when_not_in_use()
+            if not isinstance(rec.handle, Subscription):
+                rec.handle.destroy_when_not_in_use()
         if self.writer is None:
             return f'recorder: nothing recorded (no topic matched), no bag written at {self.output}'
         s = self.writer.close()
@@ -366,6 +376,46 @@ class Recorder(Node):
                           if st.dropped) or 'none'
         return (f'recorder: closed {s.directory}: {s.message_count} messages in '
                 f'{s.duration_ns * 1e-9:.3f} s ({per}); dropped: {s.dropped_total} ({drops})')
+
+
+class ComposableRecorder(Recorder):
+    """The recorder as an ordinary node, for the ``container`` (composition).
+
+    Composed with the nodes it records, the recorder takes their messages inside the process
+    (Fast DDS delivers without the network stack or another process to wake), which is what a
+    real-time loop at 1 kHz can afford. Its recording subscriptions are rclpy subscriptions with
+    ``raw=True`` (the CDR bytes, never deserialised) whose callbacks write to the bag; the
+    executor (:class:`irs_common.executor.LeanExecutor`) drains each one completely per wake, as
+    :meth:`Recorder.run` does. Discovery and flushing run on timers; destroying the node closes
+    the bag and prints the summary line.
+    """
+
+    def __init__(self, **node_options):
+        super().__init__(**node_options)
+        self.create_timer(self.p['discovery_period'], self._discover)
+        self.create_timer(self.p['flush_period'], self._flush)
+
+    def _open(self, rec: _Recorded, qos):
+        def on_message(data, info, rec=rec):
+            self._write(self.writer, rec, data, info)
+        return self.create_subscription(rec.msg_type, rec.topic, on_message, qos, raw=True)
+
+    def _discover(self):
+        try:
+            self.discover()
+        except ValueError as exc:      # the bag directory cannot be created
+            self.get_logger().error(str(exc))
+            raise
+        self.update_publisher_counts()
+
+    def _flush(self):
+        if self.writer is not None and not self.writer.closed:
+            self.writer.flush()
+
+    def destroy_node(self):
+        if self.writer is None or not self.writer.closed:
+            print(self.close(), flush=True)
+        super().destroy_node()
 
 
 def main(args=None) -> int:
