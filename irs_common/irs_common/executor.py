@@ -26,8 +26,9 @@ unchanged. Its ``spin_once`` is the loop the recorder already used:
    and 70 event handlers: adding them on every wait cost more than all the messages of a step;
    a service call now waits at most ``slow_period`` longer;
 3. every ready subscription is drained: ``take_message`` until nothing is left, each message
-   handed straight to its callback (no ``Task``); ready timers are called
-   (``call_timer`` + callback), then services, clients, guard conditions and waitables.
+   handed straight to its callback (no ``Task``); then ready timers are called
+   (``call_timer`` + callback), so a periodic step sees every message that had arrived when it
+   woke; then services, clients, guard conditions and waitables.
 
 Callbacks must be plain functions (no coroutines) -- all of ours are. Callback groups are
 ignored: one thread runs every callback, so every group is effectively mutually exclusive.
@@ -157,15 +158,17 @@ class LeanExecutor(Executor):
         ready_gcs = ws.get_ready_entities('guard_condition')
         ready_waitables = [wt for wt in ents.waitables if wt.is_ready(ws)] if slow else ()
         try:
+            # Messages before timers: a periodic step (the real-time rig's tick) then acts on
+            # every command that had arrived by the time it woke, not on the previous ones.
+            for ptr in ready_subs:
+                sub = ents.sub_by_ptr.get(ptr)
+                if sub is not None:
+                    self._drain(sub)
             for ptr in ready_timers:
                 tmr = ents.timer_by_ptr.get(ptr)
                 if tmr is not None and tmr.handle.is_timer_ready():
                     tmr.handle.call_timer()
                     tmr.callback()
-            for ptr in ready_subs:
-                sub = ents.sub_by_ptr.get(ptr)
-                if sub is not None:
-                    self._drain(sub)
             for ptr in ready_srvs:
                 srv = ents.service_by_ptr.get(ptr)
                 if srv is not None:
