@@ -320,3 +320,17 @@ def test_lockstep_experiments_record_clock():
         assert exp.clock == 'lockstep' and '/clock' in exp.record_topics, name
         non_rig = sum(1 for e in exp.nodes if e.key != ('irs_vehicle_sim', 'vehicle_sim'))
         assert expected_endpoints(exp)['/clock'] == (1, non_rig + 1), name
+
+
+def test_an_output_it_cannot_create_is_one_line_at_start_up(tmp_path):
+    """Before any topic appears: a bag directory under a file is refused at once, exit 2."""
+    blocker = tmp_path / 'a_file'
+    blocker.write_text('not a directory')
+    exe = resolve_executable('irs_bringup', 'recorder')
+    res = subprocess.run([exe, '--ros-args', '-p', f'output:={blocker}/bag', '-p',
+                          "topics:=['/nothing/ever']"], capture_output=True, text=True,
+                         timeout=60)
+    assert res.returncode == 2, res.stdout + res.stderr
+    lines = [ln for ln in res.stderr.splitlines() if ln.strip()]
+    assert len(lines) == 1 and 'cannot create the bag directory' in lines[0], res.stderr
+    assert 'Traceback' not in res.stderr + res.stdout

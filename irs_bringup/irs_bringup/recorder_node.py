@@ -63,6 +63,7 @@ import datetime as _dt
 import fnmatch
 import importlib
 import json
+import os
 import signal
 import sys
 import threading
@@ -129,6 +130,21 @@ def _qos_text(info) -> str:
     return qos_profiles_yaml(rel, dur, hist, depth=q.depth)
 
 
+def _uncreatable(directory: Path) -> str:
+    """Why ``directory`` cannot be created (the writer makes missing parents: the nearest
+    existing ancestor must be a writable directory), or '' if it can (or exists)."""
+    ancestor = directory.absolute()
+    while not ancestor.exists():
+        ancestor = ancestor.parent
+    if ancestor == directory.absolute():
+        return ''
+    if not ancestor.is_dir():
+        return f'{ancestor} is not a directory'
+    if not os.access(ancestor, os.W_OK | os.X_OK):
+        return f'{ancestor} is not writable'
+    return ''
+
+
 def parse_metadata(text: str) -> dict:
     """The ``metadata`` parameter: a JSON object; non-string values are JSON-encoded."""
     try:
@@ -175,6 +191,9 @@ class Recorder(Node):
             'irs_bag_%Y_%m_%d-%H_%M_%S'))
         if self.output.exists() and (not self.output.is_dir() or any(self.output.iterdir())):
             raise ValueError(f'bag directory {self.output} already exists and is not empty')
+        problem = _uncreatable(self.output)
+        if problem:     # found now, not when the first topic appears
+            raise ValueError(f'cannot create the bag directory {self.output}: {problem}')
         if self.p['compression'] not in ('zstd', 'lz4', 'none'):
             raise ValueError(f"compression must be 'zstd', 'lz4' or 'none', "
                              f"got {self.p['compression']!r}")
