@@ -15,10 +15,10 @@ Sections (each a function below; results go to ``bench/results/<time>.json`` and
   bag, CPU per step per process;
 - ``lockstep``: Figure 10 in lock-step, process per node and composed: multiple of real time,
   CPU per step, and whether the two bags carry identical messages;
-- ``offline``: the offline cores (irs_bringup.closed_loop) in steps/s against a vectorised
+- ``offline``: the offline cores (irs_bringup.paper.closed_loop) in steps/s against a vectorised
   linear reference: the identified plant stepped by our core and by ``scipy.signal.dlsim``;
 - ``replay``: ``bag play`` timing error at 1x and what the recorder keeps of 13 topics x 1 kHz
-  (irs_bringup.bench_replay).
+  (irs_bringup.bag.bench_replay).
 
 Speed is measured here, never asserted in tests. Timing figures are noisy on a shared 2-core
 machine: compare ratios within one run (the floor is in the same JSON).
@@ -65,7 +65,7 @@ def _floor_line(r) -> str:
 
 def _bag_figures(bag_dir) -> dict:
     """Per-topic message counts and rates, and the losses the recorder counted."""
-    from irs_bringup.bag_reader import BagReader
+    from irs_bringup.bag.bag_reader import BagReader
     with BagReader(bag_dir) as reader:
         custom = (reader.bag_metadata or {}).get('custom_data') or {}
         topics = {name: {'count': info.message_count, 'rate_hz': info.rate_hz}
@@ -74,8 +74,8 @@ def _bag_figures(bag_dir) -> dict:
 
 
 def _run_experiment(path_or_name, rt_priority=0, duration=None, runs_dir=None):
-    from irs_bringup.experiment import load_experiment
-    from irs_bringup.experiment_runner import ExperimentRunner
+    from irs_bringup.run.experiment import load_experiment
+    from irs_bringup.run.experiment_runner import ExperimentRunner
     exp = load_experiment(path_or_name)
     if duration is not None:
         exp.duration = float(duration)
@@ -112,7 +112,7 @@ def realtime(seconds: float) -> list:
 def _composed_copy(name: str) -> Path:
     """The installed experiment with every node in one ``process: loop``."""
     import yaml
-    from irs_bringup.experiment import find_experiment
+    from irs_bringup.run.experiment import find_experiment
     doc = yaml.safe_load(find_experiment(name).read_text())
     doc['name'] = doc['name'] + '_composed'
     for entry in doc['nodes'].values():
@@ -138,7 +138,7 @@ def _messages(bag_dir) -> dict:
     duplicates, which are one message of the run's data.
     """
     from rclpy.serialization import deserialize_message
-    from irs_bringup.bag_reader import BagReader
+    from irs_bringup.bag.bag_reader import BagReader
     out = {}
     with BagReader(bag_dir) as reader:   # fields, not CDR bytes: padding bytes are arbitrary
         types = {name: _message_class(info.type) for name, info in reader.topics.items()}
@@ -175,9 +175,9 @@ def lockstep() -> list:
 def offline() -> list:
     import numpy as np
     from scipy import signal
-    from irs_bringup.closed_loop import ClosedLoop
-    from irs_bringup.experiment import load_experiment
-    from irs_bringup.offline import loop_config_from_experiment
+    from irs_bringup.paper.closed_loop import ClosedLoop
+    from irs_bringup.run.experiment import load_experiment
+    from irs_bringup.run.offline import loop_config_from_experiment
     from irs_vehicle_sim.identified import IdentifiedPlant
     exp = load_experiment('figure10_mrc_with_actuator')
     loop = ClosedLoop(loop_config_from_experiment(exp))
@@ -211,7 +211,7 @@ def offline() -> list:
 def replay(seconds: float) -> list:
     import contextlib
     import io
-    from irs_bringup import bench_replay
+    from irs_bringup.bag import bench_replay
     _domain(50)
     buf = io.StringIO()
     with contextlib.redirect_stdout(buf):

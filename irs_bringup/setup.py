@@ -23,17 +23,17 @@ setup(
     license='Apache-2.0',
     entry_points={
         'console_scripts': [
-            'experiment = irs_bringup.experiment_cli:main',
-            'bag = irs_bringup.bag_cli:main',
-            'recorder = irs_bringup.recorder_node:main',
-            'driver = irs_bringup.driver_node:main',
-            'container = irs_bringup.container:main',
+            'experiment = irs_bringup.run.experiment_cli:main',
+            'bag = irs_bringup.bag.bag_cli:main',
+            'recorder = irs_bringup.bag.recorder_node:main',
+            'driver = irs_bringup.driver.driver_node:main',
+            'container = irs_bringup.run.container:main',
         ],
         # Node classes the container composes in one process (rclpy's analogue of
         # rclcpp_components): <executable name> = <module>:<Node subclass>.
         'irs_components': [
-            'driver = irs_bringup.driver_node:DriverNode',
-            'recorder = irs_bringup.recorder_node:ComposableRecorder',
+            'driver = irs_bringup.driver.driver_node:DriverNode',
+            'recorder = irs_bringup.bag.recorder_node:ComposableRecorder',
         ],
     },
 )

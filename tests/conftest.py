@@ -43,7 +43,7 @@ def ros():
     import rclpy
     from rclpy.context import Context
 
-    from irs_bringup.graph import make_watcher
+    from irs_bringup.run.graph import make_watcher
 
     context = Context()
     rclpy.init(context=context)
@@ -58,7 +58,7 @@ def ros():
 @pytest.fixture
 def launch(tmp_path):
     """Start node processes (``launch(NodeSpec)``); every one is stopped at teardown."""
-    from irs_bringup.processes import NodeProcess
+    from irs_bringup.run.processes import NodeProcess
 
     procs = []
 

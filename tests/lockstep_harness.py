@@ -13,7 +13,7 @@ from irs_common.stamps import to_ns
 from irs_msgs.msg import SteeringActuatorState, SteeringCommand
 from sensor_msgs.msg import JointState
 
-from irs_bringup.processes import NodeSpec
+from irs_bringup.run.processes import NodeSpec
 
 
 def rig_spec(**params):
@@ -27,7 +27,7 @@ def rig_spec(**params):
 
 def offline_rig_params(**params) -> dict:
     """The same rig parameters as :func:`rig_spec` for the offline core (node-only keys out)."""
-    from irs_bringup.experiment import NodeEntry, node_parameters
+    from irs_bringup.run.experiment import NodeEntry, node_parameters
     spec = rig_spec(**params)
     values = node_parameters(NodeEntry('vehicle_sim', spec.package, spec.executable,
                                        spec.params_files, spec.params))

@@ -22,7 +22,7 @@ from irs_common import qos
 from irs_common.stamps import from_ns, to_ns
 from irs_msgs.msg import (BeltSpeed, DriverCommand, LateralControllerStatus, LateralReference,
                           SteeringActuatorState, SteeringCommand, TreadmillDriveCommand)
-from irs_bringup.processes import NodeSpec
+from irs_bringup.run.processes import NodeSpec
 from irs_sensing.arm_kinematics import ArmGeometry, inverse_kinematics
 
 EXAMPLES = 10

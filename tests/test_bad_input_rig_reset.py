@@ -10,7 +10,7 @@ from std_srvs.srv import Trigger
 
 from irs_common import qos
 from irs_msgs.msg import RigStatus, SteeringCommand
-from irs_bringup.processes import NodeSpec
+from irs_bringup.run.processes import NodeSpec
 from irs_vehicle_sim.rig import RigConfig
 
 

@@ -17,7 +17,7 @@ from sensor_msgs.msg import JointState
 from irs_common import qos
 from irs_common.stamps import from_ns, to_ns
 from irs_msgs.msg import BeltSpeed, SteeringCommand, TreadmillDriveCommand
-from irs_bringup.processes import NodeSpec
+from irs_bringup.run.processes import NodeSpec
 from irs_sensing.arm_kinematics import ArmGeometry, inverse_kinematics
 
 DAY_NS = 86_400 * 1_000_000_000

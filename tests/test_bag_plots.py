@@ -4,7 +4,7 @@ import subprocess
 
 import pytest
 
-from irs_bringup.executables import resolve_executable
+from irs_bringup.run.executables import resolve_executable
 
 N = 300
 DT_NS = 1_000_000
@@ -27,7 +27,7 @@ def make_bag(path, topics=None, clock=False):
     from rclpy.serialization import serialize_message
     from sensor_msgs.msg import JointState
 
-    from irs_bringup.bag_writer import BagWriter
+    from irs_bringup.bag.bag_writer import BagWriter
     from irs_msgs.msg import (BeltSpeed, LateralReference, SteeringActuatorState,
                               SteeringCommand, TreadmillState)
     from irs_sensing.arm_kinematics import ArmGeometry, inverse_kinematics
@@ -86,10 +86,10 @@ def test_an_extra_clock_topic_changes_nothing(small_bag, tmp_path):
     export of such a bag are those of the same bag without it."""
     import numpy as np
 
-    from irs_bringup.bag_plots import load_series, make_plots
-    from irs_bringup.bag_reader import BagReader
-    from irs_bringup.rerun_export import export_rrd
-    from irs_bringup.run_series import lateral_run
+    from irs_bringup.bag.bag_plots import load_series, make_plots
+    from irs_bringup.bag.bag_reader import BagReader
+    from irs_bringup.bag.rerun_export import export_rrd
+    from irs_bringup.paper.run_series import lateral_run
 
     with_clock = make_bag(tmp_path / 'with_clock', clock=True)
     with BagReader(with_clock) as r:
@@ -115,7 +115,7 @@ def small_bag(tmp_path_factory):
 
 
 def test_make_plots_writes_valid_pngs(small_bag, tmp_path):
-    from irs_bringup.bag_plots import make_plots
+    from irs_bringup.bag.bag_plots import make_plots
     paths = make_plots(small_bag, tmp_path / 'out')
     assert sorted(p.name for p in paths) == ['belt.png', 'car_position.png', 'lateral.png',
                                              'steering.png']
@@ -125,7 +125,7 @@ def test_make_plots_writes_valid_pngs(small_bag, tmp_path):
 
 
 def test_plots_only_with_the_topics_present(tmp_path):
-    from irs_bringup.bag_plots import NoPlottableTopics, make_plots
+    from irs_bringup.bag.bag_plots import NoPlottableTopics, make_plots
     bag = make_bag(tmp_path / 'belt_only', topics={'/belt/speed'})
     assert [p.name for p in make_plots(bag, tmp_path / 'o1')] == ['belt.png']
     empty = make_bag(tmp_path / 'no_plot_topics', topics={'/arm/joint_states'})
@@ -134,7 +134,7 @@ def test_plots_only_with_the_topics_present(tmp_path):
 
 
 def test_rerun_export_round_trip(small_bag, tmp_path):
-    from irs_bringup.rerun_export import ENTITY_PATHS, export_rrd, rrd_entity_paths
+    from irs_bringup.bag.rerun_export import ENTITY_PATHS, export_rrd, rrd_entity_paths
     rrd = tmp_path / 'run.rrd'
     rows = export_rrd(small_bag, rrd)
     assert rrd.is_file() and rrd.stat().st_size > 1000
@@ -162,8 +162,8 @@ def test_arm_drawn_through_elbow_to_tip(small_bag, tmp_path):
     """The rerun export draws the arm as base -> elbow -> tip: the base at the geometry's base,
     the elbow l1 away at angle theta1, the tip where forward kinematics puts it (the car's
     position: offset 0), for every decimated joint state."""
-    from irs_bringup.bag_reader import BagReader
-    from irs_bringup.rerun_export import export_rrd
+    from irs_bringup.bag.bag_reader import BagReader
+    from irs_bringup.bag.rerun_export import export_rrd
     from irs_sensing.arm_kinematics import ArmGeometry, forward_kinematics
     geom = ArmGeometry(l1=1.1, l2=0.95, base_x=0.05, base_y=0.9)
     rrd = tmp_path / 'arm.rrd'

@@ -4,7 +4,7 @@ import math
 import struct
 import time
 
-from irs_bringup.processes import NodeSpec, wait_until
+from irs_bringup.run.processes import NodeSpec, wait_until
 
 from test_recorder import LockstepResponder, record_lockstep  # same tests/ directory
 
@@ -22,7 +22,7 @@ def make_bag(path):
     from rclpy.serialization import serialize_message
     from sensor_msgs.msg import JointState
 
-    from irs_bringup.bag_writer import BagWriter
+    from irs_bringup.bag.bag_writer import BagWriter
 
     with BagWriter(path, chunk_size=32 * 1024) as w:
         for k in range(N):
@@ -59,7 +59,7 @@ def test_replay_is_byte_exact_with_clock_and_waits_for_subscribers(ros, launch, 
     from rosgraph_msgs.msg import Clock
     from sensor_msgs.msg import JointState
 
-    from irs_bringup.bag_reader import BagReader
+    from irs_bringup.bag.bag_reader import BagReader
 
     bag = make_bag(tmp_path / 'bag')
     with BagReader(bag) as r:
@@ -105,7 +105,7 @@ def test_replay_start_offset_and_usage_errors(ros, launch, tmp_path):
 
     from geometry_msgs.msg import PointStamped
 
-    from irs_bringup.executables import resolve_executable
+    from irs_bringup.run.executables import resolve_executable
 
     bag = make_bag(tmp_path / 'bag')
     got = raw_recorder(ros, {'/a': PointStamped})
@@ -135,7 +135,7 @@ def timed_bag(path, n, log_step_ns, stamp_step_ns, lockstep=False, clock=False):
     from rclpy.serialization import serialize_message
     from rosgraph_msgs.msg import Clock
 
-    from irs_bringup.bag_writer import BagWriter
+    from irs_bringup.bag.bag_writer import BagWriter
 
     with BagWriter(path, chunk_size=16 * 1024) as w:
         w.add_metadata('irs_experiment', {
@@ -212,7 +212,7 @@ def test_lockstep_bags_replay_on_simulation_time(ros, launch, tmp_path):
     by /clock."""
     import subprocess
 
-    from irs_bringup.executables import resolve_executable
+    from irs_bringup.run.executables import resolve_executable
 
     n = 121
     bag = timed_bag(tmp_path / 'lockstep', n, 2_500_000, 10_000_000, lockstep=True)
@@ -265,7 +265,7 @@ def test_sensing_rerun_from_replay_reproduces_poses(ros, launch, tmp_path):
     from geometry_msgs.msg import PoseStamped
     from rclpy.qos import HistoryPolicy, QoSProfile, ReliabilityPolicy
 
-    from irs_bringup.bag_reader import BagReader
+    from irs_bringup.bag.bag_reader import BagReader
 
     max_steps = 800
     bag = tmp_path / 'sensing'

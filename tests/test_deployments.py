@@ -8,9 +8,9 @@ compared.
 """
 import yaml
 
-from irs_bringup.bag_reader import BagReader
-from irs_bringup.experiment import find_experiment, load_experiment
-from irs_bringup.experiment_runner import ExperimentRunner
+from irs_bringup.bag.bag_reader import BagReader
+from irs_bringup.run.experiment import find_experiment, load_experiment
+from irs_bringup.run.experiment_runner import ExperimentRunner
 
 
 def _message_class(type_name: str):

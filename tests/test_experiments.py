@@ -8,15 +8,15 @@ import numpy as np
 import pytest
 import yaml
 
-from irs_bringup.bag_reader import BagReader, validate
-from irs_bringup.experiment import ExperimentError, NodeEntry, load_experiment
-from irs_bringup.experiment_cli import main as experiment_main, offline_run
-from irs_bringup.experiment_schema import ExperimentModel, NodeModel
-from irs_bringup.executables import resolve_executable
-from irs_bringup.experiment_runner import ExperimentRunner
-from irs_bringup.processes import wait_until
-from irs_bringup.regulation_metrics import phase_metrics
-from irs_bringup.run_series import series_by_stamp
+from irs_bringup.bag.bag_reader import BagReader, validate
+from irs_bringup.run.experiment import ExperimentError, NodeEntry, load_experiment
+from irs_bringup.run.experiment_cli import main as experiment_main, offline_run
+from irs_bringup.run.experiment_schema import ExperimentModel, NodeModel
+from irs_bringup.run.executables import resolve_executable
+from irs_bringup.run.experiment_runner import ExperimentRunner
+from irs_bringup.run.processes import wait_until
+from irs_bringup.paper.regulation_metrics import phase_metrics
+from irs_bringup.paper.run_series import series_by_stamp
 
 
 def test_treadmill_regulation_keeps_the_car_on_the_belt(tmp_path):
@@ -259,7 +259,7 @@ def _write(tmp_path, doc, name='exp.yaml'):
 
 
 def test_schema_installed_experiments_load():
-    from irs_bringup.experiment import experiments_dir
+    from irs_bringup.run.experiment import experiments_dir
     names = ['figure10_mrc_with_actuator', 'figure10_mrc_without_actuator', 'figure10_pi',
              'treadmill_regulation']
     assert set(names) <= {p.stem for p in experiments_dir().glob('*.yaml')}

@@ -6,9 +6,9 @@ central result says (see docs/figure10.md for which of the paper's claims hold a
 """
 import numpy as np
 
-from irs_bringup.experiment_cli import FIGURE10, offline_run, run_experiment
-from irs_bringup.figure10 import step_window, write_report
-from irs_bringup.run_series import lateral_run
+from irs_bringup.run.experiment_cli import FIGURE10, offline_run, run_experiment
+from irs_bringup.paper.figure10 import step_window, write_report
+from irs_bringup.paper.run_series import lateral_run
 from irs_control.metrics import settling_time
 
 

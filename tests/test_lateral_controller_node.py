@@ -12,7 +12,7 @@ from geometry_msgs.msg import PointStamped
 from irs_common import qos
 from irs_common.stamps import from_ns, to_ns
 from irs_msgs.msg import LateralControllerStatus, LateralReference, SteeringCommand
-from irs_bringup.processes import NodeSpec
+from irs_bringup.run.processes import NodeSpec
 from irs_vehicle_sim.rig import RigConfig, RigInputs, RigSimulation
 
 LIMIT = 0.2618

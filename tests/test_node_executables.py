@@ -9,8 +9,8 @@ import subprocess
 from ament_index_python.packages import get_package_prefix, get_packages_with_prefixes
 import pytest
 
-from irs_bringup.executables import resolve_executable
-from irs_bringup.processes import NodeSpec
+from irs_bringup.run.executables import resolve_executable
+from irs_bringup.run.processes import NodeSpec
 
 NODES = [  # package, executable, node name, extra parameters to start it standalone
     ('irs_vehicle_sim', 'vehicle_sim', 'vehicle_sim', {}),

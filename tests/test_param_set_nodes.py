@@ -13,7 +13,7 @@ from rclpy.parameter_client import AsyncParameterClient
 from irs_common import qos
 from irs_common.stamps import from_ns, to_ns
 from irs_msgs.msg import SteeringCommand, TreadmillState
-from irs_bringup.processes import NodeSpec
+from irs_bringup.run.processes import NodeSpec
 
 from test_treadmill_node import Feeder, feed_until
 

@@ -3,8 +3,8 @@ from pathlib import Path
 
 import yaml
 
-from irs_bringup.experiment import NODE_TOPICS
-from irs_bringup.param_docs import node_tables, render
+from irs_bringup.run.experiment import NODE_TOPICS
+from irs_bringup.run.param_docs import node_tables, render
 from irs_common.params import flatten
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -27,7 +27,7 @@ def test_every_parameter_has_a_description_and_a_unit():
 
 def test_parameters_doc_is_current():
     assert (ROOT / 'docs' / 'parameters.md').read_text() == render(), \
-        'run: ./irs exec python -m irs_bringup.param_docs'
+        'run: ./irs exec python -m irs_bringup.run.param_docs'
 
 
 def test_config_files_only_set_declared_parameters_with_valid_values():
@@ -52,13 +52,13 @@ NODE_CLASSES = {'vehicle_sim': 'irs_vehicle_sim.vehicle_sim_node:VehicleSimNode'
                 'treadmill_regulator': 'irs_treadmill.treadmill_regulator_node:TreadmillRegulatorNode',
                 'lateral_controller': 'irs_control.lateral_controller_node:LateralControllerNode',
                 'reference_generator': 'irs_control.reference_generator_node:ReferenceGeneratorNode',
-                'driver': 'irs_bringup.driver_node:DriverNode',
-                'recorder': 'irs_bringup.recorder_node:Recorder'}
+                'driver': 'irs_bringup.driver.driver_node:DriverNode',
+                'recorder': 'irs_bringup.bag.recorder_node:Recorder'}
 RCLPY_PARAMETERS = {'use_sim_time', 'start_type_description_service'}
 
 
 def _all_tables():
-    from irs_bringup.recorder_node import NODE_PARAMS as RECORDER
+    from irs_bringup.bag.recorder_node import NODE_PARAMS as RECORDER
     return [(node, table) for _pkg, node, table in node_tables()] + [('recorder', RECORDER)]
 
 

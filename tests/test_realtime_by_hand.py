@@ -13,7 +13,7 @@ import numpy as np
 from geometry_msgs.msg import PointStamped
 from irs_common import qos
 from irs_msgs.msg import RigStatus
-from irs_bringup.processes import NodeSpec
+from irs_bringup.run.processes import NodeSpec
 
 from ament_index_python.packages import get_package_share_directory
 

@@ -16,8 +16,8 @@ import subprocess
 
 import pytest
 
-from irs_bringup.executables import resolve_executable
-from irs_bringup.processes import NodeSpec, wait_until
+from irs_bringup.run.executables import resolve_executable
+from irs_bringup.run.processes import NodeSpec, wait_until
 
 DT_NS = 1_000_000
 RIG_TOPICS = ['/clock', '/arm/joint_states', '/belt/speed', '/steering/state',
@@ -162,7 +162,7 @@ def record_lockstep(ros, launch, bag, max_steps, topics, responder=None, extra_n
 def test_recorder_lockstep_1khz_no_loss(ros, launch, tmp_path):
     from rosbags.rosbag2 import Reader
 
-    from irs_bringup.bag_reader import BagReader, validate
+    from irs_bringup.bag.bag_reader import BagReader, validate
 
     max_steps = 1500
     bag = tmp_path / 'bag'
@@ -206,7 +206,7 @@ def test_recorder_lockstep_1khz_no_loss(ros, launch, tmp_path):
 
 
 def test_recorder_sigkill_leaves_recoverable_prefix(ros, launch, tmp_path):
-    from irs_bringup.bag_reader import BagReader, BagError, recover, validate
+    from irs_bringup.bag.bag_reader import BagReader, BagError, recover, validate
 
     bag = tmp_path / 'killed'
     status = StatusWatcher(ros)
@@ -254,7 +254,7 @@ def test_recorder_counts_a_real_loss(ros, launch, tmp_path):
     from rclpy.qos import HistoryPolicy, QoSProfile, ReliabilityPolicy
     from std_msgs.msg import Int64
 
-    from irs_bringup.bag_reader import BagReader
+    from irs_bringup.bag.bag_reader import BagReader
 
     bag = tmp_path / 'lossy'
     status = StatusWatcher(ros)
@@ -313,7 +313,7 @@ def test_lockstep_experiments_record_clock():
     """/clock (published by the lock-step rig, recorded by the tests above) is in the record
     list of every lock-step experiment, so `bag play` paces their bags by sim time; the
     runner waits for the recorder's /clock subscription before step 0."""
-    from irs_bringup.experiment import expected_endpoints, load_experiment
+    from irs_bringup.run.experiment import expected_endpoints, load_experiment
     for name in ('figure10_mrc_with_actuator', 'figure10_mrc_without_actuator', 'figure10_pi',
                  'treadmill_regulation'):
         exp = load_experiment(name)

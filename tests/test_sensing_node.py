@@ -8,7 +8,7 @@ from sensor_msgs.msg import JointState
 from irs_common import qos
 from irs_common.stamps import from_ns, to_ns
 from irs_msgs.msg import SensingStatus
-from irs_bringup.processes import NodeSpec
+from irs_bringup.run.processes import NodeSpec
 from irs_sensing.arm_kinematics import ArmGeometry, inverse_kinematics
 
 DS = 0.33

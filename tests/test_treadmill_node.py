@@ -6,7 +6,7 @@ from std_srvs.srv import Trigger
 
 from irs_common import qos
 from irs_msgs.msg import BeltSpeed, TreadmillDriveCommand, TreadmillState
-from irs_bringup.processes import NodeSpec
+from irs_bringup.run.processes import NodeSpec
 from irs_treadmill.safety import FaultCode
 
 

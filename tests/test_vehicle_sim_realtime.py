@@ -3,7 +3,7 @@ import math
 
 from irs_common import qos
 from irs_msgs.msg import RigStatus, SteeringActuatorState, SteeringCommand
-from irs_bringup.processes import NodeSpec
+from irs_bringup.run.processes import NodeSpec
 
 
 def test_invalid_and_stale_steering_commands_give_zero_steer(ros, launch):

@@ -10,10 +10,10 @@ import numpy as np
 import pytest
 from rosbags.typesys import Stores, get_typestore
 
-from irs_bringup import (bag_cli, bag_export, bag_info, bag_play, bag_plots, bag_recover,
-                         rerun_export)
-from irs_bringup.bag_reader import BagError, BagReader, validate
-from irs_bringup.bag_writer import BagWriter
+from irs_bringup.bag import (bag_cli, bag_export, bag_info, bag_play, bag_plots, bag_recover,
+                             rerun_export)
+from irs_bringup.bag.bag_reader import BagError, BagReader, validate
+from irs_bringup.bag.bag_writer import BagWriter
 
 TS = get_typestore(Stores.ROS2_JAZZY)
 G = TS.types

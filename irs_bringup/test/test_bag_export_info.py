@@ -9,9 +9,9 @@ import numpy as np
 import pytest
 from rosbags.typesys import Stores, get_typestore
 
-from irs_bringup import bag_export, bag_info
-from irs_bringup.bag_export import flatten, topic_file_name
-from irs_bringup.bag_writer import BagWriter
+from irs_bringup.bag import bag_export, bag_info
+from irs_bringup.bag.bag_export import flatten, topic_file_name
+from irs_bringup.bag.bag_writer import BagWriter
 
 TS = get_typestore(Stores.ROS2_JAZZY)
 G = TS.types
@@ -156,8 +156,8 @@ def test_flatten_and_file_names():
     m = G[JS](header=G['std_msgs/msg/Header'](stamp=_time(1_500_000_000), frame_id='x'),
               name=['a'], position=np.array([1.0]), velocity=np.zeros(0), effort=np.zeros(0))
     # rosbags objects have no __slots__ list of fields -> use the decoder's objects instead
-    from irs_bringup.bag_reader import deserialize
-    from irs_bringup.msg_definitions import get_message_definition
+    from irs_bringup.bag.bag_reader import deserialize
+    from irs_bringup.bag.msg_definitions import get_message_definition
     dec = deserialize(JS, get_message_definition(JS), bytes(TS.serialize_cdr(m, JS)))
     assert list(flatten(dec)) == [('header.stamp', 1.5), ('header.frame_id', 'x'),
                                   ('name[0]', 'a'), ('position[0]', 1.0)]

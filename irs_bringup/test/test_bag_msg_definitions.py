@@ -1,4 +1,4 @@
-"""Tests for irs_bringup.msg_definitions (rosbag2-style ros2msg full definitions)."""
+"""Tests for irs_bringup.bag.msg_definitions (rosbag2-style ros2msg full definitions)."""
 
 import json
 import sys
@@ -9,7 +9,7 @@ import pytest
 from mcap_ros2._dynamic import generate_dynamic
 from rosbags.typesys import Stores, get_types_from_msg, get_typestore
 
-from irs_bringup.msg_definitions import (DELIMITER, MessageDefinitionError, ament_prefixes,
+from irs_bringup.bag.msg_definitions import (DELIMITER, MessageDefinitionError, ament_prefixes,
                                          get_message_definition, msg_dependencies,
                                          split_type_name, type_description_hash)
 

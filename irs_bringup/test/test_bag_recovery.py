@@ -17,9 +17,9 @@ from mcap.records import Chunk, Message
 from mcap.stream_reader import breakup_chunk
 from rosbags.typesys import Stores, get_typestore
 
-from irs_bringup import bag_info
-from irs_bringup.bag_reader import BagError, BagReader, recover, validate
-from irs_bringup.bag_writer import BagWriter
+from irs_bringup.bag import bag_info
+from irs_bringup.bag.bag_reader import BagError, BagReader, recover, validate
+from irs_bringup.bag.bag_writer import BagWriter
 
 TS = get_typestore(Stores.ROS2_JAZZY)
 JS = 'sensor_msgs/msg/JointState'
@@ -172,7 +172,7 @@ def test_copy_of_unclosed_bag_is_recoverable(tmp_path):
 CHILD = r'''
 import sys
 sys.path.insert(0, sys.argv[1])
-from irs_bringup.bag_writer import BagWriter
+from irs_bringup.bag.bag_writer import BagWriter
 from rosbags.typesys import Stores, get_typestore
 ts = get_typestore(Stores.ROS2_JAZZY)
 g = ts.types

@@ -16,9 +16,9 @@ from rosbags.highlevel import AnyReader
 from rosbags.rosbag2 import Reader as RosbagsReader
 from rosbags.typesys import Stores, get_typestore
 
-from irs_bringup.bag_reader import BagError, BagReader, deserialize, read_messages, validate
-from irs_bringup.bag_writer import BagWriter, BagWriterError, qos_profiles_yaml
-from irs_bringup.msg_definitions import get_message_definition, type_description_hash
+from irs_bringup.bag.bag_reader import BagError, BagReader, deserialize, read_messages, validate
+from irs_bringup.bag.bag_writer import BagWriter, BagWriterError, qos_profiles_yaml
+from irs_bringup.bag.msg_definitions import get_message_definition, type_description_hash
 
 TS = get_typestore(Stores.ROS2_JAZZY)
 T0 = 1_750_000_000_000_000_000  # ns
@@ -374,7 +374,7 @@ def test_writer_errors(tmp_path):
         w.add_metadata('params', {'gain': 1.5})
     with pytest.raises(BagWriterError, match='reserved'):
         w.add_metadata('rosbag2', {})
-    from irs_bringup.msg_definitions import MessageDefinitionError
+    from irs_bringup.bag.msg_definitions import MessageDefinitionError
     with pytest.raises(MessageDefinitionError):
         w.write('/u', 'nope_msgs/msg/Nope', data, T0)
     s = w.close()
@@ -393,8 +393,8 @@ def test_deserialize_helper_errors():
 def test_modules_do_not_import_rclpy():
     import subprocess
     code = ('import sys; sys.path.insert(0, sys.argv[1]); '
-            'import irs_bringup.bag_writer, irs_bringup.bag_reader, irs_bringup.bag_info, '
-            'irs_bringup.bag_export, irs_bringup.msg_definitions; '
+            'import irs_bringup.bag.bag_writer, irs_bringup.bag.bag_reader, irs_bringup.bag.bag_info, '
+            'irs_bringup.bag.bag_export, irs_bringup.bag.msg_definitions; '
             'print("rclpy" in sys.modules)')
     out = subprocess.run([sys.executable, '-c', code, str(Path(__file__).resolve().parents[1])],
                          capture_output=True, text=True, check=True)

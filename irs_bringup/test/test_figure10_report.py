@@ -8,8 +8,8 @@ import math
 import numpy as np
 import pytest
 
-from irs_bringup import figure10 as F
-from irs_bringup.figure10_study import closed_loop_poles, dominant, rig_params
+from irs_bringup.paper import figure10 as F
+from irs_bringup.paper.figure10_study import closed_loop_poles, dominant, rig_params
 from irs_control.paper_design import reference_model
 
 PNG_MAGIC = b'\x89PNG\r\n\x1a\n'

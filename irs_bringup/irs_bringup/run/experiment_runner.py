@@ -96,7 +96,7 @@ def _rig_dt(exp: Experiment) -> float:
 
 
 class ExperimentRunner:
-    """Runs one :class:`~irs_bringup.experiment.Experiment` (see module docstring)."""
+    """Runs one :class:`~irs_bringup.run.experiment.Experiment` (see module docstring)."""
 
     def __init__(self, exp: Experiment, runs_dir='runs', log=print, graph_timeout=60.0,
                  stall_timeout=30.0, progress=True, rt_priority=0):

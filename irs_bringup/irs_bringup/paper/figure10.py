@@ -11,7 +11,7 @@ No rclpy. Three pieces:
   ``figure10_steer.png``, ``figure10_metrics.md`` and ``figure10_metrics.csv``.
 
 ``main(['--offline', '--out', DIR])`` simulates the three designs with
-:class:`irs_bringup.closed_loop.ClosedLoop` on the default Figure 10 configuration and writes
+:class:`irs_bringup.paper.closed_loop.ClosedLoop` on the default Figure 10 configuration and writes
 the report. A run is a dict of 1-D numpy arrays ``time, y_s, reference, steer_cmd,
 steer_achieved`` (``steer_cmd`` may have length N or N+1 for N+1 time samples; non-finite
 reference samples, e.g. the last sample of a ClosedLoop record, are held from the previous
@@ -368,7 +368,7 @@ def simulate_offline(step: float = DEFAULT_STEP, duration: float = DEFAULT_DURAT
 
 
 def main(argv=None) -> int:
-    p = argparse.ArgumentParser(prog='python -m irs_bringup.figure10',
+    p = argparse.ArgumentParser(prog='python -m irs_bringup.paper.figure10',
                                 description='Figure 10 report (MRC with/without actuator, PI).')
     p.add_argument('--offline', action='store_true',
                    help='simulate the three designs with the offline ClosedLoop')

@@ -1,7 +1,7 @@
 """``recorder`` node: record topics off DDS into a rosbag2-compatible MCAP bag (``BagWriter``).
 
 Messages are taken as the serialized CDR bytes DDS delivered (never deserialized and
-re-serialized) and written with :class:`irs_bringup.bag_writer.BagWriter`.
+re-serialized) and written with :class:`irs_bringup.bag.bag_writer.BagWriter`.
 
 How messages are drained (and why not with an rclpy executor)
 -------------------------------------------------------------

@@ -2,7 +2,7 @@
 
 Usage::
 
-    python -m irs_bringup.bag_info BAG [--validate] [--no-metadata]
+    python -m irs_bringup.bag.bag_info BAG [--validate] [--no-metadata]
 
 Works on unfinished or damaged bags too (their readable part, one warning line on stderr).
 Exit codes: 0 ok, 1 ``--validate`` found problems, 2 unreadable bag (one line on stderr naming

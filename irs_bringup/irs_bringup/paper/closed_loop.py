@@ -31,7 +31,7 @@ from irs_treadmill.regulator_params import regulator_parameter_table
 from irs_treadmill.safety import SafetyMonitor, SafetyParams
 from irs_vehicle_sim.rig import RigConfig, RigInputs, RigSimulation
 
-from .speed_profile import DRIVER_PARAMS, SpeedProfile
+from ..driver.speed_profile import DRIVER_PARAMS, SpeedProfile
 
 
 def _defaults(table) -> dict:

@@ -109,7 +109,7 @@ class RecordModel(_Strict):
 
 
 class ExperimentModel(_Strict):
-    """The whole experiment file (format: the docstring of ``irs_bringup.experiment``)."""
+    """The whole experiment file (format: the docstring of ``irs_bringup.run.experiment``)."""
 
     name: str | None = None
     description: str = ''
@@ -267,7 +267,7 @@ PARAMETER_TABLES = {
     ('irs_treadmill', 'treadmill_regulator'): ('irs_treadmill.regulator_params',
                                                'regulator_parameter_table', True),
     ('irs_control', 'reference_generator'): ('irs_control.reference_params', 'PARAMS', True),
-    ('irs_bringup', 'driver'): ('irs_bringup.speed_profile', 'DRIVER_PARAMS', True),
+    ('irs_bringup', 'driver'): ('irs_bringup.driver.speed_profile', 'DRIVER_PARAMS', True),
 }
 
 

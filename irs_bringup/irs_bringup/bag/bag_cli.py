@@ -2,13 +2,13 @@
 
 Usage::
 
-    bag info BAG [--validate] [--no-metadata]        (irs_bringup.bag_info)
-    bag export BAG [--topics T ...] --out DIR        (irs_bringup.bag_export)
-    bag play BAG [options]                           (irs_bringup.bag_play)
-    bag plots BAG --out DIR                          (irs_bringup.bag_plots)
-    bag rerun BAG --out FILE.rrd                     (irs_bringup.rerun_export)
+    bag info BAG [--validate] [--no-metadata]        (irs_bringup.bag.bag_info)
+    bag export BAG [--topics T ...] --out DIR        (irs_bringup.bag.bag_export)
+    bag play BAG [options]                           (irs_bringup.bag.bag_play)
+    bag plots BAG --out DIR                          (irs_bringup.bag.bag_plots)
+    bag rerun BAG --out FILE.rrd                     (irs_bringup.bag.rerun_export)
     bag validate BAG                                 (bag_reader.validate, CRCs + indexes)
-    bag recover BAG [--out DIR]                      (irs_bringup.bag_recover)
+    bag recover BAG [--out DIR]                      (irs_bringup.bag.bag_recover)
 
 Every verb reads unfinished or damaged bags too: the readable part (a damaged summary is
 replaced by a scan of the data section; an unfinished bag gives its complete chunks), with one

@@ -1,5 +1,5 @@
-"""An experiment file as an offline :class:`~irs_bringup.closed_loop.LoopConfig` (no rclpy)."""
-from .closed_loop import LoopConfig
+"""An experiment file as an offline :class:`~irs_bringup.paper.closed_loop.LoopConfig` (no rclpy)."""
+from ..paper.closed_loop import LoopConfig
 from .experiment import Experiment, RIG_KEY, node_parameters
 
 

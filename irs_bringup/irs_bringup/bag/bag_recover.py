@@ -1,9 +1,9 @@
 """``bag recover <bag> [--out DIR]``: a valid bag from an unfinished or damaged one (no rclpy).
 
-The source is scanned sequentially (:func:`irs_bringup.bag_scan.recover`): every complete,
+The source is scanned sequentially (:func:`irs_bringup.bag.bag_scan.recover`): every complete,
 CRC-valid chunk up to the first damaged or missing record, whatever state the summary section
 is in (a recorder killed with SIGKILL leaves none). Its messages are written with
-:class:`irs_bringup.bag_writer.BagWriter` into ``DIR`` (default ``<bag>_recovered`` beside
+:class:`irs_bringup.bag.bag_writer.BagWriter` into ``DIR`` (default ``<bag>_recovered`` beside
 the source): an MCAP file with summary and indexes plus ``metadata.yaml``, as the recorder
 writes. Kept: bytes, log and publish times [ns], sequence numbers, topics with their types,
 stored definitions, QoS and type hashes, metadata records (the source's ``rosbag2`` record is

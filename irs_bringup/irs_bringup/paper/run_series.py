@@ -7,7 +7,7 @@ by the rig's step stamps: ``time`` [s], ``y_s`` (ground truth, m), ``y_measured`
 """
 import numpy as np
 
-from .bag_reader import BagReader
+from ..bag.bag_reader import BagReader
 
 # topic -> {series name: attribute path}
 SERIES = {

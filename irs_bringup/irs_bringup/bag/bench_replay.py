@@ -2,7 +2,7 @@
 
 Usage::
 
-    ./irs exec python -m irs_bringup.bench_replay [--topics 8] [--hz 1000] [--seconds 3]
+    ./irs exec python -m irs_bringup.bag.bench_replay [--topics 8] [--hz 1000] [--seconds 3]
                                                   [--rates 1 2 4] [--domain 91]
 
 For every rate factor R it writes nothing new: one synthetic bag (``--topics`` JointState topics
@@ -49,7 +49,7 @@ def make_bench_bag(path, topics: int, hz: int, seconds: float) -> int:
 
 def run(args) -> int:
     from .bag_reader import BagReader
-    from .executables import resolve_executable
+    from ..run.executables import resolve_executable
 
     env = dict(os.environ, ROS_DOMAIN_ID=str(args.domain))
     os.environ['ROS_DOMAIN_ID'] = str(args.domain)

@@ -9,7 +9,7 @@ A bag written by :class:`BagWriter` is a directory laid out as ``ros2 bag record
 
 MCAP details: header profile ``ros2``; one schema per message type named ``pkg/msg/Type``
 with encoding ``ros2msg`` and the complete definition from
-:func:`irs_bringup.msg_definitions.get_message_definition`; one channel per topic with
+:func:`irs_bringup.bag.msg_definitions.get_message_definition`; one channel per topic with
 ``message_encoding='cdr'`` and metadata ``offered_qos_profiles`` (YAML string, may be empty)
 and ``topic_type_hash`` (``RIHS01_...`` or empty); messages are written with their bytes
 unchanged; data is chunked and each chunk compressed (``zstd`` default, ``lz4`` or ``none``);
@@ -26,7 +26,7 @@ Every log time inside a chunk is therefore in order. A message whose log time is
 the end of an already written chunk cannot be moved into that chunk; it is written (chunks then
 overlap in time, which MCAP readers handle) and counted in ``late_messages``. If the process
 dies, the file holds every chunk finished so far, and
-:func:`irs_bringup.bag_reader.recover` returns those messages; at most the buffered, unflushed
+:func:`irs_bringup.bag.bag_reader.recover` returns those messages; at most the buffered, unflushed
 messages (< ``chunk_size`` bytes) are lost. ``metadata.yaml`` only exists after ``close()``.
 """
 
@@ -63,7 +63,7 @@ except Exception:  # pragma: no cover
     _MCAP_VERSION = 'unknown'
 
 ROS_DISTRO = 'jazzy'
-LIBRARY = f'irs_bringup.bag_writer; mcap-python/{_MCAP_VERSION}'
+LIBRARY = f'irs_bringup.bag.bag_writer; mcap-python/{_MCAP_VERSION}'
 
 #: Chunk compressions usable with mcap 1.6.0 and the installed zstandard / lz4 packages.
 COMPRESSIONS = {
@@ -211,7 +211,7 @@ class BagWriter:
     -----
     Thread-safe: all public methods take an internal lock. Use as a context manager or call
     :meth:`close`; an unclosed bag is still readable up to its last chunk with
-    :func:`irs_bringup.bag_reader.recover`.
+    :func:`irs_bringup.bag.bag_reader.recover`.
     """
 
     def __init__(self, directory: Union[str, os.PathLike], *, chunk_size: int = 1024 * 1024,
@@ -326,7 +326,7 @@ class BagWriter:
         ------
         BagWriterError
             Bad topic name, type conflict, or closed writer.
-        irs_bringup.msg_definitions.MessageDefinitionError
+        irs_bringup.bag.msg_definitions.MessageDefinitionError
             The type's ``.msg`` definition (or a nested one) cannot be found.
         """
         with self._lock:

@@ -5,7 +5,7 @@
 ``AMENT_PREFIX_PATH``) and then runs ``<prefix>/lib/<package>/<executable>``. We do the same, so
 whatever our bringup starts is what ``ros2 run`` would start.
 
-Run as a module to print the path: ``python -m irs_bringup.executables <package> <executable>``.
+Run as a module to print the path: ``python -m irs_bringup.run.executables <package> <executable>``.
 """
 import os
 import sys
@@ -44,7 +44,7 @@ def resolve_executable(package: str, executable: str) -> str:
 def main(argv=None) -> int:
     args = sys.argv[1:] if argv is None else argv
     if len(args) != 2:
-        print('usage: python -m irs_bringup.executables <package> <executable>', file=sys.stderr)
+        print('usage: python -m irs_bringup.run.executables <package> <executable>', file=sys.stderr)
         return 2
     try:
         print(resolve_executable(*args))

@@ -5,14 +5,14 @@
   log-time order, optionally for some topics only; ``data`` is the raw CDR bytes.
 * A file is read through its summary section (indexes, statistics) when the summary is sound:
   footer present, summary CRC right, indexes consistent with each other and the file. Otherwise
-  the data section is scanned sequentially (:mod:`irs_bringup.bag_scan`) and the messages are
+  the data section is scanned sequentially (:mod:`irs_bringup.bag.bag_scan`) and the messages are
   held in memory: with a complete data section that is the whole bag (one warning in
   :attr:`BagReader.warnings`); with an unfinished one (no footer, e.g. a killed recorder) or a
   damaged one it is the prefix of complete chunks, which ``allow_partial=True`` accepts (with
   a warning) and the default refuses with a :class:`BagError`.
 * A ``metadata.yaml`` that is not UTF-8, not YAML or not a rosbag2 one is ignored with a
   warning, and the directory's ``*.mcap`` files are read.
-* :func:`validate` (:mod:`irs_bringup.bag_validate`) checks CRCs, indexes and metadata.yaml;
+* :func:`validate` (:mod:`irs_bringup.bag.bag_validate`) checks CRCs, indexes and metadata.yaml;
   :func:`recover` returns the complete chunks of a truncated or damaged bag.
 * :func:`deserialize` / :meth:`BagReader.decoded` decode CDR with
   ``mcap_ros2.decoder.DecoderFactory`` using the definitions stored in the bag.
@@ -543,7 +543,7 @@ def deserialize(type_name: str, definition: str, data: bytes) -> Any:
     """Decode CDR ``data`` of ``type_name`` with ``mcap_ros2`` and a ``ros2msg`` definition.
 
     ``definition`` is the full text stored in the bag (or from
-    :func:`irs_bringup.msg_definitions.get_message_definition`). Returns an object with one
+    :func:`irs_bringup.bag.msg_definitions.get_message_definition`). Returns an object with one
     attribute per field (``__slots__`` lists them in definition order). Raises
     :class:`BagError` if the definition cannot be parsed or the bytes do not decode.
     """
@@ -572,7 +572,7 @@ def deserialize(type_name: str, definition: str, data: bytes) -> Any:
 def recover(path: PathLike) -> Recovered:
     """Messages of every complete, CRC-valid chunk of a possibly truncated/corrupt bag.
 
-    Reads the file(s) sequentially (see :mod:`irs_bringup.bag_scan`) and stops at the first
+    Reads the file(s) sequentially (see :mod:`irs_bringup.bag.bag_scan`) and stops at the first
     record that is cut off or fails to parse, decompress or match its CRC, or at the end of the
     data section. Chunks are all-or-nothing. The result is sorted by log time (stable).
 

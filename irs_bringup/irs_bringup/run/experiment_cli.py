@@ -22,7 +22,7 @@ def _post_process(result, log=print):
     written = []
     if result.bag_dir is None or not result.bag_dir.exists():
         return written
-    from .bag_reader import BagError, validate
+    from ..bag.bag_reader import BagError, validate
     try:
         report = validate(result.bag_dir)
         log(f'[experiment] bag: {result.bag_dir} ({"valid" if report.ok else "INVALID: " + "; ".join(report.problems)})')
@@ -30,12 +30,12 @@ def _post_process(result, log=print):
         log(f'[experiment] bag unreadable: {exc}')
         return written
     try:
-        from .bag_plots import make_plots
+        from ..bag.bag_plots import make_plots
         written += make_plots(result.bag_dir, result.run_dir / 'plots')
     except Exception as exc:  # plots must never hide the run's result
         log(f'[experiment] plots failed: {exc}')
     try:
-        from .rerun_export import export_rrd
+        from ..bag.rerun_export import export_rrd
         rrd = result.run_dir / 'run.rrd'
         export_rrd(result.bag_dir, rrd)
         written.append(rrd)
@@ -61,7 +61,7 @@ def run_experiment(name, runs_dir='runs', plots=True, log=print, rt_priority=0):
 def offline_run(name):
     """The experiment's closed loop without ROS: arrays as ClosedLoop.run returns them."""
     from .offline import loop_config_from_experiment
-    from .closed_loop import ClosedLoop
+    from ..paper.closed_loop import ClosedLoop
     exp = load_experiment(name)
     try:
         loop = ClosedLoop(loop_config_from_experiment(exp))
@@ -74,8 +74,8 @@ def offline_run(name):
 
 
 def figure10(out_dir, offline=False, runs_dir='runs', log=print) -> int:
-    from .figure10 import write_report
-    from .run_series import lateral_run
+    from ..paper.figure10 import write_report
+    from ..paper.run_series import lateral_run
     runs = {}
     for key, name in FIGURE10.items():
         if offline:

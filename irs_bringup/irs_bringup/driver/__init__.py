@@ -1,0 +1,1 @@
+"""The driver: the speed profile (:mod:`.speed_profile`, no rclpy) and its node (``driver``)."""
