@@ -73,15 +73,15 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.linalg import expm
+from scipy.signal import cont2discrete
 
 from irs_common.input_checks import abs_limit_problem
 
-from .polynomials import degree, is_hurwitz, poly_from_roots, poly_mul, require_polynomial, trim
+from .polynomials import degree, is_hurwitz, poly_from_roots, require_polynomial, trim
 from .rst_design import RstDesign
 
 __all__ = ["ControlOutput", "DiscreteRstController", "InputGuard", "anti_windup_polynomial",
-           "observable_canonical_miso", "zoh_discretize", "STATE_RUNNING", "STATE_INVALID",
+           "observable_canonical_miso", "STATE_RUNNING", "STATE_INVALID",
            "DEFAULT_INPUT_LIMIT"]
 
 STEER_LIMIT = 0.2618  # rad, +-15 deg
@@ -198,7 +198,7 @@ def anti_windup_polynomial(design: RstDesign) -> np.ndarray:
             "anti-windup polynomial of degree deg R."
         )
     wf = float(np.max(np.abs(np.roots(design.Am)))) if degree(design.Am) > 0 else 1.0
-    F = poly_mul(Ao, poly_from_roots([-wf] * k))
+    F = np.polymul(Ao, poly_from_roots([-wf] * k))
     return F
 
 
@@ -247,16 +247,6 @@ def _ackermann_observer(A, c, poles):
     e = np.zeros(n)
     e[-1] = 1.0
     return pA @ np.linalg.solve(O, e)
-
-
-def zoh_discretize(A, B, dt: float):
-    """Exact zero-order-hold discretisation ``(Ad, Bd)`` of ``dx/dt = A x + B u``."""
-    n, m = B.shape
-    M = np.zeros((n + m, n + m))
-    M[:n, :n] = A
-    M[:n, n:] = B
-    E = expm(M * dt)
-    return E[:n, :n], E[:n, n:]
 
 
 class DiscreteRstController(InputGuard):
@@ -311,7 +301,7 @@ class DiscreteRstController(InputGuard):
         self.anti_windup = bool(anti_windup)
         self.F = F
         Ac, Bc, Cc, Dc = observable_canonical_miso(R, [T, -S])
-        self._Ad, self._Bd = zoh_discretize(Ac, Bc, self.dt)
+        self._Ad, self._Bd, *_ = cont2discrete((Ac, Bc, Cc, Dc), self.dt, method="zoh")
         self._C = Cc[0]
         self._D = Dc[0]
         n = Ac.shape[0]

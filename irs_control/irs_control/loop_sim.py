@@ -10,8 +10,9 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
+from scipy.signal import cont2discrete
 
-from .discrete_rst import observable_canonical_miso, zoh_discretize
+from .discrete_rst import observable_canonical_miso
 from .polynomials import trim
 
 __all__ = ["LoopResult", "simulate_loop"]
@@ -60,9 +61,9 @@ def simulate_loop(controller, B, A, reference, t_end: float, y0: float = 0.0) ->
     B = B / trim(A)[0]
     if B.size >= A.size:
         raise ValueError("simulate_loop expected a strictly proper plant (deg B < deg A).")
-    Ac, Bc, Cc, _ = observable_canonical_miso(A, [B])
+    Ac, Bc, Cc, Dc = observable_canonical_miso(A, [B])
     dt = controller.dt
-    Ad, Bd = zoh_discretize(Ac, Bc, dt)
+    Ad, Bd, *_ = cont2discrete((Ac, Bc, Cc, Dc), dt, method="zoh")
     n = int(round(t_end / dt)) + 1
     t = np.arange(n) * dt
     x = np.zeros(A.size - 1)

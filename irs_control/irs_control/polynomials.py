@@ -2,6 +2,8 @@
 
 All polynomials are 1-D ``numpy`` arrays of real coefficients, **highest power first**
 (the ``numpy.polyval`` / ``control.tf`` convention): ``[1, 3, 2]`` is ``s**2 + 3 s + 2``.
+Sums and products are numpy's own (``np.polyadd``, ``np.polysub``, ``np.polymul``); this module
+holds what numpy does not do: validation, trimming, exact division, Diophantine equations.
 
 The central routine is :func:`solve_diophantine`, which solves
 
@@ -22,9 +24,6 @@ __all__ = [
     "require_polynomial",
     "trim",
     "poly_from_roots",
-    "poly_add",
-    "poly_sub",
-    "poly_mul",
     "poly_div_exact",
     "degree",
     "common_roots",
@@ -136,26 +135,6 @@ def _align(a, b):
     return np.pad(a, (n - a.size, 0)), np.pad(b, (n - b.size, 0))
 
 
-def poly_add(a, b) -> np.ndarray:
-    """``a + b`` with right alignment (no trimming)."""
-    a, b = _align(a, b)
-    return a + b
-
-
-def poly_sub(a, b) -> np.ndarray:
-    """``a - b`` with right alignment (no trimming)."""
-    a, b = _align(a, b)
-    return a - b
-
-
-def poly_mul(*polys) -> np.ndarray:
-    """Product of any number of polynomials."""
-    out = np.array([1.0])
-    for p in polys:
-        out = np.convolve(out, np.atleast_1d(np.asarray(p, dtype=float)))
-    return out
-
-
 def poly_div_exact(num, den, rtol: float = 1e-8):
     """Divide ``num`` by ``den``; return ``(quotient, exact)``.
 
@@ -188,7 +167,7 @@ def common_roots(a, b, tol: float = 1e-6) -> list:
 
 
 def convolution_matrix(p, ncols: int, nrows: int) -> np.ndarray:
-    """Matrix ``M`` with ``M @ x == poly_mul(p, x)`` right-aligned in ``nrows`` rows.
+    """Matrix ``M`` with ``M @ x == np.polymul(p, x)`` right-aligned in ``nrows`` rows.
 
     ``x`` has ``ncols`` coefficients (highest power first).
     """

@@ -46,10 +46,8 @@ from .polynomials import (
     common_roots,
     degree,
     is_hurwitz,
-    poly_add,
     poly_div_exact,
     poly_from_roots,
-    poly_mul,
     require_polynomial,
     solve_diophantine,
     trim,
@@ -103,8 +101,8 @@ class RstDesign:
 
     def closed_loop(self):
         """Closed loop ``u_c -> y`` as ``(num, den) = (B T, A R + B S)`` (uncancelled)."""
-        num = trim(poly_mul(self.B, self.T))
-        den = trim(poly_add(poly_mul(self.A, self.R), poly_mul(self.B, self.S)))
+        num = trim(np.polymul(self.B, self.T))
+        den = trim(np.polyadd(np.polymul(self.A, self.R), np.polymul(self.B, self.S)))
         return num, den
 
     def closed_loop_tf(self, minreal: bool = False):
@@ -268,18 +266,18 @@ def design_rst(B, A, Bm, Am, Ao, cancel="stable", zeta_min: float = 0.5,
                 "reference model numerator Bm, so the closed loop cannot equal Bm/Am; "
                 "cancel those zeros, put them in Bm, or pass absorb_zeros=True."
             )
-        Bm = poly_mul(Bm, B_minus / np.polyval(B_minus, 0.0))
+        Bm = np.polymul(Bm, B_minus / np.polyval(B_minus, 0.0))
         Bm_prime = poly_div_exact(Bm, B_minus)[0]
         notes.append("Bm multiplied by B-(s)/B-(0): the uncancelled zeros stay in the closed loop.")
 
-    C = poly_mul(Am, Ao)
+    C = np.polymul(Am, Ao)
     try:
         R_prime, S = solve_diophantine(A, B_minus, C)
     except DiophantineError as exc:
         raise RstDesignError(f"Diophantine equation A R' + B- S = Am Ao: {exc}") from exc
-    R = trim(poly_mul(R_prime, B_plus))
+    R = trim(np.polymul(R_prime, B_plus))
     S = trim(S, 1e-13)
-    T = trim(poly_mul(Ao, Bm_prime))
+    T = trim(np.polymul(Ao, Bm_prime))
     if abs(R[0]) < 1e-12:
         raise RstDesignError("The computed R has a zero leading coefficient; the controller is not proper.")
     if degree(S) > degree(R):
@@ -297,8 +295,8 @@ def design_rst(B, A, Bm, Am, Ao, cancel="stable", zeta_min: float = 0.5,
                        Am=Am, Bm=trim(Bm), R_prime=R_prime,
                        closed_loop_poles=np.array([]), cancelled_zeros=canc, notes=notes)
     num, den = design.closed_loop()
-    den_expected = poly_mul(Am, Ao, B_plus)
-    num_expected = poly_mul(Bm, Ao, B_plus)
+    den_expected = np.polymul(np.polymul(Am, Ao), B_plus)
+    num_expected = np.polymul(np.polymul(Bm, Ao), B_plus)
     e_den = coeff_rel_error(den, den_expected)
     e_num = coeff_rel_error(num, num_expected)
     if e_den > verify_rtol or e_num > verify_rtol:

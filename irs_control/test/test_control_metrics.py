@@ -69,3 +69,24 @@ def test_step_metrics_bundle():
     assert m.residual_oscillation < 1e-6
     m2 = step_metrics(T, y, 1.0)
     assert math.isnan(m2.ise_vs_model) and math.isnan(m2.peak_steer)
+
+
+@pytest.mark.parametrize("step", [1.0, -0.02])
+def test_step_metrics_match_python_control(step):
+    """Rise time, overshoot and settling time agree with ``control.step_info`` on a step response.
+
+    step_info takes the first sample at or past each level (we interpolate between samples) and
+    counts ``|y - y_final| >= 2 %`` as unsettled (we count ``>``): both differ by at most one
+    sample period.
+    """
+    import control
+
+    t = np.linspace(0.0, 10.0, 100001)
+    dt = t[1] - t[0]
+    _, y = control.step_response(control.tf([4.0 * step], [1.0, 1.2, 4.0]), t)
+    info = control.step_info(y, t, yfinal=step)
+    assert rise_time(t, y, step) == pytest.approx(info["RiseTime"], abs=dt)
+    assert overshoot_percent(y, step) == pytest.approx(info["Overshoot"], rel=1e-12)
+    assert settling_time(t, y, step) == pytest.approx(info["SettlingTime"], abs=dt)
+    assert info["Overshoot"] == pytest.approx(100 * math.exp(-0.3 * math.pi / math.sqrt(0.91)),
+                                              rel=1e-6)

@@ -97,3 +97,14 @@ def test_factory_and_validation():
         SavitzkyGolayDifferentiator(DT, 2, 2)
     with pytest.raises(ValueError):
         BackwardDifferenceLowPass(DT, 10.0).update(float("nan"))
+
+
+@pytest.mark.parametrize("window,order", [(2, 1), (10, 1), (20, 1), (31, 2), (8, 3)])
+def test_savgol_taps_match_scipy(window, order):
+    """Our causal taps equal scipy's Savitzky-Golay derivative coefficients at the newest sample."""
+    from scipy.signal import savgol_coeffs
+
+    b, a = SavitzkyGolayDifferentiator(DT, window, order).transfer_function()
+    ref = savgol_coeffs(window, order, deriv=1, delta=DT, pos=window - 1, use="conv")
+    np.testing.assert_array_equal(a, [1.0])
+    np.testing.assert_allclose(b, ref, rtol=0.0, atol=1e-12 * np.max(np.abs(ref)))

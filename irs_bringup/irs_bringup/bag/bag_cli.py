@@ -46,12 +46,8 @@ def _validate(argv: List[str]) -> int:
 
     from .bag_reader import BagError, validate
 
-    class P(argparse.ArgumentParser):
-        def error(self, message):
-            self.print_usage(sys.stderr)
-            self.exit(2, f'{self.prog}: error: {message}\n')
-
-    p = P(prog='bag validate', description='Validate a bag (CRCs, indexes, metadata.yaml).')
+    p = argparse.ArgumentParser(
+        prog='bag validate', description='Validate a bag (CRCs, indexes, metadata.yaml).')
     p.add_argument('bag')
     args = p.parse_args(argv)
     try:

@@ -120,16 +120,11 @@ def export_topics(bag, out_dir: str, topics: Optional[Sequence[str]] = None
         return {t: (result[t][0], rows[t]) for t in wanted}
 
 
-class _Parser(argparse.ArgumentParser):
-    def error(self, message: str) -> None:
-        self.print_usage(sys.stderr)
-        self.exit(2, f'{self.prog}: error: {message}\n')
-
-
 def main(argv: Optional[List[str]] = None, out: Optional[TextIO] = None) -> int:
     """Entry point of ``irs-bag export``; returns the exit code."""
     out = sys.stdout if out is None else out
-    p = _Parser(prog='irs-bag export', description='Export bag topics to CSV files.')
+    p = argparse.ArgumentParser(
+        prog='irs-bag export', description='Export bag topics to CSV files.')
     p.add_argument('bag', help='bag directory or .mcap file')
     p.add_argument('--topics', nargs='+', metavar='TOPIC', help='topics to export (default all)')
     p.add_argument('--out', required=True, metavar='DIR', help='output directory')

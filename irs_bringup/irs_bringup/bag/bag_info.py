@@ -21,12 +21,6 @@ from .bag_reader import BagError, BagReader, open_bag, validate
 __all__ = ['main', 'format_info']
 
 
-class _Parser(argparse.ArgumentParser):
-    def error(self, message: str) -> None:  # exit 2 with a message, no traceback
-        self.print_usage(sys.stderr)
-        self.exit(2, f'{self.prog}: error: {message}\n')
-
-
 def _stamp(ns: int) -> str:
     t = (_dt.datetime.fromtimestamp(ns // 10**9, tz=_dt.timezone.utc)
          + _dt.timedelta(microseconds=(ns % 10**9) // 1000))  # truncated, no float rounding
@@ -78,7 +72,8 @@ def format_info(reader: BagReader, show_metadata: bool = True) -> str:
 def main(argv: Optional[List[str]] = None, out: Optional[TextIO] = None) -> int:
     """Entry point of ``irs-bag info``; returns the exit code."""
     out = sys.stdout if out is None else out
-    p = _Parser(prog='irs-bag info', description='Show what a rosbag2 MCAP bag contains.')
+    p = argparse.ArgumentParser(
+        prog='irs-bag info', description='Show what a rosbag2 MCAP bag contains.')
     p.add_argument('bag', help='bag directory or .mcap file')
     p.add_argument('--validate', action='store_true',
                    help='also read everything with CRC checks and cross-check the indexes')

@@ -61,12 +61,6 @@ __all__ = ['main', 'stamp_reader', 'TimingStats', 'Plan', 'prepare', 'lockstep_r
 _SPIN_S = 0.0003
 
 
-class _Parser(argparse.ArgumentParser):
-    def error(self, message: str) -> None:
-        self.print_usage(sys.stderr)
-        self.exit(2, f'{self.prog}: error: {message}\n')
-
-
 class UsageError(Exception):
     """Bad option values (exit code 2)."""
 
@@ -265,7 +259,8 @@ def prepare(args, stream=None) -> Plan:
 
 
 def build_parser() -> argparse.ArgumentParser:
-    p = _Parser(prog='bag play', description='Replay a rosbag2 MCAP bag onto its topics.')
+    p = argparse.ArgumentParser(
+        prog='bag play', description='Replay a rosbag2 MCAP bag onto its topics.')
     p.add_argument('bag', help='bag directory or .mcap file')
     p.add_argument('--rate', type=float, default=1.0,
                    help='playback rate factor (default 1.0; 0 = as fast as possible)')

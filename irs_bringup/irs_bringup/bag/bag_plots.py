@@ -26,6 +26,7 @@ from __future__ import annotations
 import argparse
 import math
 import sys
+from operator import attrgetter
 from pathlib import Path
 from typing import Callable, Dict, List, Optional, Tuple
 
@@ -59,21 +60,10 @@ def _find(topics, suffix: str) -> Optional[str]:
 
 
 # plot name -> list of (topic suffix, label, field getter, axis)
-def _getter(path: str) -> Callable:
-    parts = path.split('.')
-
-    def get(msg):
-        v = msg
-        for p in parts:
-            v = getattr(v, p)
-        return float(v)
-    return get
-
-
 def _reference_model_value(msg):
     for path in ('data', 'point.y', 'lateral_position'):
         try:
-            return _getter(path)(msg)
+            return float(attrgetter(path)(msg))
         except AttributeError:
             continue
     raise AttributeError('no known field')
@@ -81,26 +71,26 @@ def _reference_model_value(msg):
 
 SERIES = {
     'lateral': [
-        ('ground_truth/sensor_point', 'y_s ground truth', _getter('point.y')),
-        ('lateral_position', 'y_s sensed', _getter('point.y')),
-        ('lateral/reference', 'reference', _getter('lateral_position')),
+        ('ground_truth/sensor_point', 'y_s ground truth', attrgetter('point.y')),
+        ('lateral_position', 'y_s sensed', attrgetter('point.y')),
+        ('lateral/reference', 'reference', attrgetter('lateral_position')),
         ('reference_model', 'reference model', _reference_model_value),
     ],
     'steering': [
-        ('steering/command', 'command front', _getter('front_angle')),
-        ('steering/state', 'servo commanded front', _getter('front_commanded')),
-        ('steering/state', 'servo achieved front', _getter('front_achieved')),
+        ('steering/command', 'command front', attrgetter('front_angle')),
+        ('steering/state', 'servo commanded front', attrgetter('front_commanded')),
+        ('steering/state', 'servo achieved front', attrgetter('front_achieved')),
     ],
     'belt': [
-        ('belt/speed', 'belt speed (encoder)', _getter('speed')),
-        ('treadmill/state', 'belt speed (regulator)', _getter('belt_speed')),
-        ('treadmill/state', 'drive voltage', _getter('drive_voltage')),
+        ('belt/speed', 'belt speed (encoder)', attrgetter('speed')),
+        ('treadmill/state', 'belt speed (regulator)', attrgetter('belt_speed')),
+        ('treadmill/state', 'drive voltage', attrgetter('drive_voltage')),
     ],
     'car_position': [
-        ('ground_truth/odom', 'x ground truth', _getter('pose.pose.position.x')),
-        ('ground_truth/odom', 'y ground truth', _getter('pose.pose.position.y')),
-        ('pose', 'x sensed', _getter('pose.position.x')),
-        ('pose', 'y sensed', _getter('pose.position.y')),
+        ('ground_truth/odom', 'x ground truth', attrgetter('pose.pose.position.x')),
+        ('ground_truth/odom', 'y ground truth', attrgetter('pose.pose.position.y')),
+        ('pose', 'x sensed', attrgetter('pose.position.x')),
+        ('pose', 'y sensed', attrgetter('pose.position.y')),
     ],
 }
 
@@ -131,7 +121,7 @@ def load_series(bag_path, wanted=None) -> Dict[str, Tuple[List[float], List[floa
             ts = _stamp_s(msg, m.log_time_ns)
             for label, get in plan[m.topic]:
                 try:
-                    v = get(msg)
+                    v = float(get(msg))
                 except (AttributeError, TypeError, ValueError):
                     continue
                 xs, ys = out.setdefault(label, ([], []))
@@ -241,15 +231,10 @@ def make_plots(bag_path, out_dir) -> List[Path]:
     return written
 
 
-class _Parser(argparse.ArgumentParser):
-    def error(self, message: str) -> None:
-        self.print_usage(sys.stderr)
-        self.exit(2, f'{self.prog}: error: {message}\n')
-
-
 def main(argv: Optional[List[str]] = None) -> int:
     """Entry point of ``bag plots``; returns the exit code."""
-    p = _Parser(prog='bag plots', description='PNG plots of an IRS run from its bag.')
+    p = argparse.ArgumentParser(
+        prog='bag plots', description='PNG plots of an IRS run from its bag.')
     p.add_argument('bag', help='bag directory or .mcap file')
     p.add_argument('--out', required=True, help='output directory for the PNG files')
     args = p.parse_args(argv)

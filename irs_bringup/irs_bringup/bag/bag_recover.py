@@ -92,16 +92,10 @@ def _carry_drops(w: BagWriter, meta: Optional[dict]) -> None:
         pass
 
 
-class _Parser(argparse.ArgumentParser):
-    def error(self, message: str) -> None:
-        self.print_usage(sys.stderr)
-        self.exit(2, f'{self.prog}: error: {message}\n')
-
-
 def main(argv: Optional[List[str]] = None) -> int:
     """Entry point of ``bag recover``; returns the exit code."""
-    p = _Parser(prog='bag recover',
-                description='Write a valid bag from an unfinished or damaged one.')
+    p = argparse.ArgumentParser(prog='bag recover',
+                                description='Write a valid bag from an unfinished or damaged one.')
     p.add_argument('bag', help='bag directory or .mcap file')
     p.add_argument('--out', metavar='DIR', help='new bag directory (default <bag>_recovered)')
     args = p.parse_args(argv)

@@ -8,7 +8,7 @@ viewer's top-down camera shows x forward and y to the left as in docs/convention
 - ``world/car``: a box ``car_length`` x ``car_width`` at the car's c.g. with its heading, from
   ``ground_truth/odom`` (else ``pose``, PoseStamped); ``world/car/heading``: an arrow;
 - ``world/arm``: the arm as two segments base -> elbow -> tip from ``arm/joint_states``
-  (theta1, theta2, theta3 through :func:`irs_sensing.arm_kinematics.forward_kinematics`;
+  (theta1, theta2, theta3 through :func:`irs_models.arm_kinematics.forward_kinematics`;
   elbow = base + l1 (cos theta1, sin theta1));
 - ``series/lateral/{ground_truth,sensed,reference}`` [m], ``series/steer/{command,commanded,
   achieved}`` [rad], ``series/belt/{speed,regulator_speed}`` [m/s]: scalar time series.
@@ -26,6 +26,7 @@ from __future__ import annotations
 import argparse
 import math
 import sys
+from operator import attrgetter
 from pathlib import Path
 from typing import Dict, List, Optional
 
@@ -56,12 +57,6 @@ class NothingToExport(BagError):
     """The bag has none of the topics (or no usable message) the export uses."""
 
 
-def _field(msg, path):
-    for p in path.split('.'):
-        msg = getattr(msg, p)
-    return float(msg)
-
-
 def _yaw(q) -> float:
     return math.atan2(2.0 * (q.w * q.z + q.x * q.y), 1.0 - 2.0 * (q.y * q.y + q.z * q.z))
 
@@ -84,7 +79,7 @@ def export_rrd(bag_path, rrd_path, *, view_rate: float = 50.0, series_rate: floa
     """Write ``rrd_path`` from ``bag_path`` (a path, opened strictly, or an open
     :class:`BagReader`); return the number of rows logged per entity.
 
-    ``geometry`` is an :class:`irs_sensing.arm_kinematics.ArmGeometry` (default: defaults of
+    ``geometry`` is an :class:`irs_models.arm_kinematics.ArmGeometry` (default: defaults of
     docs/conventions.md, l1 = l2 = 1 m, base (0, 0.85) m).
 
     Raises
@@ -95,7 +90,7 @@ def export_rrd(bag_path, rrd_path, *, view_rate: float = 50.0, series_rate: floa
     import numpy as np
     import rerun as rr
 
-    from irs_sensing.arm_kinematics import ArmGeometry, forward_kinematics
+    from irs_models.arm_kinematics import ArmGeometry, forward_kinematics
 
     g = geometry or ArmGeometry()
     series: Dict[str, tuple] = {}
@@ -127,7 +122,7 @@ def export_rrd(bag_path, rrd_path, *, view_rate: float = 50.0, series_rate: floa
                 try:
                     if kind == 'series':
                         xs, ys = series.setdefault(ent, ([], []))
-                        ys.append(_field(msg, path))
+                        ys.append(float(attrgetter(path)(msg)))
                         xs.append(ts)
                     elif kind == 'car':
                         pose = msg.pose.pose if hasattr(msg.pose, 'pose') else msg.pose
@@ -201,15 +196,10 @@ def rrd_entity_paths(rrd_path) -> set:
     return {c.entity_path.lstrip('/') for c in RrdReader(str(rrd_path)).stream().to_chunks()}
 
 
-class _Parser(argparse.ArgumentParser):
-    def error(self, message: str) -> None:
-        self.print_usage(sys.stderr)
-        self.exit(2, f'{self.prog}: error: {message}\n')
-
-
 def main(argv: Optional[List[str]] = None) -> int:
     """Entry point of ``bag rerun``; returns the exit code."""
-    p = _Parser(prog='bag rerun', description='Export an IRS bag to a rerun .rrd recording.')
+    p = argparse.ArgumentParser(
+        prog='bag rerun', description='Export an IRS bag to a rerun .rrd recording.')
     p.add_argument('bag', help='bag directory or .mcap file')
     p.add_argument('--out', required=True, help='output .rrd file')
     p.add_argument('--view-rate', type=float, default=50.0, help='2-D view rate [Hz]')
@@ -224,7 +214,7 @@ def main(argv: Optional[List[str]] = None) -> int:
     p.add_argument('--car-width', type=float, default=0.20, help='car box width [m]')
     args = p.parse_args(argv)
     try:
-        from irs_sensing.arm_kinematics import ArmGeometry
+        from irs_models.arm_kinematics import ArmGeometry
         geom = ArmGeometry(l1=args.l1, l2=args.l2, base_x=args.base_x, base_y=args.base_y,
                            attach_offset=args.attach_offset)
     except ValueError as exc:

@@ -107,17 +107,6 @@ METRIC_COLUMNS = (
 
 
 # --------------------------------------------------------------------------- model response
-def _zoh(A, B, dt):
-    from scipy.linalg import expm
-
-    n = A.shape[0]
-    M_ = np.zeros((n + 1, n + 1))
-    M_[:n, :n] = A * dt
-    M_[:n, n:] = B * dt
-    E = expm(M_)
-    return E[:n, :n], E[:n, n:]
-
-
 def _hold_nonfinite(r):
     r = np.array(r, dtype=float)
     ok = np.isfinite(r)
@@ -148,7 +137,7 @@ def reference_model_response(time, reference) -> np.ndarray:
     dts = np.diff(t)
     if np.any(dts <= 0):
         raise ValueError('time must be strictly increasing')
-    from scipy.signal import tf2ss
+    from scipy.signal import cont2discrete, tf2ss
 
     Bm, Am = reference_model()
     A, B, C, D = tf2ss(Bm, Am)
@@ -162,7 +151,7 @@ def reference_model_response(time, reference) -> np.ndarray:
             break
         key = dts[0] if uniform else round(float(dts[k]), 12)
         if key not in cache:
-            cache[key] = _zoh(A, B, key)
+            cache[key] = cont2discrete((A, B, C, D), key, method='zoh')[:2]
         Ad, Bd = cache[key]
         x = Ad @ x + Bd * r[k]
     return y

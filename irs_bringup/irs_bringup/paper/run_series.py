@@ -5,6 +5,8 @@ by the rig's step stamps: ``time`` [s], ``y_s`` (ground truth, m), ``y_measured`
 ``reference`` [m], ``steer_cmd`` and ``steer_achieved`` [rad], ``x`` [m], ``belt_speed`` [m/s],
 ``drive_voltage`` [V]. A stamp missing on a topic gives NaN there.
 """
+from operator import attrgetter
+
 import numpy as np
 
 from ..bag.bag_reader import BagReader
@@ -22,12 +24,6 @@ SERIES = {
 }
 
 
-def _get(msg, path):
-    for part in path.split('.'):
-        msg = getattr(msg, part)
-    return float(msg)
-
-
 def _stamp_ns(msg) -> int:
     s = msg.header.stamp
     return int(s.sec) * 1_000_000_000 + int(s.nanosec)
@@ -36,12 +32,14 @@ def _stamp_ns(msg) -> int:
 def series_by_stamp(bag_path, series=None) -> dict:
     """``{series name: {stamp_ns: value}}`` for the topics present in the bag."""
     series = series or SERIES
+    getters = {topic: [(name, attrgetter(path)) for name, path in fields.items()]
+               for topic, fields in series.items()}
     out = {}
     with BagReader(bag_path) as reader:
         topics = [t for t in series if t in reader.topics]
         for m, msg in reader.decoded(topics):
-            for name, path in series[m.topic].items():
-                out.setdefault(name, {})[_stamp_ns(msg)] = _get(msg, path)
+            for name, get in getters[m.topic]:
+                out.setdefault(name, {})[_stamp_ns(msg)] = float(get(msg))
     return out
 
 
