@@ -61,6 +61,8 @@ def run_nodes(factories, args=None) -> int:
     rt_note = set_realtime_priority()
     try:
         rclpy.init(args=args)
+    except _rclpy.UnknownROSArgsError as exc:
+        return _fail(f'unknown ROS arguments after --ros-args: {_one_line(exc)}')
     except _START_ERRORS as exc:
         return _fail(f'bad command line: {_one_line(exc)}')
     nodes = []
