@@ -178,7 +178,7 @@ def offline() -> list:
     from irs_bringup.paper.closed_loop import ClosedLoop
     from irs_bringup.run.experiment import load_experiment
     from irs_bringup.run.offline import loop_config_from_experiment
-    from irs_vehicle_sim.identified import IdentifiedPlant
+    from irs_models.identified import IdentifiedPlant
     exp = load_experiment('figure10_mrc_with_actuator')
     loop = ClosedLoop(loop_config_from_experiment(exp))
     t0 = time.perf_counter()

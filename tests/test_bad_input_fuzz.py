@@ -23,7 +23,7 @@ from irs_common.stamps import from_ns, to_ns
 from irs_msgs.msg import (BeltSpeed, DriverCommand, LateralControllerStatus, LateralReference,
                           SteeringActuatorState, SteeringCommand, TreadmillDriveCommand)
 from irs_bringup.run.processes import NodeSpec
-from irs_sensing.arm_kinematics import ArmGeometry, inverse_kinematics
+from irs_models.arm_kinematics import ArmGeometry, inverse_kinematics
 
 EXAMPLES = 10
 SETTINGS = settings(max_examples=EXAMPLES, deadline=None, database=None, derandomize=True,

@@ -18,7 +18,7 @@ from irs_common import qos
 from irs_common.stamps import from_ns, to_ns
 from irs_msgs.msg import BeltSpeed, SteeringCommand, TreadmillDriveCommand
 from irs_bringup.run.processes import NodeSpec
-from irs_sensing.arm_kinematics import ArmGeometry, inverse_kinematics
+from irs_models.arm_kinematics import ArmGeometry, inverse_kinematics
 
 DAY_NS = 86_400 * 1_000_000_000
 ANGLES = inverse_kinematics(0.1, -0.05, 0.0, ArmGeometry())

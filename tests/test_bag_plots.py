@@ -30,7 +30,7 @@ def make_bag(path, topics=None, clock=False):
     from irs_bringup.bag.bag_writer import BagWriter
     from irs_msgs.msg import (BeltSpeed, LateralReference, SteeringActuatorState,
                               SteeringCommand, TreadmillState)
-    from irs_sensing.arm_kinematics import ArmGeometry, inverse_kinematics
+    from irs_models.arm_kinematics import ArmGeometry, inverse_kinematics
 
     geom = ArmGeometry()
     with BagWriter(path, chunk_size=64 * 1024) as w:
@@ -164,7 +164,7 @@ def test_arm_drawn_through_elbow_to_tip(small_bag, tmp_path):
     position: offset 0), for every decimated joint state."""
     from irs_bringup.bag.bag_reader import BagReader
     from irs_bringup.bag.rerun_export import export_rrd
-    from irs_sensing.arm_kinematics import ArmGeometry, forward_kinematics
+    from irs_models.arm_kinematics import ArmGeometry, forward_kinematics
     geom = ArmGeometry(l1=1.1, l2=0.95, base_x=0.05, base_y=0.9)
     rrd = tmp_path / 'arm.rrd'
     rows = export_rrd(small_bag, rrd, geometry=geom)

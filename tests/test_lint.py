@@ -5,7 +5,7 @@ import subprocess
 import sys
 
 ROOT = Path(__file__).resolve().parents[1]
-TREES = ['irs_common', 'irs_sensing', 'irs_treadmill', 'irs_vehicle_sim', 'irs_control',
+TREES = ['irs_common', 'irs_models', 'irs_sensing', 'irs_treadmill', 'irs_vehicle_sim', 'irs_control',
          'irs_bringup', 'tests']
 
 

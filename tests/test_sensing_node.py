@@ -9,7 +9,7 @@ from irs_common import qos
 from irs_common.stamps import from_ns, to_ns
 from irs_msgs.msg import SensingStatus
 from irs_bringup.run.processes import NodeSpec
-from irs_sensing.arm_kinematics import ArmGeometry, inverse_kinematics
+from irs_models.arm_kinematics import ArmGeometry, inverse_kinematics
 
 DS = 0.33
 X0, Y0, PSI = 0.1, -0.05, 0.1          # [m], [m], [rad]

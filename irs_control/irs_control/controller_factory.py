@@ -9,7 +9,7 @@ Plant used for an MRC design (steer [rad] -> sensor-point lateral displacement y
 - ``plant = 'identified'``: the paper's Eq. 6 plant with the reconstructed gain
   (:mod:`.paper_design`), with or without the actuator lag ``p/(s+p)``.
 - ``plant = <preset name>``: the physical bicycle model of that preset at ``speed`` and ``ds``
-  (:func:`irs_vehicle_sim.bicycle.transfer_function`), with or without the actuator lag.
+  (:func:`irs_models.bicycle.transfer_function`), with or without the actuator lag.
 
 The reference model (``reference_model_num``/``_den``) and observer polynomial (``observer``;
 ``[0.0]`` = the paper's choice: ``(s+12)^2`` with the actuator, ``s+12`` without) are
@@ -24,9 +24,15 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from irs_models.bicycle import transfer_function
+from irs_models.constants import (IDENTIFICATION_SPEED, PAPER_ACTUATOR_POLE, PAPER_PLANT_GAIN,
+                                  SENSOR_DISTANCE, STEER_LIMIT)
+from irs_models.identified import identified_plant
+from irs_models.presets import get_preset
+
 from .discrete_pi import DiscretePiController
 from .discrete_rst import DEFAULT_INPUT_LIMIT, DiscreteRstController
-from .paper_design import PAPER_PLANT_GAIN, identified_plant, reference_model
+from .paper_design import reference_model
 from .polynomials import require_polynomial
 from .rst_design import RstDesign, design_rst
 
@@ -37,18 +43,18 @@ CONTROLLER_DEFAULTS = {
     'mode': 'mrc',
     'dt': 0.001,
     'plant': 'identified',
-    'speed': 1.2,
-    'ds': 0.33,
+    'speed': IDENTIFICATION_SPEED,
+    'ds': SENSOR_DISTANCE,
     'plant_gain': 0.0,
     'include_actuator': True,
-    'actuator_pole': 29.0,
+    'actuator_pole': PAPER_ACTUATOR_POLE,
     'reference_model_num': [float(c) for c in _BM],
     'reference_model_den': [float(c) for c in _AM],
     'observer': [0.0],
     'cancel_zeros': 'stable',
     'kp': 5.0,
     'ki': 3.0,
-    'steer_limit': 0.2618,
+    'steer_limit': STEER_LIMIT,
     'anti_windup': True,
 }
 
@@ -78,9 +84,6 @@ def plant_polynomials(cfg: dict):
     if cfg['plant'] == 'identified':
         gain = float(cfg['plant_gain']) or PAPER_PLANT_GAIN
         return identified_plant(include, pole, gain)
-    from irs_vehicle_sim.bicycle import transfer_function
-    from irs_vehicle_sim.presets import get_preset
-
     try:
         preset = get_preset(cfg['plant'])
     except KeyError as exc:

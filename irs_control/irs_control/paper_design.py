@@ -61,60 +61,20 @@ from __future__ import annotations
 
 import numpy as np
 
-from .polynomials import poly_from_roots
+from irs_models.constants import (PAPER_ACTUATOR_POLE, PAPER_PLANT_GAIN, PAPER_VEHICLE_POLES,
+                                  PAPER_ZEROS)
+from irs_models.identified import identified_plant
+
 from .rst_design import RstDesign, RstDesignError, design_rst
 
 __all__ = ["PAPER_PLANT_GAIN", "PAPER_ACTUATOR_POLE", "PAPER_VEHICLE_POLES", "PAPER_ZEROS",
            "PRINTED_R", "PRINTED_T", "identified_plant", "reference_model", "paper_observer",
            "paper_mrc_design", "relative_coefficient_errors", "reconstruction_hypotheses"]
 
-#: Plant high-frequency gain b0 [m rad^-1 s^-3]: T(0) = Ao(0) Bm(0) / b0 = 23779
-#: => b0 = 2308 * 26 * 144 / 23779 = 363.394.
-PAPER_PLANT_GAIN = 2308.0 * 26.0 * 144.0 / 23779.0
-#: Actuator pole magnitude [rad/s] as printed in Eq. 6 (2 pi 4.6 Hz = 28.90).
-PAPER_ACTUATOR_POLE = 29.0
-#: Vehicle poles [rad/s] (Eq. 6).
-PAPER_VEHICLE_POLES = (0.0, 0.0, -8.0, -20.0)
-#: Plant zeros [rad/s] (Eq. 6).
-PAPER_ZEROS = (-2.4, -4.8)
 #: Eq. 22 as printed.
 PRINTED_R = np.array([1.0, 44.9, 707.2, 3530.8, 6364.5])
 #: Eq. 24 with the OCR-garbled leading "6000" replaced by 23779/3744.
 PRINTED_T = np.array([23779.0 / 3744.0, 216.0, 2604.0, 13109.0, 23779.0])
-
-
-def identified_plant(include_actuator: bool = True, actuator_pole: float = PAPER_ACTUATOR_POLE,
-                     gain: float = PAPER_PLANT_GAIN):
-    """Identified plant ``B/A`` of Eq. 6 (steer [rad] -> y_s [m]), highest power first.
-
-    Parameters
-    ----------
-    include_actuator : bool
-        True: full identified plant with the actuator pole at ``-actuator_pole``.
-        False: vehicle only, i.e. the actuator lag ``p/(s + p)`` (unit DC gain) replaced by 1:
-        ``G_veh = G (s + p)/p``, so ``B_veh = (gain/p)(s+2.4)(s+4.8)`` and both plants have
-        the same low-frequency behaviour ``y_s ~ gain*11.52/(160 p) / s^2 = 0.902/s^2``.
-    actuator_pole : float
-        Actuator pole magnitude p [rad/s] (> 0).
-    gain : float
-        High-frequency gain ``b0`` of the full plant (with actuator) [m rad^-1 s^-3].
-
-    Returns
-    -------
-    B, A : numpy.ndarray
-        ``B = gain (s+2.4)(s+4.8)``, ``A = s^2 (s+8)(s+20)(s+p)`` (with actuator) or
-        ``B = (gain/p)(s+2.4)(s+4.8)``, ``A = s^2 (s+8)(s+20)`` (without).
-    """
-    if not (np.isfinite(actuator_pole) and actuator_pole > 0):
-        raise ValueError(f"actuator_pole must be a positive finite magnitude in rad/s; got {actuator_pole}.")
-    if not (np.isfinite(gain) and gain != 0):
-        raise ValueError(f"gain must be a finite non-zero plant gain b0 in m rad^-1 s^-3; got {gain}.")
-    poles = list(PAPER_VEHICLE_POLES)
-    if include_actuator:
-        poles.append(-float(actuator_pole))
-    else:
-        gain = gain / float(actuator_pole)
-    return poly_from_roots(PAPER_ZEROS, gain=gain), poly_from_roots(poles)
 
 
 def reference_model():

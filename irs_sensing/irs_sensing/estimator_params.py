@@ -3,8 +3,8 @@ from dataclasses import asdict
 import math
 
 from irs_common.params import Param, flatten, table_from_defaults
+from irs_models.arm_kinematics import ArmGeometry
 
-from .arm_kinematics import ArmGeometry
 from .calibration import JointCalibration
 from .pose_estimator import PoseEstimatorParams
 

@@ -14,7 +14,7 @@ Pipeline per sample ``update(theta1, theta2, theta3, stamp, belt_speed, now)``:
 2. Reject joint angles outside the configured mechanical ranges ``[joint_min, joint_max]``,
    compared modulo 2 pi (a reading ``a`` is accepted if some ``a + 2 pi k`` lies in the range),
    so wrapped (-pi, pi] angles and unwrapped potentiometer angles are treated alike.
-3. Forward kinematics (:func:`irs_sensing.arm_kinematics.forward_kinematics`).
+3. Forward kinematics (:func:`irs_models.arm_kinematics.forward_kinematics`).
 4. Reject a c.g. off the belt by more than ``off_belt_margin`` [m].
 5. Reject an implausible jump from the last accepted pose: distance >
    ``max_speed * (t - t_last) + jump_margin`` or heading change >
@@ -45,15 +45,15 @@ import numbers
 from dataclasses import dataclass, field
 from typing import Optional, Tuple
 
-from .arm_kinematics import (ArmGeometry, forward_kinematics, sensor_point, singularity_margin,
-                             wrap_angle)
+from irs_models.arm_kinematics import (ArmGeometry, forward_kinematics, sensor_point,
+                                      singularity_margin, wrap_angle)
+from irs_models.constants import BELT_HALF_LENGTH, BELT_HALF_WIDTH
+
 from .differentiator import make_differentiator
 
 __all__ = ["PoseEstimatorParams", "PoseEstimate", "PoseEstimator", "reading_problem",
            "ANGLE_LIMIT", "BELT_SPEED_LIMIT", "DEFAULT_FUTURE_TOLERANCE"]
 
-_BELT_HALF_LENGTH = 1.2192  # [m]
-_BELT_HALF_WIDTH = 0.6096   # [m]
 #: Largest |joint angle| [rad] that is a reading at all (16 turns; wrapped or unwrapped pots).
 ANGLE_LIMIT = 100.0
 #: Largest |belt speed| [m/s] that is a reading at all (top speed 6.7 m/s).
@@ -103,8 +103,8 @@ class PoseEstimatorParams:
     ds: float = 0.33
     joint_min: Tuple[float, float, float] = (-math.pi, -math.pi, -math.pi)
     joint_max: Tuple[float, float, float] = (math.pi, math.pi, math.pi)
-    belt_half_length: float = _BELT_HALF_LENGTH
-    belt_half_width: float = _BELT_HALF_WIDTH
+    belt_half_length: float = BELT_HALF_LENGTH
+    belt_half_width: float = BELT_HALF_WIDTH
     off_belt_margin: float = 0.10
     max_speed: float = 10.0
     max_yaw_rate: float = 10.0

@@ -5,7 +5,7 @@ import math
 import pytest
 from hypothesis import given, settings, strategies as st
 
-from irs_sensing.arm_kinematics import ArmGeometry, inverse_kinematics
+from irs_models.arm_kinematics import ArmGeometry, inverse_kinematics
 from irs_sensing.calibration import ArmCalibration, CalibrationError
 from irs_sensing.pose_estimator import PoseEstimator, reading_problem
 

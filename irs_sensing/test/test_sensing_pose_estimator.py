@@ -4,7 +4,7 @@ import math
 import numpy as np
 import pytest
 
-from irs_sensing.arm_kinematics import ArmGeometry, inverse_kinematics
+from irs_models.arm_kinematics import ArmGeometry, inverse_kinematics
 from irs_sensing.pose_estimator import PoseEstimator, PoseEstimatorParams
 
 DT = 0.001

@@ -3,13 +3,14 @@ from dataclasses import asdict
 import math
 
 from irs_common.params import Param, flatten, table_from_defaults
+from irs_models.constants import BELT_HALF_LENGTH
 
 from .regulator import RegulatorParams
 from .safety import SafetyParams
 
 INF = math.inf
 _META = {
-    'regulator.x_ref': ('m', -1.2192, 1.2192, 'longitudinal set point of the car c.g. on the belt'),
+    'regulator.x_ref': ('m', -BELT_HALF_LENGTH, BELT_HALF_LENGTH, 'longitudinal set point of the car c.g. on the belt'),
     'regulator.k_x': ('1/s', 0.0, INF, 'position gain (outer loop)'),
     'regulator.k_i': ('1/s^2', 0.0, INF, 'position integral gain (conditional integration)'),
     'regulator.integral_limit': ('m/s', 0.0, INF, 'bound on k_i times the integral of the position error'),

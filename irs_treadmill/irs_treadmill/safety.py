@@ -32,6 +32,7 @@ from dataclasses import dataclass
 from typing import Optional
 
 from irs_common.input_checks import StampVerdict
+from irs_models.constants import BELT_HALF_LENGTH, BELT_HALF_WIDTH
 
 from .regulator import dataclass_from_mapping
 
@@ -74,8 +75,8 @@ class SafetyParams:
     """belt_half_length, belt_half_width [m]; end_margin, edge_margin [m] (distance from the
     end/edge at which the fault trips); stale_timeout [s]."""
 
-    belt_half_length: float = 1.2192
-    belt_half_width: float = 0.6096
+    belt_half_length: float = BELT_HALF_LENGTH
+    belt_half_width: float = BELT_HALF_WIDTH
     end_margin: float = 0.15
     edge_margin: float = 0.10
     stale_timeout: float = 0.1

@@ -42,11 +42,13 @@ import math
 from collections import deque
 from dataclasses import dataclass
 
+from irs_models.constants import STEER_LIMIT_DEG
+
 __all__ = ["ActuatorParams", "ActuatorState", "SteeringActuator",
            "DEFAULT_STEER_LIMIT_RAD", "DEFAULT_RATE_LIMIT_RAD_S"]
 
 #: Hard steer limit, 15 deg [rad] (paper Sec. 5: +-15 deg hard constraint).
-DEFAULT_STEER_LIMIT_RAD = math.radians(15.0)
+DEFAULT_STEER_LIMIT_RAD = math.radians(STEER_LIMIT_DEG)
 #: Rate limit of a standard hobby servo, 60 deg in 0.15 s [rad/s] = 6.98 rad/s.  The lag alone
 #: (4.6 Hz) would move at most (step amplitude) * 28.9 rad/s, so with this limit steps larger than
 #: about 0.24 rad (14 deg) become rate limited -- "rate limited for large actuator angles".

@@ -1,6 +1,6 @@
 """Simulated potentiometer readings of the position-sensing arm (paper Sec. 3.2).
 
-The true joint angles come from :func:`irs_sensing.arm_kinematics.inverse_kinematics` for the
+The true joint angles come from :func:`irs_models.arm_kinematics.inverse_kinematics` for the
 car's c.g. pose ``(x, y, psi)``.  Each reading is then::
 
     theta_meas = Q( theta_true + n ),   n ~ N(0, sigma^2)   (if noise enabled)
@@ -23,7 +23,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from irs_sensing.arm_kinematics import ArmGeometry, inverse_kinematics
+from irs_models.arm_kinematics import ArmGeometry, inverse_kinematics
 
 __all__ = ["ArmSensorParams", "ArmSensor", "quantize"]
 
@@ -82,7 +82,7 @@ class ArmSensor:
 
     Parameters
     ----------
-    geometry : irs_sensing.arm_kinematics.ArmGeometry
+    geometry : irs_models.arm_kinematics.ArmGeometry
     params : ArmSensorParams
     """
 

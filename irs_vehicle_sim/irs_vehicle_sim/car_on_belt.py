@@ -38,13 +38,10 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from irs_models.constants import BELT_HALF_LENGTH, BELT_HALF_WIDTH
+
 __all__ = ["CarParams", "CarOnBelt", "wheel_speeds", "off_belt_edge",
            "BELT_HALF_LENGTH", "BELT_HALF_WIDTH"]
-
-#: Belt half length, 8 ft / 2 [m].
-BELT_HALF_LENGTH = 1.2192
-#: Belt half width, 4 ft / 2 [m].
-BELT_HALF_WIDTH = 0.6096
 
 
 @dataclass

@@ -35,13 +35,14 @@ from typing import Callable, Optional
 
 import numpy as np
 
+from irs_models.arm_kinematics import ArmGeometry, ArmReachError
+from irs_models.identified import IdentifiedParams, IdentifiedPlant
+from irs_models.lateral_plant import BicyclePlant, LateralPlant
+
 from .actuator import ActuatorParams, ActuatorState, SteeringActuator
-from .identified import IdentifiedParams, IdentifiedPlant
-from .lateral_plant import BicyclePlant, LateralPlant
 from .car_on_belt import CarParams, CarOnBelt, wheel_speeds
 from .arm_sensor import ArmSensorParams, ArmSensor
 from .belt import BeltParams, TreadmillBelt
-from irs_sensing.arm_kinematics import ArmGeometry, ArmReachError
 
 __all__ = ["RigInputs", "RigOutputs", "RigConfig", "RigSimulation", "simulate",
            "sanitize_steer", "sanitize_voltage", "sanitize_speed", "unflatten"]
@@ -292,13 +293,13 @@ class RigConfig:
 
     def make_bicycle_params(self):
         """``BicycleParams`` from the ``bicycle`` section (a named preset if given)."""
-        from .bicycle import BicycleParams
+        from irs_models.bicycle import BicycleParams
 
         b = dict(self.bicycle)
         name = b.pop("preset", "")
         b.pop("speed", None)
         if name:
-            from .presets import get_preset  # the bicycle-model engineer's presets
+            from irs_models.presets import get_preset  # the bicycle-model engineer's presets
 
             try:
                 return get_preset(name).params

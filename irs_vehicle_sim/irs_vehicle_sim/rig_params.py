@@ -8,13 +8,14 @@ import math
 from dataclasses import asdict
 
 from irs_common.params import table_from_defaults
+from irs_models.arm_kinematics import ArmGeometry
+from irs_models.constants import BELT_HALF_LENGTH, BELT_HALF_WIDTH
 
 from .actuator import ActuatorParams
 from .arm_sensor import ArmSensorParams
 from .belt import BeltParams
 from .car_on_belt import CarParams
 from .rig import RigConfig, _bicycle_defaults
-from irs_sensing.arm_kinematics import ArmGeometry
 
 INF = math.inf
 
@@ -26,8 +27,8 @@ _RIG = {
     'ds': ('m', 0.0, 5.0, 'sensor point ahead of the c.g. (paper: 0.33 m)'),
     'steer_reject': ('rad', 0.0, math.pi, '|steer command| above this is rejected and 0 rad used'),
     'speed_cmd_max': ('m/s', 0.0, 20.0, 'driver speed commands outside [0, this] are rejected'),
-    'x0': ('m', -1.2192, 1.2192, 'initial c.g. x in the treadmill frame'),
-    'y0': ('m', -0.6096, 0.6096, 'initial c.g. y in the treadmill frame'),
+    'x0': ('m', -BELT_HALF_LENGTH, BELT_HALF_LENGTH, 'initial c.g. x in the treadmill frame'),
+    'y0': ('m', -BELT_HALF_WIDTH, BELT_HALF_WIDTH, 'initial c.g. y in the treadmill frame'),
     'u0': ('m/s', 0.0, 20.0, 'initial car speed over the belt (and the driver command until one arrives)'),
     'belt_speed0': ('m/s', 0.0, 6.7056, 'initial belt speed'),
 }
@@ -49,7 +50,7 @@ _IDENT = {
     'ds': ('m', -1.0, 5.0, 'sensor distance of the identified model; negative = use ds'),
 }
 _BICYCLE = {
-    'preset': ('-', None, None, "vehicle preset from config/presets.yaml; '' = use the fields below"),
+    'preset': ('-', None, None, "vehicle preset from irs_models/config/presets.yaml; '' = use the fields below"),
     'mass': ('kg', 0.0, INF, 'vehicle mass (preset empty only)'),
     'yaw_inertia': ('kg m^2', 0.0, INF, 'yaw inertia about the c.g. (preset empty only)'),
     'lf': ('m', 0.0, INF, 'c.g. to front axle (preset empty only)'),

@@ -7,8 +7,8 @@ Usage::
 
 Prints gain, poles and zeros of ``Y_s(s)/delta(s)`` [m/rad] without and with the first-order
 steering-actuator lag ``w_a/(s + w_a)``, ``w_a = 2 pi f_a`` (default 4.6 Hz, paper section 4).
-``--identified`` also prints the paper's Eq. (6) plant from ``irs_control.paper_design``
-(``identified_plant``) if that module is available.  ``--plots DIR`` writes ``bode.png`` and
+``--identified`` also prints the paper's Eq. (6) plant (``irs_models.identified.identified_plant``).
+``--plots DIR`` writes ``bode.png`` and
 ``step.png`` (matplotlib, Agg backend).
 
 Exit codes: 0 success, 2 bad arguments (unknown preset, non-positive speed, ...).
@@ -24,8 +24,9 @@ import sys
 
 import numpy as np
 
-from .bicycle import DEFAULT_ACTUATOR_HZ, transfer_function
-from .presets import load_presets
+from irs_models.bicycle import DEFAULT_ACTUATOR_HZ, transfer_function
+from irs_models.identified import identified_plant
+from irs_models.presets import load_presets
 
 __all__ = ["main", "build_parser", "format_roots"]
 
@@ -60,37 +61,9 @@ def _print_tf(title, num, den, out):
     print(f"  poles [rad/s] = {format_roots(p)}", file=out)
 
 
-def _tf_num_den(sys_like):
-    """(num, den) from a control.TransferFunction, a (num, den) pair or a (zeros, poles, k) triple."""
-    if hasattr(sys_like, "num") and hasattr(sys_like, "den"):
-        return np.asarray(sys_like.num[0][0], float), np.asarray(sys_like.den[0][0], float)
-    if isinstance(sys_like, dict):
-        if "num" in sys_like:
-            return np.asarray(sys_like["num"], float), np.asarray(sys_like["den"], float)
-        z, p, k = sys_like["zeros"], sys_like["poles"], sys_like.get("gain", sys_like.get("k"))
-        return float(k) * np.real(np.poly(z)), np.real(np.poly(p))
-    if isinstance(sys_like, (tuple, list)) and len(sys_like) == 2:
-        return np.asarray(sys_like[0], float), np.asarray(sys_like[1], float)
-    if isinstance(sys_like, (tuple, list)) and len(sys_like) == 3:
-        z, p, k = sys_like
-        return float(k) * np.real(np.poly(z)), np.real(np.poly(p))
-    raise TypeError(f"cannot interpret identified plant of type {type(sys_like).__name__}")
-
-
-def _identified(out, err):
-    try:
-        from irs_control.paper_design import identified_plant  # written by another package
-    except ImportError as exc:
-        print(f"note: --identified skipped: irs_control.paper_design.identified_plant is not "
-              f"available ({exc}).", file=err)
-        return None
-    try:
-        plant = identified_plant()
-        num, den = _tf_num_den(plant)
-    except Exception as exc:  # keep the CLI alive; report what went wrong
-        print(f"note: --identified skipped: identified_plant() could not be used ({exc}).", file=err)
-        return None
-    _print_tf("Identified plant, paper Eq. (6) (irs_control.paper_design.identified_plant):", num, den, out)
+def _identified(out):
+    num, den = identified_plant()
+    _print_tf("Identified plant, paper Eq. (6) (irs_models.identified.identified_plant):", num, den, out)
     return num, den
 
 
@@ -192,9 +165,7 @@ def main(argv=None, out=None, err=None) -> int:
         print(f"  published target ({pre.target.get('source', '')}) at V = {pre.speed:g} m/s, d_s = {pre.ds:g} m:", file=out)
         print(f"    zeros = {format_roots(pre.target_zeros)}, poles = {format_roots(pre.target_poles)}", file=out)
     if args.identified:
-        ident = _identified(out, err)
-        if ident is not None:
-            curves.append(("identified Eq. (6)", ident))
+        curves.append(("identified Eq. (6)", _identified(out)))
     if args.plots:
         bode, step = _plots(args.plots, curves)
         print(f"saved {bode} and {step}", file=out)

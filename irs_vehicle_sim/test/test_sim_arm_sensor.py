@@ -5,7 +5,7 @@ import math
 import numpy as np
 import pytest
 
-from irs_sensing.arm_kinematics import ArmGeometry, ArmReachError, forward_kinematics
+from irs_models.arm_kinematics import ArmGeometry, ArmReachError, forward_kinematics
 from irs_vehicle_sim.arm_sensor import ArmSensor, ArmSensorParams
 
 POSE = (0.31, -0.12, 0.07)

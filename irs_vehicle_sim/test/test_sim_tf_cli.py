@@ -1,15 +1,10 @@
 """Tests of the transfer-function CLI (irs_vehicle_sim.tf_cli)."""
-import sys
-
-
 import re
-
-import importlib.util
 
 import numpy as np
 import pytest
 
-from irs_vehicle_sim.presets import get_preset
+from irs_models.presets import get_preset
 from irs_vehicle_sim.tf_cli import main
 
 
@@ -69,21 +64,10 @@ def test_plots_saved_as_png(tmp_path, capsys):
         assert len(data) > 1000 and data[:8] == b"\x89PNG\r\n\x1a\n"
 
 
-def test_identified_available_or_skipped(capsys):
+def test_identified(capsys):
     assert main(["--preset", "irs_4ws", "--identified"]) == 0
     cap = capsys.readouterr()
-    if importlib.util.find_spec("irs_control") is None:
-        assert "--identified skipped" in cap.err
-    else:
-        zeros = _roots_line(cap.out, "Identified plant", "zeros")
-        poles = _roots_line(cap.out, "Identified plant", "poles")
-        np.testing.assert_allclose(np.sort(zeros.real), [-4.8, -2.4], atol=1e-6)
-        np.testing.assert_allclose(np.sort(poles.real), [-29, -20, -8, 0, 0], atol=1e-6)
-
-
-def test_identified_missing_module_message(capsys, monkeypatch):
-    monkeypatch.setitem(sys.modules, "irs_control.paper_design", None)  # forces ImportError
-    assert main(["--preset", "irs_4ws", "--identified"]) == 0
-    cap = capsys.readouterr()
-    assert "--identified skipped" in cap.err
-    assert "Identified plant" not in cap.out
+    zeros = _roots_line(cap.out, "Identified plant", "zeros")
+    poles = _roots_line(cap.out, "Identified plant", "poles")
+    np.testing.assert_allclose(np.sort(zeros.real), [-4.8, -2.4], atol=1e-6)
+    np.testing.assert_allclose(np.sort(poles.real), [-29, -20, -8, 0, 0], atol=1e-6)
