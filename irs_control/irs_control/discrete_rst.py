@@ -76,6 +76,7 @@ import numpy as np
 from scipy.signal import cont2discrete
 
 from irs_common.input_checks import abs_limit_problem
+from irs_models.constants import STEER_LIMIT  # [rad] +-15 deg
 
 from .polynomials import degree, is_hurwitz, poly_from_roots, require_polynomial, trim
 from .rst_design import RstDesign
@@ -84,7 +85,6 @@ __all__ = ["ControlOutput", "DiscreteRstController", "InputGuard", "anti_windup_
            "observable_canonical_miso", "STATE_RUNNING", "STATE_INVALID",
            "DEFAULT_INPUT_LIMIT"]
 
-STEER_LIMIT = 0.2618  # rad, +-15 deg
 #: Default bound on |measurement| and |reference| [m] (the belt is 4 x 8 ft: |y| < 0.61 m).
 DEFAULT_INPUT_LIMIT = 2.0
 #: ``ControlOutput.state``: the loop was closed this step.

@@ -40,6 +40,7 @@ from geometry_msgs.msg import PointStamped
 from rclpy.node import Node
 
 from irs_common import qos
+from irs_common.answer_cache import AnswerCache
 from irs_common.node_main import run_node
 from irs_common.input_checks import ThrottledWarner
 from irs_common.params import Param, declare_table
@@ -110,7 +111,7 @@ class LateralControllerNode(Node):
         self.gate = StampGate(tolerance_ns)          # measurement stamps = the steps
         self.ref_gate = StampGate(tolerance_ns)      # reference stamps (without reference_sync)
         self.sync = StampSync(('y', 'ref')) if self.p['reference_sync'] else None
-        self.last_answer = None
+        self.answer = AnswerCache()   # what was published for the last stamp (re-sent on a repeat)
         self.last_meas_time = None
         self.state = LateralControllerStatus.STATE_STALE
         self.published_state = None
@@ -145,7 +146,7 @@ class LateralControllerNode(Node):
         self.gate.clear()
         self.ref_gate.clear()
         self.controller.reset()
-        self.last_answer = None
+        self.answer.clear()
         self.last_meas_time = None
         self.state = LateralControllerStatus.STATE_STALE
 
@@ -197,9 +198,7 @@ class LateralControllerNode(Node):
         verdict = self.gate.check(stamp_ns, now.nanoseconds)
         if verdict != OK:
             if verdict == REPEAT:
-                if self.last_answer is not None:
-                    for pub, out in self.last_answer:   # a repeated step: repeat the answer
-                        pub.publish(out)
+                self.answer.repeat()    # a repeated step: repeat the answer
                 return
             if verdict != RESET:
                 self._drop('measurement', self.gate, verdict, stamp_ns, now.nanoseconds)
@@ -235,8 +234,8 @@ class LateralControllerNode(Node):
         cmd.header = header
         cmd.front_angle = float(steer)
         cmd.rear_angle = 0.0
-        self.pub_cmd.publish(cmd)
-        self.last_answer = [(self.pub_cmd, cmd)]
+        self.answer.start()
+        self.answer.publish(self.pub_cmd, cmd)
         every = self.p['status_decimation']
         self.steps += 1
         if self.state != self.published_state or (every and self.steps % every == 1 % every):
@@ -244,8 +243,7 @@ class LateralControllerNode(Node):
             status.output_unsaturated = float(unsat)
             status.output = float(steer)
             status.saturated = bool(saturated)
-            self.pub_status.publish(status)
-            self.last_answer.append((self.pub_status, status))
+            self.answer.publish(self.pub_status, status)
 
     def _check_stale(self):
         if self.state != LateralControllerStatus.STATE_RUNNING or self.last_meas_time is None:

@@ -37,7 +37,9 @@ from rclpy.node import Node
 from sensor_msgs.msg import JointState
 
 from irs_common import qos
+from irs_common.answer_cache import AnswerCache
 from irs_common.node_main import run_node
+from irs_common.orientation import quaternion_from_yaw
 from irs_common.input_checks import ThrottledWarner
 from irs_common.params import declare_table, unflatten
 from irs_common.stamp_gate import OK, REPEAT, RESET, StampGate
@@ -73,7 +75,7 @@ class ArmPoseEstimatorNode(Node):
         self.rejected = 0
         self.dropped = 0            # readings dropped for their stamps (future, out of order)
         self.time_resets = 0
-        self.last_answer = []   # the messages published for the last stamp (re-sent on a repeat)
+        self.answer = AnswerCache()   # what was published for the last stamp (re-sent on a repeat)
         self.last_state = None
         self.last_reason = ''
         self.last_status_wall = 0.0
@@ -109,7 +111,7 @@ class ArmPoseEstimatorNode(Node):
         self.time_resets += 1
         self.gate.clear()
         self.estimator.reset()
-        self.last_answer = []
+        self.answer.clear()
 
     def _angles(self, msg):
         if len(msg.position) != 3:
@@ -124,8 +126,7 @@ class ArmPoseEstimatorNode(Node):
         verdict = self.gate.check(stamp_ns, now_ns)
         if verdict != OK:
             if verdict == REPEAT:    # the rig repeated a step: repeat our answer
-                for pub, out in self.last_answer:
-                    pub.publish(out)
+                self.answer.repeat()
                 return
             if verdict != RESET:     # future or out of order: dropped, not answered
                 self.dropped += 1
@@ -136,7 +137,7 @@ class ArmPoseEstimatorNode(Node):
                              time.monotonic())
             self.time_resets += 1
             self.estimator.reset()
-        self.last_answer = []
+        self.answer.start()
         stamp = to_sec(msg.header.stamp)
         try:
             angles = self._angles(msg)
@@ -169,25 +170,22 @@ class ArmPoseEstimatorNode(Node):
         point.header.stamp = stamp
         point.header.frame_id = self.frame_id
         point.point.x, point.point.y = float(x_s), float(y_s)
-        self.pub_point.publish(point)
-        self.last_answer.append((self.pub_point, point))
+        self.answer.publish(self.pub_point, point)
 
     def _publish_pose(self, stamp, x, y, psi, vx, vy, r):
         pose = PoseStamped()
         pose.header.stamp = stamp
         pose.header.frame_id = self.frame_id
         pose.pose.position.x, pose.pose.position.y = float(x), float(y)
-        pose.pose.orientation.z = math.sin(psi / 2.0)
-        pose.pose.orientation.w = math.cos(psi / 2.0)
-        self.pub_pose.publish(pose)
-        self.last_answer.append((self.pub_pose, pose))
+        q = pose.pose.orientation
+        q.x, q.y, q.z, q.w = quaternion_from_yaw(psi)
+        self.answer.publish(self.pub_pose, pose)
         twist = TwistStamped()
         twist.header.stamp = stamp
         twist.header.frame_id = self.child_frame_id
         twist.twist.linear.x, twist.twist.linear.y = float(vx), float(vy)
         twist.twist.angular.z = float(r)
-        self.pub_twist.publish(twist)
-        self.last_answer.append((self.pub_twist, twist))
+        self.answer.publish(self.pub_twist, twist)
 
     def _status(self, stamp, state, reason, age):
         self.last_state, self.last_reason = state, reason

@@ -45,6 +45,7 @@ import numbers
 from dataclasses import dataclass, field
 from typing import Optional, Tuple
 
+from irs_common.field_checks import check_numbers
 from irs_models.arm_kinematics import (ArmGeometry, forward_kinematics, sensor_point,
                                       singularity_margin, wrap_angle)
 from irs_models.constants import BELT_HALF_LENGTH, BELT_HALF_WIDTH
@@ -120,20 +121,12 @@ class PoseEstimatorParams:
     geometry: ArmGeometry = field(default_factory=ArmGeometry)
 
     def __post_init__(self) -> None:
-        pos = ("dt", "belt_half_length", "belt_half_width", "max_speed", "max_yaw_rate",
-               "stale_timeout", "dt_tolerance", "cutoff_hz")
-        for n in pos:
-            v = getattr(self, n)
-            if not isinstance(v, (int, float)) or not math.isfinite(v) or v <= 0:
-                raise ValueError(f"PoseEstimatorParams.{n} must be a finite number > 0, got {v!r}.")
-        for n in ("ds", "off_belt_margin", "jump_margin", "jump_margin_psi",
-                  "singular_tolerance"):
-            v = getattr(self, n)
-            if not isinstance(v, (int, float)) or not math.isfinite(v):
-                raise ValueError(f"PoseEstimatorParams.{n} must be a finite number, got {v!r}.")
-        for n in ("off_belt_margin", "jump_margin", "jump_margin_psi", "singular_tolerance"):
-            if getattr(self, n) < 0:
-                raise ValueError(f"PoseEstimatorParams.{n} must be >= 0, got {getattr(self, n)}.")
+        check_numbers(self, ("dt", "belt_half_length", "belt_half_width", "max_speed",
+                             "max_yaw_rate", "stale_timeout", "dt_tolerance", "cutoff_hz"),
+                      above=0.0)
+        check_numbers(self, ("ds",))
+        check_numbers(self, ("off_belt_margin", "jump_margin", "jump_margin_psi",
+                             "singular_tolerance"), at_least=0.0)
         if len(self.joint_min) != 3 or len(self.joint_max) != 3 or any(
                 not lo < hi for lo, hi in zip(self.joint_min, self.joint_max)):
             raise ValueError("PoseEstimatorParams.joint_min/joint_max must be three (min < max) "

@@ -67,6 +67,7 @@ import math
 from dataclasses import dataclass
 from typing import Optional
 
+from irs_common.field_checks import check_numbers
 from irs_common.input_checks import abs_limit_problem
 
 __all__ = ["RegulatorParams", "RegulatorOutput", "BeltSpeedRegulator", "DEFAULT_POSITION_LIMIT",
@@ -107,17 +108,10 @@ class RegulatorParams:
     xdot_cutoff_hz: float = 5.0
 
     def __post_init__(self) -> None:
-        for n in ("x_ref", "k_i", "integral_limit", "k_v"):
-            v = getattr(self, n)
-            if not isinstance(v, (int, float)) or not math.isfinite(v):
-                raise ValueError(f"RegulatorParams.{n} must be a finite number, got {v!r}.")
-        for n in ("k_i", "integral_limit", "k_v"):
-            if getattr(self, n) < 0:
-                raise ValueError(f"RegulatorParams.{n} must be >= 0, got {getattr(self, n)}.")
-        for n in ("k_x", "belt_gain", "u_max", "slew_rate", "v_top", "xdot_cutoff_hz"):
-            v = getattr(self, n)
-            if not isinstance(v, (int, float)) or not math.isfinite(v) or v <= 0:
-                raise ValueError(f"RegulatorParams.{n} must be a finite number > 0, got {v!r}.")
+        check_numbers(self, ("x_ref",))
+        check_numbers(self, ("k_i", "integral_limit", "k_v"), at_least=0.0)
+        check_numbers(self, ("k_x", "belt_gain", "u_max", "slew_rate", "v_top", "xdot_cutoff_hz"),
+                      above=0.0)
 
     @classmethod
     def from_dict(cls, d):

@@ -31,6 +31,7 @@ import math
 from dataclasses import dataclass
 from typing import Optional
 
+from irs_common.field_checks import check_numbers
 from irs_common.input_checks import StampVerdict
 from irs_models.constants import BELT_HALF_LENGTH, BELT_HALF_WIDTH
 
@@ -82,11 +83,8 @@ class SafetyParams:
     stale_timeout: float = 0.1
 
     def __post_init__(self) -> None:
-        for n in ("belt_half_length", "belt_half_width", "end_margin", "edge_margin",
-                  "stale_timeout"):
-            v = getattr(self, n)
-            if not isinstance(v, (int, float)) or not math.isfinite(v) or v < 0:
-                raise ValueError(f"SafetyParams.{n} must be a finite number >= 0, got {v!r}.")
+        check_numbers(self, ("belt_half_length", "belt_half_width", "end_margin", "edge_margin",
+                             "stale_timeout"), at_least=0.0)
         if self.end_margin >= self.belt_half_length or self.edge_margin >= self.belt_half_width:
             raise ValueError("SafetyParams margins must be smaller than the belt half length/width.")
         if self.stale_timeout <= 0:

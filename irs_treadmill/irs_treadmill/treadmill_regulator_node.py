@@ -42,8 +42,10 @@ from std_msgs.msg import Empty
 from std_srvs.srv import Trigger
 
 from irs_common import qos
+from irs_common.answer_cache import AnswerCache
 from irs_common.input_checks import ThrottledWarner
 from irs_common.node_main import run_node
+from irs_common.orientation import yaw_from_quaternion
 from irs_common.params import declare_table, unflatten
 from irs_common.stamp_gate import FUTURE, OK, OLD, REPEAT, RESET, StampGate
 from irs_common.stamp_sync import StampSync
@@ -54,10 +56,6 @@ from irs_msgs.msg import BeltSpeed, TreadmillDriveCommand, TreadmillState
 from .regulator import BeltSpeedRegulator, RegulatorParams
 from .regulator_params import regulator_parameter_table
 from .safety import TRANSIENT, SafetyMonitor, SafetyParams
-
-
-def _yaw(q) -> float:
-    return math.atan2(2.0 * (q.w * q.z + q.x * q.y), 1.0 - 2.0 * (q.y * q.y + q.z * q.z))
 
 
 class TreadmillRegulatorNode(Node):
@@ -76,7 +74,7 @@ class TreadmillRegulatorNode(Node):
         self.sync = StampSync(self.inputs)
         self.belt_speed = math.nan
         self.belt_seen = False
-        self.last_answer = None
+        self.answer = AnswerCache()   # what was published for the last stamp (re-sent on a repeat)
         self.reported_fault = None
         self.published_mode = None
         self.steps = 0
@@ -124,7 +122,7 @@ class TreadmillRegulatorNode(Node):
         self.gate.clear()
         self.regulator.reset()
         self.safety.forget_time()
-        self.last_answer = None
+        self.answer.clear()
 
     def _on_belt(self, msg):
         if self.p['sync_belt_speed']:
@@ -162,9 +160,7 @@ class TreadmillRegulatorNode(Node):
         verdict = self.gate.check(stamp_ns, now_ns)
         if verdict != OK:
             if verdict == REPEAT:
-                if self.last_answer is not None:
-                    for pub, out in self.last_answer:   # a repeated step: repeat the answer
-                        pub.publish(out)
+                self.answer.repeat()    # a repeated step: repeat the answer
                 return
             if verdict != RESET:
                 self._drop('step', verdict, stamp_ns, now_ns)
@@ -183,7 +179,8 @@ class TreadmillRegulatorNode(Node):
             belt_in = belt if self.belt_seen else 0.0
         xdot = None
         if 'velocity' in vals:
-            psi = _yaw(pose.pose.orientation)
+            q = pose.pose.orientation
+            psi = yaw_from_quaternion(q.x, q.y, q.z, q.w)
             v = vals['velocity'].twist.linear
             xdot = v.x * math.cos(psi) - v.y * math.sin(psi)
         limit = self.regulator.position_limit
@@ -203,7 +200,8 @@ class TreadmillRegulatorNode(Node):
         drive = TreadmillDriveCommand()
         drive.header.stamp = stamp
         drive.voltage = float(voltage)
-        self.pub_drive.publish(drive)
+        self.answer.start()
+        self.answer.publish(self.pub_drive, drive)
         st = TreadmillState()
         st.header.stamp = stamp
         st.belt_speed = float(belt)
@@ -219,13 +217,11 @@ class TreadmillRegulatorNode(Node):
             st.mode = TreadmillState.MODE_COAST if coasting else TreadmillState.MODE_DRIVE
         st.fault_code = int(self.safety.fault)
         st.fault_text = self.safety.status_text() if self.safety.faulted else ''
-        self.last_answer = [(self.pub_drive, drive)]
         every = self.p['state_decimation']
         self.steps += 1
         if st.mode != self.published_mode or (every and self.steps % every == 1 % every):
             self.published_mode = st.mode
-            self.pub_state.publish(st)
-            self.last_answer.append((self.pub_state, st))
+            self.answer.publish(self.pub_state, st)
         if self.safety.faulted and self.reported_fault != self.safety.fault:
             self.reported_fault = self.safety.fault
             kind = 'until the input is valid again' if self.safety.fault in TRANSIENT else \
@@ -253,7 +249,7 @@ class TreadmillRegulatorNode(Node):
         self.regulator.reset()
         self.reported_fault = None
         self.gate.clear()
-        self.last_answer = None
+        self.answer.clear()
         self.get_logger().info('treadmill fault reset')
 
     def _on_reset_service(self, _request, response):

@@ -71,6 +71,8 @@ from collections import deque
 from dataclasses import dataclass
 from typing import Deque, List, Tuple
 
+from irs_common.field_checks import check_numbers
+
 __all__ = ["BeltParams", "TreadmillBelt", "BeltEncoder", "coast_speed", "coast_stop_time",
            "coast_distance", "MPH"]
 
@@ -123,13 +125,8 @@ class BeltParams:
     delay_samples: int = 1
 
     def __post_init__(self) -> None:
-        positive = ("gain", "pole", "b_over_j", "f_over_b", "v_top", "u_max", "roller_radius",
-                    "gear_ratio")
-        for name in positive:
-            v = getattr(self, name)
-            if not isinstance(v, (int, float)) or isinstance(v, bool) or not math.isfinite(v) \
-                    or v <= 0.0:
-                raise ValueError(f"BeltParams.{name} must be a finite number > 0, got {v!r}.")
+        check_numbers(self, ("gain", "pole", "b_over_j", "f_over_b", "v_top", "u_max",
+                             "roller_radius", "gear_ratio"), above=0.0)
         if not isinstance(self.delay, (int, float)) or not math.isfinite(self.delay) \
                 or self.delay < 0.0:
             raise ValueError(f"BeltParams.delay must be a finite time >= 0 s, got {self.delay!r}.")

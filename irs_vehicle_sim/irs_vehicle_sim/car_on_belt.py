@@ -38,6 +38,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from irs_common.field_checks import check_numbers
 from irs_models.constants import BELT_HALF_LENGTH, BELT_HALF_WIDTH
 
 __all__ = ["CarParams", "CarOnBelt", "wheel_speeds", "off_belt_edge",
@@ -71,11 +72,8 @@ class CarParams:
     wheel_radius: float = 0.033
 
     def validate(self) -> None:
-        for name in ("tau_u", "length", "width", "lf", "lr", "track", "wheel_radius"):
-            v = getattr(self, name)
-            if not (isinstance(v, (int, float)) and math.isfinite(v) and v > 0.0):
-                raise ValueError(f"CarParams.{name} must be a positive finite number "
-                                 f"(s or m), got {v!r}")
+        check_numbers(self, ("tau_u", "length", "width", "lf", "lr", "track", "wheel_radius"),
+                      above=0.0)
         if self.length >= 2 * BELT_HALF_LENGTH or self.width >= 2 * BELT_HALF_WIDTH:
             raise ValueError("CarParams.length/width must be smaller than the belt "
                              f"({2 * BELT_HALF_LENGTH} m x {2 * BELT_HALF_WIDTH} m)")

@@ -59,6 +59,7 @@ from irs_common import qos
 from irs_common.input_checks import ThrottledWarner
 from irs_common.loop_timing import LoopTiming
 from irs_common.node_main import run_node
+from irs_common.orientation import quaternion_from_yaw
 from irs_common.params import Param, declare_table
 from irs_common.stamp_gate import FUTURE, OLD, StampGate
 from irs_common.stamp_sync import StampSync
@@ -118,10 +119,6 @@ NODE_PARAMS = [
 
 ARM_JOINTS = ['arm_joint1', 'arm_joint2', 'arm_joint3']
 WHEELS = ['wheel_front_left', 'wheel_front_right', 'wheel_rear_left', 'wheel_rear_right']
-
-
-def _quat_z(psi: float):
-    return 0.0, 0.0, math.sin(psi / 2.0), math.cos(psi / 2.0)
 
 
 class VehicleSimNode(Node):
@@ -510,9 +507,8 @@ class VehicleSimNode(Node):
         odom.child_frame_id = self.p['child_frame_id']
         odom.pose.pose.position.x = float(out.x)
         odom.pose.pose.position.y = float(out.y)
-        q = _quat_z(out.psi)
         o = odom.pose.pose.orientation
-        o.x, o.y, o.z, o.w = q
+        o.x, o.y, o.z, o.w = quaternion_from_yaw(out.psi)
         odom.twist.twist.linear.x = float(out.u)
         odom.twist.twist.linear.y = float(out.v)
         odom.twist.twist.angular.z = float(out.yaw_rate)

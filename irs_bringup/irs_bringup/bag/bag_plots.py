@@ -30,13 +30,15 @@ from operator import attrgetter
 from pathlib import Path
 from typing import Callable, Dict, List, Optional, Tuple
 
+from irs_models.constants import BELT_HALF_LENGTH, BELT_HALF_WIDTH
+
 from .bag_reader import BagError, open_bag, reading
 
 __all__ = ['make_plots', 'load_series', 'main', 'NoPlottableTopics', 'BELT_LENGTH',
            'BELT_WIDTH']
 
-BELT_LENGTH = 2.4384
-BELT_WIDTH = 1.2192
+BELT_LENGTH = 2 * BELT_HALF_LENGTH    # [m] 8 ft
+BELT_WIDTH = 2 * BELT_HALF_WIDTH      # [m] 4 ft
 
 
 class NoPlottableTopics(BagError):

@@ -30,6 +30,8 @@ from operator import attrgetter
 from pathlib import Path
 from typing import Dict, List, Optional
 
+from irs_common.orientation import quaternion_from_yaw, yaw_from_quaternion
+
 from .bag_plots import BELT_LENGTH, BELT_WIDTH, _find, _stamp_s
 from .bag_reader import BagError, open_bag, reading
 
@@ -58,7 +60,7 @@ class NothingToExport(BagError):
 
 
 def _yaw(q) -> float:
-    return math.atan2(2.0 * (q.w * q.z + q.x * q.y), 1.0 - 2.0 * (q.y * q.y + q.z * q.z))
+    return yaw_from_quaternion(q.x, q.y, q.z, q.w)
 
 
 class _Decimator:
@@ -160,11 +162,9 @@ def export_rrd(bag_path, rrd_path, *, view_rate: float = 50.0, series_rate: floa
     rows['world/belt'] = rows['world/arm/base'] = 1
     for ts, x, y, psi in cars:
         rec.set_time('time', duration=ts - t0)
-        half = math.sin(psi / 2.0), math.cos(psi / 2.0)
         rec.log('world/car', rr.Boxes3D(centers=[[x, y, 0.0]],
                                         half_sizes=[[car_length / 2, car_width / 2, 0.01]],
-                                        quaternions=[rr.Quaternion(xyzw=[0, 0, half[0],
-                                                                         half[1]])],
+                                        quaternions=[rr.Quaternion(xyzw=quaternion_from_yaw(psi))],
                                         colors=[[30, 120, 220]]))
         rec.log('world/car/heading', rr.Arrows3D(
             origins=[[x, y, 0.0]],

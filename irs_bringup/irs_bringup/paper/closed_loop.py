@@ -19,6 +19,7 @@ import math
 
 import numpy as np
 
+from irs_common.orientation import quaternion_from_yaw, yaw_from_quaternion
 from irs_common.params import unflatten
 from irs_control.controller_factory import (CONTROLLER_DEFAULTS, INPUT_CHECK_DEFAULTS,
                                             make_controller)
@@ -53,8 +54,7 @@ class LoopConfig:
 
 def _yaw_via_quaternion(psi: float) -> float:
     """psi -> quaternion (as published) -> yaw (as the regulator reads it)."""
-    z, w = math.sin(psi / 2.0), math.cos(psi / 2.0)
-    return math.atan2(2.0 * (w * z), 1.0 - 2.0 * (z * z))
+    return yaw_from_quaternion(*quaternion_from_yaw(psi))
 
 
 class ClosedLoop:

@@ -58,6 +58,7 @@ import numpy as np
 
 from irs_control import metrics as M
 from irs_control.paper_design import reference_model
+from irs_models.constants import STEER_LIMIT  # [rad] 15 deg: the "time at limit" metric
 
 __all__ = ["RUN_NAMES", "RUN_LABELS", "DEFAULT_STEP", "DEFAULT_STEP_TIME", "DEFAULT_DURATION",
            "DEFAULT_RIG", "DEFAULT_CONTROLLERS", "METRIC_COLUMNS", "RESIDUAL_DELAY",
@@ -76,8 +77,6 @@ DEFAULT_STEP_TIME = 0.5
 DEFAULT_DURATION = 8.0
 #: Residual oscillation is measured from t_step + RESIDUAL_DELAY [s].
 RESIDUAL_DELAY = 3.0
-#: Steer limit [rad] (15 deg) used for the "time at limit" metric.
-STEER_LIMIT = 0.2618
 #: Rig overrides of the default scenario (empty: irs_vehicle_sim/config/rig.yaml defaults,
 #: i.e. identified plant at 1.2 m/s, ds 0.33 m, all actuator non-idealities and arm noise on).
 DEFAULT_RIG: dict = {}
