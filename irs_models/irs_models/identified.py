@@ -42,10 +42,10 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.signal import cont2discrete
 
 from .constants import (IDENTIFICATION_SPEED, PAPER_ACTUATOR_POLE, PAPER_PLANT_GAIN,
                         PAPER_VEHICLE_POLES, PAPER_ZEROS, SENSOR_DISTANCE)
+from .lateral_plant import ZohSteps
 
 __all__ = ["IdentifiedParams", "IdentifiedPlant", "identified_matrices", "identified_plant"]
 
@@ -158,7 +158,7 @@ def identified_matrices(params: IdentifiedParams | None = None):
     return A, B, C, D, Ca, Da
 
 
-class IdentifiedPlant:
+class IdentifiedPlant(ZohSteps):
     """Discrete (exact ZOH) identified plant implementing the ``LateralPlant`` interface.
 
     ``step(delta_front, delta_rear, dt)`` ignores ``delta_rear`` (Eq. 6 is front-steer only).
@@ -167,7 +167,6 @@ class IdentifiedPlant:
     def __init__(self, params: IdentifiedParams | None = None):
         self.params = params if params is not None else IdentifiedParams()
         self.A, self.B, self.C, self.D, self.Ca, self.Da = identified_matrices(self.params)
-        self._cache: dict = {}
         self.x = np.zeros(4)
         self._delta = 0.0
 
@@ -175,14 +174,6 @@ class IdentifiedPlant:
         """Zero state with the sensor point at lateral position ``y_s`` [m], heading 0."""
         self.x = np.array([float(y_s), 0.0, 0.0, 0.0])
         self._delta = 0.0
-
-    def discrete(self, dt: float):
-        """(Ad, Bd) for step dt [s] (cached)."""
-        if dt not in self._cache:
-            if not (math.isfinite(dt) and dt > 0.0):
-                raise ValueError(f"dt must be a positive finite step in s, got {dt!r}")
-            self._cache[dt] = cont2discrete((self.A, self.B, self.C, self.D), dt, method="zoh")[:2]
-        return self._cache[dt]
 
     def step(self, delta_front: float, delta_rear: float = 0.0, dt: float = 1e-3) -> None:
         """Advance dt [s] with the achieved front steer ``delta_front`` [rad] held constant."""

@@ -26,7 +26,7 @@ from typing import Protocol, runtime_checkable
 import numpy as np
 from scipy.signal import cont2discrete
 
-__all__ = ["LateralPlant", "BicyclePlant"]
+__all__ = ["LateralPlant", "ZohSteps", "BicyclePlant"]
 
 
 @runtime_checkable
@@ -53,7 +53,21 @@ class LateralPlant(Protocol):
     def lateral_velocity(self) -> float: ...
 
 
-class BicyclePlant:
+class ZohSteps:
+    """Exact zero-order-hold steps of a continuous plant with matrices ``A, B, C, D``
+    (``scipy.signal.cont2discrete``), computed once per step size."""
+
+    def discrete(self, dt: float):
+        """(Ad, Bd) for step dt [s] (cached)."""
+        cache = self.__dict__.setdefault("_zoh_cache", {})
+        if dt not in cache:
+            if not (math.isfinite(dt) and dt > 0.0):
+                raise ValueError(f"dt must be a positive finite step in s, got {dt!r}")
+            cache[dt] = cont2discrete((self.A, self.B, self.C, self.D), dt, method="zoh")[:2]
+        return cache[dt]
+
+
+class BicyclePlant(ZohSteps):
     """Linear bicycle model, exact ZOH discretisation, implementing :class:`LateralPlant`.
 
     Parameters
@@ -72,20 +86,11 @@ class BicyclePlant:
         self.speed = float(speed)
         self.ds = float(ds)
         self.A, self.B, self.C, self.D = bicycle_state_space(params, speed, ds)
-        self._cache: dict = {}
         self.x = np.zeros(4)
 
     def reset(self, y_cg: float = 0.0, psi: float = 0.0) -> None:
         """Zero velocities, c.g. at lateral position ``y_cg`` [m] with heading ``psi`` [rad]."""
         self.x = np.array([0.0, 0.0, float(y_cg), float(psi)])
-
-    def discrete(self, dt: float):
-        """(Ad, Bd) for step dt [s] (cached)."""
-        if dt not in self._cache:
-            if not (math.isfinite(dt) and dt > 0.0):
-                raise ValueError(f"dt must be a positive finite step in s, got {dt!r}")
-            self._cache[dt] = cont2discrete((self.A, self.B, self.C, self.D), dt, method="zoh")[:2]
-        return self._cache[dt]
 
     def step(self, delta_front: float, delta_rear: float = 0.0, dt: float = 1e-3) -> None:
         """Advance dt [s] with achieved steer angles [rad] held constant."""

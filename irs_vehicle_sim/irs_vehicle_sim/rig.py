@@ -36,6 +36,7 @@ from typing import Callable, Optional
 import numpy as np
 
 from irs_models.arm_kinematics import ArmGeometry, ArmReachError
+from irs_models.constants import SENSOR_DISTANCE
 from irs_models.identified import IdentifiedParams, IdentifiedPlant
 from irs_models.lateral_plant import BicyclePlant, LateralPlant
 
@@ -53,49 +54,43 @@ DEFAULT_STEER_REJECT_RAD = math.radians(30.0)
 
 
 # ----------------------------------------------------------------------------- sanitising
+def _screen(value, what: str, accept, out_of_range, safe: float, instead: str):
+    """``(float(value), None)`` if ``value`` is a finite number that ``accept`` takes, else
+    ``(safe, reason)``; ``out_of_range(v)`` words the refusal of a finite number, ``instead``
+    says what is used in its place."""
+    try:
+        v = float(value)
+    except (TypeError, ValueError):
+        return safe, f"{what} {value!r} is not a number; {instead}"
+    if not math.isfinite(v):
+        return safe, f"{what} {v!r} is not finite; {instead}"
+    if not accept(v):
+        return safe, f"{what} {out_of_range(v)}; {instead}"
+    return v, None
+
+
 def sanitize_steer(value: float, reject_limit: float = DEFAULT_STEER_REJECT_RAD):
     """Safe steer command [rad] and a reason (``None`` if accepted).
 
     Non-finite values and ``|value| > reject_limit`` are replaced by 0 rad.
     """
-    try:
-        v = float(value)
-    except (TypeError, ValueError):
-        return 0.0, f"steer command {value!r} is not a number; using 0 rad"
-    if not math.isfinite(v):
-        return 0.0, f"steer command {v!r} is not finite; using 0 rad"
-    if abs(v) > reject_limit:
-        return 0.0, (f"steer command {v:.4f} rad exceeds the accepted range "
-                     f"+-{reject_limit:.4f} rad; using 0 rad")
-    return v, None
+    return _screen(value, "steer command", lambda v: abs(v) <= reject_limit,
+                   lambda v: f"{v:.4f} rad exceeds the accepted range +-{reject_limit:.4f} rad",
+                   0.0, "using 0 rad")
 
 
 def sanitize_voltage(value: float, u_max: float):
     """Safe drive voltage [V] and a reason; non-finite or outside [0, u_max] -> 0 V."""
-    try:
-        v = float(value)
-    except (TypeError, ValueError):
-        return 0.0, f"drive voltage {value!r} is not a number; using 0 V"
-    if not math.isfinite(v):
-        return 0.0, f"drive voltage {v!r} is not finite; using 0 V"
-    if v < 0.0 or v > u_max:
-        return 0.0, f"drive voltage {v:.3f} V is outside [0, {u_max:.3f}] V; using 0 V"
-    return v, None
+    return _screen(value, "drive voltage", lambda v: 0.0 <= v <= u_max,
+                   lambda v: f"{v:.3f} V is outside [0, {u_max:.3f}] V", 0.0, "using 0 V")
 
 
 def sanitize_speed(value: float, u_max: float, fallback: float):
     """Safe driver speed command [m/s] and a reason; non-finite or outside [0, u_max] ->
     ``fallback`` (the last accepted command: stopping the car on a moving belt is not safe)."""
-    try:
-        v = float(value)
-    except (TypeError, ValueError):
-        return fallback, f"speed command {value!r} is not a number; holding {fallback:.3f} m/s"
-    if not math.isfinite(v):
-        return fallback, f"speed command {v!r} is not finite; holding {fallback:.3f} m/s"
-    if v < 0.0 or v > u_max:
-        return fallback, (f"speed command {v:.3f} m/s is outside [0, {u_max:.3f}] m/s; "
-                          f"holding {fallback:.3f} m/s")
-    return v, None
+    return _screen(value, "speed command", lambda v: 0.0 <= v <= u_max,
+                   lambda v: f"{v:.3f} m/s is outside [0, {u_max:.3f}] m/s", fallback,
+                   f"holding {fallback:.3f} m/s")
 
 
 # ----------------------------------------------------------------------------- data
@@ -211,7 +206,7 @@ class RigConfig:
     dt: float = 1e-3
     seed: int = 0
     plant: str = "identified"
-    ds: float = 0.33
+    ds: float = SENSOR_DISTANCE
     steer_reject: float = DEFAULT_STEER_REJECT_RAD
     speed_cmd_max: float = 5.0
     x0: float = 0.0
