@@ -32,7 +32,8 @@ ROS_SUFFIXES = ('_msgs', '_srvs', '_interfaces')
 
 def imported_modules(path: Path, package_dir: tuple):
     """``(line, absolute module name)`` of every import in ``path``; ``package_dir`` is the
-    module's folder as a dotted path (``('irs_bringup', 'paper')``) for relative imports."""
+    module's folder as a dotted path (``('irs_bringup', 'paper')``) for relative imports.
+    """
     out = []
     for node in ast.walk(ast.parse(path.read_text(), str(path))):
         if isinstance(node, ast.Import):
@@ -90,7 +91,8 @@ def test_every_package_is_in_the_table():
 def test_a_backwards_import_is_found(tmp_path):
     """The checker itself: a simulator module importing the estimator, a model importing a core
     (lazily), a model importing rclpy and a ROS-free irs_common module importing a ROS one are
-    all reported; a relative import inside a package is not."""
+    all reported; a relative import inside a package is not.
+    """
     for package, text in (('irs_vehicle_sim', 'from irs_sensing.pose_estimator import x\n'),
                           ('irs_models', 'def f():\n    import irs_control.metrics\n'),
                           ('irs_common', 'from . import stamp_sync\n')):

@@ -9,7 +9,7 @@ when time went back. ROS-free: ``pub`` is anything with ``publish(msg)``.
 """
 from __future__ import annotations
 
-__all__ = ["AnswerCache"]
+__all__ = ['AnswerCache']
 
 
 class AnswerCache:

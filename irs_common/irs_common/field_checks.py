@@ -14,7 +14,7 @@ from __future__ import annotations
 import math
 from typing import Iterable, Optional
 
-__all__ = ["check_numbers"]
+__all__ = ['check_numbers']
 
 
 def check_numbers(obj, names: Iterable[str], *, above: Optional[float] = None,
@@ -25,16 +25,16 @@ def check_numbers(obj, names: Iterable[str], *, above: Optional[float] = None,
     The message reads ``"<Class>.<field> must be a finite number > 0, got -1.0."``.
     """
     if above is not None and at_least is not None:
-        raise ValueError("check_numbers: give at most one of above and at_least")
+        raise ValueError('check_numbers: give at most one of above and at_least')
     if above is not None:
-        bound, ok = f" > {above:g}", (lambda v: v > above)
+        bound, ok = f' > {above:g}', (lambda v: v > above)
     elif at_least is not None:
-        bound, ok = f" >= {at_least:g}", (lambda v: v >= at_least)
+        bound, ok = f' >= {at_least:g}', (lambda v: v >= at_least)
     else:
-        bound, ok = "", (lambda v: True)
+        bound, ok = '', (lambda v: True)
     for name in names:
         v = getattr(obj, name)
         if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v) \
                 or not ok(v):
-            raise ValueError(f"{type(obj).__name__}.{name} must be a finite number{bound}, "
-                             f"got {v!r}.")
+            raise ValueError(f'{type(obj).__name__}.{name} must be a finite number{bound}, '
+                             f'got {v!r}.')

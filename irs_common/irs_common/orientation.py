@@ -7,7 +7,7 @@ from __future__ import annotations
 
 import math
 
-__all__ = ["quaternion_from_yaw", "yaw_from_quaternion"]
+__all__ = ['quaternion_from_yaw', 'yaw_from_quaternion']
 
 
 def quaternion_from_yaw(psi: float) -> tuple[float, float, float, float]:
@@ -17,5 +17,6 @@ def quaternion_from_yaw(psi: float) -> tuple[float, float, float, float]:
 
 def yaw_from_quaternion(x: float, y: float, z: float, w: float) -> float:
     """Yaw [rad] in (-pi, pi] of the unit quaternion ``(x, y, z, w)`` (the z of its ZYX Euler
-    angles)."""
+    angles).
+    """
     return math.atan2(2.0 * (w * z + x * y), 1.0 - 2.0 * (y * y + z * z))

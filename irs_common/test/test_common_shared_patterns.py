@@ -1,5 +1,6 @@
 """The shared node patterns of irs_common: the lock-step answer cache, yaw <-> quaternion and the
-dataclass field checks (no ROS graph needed)."""
+dataclass field checks (no ROS graph needed).
+"""
 import math
 from dataclasses import dataclass
 
@@ -11,6 +12,8 @@ from irs_common.orientation import quaternion_from_yaw, yaw_from_quaternion
 
 
 class Pub:
+    """A publisher that logs what it publishes."""
+
     def __init__(self, log, name):
         self.log, self.name = log, name
 
@@ -56,6 +59,8 @@ def test_yaw_of_a_general_quaternion():
 
 @dataclass
 class Params:
+    """Fields to check."""
+
     gain: float = 1.0
     margin: float = 0.0
     offset: float = -2.0
@@ -64,7 +69,8 @@ class Params:
 @pytest.mark.parametrize('kwargs, rule, message', [
     ({'gain': 0.0}, {'above': 0.0}, r'Params.gain must be a finite number > 0, got 0.0.'),
     ({'gain': math.nan}, {'above': 0.0}, r'Params.gain must be a finite number > 0, got nan.'),
-    ({'margin': -0.1}, {'at_least': 0.0}, r'Params.margin must be a finite number >= 0, got -0.1.'),
+    ({'margin': -0.1}, {'at_least': 0.0},
+     r'Params.margin must be a finite number >= 0, got -0.1.'),
     ({'offset': math.inf}, {}, r'Params.offset must be a finite number, got inf.'),
     ({'gain': True}, {}, r'Params.gain must be a finite number, got True.'),
     ({'gain': '1'}, {}, r"Params.gain must be a finite number, got '1'."),

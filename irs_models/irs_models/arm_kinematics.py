@@ -35,16 +35,16 @@ from dataclasses import dataclass
 from typing import Tuple
 
 __all__ = [
-    "ArmGeometry",
-    "ArmPose",
-    "ArmReachError",
-    "wrap_angle",
-    "forward_kinematics",
-    "inverse_kinematics",
-    "singularity_margin",
-    "is_near_singular",
-    "tip_jacobian_determinant",
-    "sensor_point",
+    'ArmGeometry',
+    'ArmPose',
+    'ArmReachError',
+    'wrap_angle',
+    'forward_kinematics',
+    'inverse_kinematics',
+    'singularity_margin',
+    'is_near_singular',
+    'tip_jacobian_determinant',
+    'sensor_point',
 ]
 
 
@@ -92,19 +92,19 @@ class ArmGeometry:
     elbow: int = 1
 
     def __post_init__(self) -> None:
-        for name in ("l1", "l2", "base_x", "base_y", "attach_offset"):
+        for name in ('l1', 'l2', 'base_x', 'base_y', 'attach_offset'):
             value = getattr(self, name)
             if isinstance(value, bool) or not isinstance(value, (int, float)):
-                raise ValueError(f"ArmGeometry.{name} must be a real number in metres, got {value!r}.")
+                raise ValueError(f'ArmGeometry.{name} must be a real number in metres, got {value!r}.')
             if not math.isfinite(value):
-                raise ValueError(f"ArmGeometry.{name} must be finite, got {value!r}.")
+                raise ValueError(f'ArmGeometry.{name} must be finite, got {value!r}.')
             object.__setattr__(self, name, float(value))
         if self.l1 <= 0.0 or self.l2 <= 0.0:
             raise ValueError(
-                f"ArmGeometry link lengths l1, l2 must be > 0 m, got l1={self.l1}, l2={self.l2}.")
+                f'ArmGeometry link lengths l1, l2 must be > 0 m, got l1={self.l1}, l2={self.l2}.')
         if self.elbow not in (1, -1) or isinstance(self.elbow, bool):
-            raise ValueError(f"ArmGeometry.elbow must be +1 or -1, got {self.elbow!r}.")
-        object.__setattr__(self, "elbow", int(self.elbow))
+            raise ValueError(f'ArmGeometry.elbow must be +1 or -1, got {self.elbow!r}.')
+        object.__setattr__(self, 'elbow', int(self.elbow))
 
     @property
     def max_reach(self) -> float:
@@ -194,9 +194,9 @@ def inverse_kinematics(x_cg: float, y_cg: float, psi: float,
         (beyond ``reach_tolerance``), or the inputs are not finite.
     """
     g = geometry
-    for name, v in (("x_cg", x_cg), ("y_cg", y_cg), ("psi", psi)):
+    for name, v in (('x_cg', x_cg), ('y_cg', y_cg), ('psi', psi)):
         if not math.isfinite(v):
-            raise ArmReachError(f"inverse_kinematics expected a finite {name}, got {v!r}.")
+            raise ArmReachError(f'inverse_kinematics expected a finite {name}, got {v!r}.')
     x_tip = x_cg + g.attach_offset * math.cos(psi)
     y_tip = y_cg + g.attach_offset * math.sin(psi)
     dx = x_tip - g.base_x
@@ -204,12 +204,12 @@ def inverse_kinematics(x_cg: float, y_cg: float, psi: float,
     r = math.hypot(dx, dy)
     if r > g.max_reach + reach_tolerance:
         raise ArmReachError(
-            f"Arm tip ({x_tip:.4f}, {y_tip:.4f}) m is {r:.4f} m from the base, beyond the "
-            f"maximum reach l1 + l2 = {g.max_reach:.4f} m.")
+            f'Arm tip ({x_tip:.4f}, {y_tip:.4f}) m is {r:.4f} m from the base, beyond the '
+            f'maximum reach l1 + l2 = {g.max_reach:.4f} m.')
     if r < g.min_reach - reach_tolerance:
         raise ArmReachError(
-            f"Arm tip ({x_tip:.4f}, {y_tip:.4f}) m is {r:.4f} m from the base, inside the "
-            f"minimum reach |l1 - l2| = {g.min_reach:.4f} m.")
+            f'Arm tip ({x_tip:.4f}, {y_tip:.4f}) m is {r:.4f} m from the base, inside the '
+            f'minimum reach |l1 - l2| = {g.min_reach:.4f} m.')
     c2 = (r * r - g.l1 ** 2 - g.l2 ** 2) / (2.0 * g.l1 * g.l2)
     c2 = min(1.0, max(-1.0, c2))
     theta2 = g.elbow * math.acos(c2)
@@ -236,7 +236,7 @@ def singularity_margin(theta2: float) -> float:
 def is_near_singular(theta2: float, tolerance: float = math.radians(5.0)) -> bool:
     """True if ``singularity_margin(theta2) < tolerance`` [rad] (default 5 deg = 0.0873 rad)."""
     if tolerance < 0.0 or not math.isfinite(tolerance):
-        raise ValueError(f"tolerance must be a finite angle >= 0 rad, got {tolerance!r}.")
+        raise ValueError(f'tolerance must be a finite angle >= 0 rad, got {tolerance!r}.')
     return singularity_margin(theta2) < tolerance
 
 
@@ -251,5 +251,5 @@ def sensor_point(pose: ArmPose, ds: float) -> Tuple[float, float]:
     ``x_s = x_cg + ds cos(psi)``, ``y_s = y_cg + ds sin(psi)`` [m] (paper's Y_s).
     """
     if not math.isfinite(ds):
-        raise ValueError(f"ds must be a finite distance in metres, got {ds!r}.")
+        raise ValueError(f'ds must be a finite distance in metres, got {ds!r}.')
     return (pose.x_cg + ds * math.cos(pose.psi), pose.y_cg + ds * math.sin(pose.psi))

@@ -76,12 +76,12 @@ import math
 import numpy as np
 
 __all__ = [
-    "BicycleParams",
-    "bicycle_state_space",
-    "tf_coefficients",
-    "transfer_function",
-    "zpk",
-    "DEFAULT_ACTUATOR_HZ",
+    'BicycleParams',
+    'bicycle_state_space',
+    'tf_coefficients',
+    'transfer_function',
+    'zpk',
+    'DEFAULT_ACTUATOR_HZ',
 ]
 
 #: Default steering actuator first-order lag corner [Hz] (paper section 4, Fig. 8 fit).
@@ -92,9 +92,9 @@ def _positive(name: str, value: float) -> float:
     try:
         v = float(value)
     except (TypeError, ValueError):
-        raise ValueError(f"{name} must be a positive finite number, got {value!r}.") from None
+        raise ValueError(f'{name} must be a positive finite number, got {value!r}.') from None
     if not math.isfinite(v) or v <= 0.0:
-        raise ValueError(f"{name} must be a positive finite number, got {value!r}.")
+        raise ValueError(f'{name} must be a positive finite number, got {value!r}.')
     return v
 
 
@@ -132,11 +132,11 @@ class BicycleParams:
     rear_steer: bool = False
 
     def __post_init__(self):
-        for name in ("mass", "yaw_inertia", "lf", "lr", "c_f", "c_r", "track", "wheel_radius"):
+        for name in ('mass', 'yaw_inertia', 'lf', 'lr', 'c_f', 'c_r', 'track', 'wheel_radius'):
             object.__setattr__(self, name, _positive(name, getattr(self, name)))
         if not isinstance(self.rear_steer, (bool, np.bool_)):
-            raise ValueError(f"rear_steer must be a bool (True/False), got {self.rear_steer!r}.")
-        object.__setattr__(self, "rear_steer", bool(self.rear_steer))
+            raise ValueError(f'rear_steer must be a bool (True/False), got {self.rear_steer!r}.')
+        object.__setattr__(self, 'rear_steer', bool(self.rear_steer))
 
     @property
     def wheelbase(self) -> float:
@@ -149,13 +149,13 @@ class BicycleParams:
 
 
 def _check_speed_ds(speed, ds):
-    v = _positive("speed", speed)
+    v = _positive('speed', speed)
     try:
         d = float(ds)
     except (TypeError, ValueError):
-        raise ValueError(f"ds must be a finite distance in metres, got {ds!r}.") from None
+        raise ValueError(f'ds must be a finite distance in metres, got {ds!r}.') from None
     if not math.isfinite(d):
-        raise ValueError(f"ds must be a finite distance in metres, got {ds!r}.")
+        raise ValueError(f'ds must be a finite distance in metres, got {ds!r}.')
     return v, d
 
 
@@ -192,7 +192,7 @@ def bicycle_state_space(params: BicycleParams, speed: float, ds: float = 0.0):
     return A, B, C, D
 
 
-def tf_coefficients(params: BicycleParams, speed: float, ds: float = 0.0, axle: str = "front"):
+def tf_coefficients(params: BicycleParams, speed: float, ds: float = 0.0, axle: str = 'front'):
     """Symbolic (Eq. 5) numerator / denominator coefficients, highest power first.
 
     Returns
@@ -208,9 +208,9 @@ def tf_coefficients(params: BicycleParams, speed: float, ds: float = 0.0, axle: 
     p = params
     m, iz, lf, lr, cf, cr = p.mass, p.yaw_inertia, p.lf, p.lr, p.c_f, p.c_r
     L = lf + lr
-    if axle == "front":
+    if axle == 'front':
         num = cf * np.array([V**2 * (iz + m * lf * d), cr * L * V * (lr + d), cr * L * V**2])
-    elif axle == "rear":
+    elif axle == 'rear':
         num = cr * np.array([V**2 * (iz - m * lr * d), cf * L * V * (lf - d), -cf * L * V**2])
     else:
         raise ValueError(f"axle must be 'front' or 'rear', got {axle!r}.")
@@ -236,11 +236,11 @@ def _actuator_omega(actuator_pole):
         return None
     w = abs(float(actuator_pole))
     if not math.isfinite(w) or w == 0.0:
-        raise ValueError(f"actuator_pole must be a finite non-zero pole in rad/s, got {actuator_pole!r}.")
+        raise ValueError(f'actuator_pole must be a finite non-zero pole in rad/s, got {actuator_pole!r}.')
     return w
 
 
-def transfer_function(params: BicycleParams, speed: float, ds: float = 0.0, axle: str = "front",
+def transfer_function(params: BicycleParams, speed: float, ds: float = 0.0, axle: str = 'front',
                       actuator_pole=None, as_control: bool = True):
     """Steer-to-lateral-displacement transfer function Y_s(s)/delta(s) [m/rad].
 
@@ -270,7 +270,7 @@ def transfer_function(params: BicycleParams, speed: float, ds: float = 0.0, axle
     return control.tf(num, den)
 
 
-def zpk(params: BicycleParams, speed: float, ds: float = 0.0, axle: str = "front", actuator_pole=None):
+def zpk(params: BicycleParams, speed: float, ds: float = 0.0, axle: str = 'front', actuator_pole=None):
     """Zeros, poles and high-frequency gain of :func:`transfer_function`.
 
     ``G(s) = k prod(s - z_i) / prod(s - p_j)``.
@@ -282,7 +282,7 @@ def zpk(params: BicycleParams, speed: float, ds: float = 0.0, axle: str = "front
         Leading-coefficient ratio (the paper's "high-frequency gain").
     """
     num, den = transfer_function(params, speed, ds, axle, actuator_pole, as_control=False)
-    num = np.trim_zeros(np.asarray(num, float), "f")
+    num = np.trim_zeros(np.asarray(num, float), 'f')
     zeros = np.roots(num) if len(num) > 1 else np.array([], complex)
     poles = np.roots(den)
     # exact integrators: the two trailing zeros of den

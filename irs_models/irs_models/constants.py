@@ -5,9 +5,9 @@ deployment starts with; the code's defaults and bounds come from here.
 """
 from __future__ import annotations
 
-__all__ = ["BELT_HALF_LENGTH", "BELT_HALF_WIDTH", "STEER_LIMIT", "STEER_LIMIT_DEG", "PAPER_PLANT_GAIN",
-           "PAPER_ACTUATOR_POLE", "PAPER_VEHICLE_POLES", "PAPER_ZEROS", "IDENTIFICATION_SPEED",
-           "SENSOR_DISTANCE"]
+__all__ = ['BELT_HALF_LENGTH', 'BELT_HALF_WIDTH', 'STEER_LIMIT', 'STEER_LIMIT_DEG',
+           'PAPER_PLANT_GAIN', 'PAPER_ACTUATOR_POLE', 'PAPER_VEHICLE_POLES', 'PAPER_ZEROS',
+           'IDENTIFICATION_SPEED', 'SENSOR_DISTANCE']
 
 #: Belt half length, 8 ft / 2 [m] (x, along the belt).
 BELT_HALF_LENGTH = 1.2192

@@ -47,7 +47,7 @@ from .constants import (IDENTIFICATION_SPEED, PAPER_ACTUATOR_POLE, PAPER_PLANT_G
                         PAPER_VEHICLE_POLES, PAPER_ZEROS, SENSOR_DISTANCE)
 from .lateral_plant import ZohSteps
 
-__all__ = ["IdentifiedParams", "IdentifiedPlant", "identified_matrices", "identified_plant"]
+__all__ = ['IdentifiedParams', 'IdentifiedPlant', 'identified_matrices', 'identified_plant']
 
 
 def identified_plant(include_actuator: bool = True, actuator_pole: float = PAPER_ACTUATOR_POLE,
@@ -73,9 +73,11 @@ def identified_plant(include_actuator: bool = True, actuator_pole: float = PAPER
         ``B = (gain/p)(s+2.4)(s+4.8)``, ``A = s^2 (s+8)(s+20)`` (without).
     """
     if not (np.isfinite(actuator_pole) and actuator_pole > 0):
-        raise ValueError(f"actuator_pole must be a positive finite magnitude in rad/s; got {actuator_pole}.")
+        raise ValueError('actuator_pole must be a positive finite magnitude in rad/s; '
+                         f'got {actuator_pole}.')
     if not (np.isfinite(gain) and gain != 0):
-        raise ValueError(f"gain must be a finite non-zero plant gain b0 in m rad^-1 s^-3; got {gain}.")
+        raise ValueError('gain must be a finite non-zero plant gain b0 in m rad^-1 s^-3; '
+                         f'got {gain}.')
     poles = list(PAPER_VEHICLE_POLES)
     if include_actuator:
         poles.append(-float(actuator_pole))
@@ -117,15 +119,15 @@ class IdentifiedParams:
 
     def validate(self) -> None:
         if len(self.zeros) != 2 or len(self.poles) != 2:
-            raise ValueError("zeros and poles must each hold exactly two real values in rad/s")
+            raise ValueError('zeros and poles must each hold exactly two real values in rad/s')
         if not all(math.isfinite(float(v)) for v in (*self.zeros, *self.poles)):
-            raise ValueError("zeros and poles must be finite values in rad/s")
+            raise ValueError('zeros and poles must be finite values in rad/s')
         if not (math.isfinite(self.resolved_gain()) and self.resolved_gain() > 0.0):
-            raise ValueError(f"gain must be a positive finite value in m/s^2/rad, got {self.gain!r}")
+            raise ValueError(f'gain must be a positive finite value in m/s^2/rad, got {self.gain!r}')
         if not (math.isfinite(self.speed) and self.speed > 0.0):
-            raise ValueError(f"speed must be a positive speed in m/s, got {self.speed!r}")
+            raise ValueError(f'speed must be a positive speed in m/s, got {self.speed!r}')
         if not (math.isfinite(self.ds) and self.ds >= 0.0):
-            raise ValueError(f"ds must be a non-negative distance in m, got {self.ds!r}")
+            raise ValueError(f'ds must be a non-negative distance in m, got {self.ds!r}')
 
 
 def identified_matrices(params: IdentifiedParams | None = None):

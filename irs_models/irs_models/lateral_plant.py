@@ -26,7 +26,7 @@ from typing import Protocol, runtime_checkable
 import numpy as np
 from scipy.signal import cont2discrete
 
-__all__ = ["LateralPlant", "ZohSteps", "BicyclePlant"]
+__all__ = ['LateralPlant', 'ZohSteps', 'BicyclePlant']
 
 
 @runtime_checkable
@@ -55,15 +55,16 @@ class LateralPlant(Protocol):
 
 class ZohSteps:
     """Exact zero-order-hold steps of a continuous plant with matrices ``A, B, C, D``
-    (``scipy.signal.cont2discrete``), computed once per step size."""
+    (``scipy.signal.cont2discrete``), computed once per step size.
+    """
 
     def discrete(self, dt: float):
         """(Ad, Bd) for step dt [s] (cached)."""
-        cache = self.__dict__.setdefault("_zoh_cache", {})
+        cache = self.__dict__.setdefault('_zoh_cache', {})
         if dt not in cache:
             if not (math.isfinite(dt) and dt > 0.0):
-                raise ValueError(f"dt must be a positive finite step in s, got {dt!r}")
-            cache[dt] = cont2discrete((self.A, self.B, self.C, self.D), dt, method="zoh")[:2]
+                raise ValueError(f'dt must be a positive finite step in s, got {dt!r}')
+            cache[dt] = cont2discrete((self.A, self.B, self.C, self.D), dt, method='zoh')[:2]
         return cache[dt]
 
 
@@ -120,5 +121,6 @@ class BicyclePlant(ZohSteps):
     @property
     def y_s(self) -> float:
         """y_s = y + ds sin(psi) [m] (the linear model output C x uses ds psi; equal to first
-        order)."""
+        order).
+        """
         return self.y_cg + self.ds * math.sin(self.psi)

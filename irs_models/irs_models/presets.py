@@ -43,33 +43,33 @@ import yaml
 from .bicycle import BicycleParams, zpk
 
 __all__ = [
-    "Preset",
-    "FitResult",
-    "PARAM_NAMES",
-    "default_presets_path",
-    "load_presets",
-    "list_presets",
-    "get_preset",
-    "fit_preset",
-    "root_errors",
-    "parse_roots",
-    "vehicle_roots",
+    'Preset',
+    'FitResult',
+    'PARAM_NAMES',
+    'default_presets_path',
+    'load_presets',
+    'list_presets',
+    'get_preset',
+    'fit_preset',
+    'root_errors',
+    'parse_roots',
+    'vehicle_roots',
 ]
 
 #: The six model parameters the fit adjusts, in order.
-PARAM_NAMES = ("mass", "yaw_inertia", "lf", "lr", "c_f", "c_r")
+PARAM_NAMES = ('mass', 'yaw_inertia', 'lf', 'lr', 'c_f', 'c_r')
 
 
 def default_presets_path() -> str:
     """Path of ``config/presets.yaml`` (source tree, else the ament share directory)."""
     here = os.path.dirname(os.path.abspath(__file__))
-    cand = os.path.join(os.path.dirname(here), "config", "presets.yaml")
+    cand = os.path.join(os.path.dirname(here), 'config', 'presets.yaml')
     if os.path.isfile(cand):
         return cand
     try:  # installed package
         from ament_index_python.packages import get_package_share_directory
 
-        share = os.path.join(get_package_share_directory("irs_models"), "config", "presets.yaml")
+        share = os.path.join(get_package_share_directory('irs_models'), 'config', 'presets.yaml')
         if os.path.isfile(share):
             return share
     except Exception:  # pragma: no cover - only without the source tree
@@ -82,7 +82,7 @@ def parse_roots(values) -> np.ndarray:
     out = []
     for v in values:
         if isinstance(v, str):
-            out.append(complex(v.replace(" ", "").replace("i", "j")))
+            out.append(complex(v.replace(' ', '').replace('i', 'j')))
         else:
             out.append(complex(v))
     return np.array(out, dtype=complex)
@@ -102,7 +102,7 @@ def root_errors(fitted, target) -> np.ndarray:
     f = np.asarray(fitted, dtype=complex)
     t = np.asarray(target, dtype=complex)
     if f.shape != t.shape:
-        raise ValueError(f"fitted and target root sets must have the same size, got {f.size} and {t.size}.")
+        raise ValueError(f'fitted and target root sets must have the same size, got {f.size} and {t.size}.')
     if t.size == 0:
         return np.zeros(0)
     best = None
@@ -121,21 +121,21 @@ class Preset:
     params: BicycleParams
     speed: float
     ds: float
-    description: str = ""
-    kind: str = "full_size"  # 'scale' or 'full_size'
+    description: str = ''
+    kind: str = 'full_size'  # 'scale' or 'full_size'
     features: dict = field(default_factory=dict)
     target: dict | None = None  # {'poles': [...], 'zeros': [...], 'source': str, ...}
     fit: dict | None = None  # stored fit metadata (bounds, reported residual, ...)
 
     @property
     def target_poles(self) -> np.ndarray:
-        return parse_roots(self.target["poles"]) if self.target else np.zeros(0, complex)
+        return parse_roots(self.target['poles']) if self.target else np.zeros(0, complex)
 
     @property
     def target_zeros(self) -> np.ndarray:
-        return parse_roots(self.target["zeros"]) if self.target else np.zeros(0, complex)
+        return parse_roots(self.target['zeros']) if self.target else np.zeros(0, complex)
 
-    def zpk(self, speed=None, ds=None, axle="front", actuator_pole=None):
+    def zpk(self, speed=None, ds=None, axle='front', actuator_pole=None):
         """Zeros, poles, gain at the preset's (or the given) speed and ds."""
         return zpk(self.params, self.speed if speed is None else speed, self.ds if ds is None else ds,
                    axle, actuator_pole)
@@ -150,27 +150,27 @@ class Preset:
 def load_presets(path: str | None = None) -> dict:
     """Load all presets from YAML. Returns ``{name: Preset}``."""
     path = path or default_presets_path()
-    with open(path, "r", encoding="utf-8") as fh:
+    with open(path, 'r', encoding='utf-8') as fh:
         data = yaml.safe_load(fh)
-    if not isinstance(data, dict) or "presets" not in data:
+    if not isinstance(data, dict) or 'presets' not in data:
         raise ValueError(f"{path} must contain a top-level 'presets' mapping.")
     out = {}
-    for name, d in data["presets"].items():
+    for name, d in data['presets'].items():
         try:
-            params = BicycleParams(**d["params"])
+            params = BicycleParams(**d['params'])
             out[name] = Preset(
                 name=name,
                 params=params,
-                speed=float(d["speed"]),
-                ds=float(d["ds"]),
-                description=str(d.get("description", "")),
-                kind=str(d.get("kind", "full_size")),
-                features=dict(d.get("features", {})),
-                target=d.get("target"),
-                fit=d.get("fit"),
+                speed=float(d['speed']),
+                ds=float(d['ds']),
+                description=str(d.get('description', '')),
+                kind=str(d.get('kind', 'full_size')),
+                features=dict(d.get('features', {})),
+                target=d.get('target'),
+                fit=d.get('fit'),
             )
         except (KeyError, TypeError) as exc:
-            raise ValueError(f"preset {name!r} in {path} is missing or has a bad field: {exc}.") from exc
+            raise ValueError(f'preset {name!r} in {path} is missing or has a bad field: {exc}.') from exc
     return out
 
 
@@ -212,10 +212,10 @@ class FitResult:
 def _monic_quadratic(roots):
     r = np.asarray(roots, dtype=complex)
     if r.size != 2:
-        raise ValueError(f"expected exactly 2 non-zero target roots, got {r.size}: {r}.")
+        raise ValueError(f'expected exactly 2 non-zero target roots, got {r.size}: {r}.')
     c = np.real_if_close(np.poly(r), tol=1e6)
     if np.iscomplexobj(c):
-        raise ValueError(f"target roots {r} must be real or a complex-conjugate pair.")
+        raise ValueError(f'target roots {r} must be real or a complex-conjugate pair.')
     return np.asarray(c[1:], dtype=float)
 
 
@@ -233,7 +233,7 @@ def _model_coeffs(x, speed, ds):
 
 def fit_preset(target_poles, target_zeros, speed: float, ds: float, bounds: dict, x0: dict | None = None,
                reg: float = 1e-3, track: float = 1.0, wheel_radius: float = 0.3,
-               rear_steer: bool = False, objective: str = "coeffs") -> FitResult:
+               rear_steer: bool = False, objective: str = 'coeffs') -> FitResult:
     """Fit (m, I_z, l_f, l_r, C_f, C_r) to published front-steer poles/zeros.
 
     Parameters
@@ -270,11 +270,11 @@ def fit_preset(target_poles, target_zeros, speed: float, ds: float, bounds: dict
     tgt = np.concatenate([a_t, b_t])
     missing = [n for n in PARAM_NAMES if n not in bounds]
     if missing:
-        raise ValueError(f"bounds must give (lo, hi) for every parameter; missing {missing}.")
+        raise ValueError(f'bounds must give (lo, hi) for every parameter; missing {missing}.')
     lo = np.array([float(bounds[n][0]) for n in PARAM_NAMES])
     hi = np.array([float(bounds[n][1]) for n in PARAM_NAMES])
     if np.any(lo <= 0) or np.any(hi < lo):
-        raise ValueError("bounds must satisfy 0 < lo <= hi for every parameter.")
+        raise ValueError('bounds must satisfy 0 < lo <= hi for every parameter.')
     if x0 is None:
         xn = np.sqrt(lo * hi)
     else:
@@ -288,7 +288,7 @@ def fit_preset(target_poles, target_zeros, speed: float, ds: float, bounds: dict
         lx[free] = z
         return np.exp(lx)
 
-    if objective not in ("coeffs", "roots"):
+    if objective not in ('coeffs', 'roots'):
         raise ValueError(f"objective must be 'coeffs' or 'roots', got {objective!r}.")
 
     def root_res(c):
@@ -306,7 +306,7 @@ def fit_preset(target_poles, target_zeros, speed: float, ds: float, bounds: dict
     def resid(z):
         x = full(z)
         c = _model_coeffs(x, speed, ds)
-        r = (c - tgt) / np.abs(tgt) if objective == "coeffs" else root_res(c)
+        r = (c - tgt) / np.abs(tgt) if objective == 'coeffs' else root_res(c)
         return np.concatenate([r, reg * (z - log_n[free])])
 
     best = None
@@ -337,8 +337,8 @@ def fit_preset(target_poles, target_zeros, speed: float, ds: float, bounds: dict
 def _fmt(r):
     r = complex(r)
     if abs(r.imag) < 1e-12:
-        return f"{r.real:.4g}"
-    return f"{r.real:.4g}{r.imag:+.4g}j"
+        return f'{r.real:.4g}'
+    return f'{r.real:.4g}{r.imag:+.4g}j'
 
 
 def refit_all(path: str | None = None, verbose: bool = True) -> dict:
@@ -348,26 +348,26 @@ def refit_all(path: str | None = None, verbose: bool = True) -> dict:
     YAML; copy the numbers by hand so the file keeps its comments.
     """
     path = path or default_presets_path()
-    with open(path, "r", encoding="utf-8") as fh:
+    with open(path, 'r', encoding='utf-8') as fh:
         data = yaml.safe_load(fh)
     results = {}
-    for name, d in data["presets"].items():
-        fit = d.get("fit")
-        tgt = d.get("target")
-        if not fit or not tgt or "bounds" not in fit:
+    for name, d in data['presets'].items():
+        fit = d.get('fit')
+        tgt = d.get('target')
+        if not fit or not tgt or 'bounds' not in fit:
             continue
-        res = fit_preset(tgt["poles"], tgt["zeros"], float(d["speed"]), float(d["ds"]), fit["bounds"],
-                         x0=fit.get("nominal"), objective=fit.get("objective", "coeffs"), track=d["params"]["track"],
-                         wheel_radius=d["params"]["wheel_radius"], rear_steer=d["params"]["rear_steer"])
+        res = fit_preset(tgt['poles'], tgt['zeros'], float(d['speed']), float(d['ds']), fit['bounds'],
+                         x0=fit.get('nominal'), objective=fit.get('objective', 'coeffs'), track=d['params']['track'],
+                         wheel_radius=d['params']['wheel_radius'], rear_steer=d['params']['rear_steer'])
         results[name] = res
         if verbose:
             print(f"{name}: V={d['speed']} ds={d['ds']}  max rel err={res.max_error:.4f}  at bounds={res.at_bounds}")
-            print("   " + "  ".join(f"{k}={v:.6g}" for k, v in res.params.items()))
-            print("   poles " + ", ".join(_fmt(v) for v in res.poles) + "   zeros " + ", ".join(_fmt(v) for v in res.zeros))
-            print("   pole err " + np.array2string(res.pole_errors, precision=4) + "  zero err "
+            print('   ' + '  '.join(f'{k}={v:.6g}' for k, v in res.params.items()))
+            print('   poles ' + ', '.join(_fmt(v) for v in res.poles) + '   zeros ' + ', '.join(_fmt(v) for v in res.zeros))
+            print('   pole err ' + np.array2string(res.pole_errors, precision=4) + '  zero err '
                   + np.array2string(res.zero_errors, precision=4))
     return results
 
 
-if __name__ == "__main__":  # pragma: no cover
+if __name__ == '__main__':  # pragma: no cover
     refit_all()

@@ -16,7 +16,7 @@ DT = 1e-3
 
 
 def g_tf(K):
-    s = control.tf("s")
+    s = control.tf('s')
     return K * (s + 2.4) * (s + 4.8) / (s**2 * (s + 8) * (s + 20))
 
 
@@ -101,14 +101,14 @@ def test_dc_acceleration_and_kinematic_pose():
 
 
 def test_identified_bad_params():
-    with pytest.raises(ValueError, match="speed"):
+    with pytest.raises(ValueError, match='speed'):
         IdentifiedPlant(IdentifiedParams(speed=0.0))
-    with pytest.raises(ValueError, match="gain"):
+    with pytest.raises(ValueError, match='gain'):
         IdentifiedPlant(IdentifiedParams(gain=-1.0))
 
 
 def test_bicycle_plant_matches_continuous_state_space():
-    pre = presets.get_preset("irs_2wd")
+    pre = presets.get_preset('irs_2wd')
     plant = BicyclePlant(pre.params, 1.2, 0.33)
     assert isinstance(plant, LateralPlant)
     assert isinstance(IdentifiedPlant(), LateralPlant)

@@ -55,7 +55,7 @@ def test_wrap_angle_half_open():
     assert wrap_angle(0.1 + 4 * math.pi) == pytest.approx(0.1)
 
 
-@pytest.mark.parametrize("elbow", [1, -1])
+@pytest.mark.parametrize('elbow', [1, -1])
 def test_fk_ik_round_trip(elbow):
     rng = np.random.default_rng(7)
     g = ArmGeometry(l1=1.0, l2=0.9, attach_offset=0.1, elbow=elbow)
@@ -90,14 +90,14 @@ def test_ik_stretched_arm_at_boundary():
 
 def test_ik_out_of_reach_raises_with_sentence():
     g = ArmGeometry()
-    with pytest.raises(ArmReachError, match="maximum reach"):
+    with pytest.raises(ArmReachError, match='maximum reach'):
         inverse_kinematics(0.0, 0.85 - 2.001, 0.0, g)
     g2 = ArmGeometry(l1=1.0, l2=0.5)
-    with pytest.raises(ArmReachError, match="minimum reach"):
+    with pytest.raises(ArmReachError, match='minimum reach'):
         inverse_kinematics(0.1, 0.85, 0.0, g2)
     assert issubclass(ArmReachError, ValueError)
     with pytest.raises(ArmReachError):
-        inverse_kinematics(float("nan"), 0.0, 0.0, g)
+        inverse_kinematics(float('nan'), 0.0, 0.0, g)
 
 
 def test_ik_uses_attach_offset():
@@ -126,8 +126,8 @@ def test_sensor_point():
     assert xs == pytest.approx(0.1 + 0.25 * math.cos(0.3))
 
 
-@pytest.mark.parametrize("kwargs", [dict(l1=0.0), dict(l2=-1.0), dict(elbow=0),
-                                    dict(base_x=float("nan")), dict(attach_offset="a")])
+@pytest.mark.parametrize('kwargs', [dict(l1=0.0), dict(l2=-1.0), dict(elbow=0),
+                                    dict(base_x=float('nan')), dict(attach_offset='a')])
 def test_geometry_validation(kwargs):
     with pytest.raises(ValueError):
         ArmGeometry(**kwargs)

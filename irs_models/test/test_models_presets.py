@@ -9,16 +9,16 @@ from irs_models.presets import (PARAM_NAMES, fit_preset, get_preset, load_preset
                                      vehicle_roots)
 
 PRESETS = load_presets()
-FULL = sorted(n for n, p in PRESETS.items() if p.kind == "full_size")
-SCALE = sorted(n for n, p in PRESETS.items() if p.kind == "scale")
+FULL = sorted(n for n, p in PRESETS.items() if p.kind == 'full_size')
+SCALE = sorted(n for n, p in PRESETS.items() if p.kind == 'scale')
 
 
 def test_expected_presets_present():
-    assert set(SCALE) == {"irs_2wd", "irs_4ws", "irs_iwt"}
-    assert set(FULL) == {"full_size_sedan", "compact_sedan", "pontiac_6000ste", "ford_taurus_sho"}
+    assert set(SCALE) == {'irs_2wd', 'irs_4ws', 'irs_iwt'}
+    assert set(FULL) == {'full_size_sedan', 'compact_sedan', 'pontiac_6000ste', 'ford_taurus_sho'}
 
 
-@pytest.mark.parametrize("name", FULL)
+@pytest.mark.parametrize('name', FULL)
 def test_full_size_within_5_percent_of_published(name):
     pre = PRESETS[name]
     z, p, _ = zpk(pre.params, pre.speed, pre.ds)
@@ -33,7 +33,7 @@ def test_full_size_within_5_percent_of_published(name):
         np.testing.assert_allclose(np.sort(np.abs(f)), np.sort(np.abs(t)), rtol=0.05)
 
 
-@pytest.mark.parametrize("name", FULL)
+@pytest.mark.parametrize('name', FULL)
 def test_full_size_zero_identity_and_documented_point(name):
     """With the documented (V, ds) the zeros fix l_r + d_s = -V (z1 + z2)/(z1 z2)."""
     pre = PRESETS[name]
@@ -43,7 +43,7 @@ def test_full_size_zero_identity_and_documented_point(name):
     assert pre.ds == 0.0 and pre.speed == 12.0  # documented in the YAML / docs
 
 
-@pytest.mark.parametrize("name", FULL)
+@pytest.mark.parametrize('name', FULL)
 def test_full_size_parameters_plausible(name):
     p = PRESETS[name].params
     assert 1000 <= p.mass <= 2200
@@ -55,15 +55,15 @@ def test_full_size_parameters_plausible(name):
 
 
 def test_rear_steer_flags():
-    assert PRESETS["irs_2wd"].params.rear_steer is False
-    assert PRESETS["irs_2wd"].features["rear_steer"] is False
-    for n in ("irs_4ws", "irs_iwt"):
+    assert PRESETS['irs_2wd'].params.rear_steer is False
+    assert PRESETS['irs_2wd'].features['rear_steer'] is False
+    for n in ('irs_4ws', 'irs_iwt'):
         assert PRESETS[n].params.rear_steer is True
-        assert PRESETS[n].features["rear_steer"] is True
-    assert PRESETS["irs_iwt"].features["wheel_encoders"] is True
+        assert PRESETS[n].features['rear_steer'] is True
+    assert PRESETS['irs_iwt'].features['wheel_encoders'] is True
 
 
-@pytest.mark.parametrize("name", SCALE)
+@pytest.mark.parametrize('name', SCALE)
 def test_scale_parameters_plausible(name):
     p = PRESETS[name].params
     assert 1.5 <= p.mass <= 3.0
@@ -71,22 +71,22 @@ def test_scale_parameters_plausible(name):
     box = p.mass * (0.40**2 + 0.19**2) / 12.0
     assert 0.5 * box <= p.yaw_inertia <= 2.5 * box
     # tyre bounds: 1.5 .. 15 per rad times the nominal static axle load (see YAML)
-    fz = PRESETS[name].fit["nominal"]["mass"] * 9.81 / 2.0
+    fz = PRESETS[name].fit['nominal']['mass'] * 9.81 / 2.0
     assert 1.5 * fz * 0.999 <= min(p.c_f, p.c_r) and max(p.c_f, p.c_r) <= 15 * fz
 
 
-@pytest.mark.parametrize("name", SCALE)
+@pytest.mark.parametrize('name', SCALE)
 def test_scale_car_residual_to_eq6(name, record_property):
     """Scale car vs Eq. (6): poles reachable, zeros not; the stored residual is what the model gives."""
     pre = PRESETS[name]
     pe, ze = pre.errors()
-    rep = pre.fit["reported"]
-    record_property("eq6_pole_errors", pe.tolist())
-    record_property("eq6_zero_errors", ze.tolist())
-    print(f"{name}: Eq. 6 pole errors {pe}, zero errors {ze}")
-    np.testing.assert_allclose(pe, rep["pole_errors"], atol=1e-3)
-    np.testing.assert_allclose(ze, rep["zero_errors"], atol=1e-3)
-    np.testing.assert_allclose(max(pe.max(), ze.max()), rep["max_error"], atol=1e-3)
+    rep = pre.fit['reported']
+    record_property('eq6_pole_errors', pe.tolist())
+    record_property('eq6_zero_errors', ze.tolist())
+    print(f'{name}: Eq. 6 pole errors {pe}, zero errors {ze}')
+    np.testing.assert_allclose(pe, rep['pole_errors'], atol=1e-3)
+    np.testing.assert_allclose(ze, rep['zero_errors'], atol=1e-3)
+    np.testing.assert_allclose(max(pe.max(), ze.max()), rep['max_error'], atol=1e-3)
     assert np.all(pe < 0.05)  # poles can be matched
     # zeros cannot: 1/z1 + 1/z2 = -(l_r + d_s)/V; Eq. 6 needs l_r + d_s = 0.75 m
     tz = pre.target_zeros
@@ -94,7 +94,7 @@ def test_scale_car_residual_to_eq6(name, record_property):
     assert need == pytest.approx(0.75)
     bound = need / (pre.params.lr + pre.ds) - 1.0  # minimax zero error for this l_r + d_s
     assert ze.max() >= bound - 1e-9
-    assert ze.max() >= rep["zero_error_lower_bound"] - 1e-9 > 0.5
+    assert ze.max() >= rep['zero_error_lower_bound'] - 1e-9 > 0.5
 
 
 def test_scale_car_exact_match_needs_implausible_geometry():
@@ -103,16 +103,16 @@ def test_scale_car_exact_match_needs_implausible_geometry():
     x0 = dict(mass=2.2, yaw_inertia=0.036, lf=0.13, lr=0.13, c_f=55, c_r=55)
     r = fit_preset([0, 0, -8, -20], [-2.4, -4.8], 1.2, 0.33, b, x0)
     assert r.max_error < 0.01
-    assert r.params["lr"] == pytest.approx(0.42, rel=0.01)
+    assert r.params['lr'] == pytest.approx(0.42, rel=0.01)
 
 
-@pytest.mark.parametrize("name", list(PRESETS))
+@pytest.mark.parametrize('name', list(PRESETS))
 def test_yaml_fit_is_reproducible(name):
     """Re-running fit_preset with the YAML bounds/nominal reproduces the stored parameters."""
     pre = PRESETS[name]
     fit = pre.fit
-    r = fit_preset(pre.target["poles"], pre.target["zeros"], pre.speed, pre.ds, fit["bounds"],
-                   x0=fit["nominal"], objective=fit.get("objective", "coeffs"))
+    r = fit_preset(pre.target['poles'], pre.target['zeros'], pre.speed, pre.ds, fit['bounds'],
+                   x0=fit['nominal'], objective=fit.get('objective', 'coeffs'))
     for k in PARAM_NAMES:
         assert r.params[k] == pytest.approx(getattr(pre.params, k), rel=2e-3), k
 
@@ -122,8 +122,8 @@ def test_fit_recovers_known_vehicle():
                           wheel_radius=0.3)
     z, p, _ = zpk(truth, 20.0, 1.0)
     b = {k: (getattr(truth, k) * 0.5, getattr(truth, k) * 2.0) for k in PARAM_NAMES}
-    b["mass"] = (1500, 1500)
-    b["lf"] = (1.1, 1.1)  # remove the scale + one more freedom: unique answer
+    b['mass'] = (1500, 1500)
+    b['lf'] = (1.1, 1.1)  # remove the scale + one more freedom: unique answer
     x0 = {k: getattr(truth, k) * 1.2 for k in PARAM_NAMES}
     r = fit_preset(p, z, 20.0, 1.0, b, x0, reg=0.0)
     assert r.max_error < 1e-6
@@ -140,14 +140,14 @@ def test_root_errors_pairs_best():
 
 def test_fit_preset_rejects_bad_input():
     good = {k: (1.0, 2.0) for k in PARAM_NAMES}
-    with pytest.raises(ValueError, match="missing"):
-        fit_preset([-1, -2], [-1, -2], 10.0, 0.0, {"mass": (1, 2)})
-    with pytest.raises(ValueError, match="bounds"):
-        fit_preset([-1, -2], [-1, -2], 10.0, 0.0, {**good, "mass": (2.0, 1.0)})
-    with pytest.raises(ValueError, match="2 non-zero"):
+    with pytest.raises(ValueError, match='missing'):
+        fit_preset([-1, -2], [-1, -2], 10.0, 0.0, {'mass': (1, 2)})
+    with pytest.raises(ValueError, match='bounds'):
+        fit_preset([-1, -2], [-1, -2], 10.0, 0.0, {**good, 'mass': (2.0, 1.0)})
+    with pytest.raises(ValueError, match='2 non-zero'):
         fit_preset([0, 0, -1], [-1, -2], 10.0, 0.0, good)
 
 
 def test_get_preset_unknown_lists_names():
-    with pytest.raises(KeyError, match="irs_2wd"):
-        get_preset("no_such_car")
+    with pytest.raises(KeyError, match='irs_2wd'):
+        get_preset('no_such_car')
