@@ -39,37 +39,38 @@ def _finite(name, v):
         raise ValueError(f"Reference parameter '{name}' must be a finite number; got {v!r}.")
 
 
+class _FiniteFields:
+    """Every field of a signal is a finite number (checked when it is made)."""
+
+    def __post_init__(self):
+        for f in fields(self):
+            _finite(f.name, getattr(self, f.name))
+
+
 @dataclass(frozen=True)
-class Constant:
+class Constant(_FiniteFields):
     """Constant set-point ``value`` [m]."""
 
     value: float = 0.0
-
-    def __post_init__(self):
-        _finite("value", self.value)
 
     def __call__(self, t: float) -> float:
         return float(self.value)
 
 
 @dataclass(frozen=True)
-class Step:
+class Step(_FiniteFields):
     """Step of ``amplitude`` [m] at ``start_time`` [s] on top of ``offset`` [m]."""
 
     amplitude: float = 0.1
     start_time: float = 0.0
     offset: float = 0.0
 
-    def __post_init__(self):
-        for f in fields(self):
-            _finite(f.name, getattr(self, f.name))
-
     def __call__(self, t: float) -> float:
         return float(self.offset + (self.amplitude if t >= self.start_time else 0.0))
 
 
 @dataclass(frozen=True)
-class Square:
+class Square(_FiniteFields):
     """Square wave: ``offset +- amplitude`` [m], ``period`` [s] > 0, ``duty`` in (0, 1)."""
 
     amplitude: float = 0.1
@@ -79,8 +80,7 @@ class Square:
     duty: float = 0.5
 
     def __post_init__(self):
-        for f in fields(self):
-            _finite(f.name, getattr(self, f.name))
+        super().__post_init__()
         if self.period <= 0:
             raise ValueError(f"Square wave period must be positive seconds; got {self.period}.")
         if not 0.0 < self.duty < 1.0:
@@ -94,7 +94,7 @@ class Square:
 
 
 @dataclass(frozen=True)
-class Sine:
+class Sine(_FiniteFields):
     """Sine ``offset + amplitude sin(2 pi (t - t0)/period + phase)``; period [s], phase [rad]."""
 
     amplitude: float = 0.1
@@ -104,8 +104,7 @@ class Sine:
     phase: float = 0.0
 
     def __post_init__(self):
-        for f in fields(self):
-            _finite(f.name, getattr(self, f.name))
+        super().__post_init__()
         if self.period <= 0:
             raise ValueError(f"Sine period must be positive seconds; got {self.period}.")
 
