@@ -203,7 +203,7 @@ BAD_FILES = {
     'record topics a string': (_doc(record={'topics': '/pose'}), 'record.topics',
                                "expected a valid list, got '/pose'"),
     'record unknown key': (_doc(record={'topic': ['/pose']}), 'record.topic',
-                           'unknown key (expected one of: topics)'),
+                           'unknown key (expected one of: topics, process)'),
     'params file of an unknown package': (
         _doc(**{VS + 'params_files': ['pkg://irs_nothing/config/rig.yaml']}),
         'nodes.vehicle_sim.params_files[0]',
