@@ -324,8 +324,12 @@ def _run_ros(args, ros_args, plan: Plan) -> int:
     from rosgraph_msgs.msg import Clock
     from builtin_interfaces.msg import Time
     from rclpy.duration import Duration
+    from rclpy.signals import SignalHandlerOptions
 
-    rclpy.init(args=['bag_play', *ros_args])
+    # Ctrl-C (SIGINT) is Python's KeyboardInterrupt only: rclpy's own handler would shut the
+    # context down first, and a publish racing with it failed with "publisher's context is
+    # invalid" instead of ending the replay cleanly.
+    rclpy.init(args=['bag_play', *ros_args], signal_handler_options=SignalHandlerOptions.NO)
     node = rclpy.create_node('bag_player')
     log = (lambda *a: None) if args.quiet else (lambda s: print(s, flush=True))
     stats = TimingStats()
