@@ -64,7 +64,9 @@ class _Plant:
         self.cpu0 = None
 
     def ready(self) -> bool:
-        return self.pub.get_subscription_count() >= 1 and self.node.count_publishers('floor/c') >= 1
+        return (
+            self.pub.get_subscription_count() >= 1 and self.node.count_publishers('floor/c') >= 1
+        )
 
     def start(self):
         self.t0, self.cpu0 = time.monotonic(), _cpu()

@@ -58,9 +58,11 @@ def floor(seconds: float) -> list:
 
 
 def _floor_line(r) -> str:
-    return (f"{r['name']:34s} {r['steps_per_s']:8.0f} steps/s  {r['cpu_per_hop_us']:6.0f} us CPU/hop"
-            f"  misses {r['miss_pct']:5.2f} %  latency p50/p99 {r['latency_p50_ms']:.3f}/"
-            f"{r['latency_p99_ms']:.3f} ms")
+    return (
+        f'{r["name"]:34s} {r["steps_per_s"]:8.0f} steps/s  {r["cpu_per_hop_us"]:6.0f} us CPU/hop'
+        f'  misses {r["miss_pct"]:5.2f} %  latency p50/p99 {r["latency_p50_ms"]:.3f}/'
+        f'{r["latency_p99_ms"]:.3f} ms'
+    )
 
 
 def _bag_figures(bag_dir) -> dict:

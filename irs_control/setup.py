@@ -18,7 +18,8 @@ setup(
     zip_safe=True,
     maintainer='IRS team',
     maintainer_email='irs@example.org',
-    description='Lateral control of the scale car: MRC/RST pole placement and PI, reference generation.',
+    description='Lateral control of the scale car: MRC/RST pole placement and PI, reference '
+                'generation.',
     license='Apache-2.0',
     entry_points={
         'console_scripts': [

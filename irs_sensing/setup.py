@@ -18,7 +18,8 @@ setup(
     zip_safe=True,
     maintainer='IRS team',
     maintainer_email='irs@example.org',
-    description='Arm pose estimation: potentiometer angles to the car pose, velocities and lateral displacement.',
+    description='Arm pose estimation: potentiometer angles to the car pose, velocities and '
+                'lateral displacement.',
     license='Apache-2.0',
     entry_points={
         'console_scripts': [

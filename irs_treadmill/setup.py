@@ -1,4 +1,4 @@
-"""Install irs_treadmill as an ament_python package (nodes land in lib/irs_treadmill/ for ros2 run)."""
+"""Install irs_treadmill as an ament_python package (nodes in lib/irs_treadmill/ for ros2 run)."""
 from glob import glob
 
 from setuptools import find_packages, setup
@@ -18,7 +18,8 @@ setup(
     zip_safe=True,
     maintainer='IRS team',
     maintainer_email='irs@example.org',
-    description='Treadmill belt speed regulation that keeps the car at its longitudinal set point.',
+    description='Treadmill belt speed regulation that keeps the car at its longitudinal set '
+                'point.',
     license='Apache-2.0',
     entry_points={
         'console_scripts': [

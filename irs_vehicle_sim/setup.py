@@ -1,4 +1,4 @@
-"""Install irs_vehicle_sim as an ament_python package (nodes land in lib/irs_vehicle_sim/ for ros2 run)."""
+"""Install irs_vehicle_sim as an ament_python package (nodes in lib/irs_vehicle_sim/, ros2 run)."""
 from glob import glob
 
 from setuptools import find_packages, setup
@@ -18,7 +18,8 @@ setup(
     zip_safe=True,
     maintainer='IRS team',
     maintainer_email='irs@example.org',
-    description='Simulated IRS rig: steering actuators, bicycle-model vehicle, treadmill belt and arm sensor.',
+    description='Simulated IRS rig: steering actuators, bicycle-model vehicle, treadmill belt and '
+                'arm sensor.',
     license='Apache-2.0',
     entry_points={
         'console_scripts': [

@@ -14,7 +14,8 @@ def claim_domain(pid: int, lock_dir: str = '/tmp') -> tuple:
     """``(domain id, open lock file)``: the first free domain from ``pid``'s place in
     :data:`VALID_DOMAINS` on, held with an exclusive ``flock`` on
     ``<lock_dir>/irs_test_domain_<id>.lock`` so that two concurrent runs never share one (the
-    lock goes with the process, also a killed one). ``RuntimeError`` if every domain is taken."""
+    lock goes with the process, also a killed one). ``RuntimeError`` if every domain is taken.
+    """
     n = len(VALID_DOMAINS)
     for i in range(n):
         domain = VALID_DOMAINS[(pid + i) % n]
@@ -25,7 +26,9 @@ def claim_domain(pid: int, lock_dir: str = '/tmp') -> tuple:
             f.close()
             continue
         return domain, f
-    raise RuntimeError(f'all {n} ROS domain ids are held by other test runs ({lock_dir}/irs_test_domain_*.lock)')
+    raise RuntimeError(
+        f'all {n} ROS domain ids are held by other test runs ({lock_dir}/irs_test_domain_*.lock)'
+    )
 
 
 # Every test run gets its own ROS_DOMAIN_ID (set before any rclpy context or child process

@@ -62,6 +62,9 @@ def test_identified_actuator_matches_its_parameters(ros, launch):
                   'dead time [s]': (dead_time, DELAY), 'rate limit [rad/s]': (rate, RATE),
                   'backlash [rad]': (backlash, BACKLASH), 'saturation [rad]': (saturation, LIMIT)}
     for name, (got, want) in identified.items():
-        print(f'{name:20s} identified {got:.6g}  configured {want:.6g}  error {100 * (got / want - 1):+.2f} %')
+        print(
+            f'{name:20s} identified {got:.6g}  configured {want:.6g}  error '
+            f'{100 * (got / want - 1):+.2f} %'
+        )
     for name, (got, want) in identified.items():
         assert abs(got / want - 1.0) < 0.05, f'{name}: identified {got:.6g}, configured {want:.6g}'

@@ -74,10 +74,17 @@ def test_fuzz_lateral_controller(ros, launch):
     meas = node.create_publisher(PointStamped, 'lateral_position', qos.SENSOR)
     ref = node.create_publisher(LateralReference, 'lateral/reference', qos.COMMAND)
     cmds, status = {}, []
-    subs = [node.create_subscription(SteeringCommand, 'steering/command',
-                                     lambda m: cmds.setdefault(to_ns(m.header.stamp), m), qos.COMMAND),
-            node.create_subscription(LateralControllerStatus, 'lateral/status', status.append,
-                                     qos.SENSOR)]
+    subs = [
+        node.create_subscription(
+            SteeringCommand,
+            'steering/command',
+            lambda m: cmds.setdefault(to_ns(m.header.stamp), m),
+            qos.COMMAND,
+        ),
+        node.create_subscription(
+            LateralControllerStatus, 'lateral/status', status.append, qos.SENSOR
+        ),
+    ]
     assert ros.wait_for_matched([meas, ref, *subs], timeout=30.0)
 
     def send_ref(value, ns):
@@ -95,7 +102,9 @@ def test_fuzz_lateral_controller(ros, launch):
 
     def probe(y=0.01):
         ns = send_meas(y, _now(ros))
-        assert ros.spin_until(lambda: ns in cmds, 10.0), f'no answer to a good measurement\n{proc.tail()}'
+        assert ros.spin_until(lambda: ns in cmds, 10.0), (
+            f'no answer to a good measurement\n{proc.tail()}'
+        )
         return cmds[ns]
 
     def good_run():
@@ -144,7 +153,9 @@ def test_fuzz_arm_pose_estimator(ros, launch):
 
     def probe():
         ns = send(ANGLES, _now(ros))
-        assert ros.spin_until(lambda: ns in got, 10.0), f'no answer to a good reading\n{proc.tail()}'
+        assert ros.spin_until(lambda: ns in got, 10.0), (
+            f'no answer to a good reading\n{proc.tail()}'
+        )
         return got[ns].point.y
 
     y_good = probe()
@@ -173,8 +184,12 @@ def test_fuzz_treadmill_regulator(ros, launch):
     vel_pub = node.create_publisher(TwistStamped, 'velocity', qos.SENSOR)
     belt_pub = node.create_publisher(BeltSpeed, 'belt/speed', qos.SENSOR)
     drive = {}
-    sub = node.create_subscription(TreadmillDriveCommand, 'treadmill/drive',
-                                   lambda m: drive.setdefault(to_ns(m.header.stamp), m), qos.COMMAND)
+    sub = node.create_subscription(
+        TreadmillDriveCommand,
+        'treadmill/drive',
+        lambda m: drive.setdefault(to_ns(m.header.stamp), m),
+        qos.COMMAND,
+    )
     assert ros.wait_for_matched([pose_pub, vel_pub, belt_pub, sub], timeout=30.0)
 
     def send(ns, x=0.0, y=0.0, qz=0.0, qw=1.0, vx=0.0, vy=0.0, belt=1.0):
@@ -195,7 +210,9 @@ def test_fuzz_treadmill_regulator(ros, launch):
 
     def probe(x=0.0):
         ns = send(_now(ros), x=x)
-        assert ros.spin_until(lambda: ns in drive, 10.0), f'no answer to a good pose\n{proc.tail()}'
+        assert ros.spin_until(lambda: ns in drive, 10.0), (
+            f'no answer to a good pose\n{proc.tail()}'
+        )
         return drive[ns].voltage
 
     def good_run():
@@ -264,8 +281,12 @@ def test_fuzz_vehicle_sim(ros, launch):
             'drive': node.create_publisher(TreadmillDriveCommand, 'treadmill/drive', qos.COMMAND),
             'driver': node.create_publisher(DriverCommand, 'driver/command', qos.COMMAND)}
     states, arm = [], []
-    subs = [node.create_subscription(SteeringActuatorState, 'steering/state', states.append, qos.SENSOR),
-            node.create_subscription(JointState, 'arm/joint_states', arm.append, qos.SENSOR)]
+    subs = [
+        node.create_subscription(
+            SteeringActuatorState, 'steering/state', states.append, qos.SENSOR
+        ),
+        node.create_subscription(JointState, 'arm/joint_states', arm.append, qos.SENSOR),
+    ]
     assert ros.wait_for_matched([*pubs.values(), *subs], timeout=30.0)
     counter = iter(range(10**6))
 

@@ -1,4 +1,4 @@
-"""``rig/reset`` (std_srvs/Trigger) on vehicle_sim: after the car left the belt, the car is put back.
+"""``rig/reset`` (std_srvs/Trigger) on vehicle_sim: after the car left the belt, it is put back.
 
 Real time, no controller: a full steering command drives the car off the belt edge within about
 a second; the rig latches ``off_belt`` on ``rig/status``. ``rig/reset`` puts the car back at its
@@ -25,7 +25,7 @@ def test_rig_reset_puts_the_car_back_on_the_belt(ros, launch):
             node.create_subscription(Odometry, 'ground_truth/odom', odom.append, qos.SENSOR)]
     assert ros.wait_for_matched([pub, *subs], timeout=30.0)
     assert ros.spin_until(lambda: status and status[-1].car_on_belt and odom, 10.0)
-    start = RigConfig()              # the start pose (defaults: the node runs without a params file)
+    start = RigConfig()  # the start pose (defaults: the node runs without a params file)
     x0, y0 = start.x0, start.y0
 
     def steer(angle):

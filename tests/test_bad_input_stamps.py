@@ -38,7 +38,8 @@ class Answers:
 
     def silent(self, stamp_ns, probe):
         """No answer for ``stamp_ns`` by the time the answer to a later ``probe()`` arrived
-        (messages of one publisher are delivered in order)."""
+        (messages of one publisher are delivered in order).
+        """
         probe_ns = probe()
         assert self.wait(probe_ns), 'the probe was not answered'
         return stamp_ns not in self.got
@@ -140,11 +141,12 @@ def test_negative_clock_is_dropped_and_a_clock_jump_back_resets_the_time_state(r
         clock.publish(c)
 
     def step(ns):
-        """/clock = ns, then a measurement and an arm reading stamped ns; both answered?
+        """Publish /clock = ns, then a measurement and an arm reading stamped ns; both answered.
 
         The node may take a message before the /clock sent just ahead of it (two topics): then
         the message is dropped (ahead of or behind the node's clock) and sent again, a few
-        times; a message it had taken is answered again (a repeat), so resending is harmless."""
+        times; a message it had taken is answered again (a repeat), so resending is harmless.
+        """
         for _attempt in range(10):
             tick(ns)
             m = PointStamped()

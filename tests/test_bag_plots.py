@@ -20,7 +20,8 @@ def _stamp(msg, k):
 
 def make_bag(path, topics=None, clock=False):
     """A bag with every topic the plots and the rerun export use, N samples at 1 kHz (plus
-    /clock at every step with ``clock``, as a lock-step experiment records it)."""
+    /clock at every step with ``clock``, as a lock-step experiment records it).
+    """
     from geometry_msgs.msg import PointStamped, PoseStamped
     from rosgraph_msgs.msg import Clock
     from nav_msgs.msg import Odometry
@@ -83,7 +84,8 @@ def make_bag(path, topics=None, clock=False):
 
 def test_an_extra_clock_topic_changes_nothing(small_bag, tmp_path):
     """Lock-step experiments record /clock: the Figure 10 series, the plots and the rerun
-    export of such a bag are those of the same bag without it."""
+    export of such a bag are those of the same bag without it.
+    """
     import numpy as np
 
     from irs_bringup.bag.bag_plots import load_series, make_plots
@@ -161,7 +163,8 @@ def rrd_arm_strips(rrd):
 def test_arm_drawn_through_elbow_to_tip(small_bag, tmp_path):
     """The rerun export draws the arm as base -> elbow -> tip: the base at the geometry's base,
     the elbow l1 away at angle theta1, the tip where forward kinematics puts it (the car's
-    position: offset 0), for every decimated joint state."""
+    position: offset 0), for every decimated joint state.
+    """
     from irs_bringup.bag.bag_reader import BagReader
     from irs_bringup.bag.rerun_export import export_rrd
     from irs_models.arm_kinematics import ArmGeometry, forward_kinematics

@@ -1,5 +1,6 @@
 """``bag play`` reproduces the recorded bytes, publishes /clock at the data's times, waits for
-its subscribers, and a sensing node re-run from a replay reproduces the recorded poses."""
+its subscribers, and a sensing node re-run from a replay reproduces the recorded poses.
+"""
 import math
 import struct
 import time
@@ -129,8 +130,11 @@ def test_replay_start_offset_and_usage_errors(ros, launch, tmp_path):
 
 
 def timed_bag(path, n, log_step_ns, stamp_step_ns, lockstep=False, clock=False):
-    """n PointStamped on /a: log times k * log_step_ns, header stamps k * stamp_step_ns; a lock-step
-    experiment record (``clock: lockstep``) and/or a /clock topic (Clock = the stamp) if asked."""
+    """Write n PointStamped on /a: log times k * log_step_ns, header stamps k * stamp_step_ns.
+
+    A lock-step experiment record
+    (``clock: lockstep``) and/or a /clock topic (Clock = the stamp) if asked.
+    """
     from geometry_msgs.msg import PointStamped
     from rclpy.serialization import serialize_message
     from rosgraph_msgs.msg import Clock
@@ -169,7 +173,8 @@ def receive_times(ros, topic):
 
 def play_and_time(ros, launch, bag, topic, n, *args):
     """Play ``bag`` (remapping /a to ``topic``) into a subscription; return (span of the
-    receive times [s], received points, player output)."""
+    receive times [s], received points, player output).
+    """
     got = receive_times(ros, topic)
     play = launch(NodeSpec('irs_bringup', 'bag', name=topic.strip('/'), args=[
         'play', bag, '--topics', '/a', '--remap', f'/a:={topic}', '--wait-for-subscribers', '1',
@@ -183,7 +188,8 @@ def play_and_time(ros, launch, bag, topic, n, *args):
 
 def test_replay_rate_and_loop(ros, launch, tmp_path):
     """--rate 2 plays a bag spanning T = 1.6 s in about T / 2 (measured from the receive
-    times); --rate 1 in about T; --loop plays it again and again until stopped."""
+    times); --rate 1 in about T; --loop plays it again and again until stopped.
+    """
     n, step = 161, 10_000_000                 # 160 x 10 ms = 1.6 s of log time
     bag = timed_bag(tmp_path / 'bag', n, step, step)
     span2, _, out = play_and_time(ros, launch, bag, '/r2', n, '--rate', '2')
@@ -209,7 +215,8 @@ def test_lockstep_bags_replay_on_simulation_time(ros, launch, tmp_path):
     """A lock-step recording paces by its header stamps (sim time) at --rate 1, whatever its
     receive times: 1.2 s of simulated time recorded in 0.3 s (a fast graph) plays in about
     1.2 s; --pace log forces the receive times (0.3 s). Detected by the experiment metadata or
-    by /clock."""
+    by /clock.
+    """
     import subprocess
 
     from irs_bringup.run.executables import resolve_executable
@@ -261,7 +268,8 @@ def call_until_answered(ros, service, timeout):
 
 def test_sensing_rerun_from_replay_reproduces_poses(ros, launch, tmp_path):
     """Record arm/joint_states + pose from a lock-step graph, replay only the joint states
-    (with /clock from their stamps) into a fresh arm_pose_estimator, compare poses by stamp."""
+    (with /clock from their stamps) into a fresh arm_pose_estimator, compare poses by stamp.
+    """
     from geometry_msgs.msg import PoseStamped
     from rclpy.qos import HistoryPolicy, QoSProfile, ReliabilityPolicy
 

@@ -23,7 +23,8 @@ def _message_class(type_name: str):
 def _payloads(bag_dir) -> dict:
     """``{topic: {message repr}}``: every field of every message, floats exactly (``repr`` of a
     float round-trips to the same bits). CDR bytes are not compared: Fast DDS leaves alignment
-    padding uninitialised and pads in-process deliveries differently."""
+    padding uninitialised and pads in-process deliveries differently.
+    """
     from rclpy.serialization import deserialize_message
     out = {}
     with BagReader(bag_dir) as reader:

@@ -1,4 +1,4 @@
-"""Paper Figure 10 through the ROS graph in lock-step (issue 5): three designs on the simulated rig.
+"""Paper Figure 10 through the ROS graph in lock-step (issue 5): three designs on the rig.
 
 Identified plant with the actuator's lag, delay, backlash, rate limit and saturation on; arm noise
 on. The graph must reproduce the offline cores' numbers, and the designs must rank as the paper's
@@ -93,10 +93,12 @@ def test_figure10_through_the_graph(tmp_path):
     assert digests == reference['runs'], 'a run or topic was added or removed'
     metrics = write_report(runs, tmp_path / 'report', 'Figure 10 (ROS graph, lock-step)')
     print((tmp_path / 'report' / 'figure10_metrics.md').read_text())
-    with_act, without_act, pi = (metrics[k] for k in ('mrc_with_actuator', 'mrc_without_actuator', 'pi'))
+    with_act, without_act, pi = (
+        metrics[k] for k in ('mrc_with_actuator', 'mrc_without_actuator', 'pi')
+    )
     # MRC with the actuator follows the reference model best ...
-    assert with_act["ise_vs_model"] < without_act["ise_vs_model"] / 5   # README: 5x
-    assert with_act["ise_vs_model"] < pi["ise_vs_model"] / 50           # README: 50x
+    assert with_act['ise_vs_model'] < without_act['ise_vs_model'] / 5   # README: 5x
+    assert with_act['ise_vs_model'] < pi['ise_vs_model'] / 50           # README: 50x
     # ... neglecting the actuator is visibly less damped ...
     assert without_act['overshoot_percent'] > 1.5 * with_act['overshoot_percent']
     assert without_act['crossings_2pct'] > with_act['crossings_2pct']

@@ -32,20 +32,29 @@ def filled(mtype, seed):
         elif ftype == 'int64':
             setattr(msg, field, -k)
         else:
-            raise AssertionError(f'test does not know how to fill {ftype} ({mtype.__name__}.{field})')
+            raise AssertionError(
+                f'test does not know how to fill {ftype} ({mtype.__name__}.{field})'
+            )
     return msg
 
 
 def test_all_message_types_are_listed():
-    declared = sorted(n for n in dir(irs) if n[0].isupper() and hasattr(getattr(irs, n), 'get_fields_and_field_types'))
+    declared = sorted(
+        n
+        for n in dir(irs)
+        if n[0].isupper() and hasattr(getattr(irs, n), 'get_fields_and_field_types')
+    )
     assert declared == sorted(TYPES)
 
 
 def test_every_irs_msgs_type_round_trips_between_processes(ros, tmp_path):
     node = ros.node
-    echo = subprocess.Popen([sys.executable, os.path.join(os.path.dirname(__file__), 'msg_echo.py'), *TYPES],
-                            stdout=open(tmp_path / 'echo.log', 'wb'), stderr=subprocess.STDOUT,
-                            start_new_session=True)
+    echo = subprocess.Popen(
+        [sys.executable, os.path.join(os.path.dirname(__file__), 'msg_echo.py'), *TYPES],
+        stdout=open(tmp_path / 'echo.log', 'wb'),
+        stderr=subprocess.STDOUT,
+        start_new_session=True,
+    )
     try:
         received = {}
         pubs, subs = {}, {}

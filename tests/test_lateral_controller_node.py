@@ -19,6 +19,8 @@ LIMIT = 0.2618
 
 
 class ControllerLink:
+    """Publishers of the controller's inputs and the commands and status it answers."""
+
     def __init__(self, ros):
         node = ros.node
         self.ros = ros
@@ -26,9 +28,16 @@ class ControllerLink:
         self.ref = node.create_publisher(LateralReference, 'lateral/reference', qos.COMMAND)
         self.cmds, self.status = {}, []
         self.subs = [
-            node.create_subscription(SteeringCommand, 'steering/command',
-                                     lambda m: self.cmds.__setitem__(to_ns(m.header.stamp), m), qos.COMMAND),
-            node.create_subscription(LateralControllerStatus, 'lateral/status', self.status.append, qos.SENSOR)]
+            node.create_subscription(
+                SteeringCommand,
+                'steering/command',
+                lambda m: self.cmds.__setitem__(to_ns(m.header.stamp), m),
+                qos.COMMAND,
+            ),
+            node.create_subscription(
+                LateralControllerStatus, 'lateral/status', self.status.append, qos.SENSOR
+            ),
+        ]
         assert ros.wait_for_matched([self.meas, self.ref, *self.subs], timeout=30.0)
 
     def send(self, stamp_ns, y, r=None):
@@ -44,8 +53,13 @@ class ControllerLink:
 
 
 def closed_loop_step_response(ros, launch, anti_windup, step=0.3, duration=4.0):
-    launch(NodeSpec('irs_control', 'lateral_controller',
-                    params={'reference_sync': True, 'anti_windup': anti_windup, 'stale_timeout': 10.0}))
+    launch(
+        NodeSpec(
+            'irs_control',
+            'lateral_controller',
+            params={'reference_sync': True, 'anti_windup': anti_windup, 'stale_timeout': 10.0},
+        )
+    )
     link = ControllerLink(ros)
     rig = RigSimulation(RigConfig.from_dict({'arm.enable_noise': False}))
     y, steer = [], []
@@ -101,7 +115,9 @@ def test_stale_or_invalid_measurement_gives_zero_steer(ros, launch):
     link.send(stamp, math.nan)
     assert ros.spin_until(lambda: stamp in link.cmds, 10.0)
     assert link.cmds[stamp].front_angle == 0.0
-    assert ros.spin_until(lambda: link.status[-1].state == LateralControllerStatus.STATE_INVALID, 5.0)
+    assert ros.spin_until(
+        lambda: link.status[-1].state == LateralControllerStatus.STATE_INVALID, 5.0
+    )
 
 
 def test_a_repeated_step_is_answered_again_without_stepping_the_controller(ros, launch):
@@ -126,7 +142,9 @@ def test_a_repeated_step_is_answered_again_without_stepping_the_controller(ros, 
                             'lateral/status': 'fresh/lateral/status'}))
     fresh = []
     pub = ros.node.create_publisher(PointStamped, 'fresh/lateral_position', qos.SENSOR)
-    sub = ros.node.create_subscription(SteeringCommand, 'fresh/steering/command', fresh.append, qos.COMMAND)
+    sub = ros.node.create_subscription(
+        SteeringCommand, 'fresh/steering/command', fresh.append, qos.COMMAND
+    )
     assert ros.wait_for_matched([pub, sub], timeout=30.0)
     for k, y in enumerate((0.01, 0.02, 0.03)):
         m = PointStamped()
@@ -135,4 +153,6 @@ def test_a_repeated_step_is_answered_again_without_stepping_the_controller(ros, 
         n = len(fresh)
         pub.publish(m)
         assert ros.spin_until(lambda: len(fresh) > n, 10.0)
-    assert [a.front_angle for a in (answers[0], answers[1], answers[3])] == [f.front_angle for f in fresh]
+    assert [a.front_angle for a in (answers[0], answers[1], answers[3])] == [
+        f.front_angle for f in fresh
+    ]

@@ -47,13 +47,15 @@ def test_architecture_doc_lists_every_topic():
             assert f'`{topic}`' in text, topic
 
 
-NODE_CLASSES = {'vehicle_sim': 'irs_vehicle_sim.vehicle_sim_node:VehicleSimNode',
-                'arm_pose_estimator': 'irs_sensing.arm_pose_estimator_node:ArmPoseEstimatorNode',
-                'treadmill_regulator': 'irs_treadmill.treadmill_regulator_node:TreadmillRegulatorNode',
-                'lateral_controller': 'irs_control.lateral_controller_node:LateralControllerNode',
-                'reference_generator': 'irs_control.reference_generator_node:ReferenceGeneratorNode',
-                'driver': 'irs_bringup.driver.driver_node:DriverNode',
-                'recorder': 'irs_bringup.bag.recorder_node:Recorder'}
+NODE_CLASSES = {
+    'vehicle_sim': 'irs_vehicle_sim.vehicle_sim_node:VehicleSimNode',
+    'arm_pose_estimator': 'irs_sensing.arm_pose_estimator_node:ArmPoseEstimatorNode',
+    'treadmill_regulator': 'irs_treadmill.treadmill_regulator_node:TreadmillRegulatorNode',
+    'lateral_controller': 'irs_control.lateral_controller_node:LateralControllerNode',
+    'reference_generator': 'irs_control.reference_generator_node:ReferenceGeneratorNode',
+    'driver': 'irs_bringup.driver.driver_node:DriverNode',
+    'recorder': 'irs_bringup.bag.recorder_node:Recorder',
+}
 RCLPY_PARAMETERS = {'use_sim_time', 'start_type_description_service'}
 
 
@@ -62,10 +64,13 @@ def _all_tables():
     return [(node, table) for _pkg, node, table in node_tables()] + [('recorder', RECORDER)]
 
 
-def test_every_node_declares_its_whole_table_through_the_parameter_mechanism(tmp_path, monkeypatch):
+def test_every_node_declares_its_whole_table_through_the_parameter_mechanism(
+    tmp_path, monkeypatch
+):
     """Built with defaults, every node has exactly its table's parameters, each with the table's
     read-only flag; every writable one has a handler and takes its own value back through the
-    on-set/post-set path, every read-only one refuses a change."""
+    on-set/post-set path, every read-only one refuses a change.
+    """
     import importlib
 
     import rclpy
@@ -83,18 +88,24 @@ def test_every_node_declares_its_whole_table_through_the_parameter_mechanism(tmp
             try:
                 guard = getattr(node, ParameterGuard.ATTRIBUTE)
                 declared = set(node.list_parameters([], 0).names) - RCLPY_PARAMETERS
-                assert declared == {p.name for p in table}, f'{node_name}: declared outside its table'
+                assert declared == {p.name for p in table}, (
+                    f'{node_name}: declared outside its table'
+                )
                 for p in table:
                     assert guard.params[p.name] == p, f'{node_name}.{p.name}'
                     assert node.describe_parameter(p.name).read_only == p.read_only
                     current = node.get_parameter(p.name).value
                     [res] = node.set_parameters([Parameter(p.name, value=current)])
                     if p.writable:
-                        assert callable(guard.handlers.get(p.name)), f'{node_name}.{p.name}: no handler'
+                        assert callable(guard.handlers.get(p.name)), (
+                            f'{node_name}.{p.name}: no handler'
+                        )
                         assert res.successful, f'{node_name}.{p.name}: {res.reason}'
                     else:
                         assert p.name not in guard.handlers
-                        assert not res.successful and 'read-only' in res.reason, f'{node_name}.{p.name}'
+                        assert not res.successful and 'read-only' in res.reason, (
+                            f'{node_name}.{p.name}'
+                        )
             finally:
                 node.destroy_node()
     finally:

@@ -250,7 +250,8 @@ def test_recorder_sigkill_leaves_recoverable_prefix(ros, launch, tmp_path):
 def test_recorder_counts_a_real_loss(ros, launch, tmp_path):
     """The recorder is stopped (SIGSTOP) while a publisher floods its topic (KEEP_LAST 10 on
     both sides): messages are really lost. After SIGCONT the bag's drop count equals what was
-    published minus what was recorded, and the recorded values are exactly the ones it kept."""
+    published minus what was recorded, and the recorded values are exactly the ones it kept.
+    """
     from rclpy.qos import HistoryPolicy, QoSProfile, ReliabilityPolicy
     from std_msgs.msg import Int64
 
@@ -312,7 +313,8 @@ def test_recorder_bad_output_is_a_configuration_error(tmp_path):
 def test_lockstep_experiments_record_clock():
     """/clock (published by the lock-step rig, recorded by the tests above) is in the record
     list of every lock-step experiment, so `bag play` paces their bags by sim time; the
-    runner waits for the recorder's /clock subscription before step 0."""
+    runner waits for the recorder's /clock subscription before step 0.
+    """
     from irs_bringup.run.experiment import expected_endpoints, load_experiment
     for name in ('figure10_mrc_with_actuator', 'figure10_mrc_without_actuator', 'figure10_pi',
                  'treadmill_regulation'):

@@ -34,10 +34,27 @@ def test_angles_give_expected_pose_velocity_and_lateral_displacement(ros, launch
     got = {'pose': {}, 'velocity': {}, 'lateral': {}, 'status': []}
     pub = node.create_publisher(JointState, 'arm/joint_states', qos.SENSOR)
     subs = [
-        node.create_subscription(PoseStamped, 'pose', lambda m: got['pose'].__setitem__(to_ns(m.header.stamp), m), qos.SENSOR),
-        node.create_subscription(TwistStamped, 'velocity', lambda m: got['velocity'].__setitem__(to_ns(m.header.stamp), m), qos.SENSOR),
-        node.create_subscription(PointStamped, 'lateral_position', lambda m: got['lateral'].__setitem__(to_ns(m.header.stamp), m), qos.SENSOR),
-        node.create_subscription(SensingStatus, 'sensing/status', lambda m: got['status'].append(m), qos.STATUS),
+        node.create_subscription(
+            PoseStamped,
+            'pose',
+            lambda m: got['pose'].__setitem__(to_ns(m.header.stamp), m),
+            qos.SENSOR,
+        ),
+        node.create_subscription(
+            TwistStamped,
+            'velocity',
+            lambda m: got['velocity'].__setitem__(to_ns(m.header.stamp), m),
+            qos.SENSOR,
+        ),
+        node.create_subscription(
+            PointStamped,
+            'lateral_position',
+            lambda m: got['lateral'].__setitem__(to_ns(m.header.stamp), m),
+            qos.SENSOR,
+        ),
+        node.create_subscription(
+            SensingStatus, 'sensing/status', lambda m: got['status'].append(m), qos.STATUS
+        ),
     ]
     assert ros.wait_for_matched([pub, *subs], timeout=30.0)
     geo = ArmGeometry()
@@ -64,7 +81,9 @@ def test_angles_give_expected_pose_velocity_and_lateral_displacement(ros, launch
 
     # A NaN reading is rejected: NaN markers on the outputs, REJECTED status with a reason.
     pub.publish(joint_state(n * 1_000_000, (math.nan, 0.0, 0.0)))
-    assert ros.spin_until(lambda: any(s.state == SensingStatus.REJECTED for s in got['status']), 10.0)
+    assert ros.spin_until(
+        lambda: any(s.state == SensingStatus.REJECTED for s in got['status']), 10.0
+    )
     assert ros.spin_until(lambda: n * 1_000_000 in got['pose'], 10.0)
     assert math.isnan(got['pose'][n * 1_000_000].pose.position.x)
     rejected = [s for s in got['status'] if s.state == SensingStatus.REJECTED][-1]

@@ -1,4 +1,4 @@
-"""treadmill_regulator on its topics: drive commands, fault latching on stale and off-belt input."""
+"""treadmill_regulator on its topics: drive commands, fault latching on stale, off-belt input."""
 import math
 
 from geometry_msgs.msg import PoseStamped, TwistStamped
@@ -20,8 +20,14 @@ class Feeder:
         self.vel = node.create_publisher(TwistStamped, 'velocity', qos.SENSOR)
         self.belt = node.create_publisher(BeltSpeed, 'belt/speed', qos.SENSOR)
         self.drive, self.state = [], []
-        self.subs = [node.create_subscription(TreadmillDriveCommand, 'treadmill/drive', self.drive.append, qos.COMMAND),
-                     node.create_subscription(TreadmillState, 'treadmill/state', self.state.append, qos.SENSOR)]
+        self.subs = [
+            node.create_subscription(
+                TreadmillDriveCommand, 'treadmill/drive', self.drive.append, qos.COMMAND
+            ),
+            node.create_subscription(
+                TreadmillState, 'treadmill/state', self.state.append, qos.SENSOR
+            ),
+        ]
 
     def publish(self, x, y=0.0, belt=1.0):
         stamp = self.ros.node.get_clock().now().to_msg()
@@ -83,7 +89,10 @@ def test_regulates_then_latches_stale_and_off_belt_faults(ros, launch):
     assert f.state[-1].fault_code == FaultCode.NEAR_FRONT_END and 'front' in f.state[-1].fault_text
     n = len(f.drive)
     assert feed_until(ros, f, lambda: len(f.drive) > n + 20, x=0.3)
-    assert all(d.voltage == 0.0 for d in f.drive[n:]) and f.state[-1].mode == TreadmillState.MODE_FAULT
+    assert (
+        all(d.voltage == 0.0 for d in f.drive[n:])
+        and f.state[-1].mode == TreadmillState.MODE_FAULT
+    )
     # ... the reset service does.
     assert reset(ros).success
     assert feed_until(ros, f, lambda: f.state[-1].mode != TreadmillState.MODE_FAULT, x=0.3)

@@ -27,7 +27,9 @@ def test_step_steer_matches_offline_core(ros, launch):
     stamps = sorted(rec['point'])[:len(off['time'])]
     y_node = np.array([rec['point'][s].point.y for s in stamps])
     y_core = off['y_s'][:len(stamps)]
-    assert np.array_equal(np.array(stamps), np.round(off['time'][:len(stamps)] * 1e9).astype(np.int64))
+    assert np.array_equal(
+        np.array(stamps), np.round(off['time'][: len(stamps)] * 1e9).astype(np.int64)
+    )
     assert np.max(np.abs(y_node - y_core)) < 1e-9
     assert abs(y_core[-1]) > 1e-3, 'the step must actually move the car'
     achieved = np.array([rec['actuator'][s].front_achieved for s in stamps])

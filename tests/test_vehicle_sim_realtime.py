@@ -13,8 +13,12 @@ def test_invalid_and_stale_steering_commands_give_zero_steer(ros, launch):
     node = ros.node
     states, status = [], []
     pub = node.create_publisher(SteeringCommand, 'steering/command', qos.COMMAND)
-    subs = [node.create_subscription(SteeringActuatorState, 'steering/state', states.append, qos.SENSOR),
-            node.create_subscription(RigStatus, 'rig/status', status.append, qos.STATUS)]
+    subs = [
+        node.create_subscription(
+            SteeringActuatorState, 'steering/state', states.append, qos.SENSOR
+        ),
+        node.create_subscription(RigStatus, 'rig/status', status.append, qos.STATUS),
+    ]
     assert ros.wait_for_matched([pub, *subs], timeout=30.0)
 
     def send(angle):

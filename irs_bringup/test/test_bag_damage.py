@@ -1,5 +1,6 @@
 """Damaged and unfinished bags: every verb gives a result or one line (exit 2), never a traceback;
-``bag recover`` writes a valid bag from them."""
+``bag recover`` writes a valid bag from them.
+"""
 import contextlib
 import io
 import random
@@ -28,7 +29,8 @@ def _time(ns):
 
 def make_bag(path, n=N, chunk_size=1024):
     """n joint states + n points (plots and rerun use them), small chunks, an experiment
-    metadata record; stamps k ms, log times T0 + 3k ms."""
+    metadata record; stamps k ms, log times T0 + 3k ms.
+    """
     with BagWriter(path, chunk_size=chunk_size) as w:
         w.add_metadata('irs_experiment', {'experiment_yaml': 'clock: realtime\n'})
         for k in range(n):
@@ -73,7 +75,8 @@ def test_byte_flips_give_a_result_or_one_line(small_bag, tmp_path):
     """Single byte flips over a bounded sample of positions (every summary/footer byte region
     and the data section, seeded): each verb exits 0 (with at most one warning line) or 2
     (one error line naming the file); validate may exit 1 (problems found), never 0 silently
-    on a damaged summary. Plots and rerun (slow) on a few positions."""
+    on a damaged summary. Plots and rerun (slow) on a few positions.
+    """
     mcap = next(small_bag.glob('*.mcap'))
     data = mcap.read_bytes()
     s_start = _summary_start(data)
@@ -113,7 +116,8 @@ def test_byte_flips_give_a_result_or_one_line(small_bag, tmp_path):
 
 def test_unfinished_bag_every_verb_on_its_prefix(small_bag, tmp_path):
     """A copy cut in the middle (as a killed recorder leaves it): every verb reads the complete
-    chunks with one warning line; recover writes a valid bag with exactly those messages."""
+    chunks with one warning line; recover writes a valid bag with exactly those messages.
+    """
     mcap = next(small_bag.glob('*.mcap'))
     data = mcap.read_bytes()
     bag = tmp_path / 'cut'
@@ -160,9 +164,15 @@ def test_recover_keeps_a_whole_bag_whole(small_bag, tmp_path):
         assert b.message_count == 2 * N
 
 
-@pytest.mark.parametrize('content', [b'\xff\xfe not utf-8 \x80\n', b'rosbag2_bagfile_information: [',
-                                     b'just a string', b'rosbag2_bagfile_information:\n  '
-                                     b'relative_file_paths: [missing_0.mcap]\n'])
+@pytest.mark.parametrize(
+    'content',
+    [
+        b'\xff\xfe not utf-8 \x80\n',
+        b'rosbag2_bagfile_information: [',
+        b'just a string',
+        b'rosbag2_bagfile_information:\n  relative_file_paths: [missing_0.mcap]\n',
+    ],
+)
 def test_bad_metadata_yaml_is_one_line_and_the_mcap_still_reads(small_bag, tmp_path, content):
     bag = tmp_path / 'bag'
     shutil.copytree(small_bag, bag)

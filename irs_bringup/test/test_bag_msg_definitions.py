@@ -47,7 +47,8 @@ def test_joint_state_exact_text():
 
 def test_pose_stamped_exact_text_sorted_depth_first():
     """Dependencies of one file in sorted order (rosbag2 std::set), depth first;
-    same-package 'Pose' -> geometry_msgs/Pose."""
+    same-package 'Pose' -> geometry_msgs/Pose.
+    """
     sep = '\n' + '=' * 80 + '\n'
     expected = (_msg('geometry_msgs', 'PoseStamped')
                 + sep + 'MSG: geometry_msgs/Pose\n' + _msg('geometry_msgs', 'Pose')
@@ -132,7 +133,7 @@ def test_missing_nested_type_names_parent(tmp_path, monkeypatch):
     msg.mkdir(parents=True)
     (msg / 'A.msg').write_text('Missing m\n')
     monkeypatch.setenv('AMENT_PREFIX_PATH', str(tmp_path))
-    with pytest.raises(MessageDefinitionError, match=r"bad_pkg/Missing.*bad_pkg/msg/A"):
+    with pytest.raises(MessageDefinitionError, match=r'bad_pkg/Missing.*bad_pkg/msg/A'):
         get_message_definition('bad_pkg/msg/A')
 
 
@@ -144,7 +145,8 @@ def test_split_type_name():
 @pytest.mark.parametrize('type_name', TYPES)
 def test_rosbags_parses_definition_to_jazzy_hash(type_name):
     """rosbags parses our text; the RIHS01 hash of what it parsed equals rosbags' own Jazzy
-    type store hash and the hash installed by rosidl (<Type>.json)."""
+    type store hash and the hash installed by rosidl (<Type>.json).
+    """
     text = get_message_definition(type_name)
     types = get_types_from_msg(text, type_name)
     store = get_typestore(Stores.EMPTY)

@@ -169,7 +169,7 @@ def test_copy_of_unclosed_bag_is_recoverable(tmp_path):
     assert validate(d).ok
 
 
-CHILD = r'''
+CHILD = r"""
 import sys
 sys.path.insert(0, sys.argv[1])
 from irs_bringup.bag.bag_writer import BagWriter
@@ -184,7 +184,7 @@ for k in range(10**7):
     w.write('/h', 'std_msgs/msg/Header', bytes(ts.serialize_cdr(m, 'std_msgs/msg/Header')), t)
     if k == 3000:
         print('ready', flush=True)
-'''
+"""
 
 
 def test_sigkill_during_recording(tmp_path):

@@ -218,7 +218,8 @@ def test_rosbags_reader_opens_bag(recorded):
 def test_rosbags_anyreader_uses_embedded_definitions(recorded):
     """AnyReader builds its types from the definitions stored in the bag (empty default
     store), deserializes every message equal to the original, and its RIHS01 hashes of those
-    types equal rosbags' built-in Jazzy hashes."""
+    types equal rosbags' built-in Jazzy hashes.
+    """
     bag, msgs, _ = recorded
     with AnyReader([bag], default_typestore=get_typestore(Stores.EMPTY)) as r:
         jazzy = get_typestore(Stores.ROS2_JAZZY)
@@ -392,10 +393,12 @@ def test_deserialize_helper_errors():
 
 def test_modules_do_not_import_rclpy():
     import subprocess
-    code = ('import sys; sys.path.insert(0, sys.argv[1]); '
-            'import irs_bringup.bag.bag_writer, irs_bringup.bag.bag_reader, irs_bringup.bag.bag_info, '
-            'irs_bringup.bag.bag_export, irs_bringup.bag.msg_definitions; '
-            'print("rclpy" in sys.modules)')
+    code = (
+        'import sys; sys.path.insert(0, sys.argv[1]); '
+        'import irs_bringup.bag.bag_writer, irs_bringup.bag.bag_reader, irs_bringup.bag.bag_info, '
+        'irs_bringup.bag.bag_export, irs_bringup.bag.msg_definitions; '
+        'print("rclpy" in sys.modules)'
+    )
     out = subprocess.run([sys.executable, '-c', code, str(Path(__file__).resolve().parents[1])],
                          capture_output=True, text=True, check=True)
     assert out.stdout.strip() == 'False'

@@ -55,7 +55,9 @@ def test_reference_model_holds_nan_and_handles_nonuniform_time():
 def _second_order(t, zeta, wn, t0):
     tau = np.clip(t - t0, 0, None)
     wd = wn * math.sqrt(1 - zeta ** 2)
-    y = 1 - np.exp(-zeta * wn * tau) * (np.cos(wd * tau) + zeta / math.sqrt(1 - zeta ** 2) * np.sin(wd * tau))
+    y = 1 - np.exp(-zeta * wn * tau) * (
+        np.cos(wd * tau) + zeta / math.sqrt(1 - zeta**2) * np.sin(wd * tau)
+    )
     return np.where(t >= t0, y, 0.0)
 
 
@@ -72,7 +74,9 @@ def test_run_metrics_second_order_synthetic():
     wd = wn * math.sqrt(1 - zeta ** 2)
     assert m['step'] == pytest.approx(amp)
     assert m['t_step'] == pytest.approx(1.0)
-    assert m['overshoot_percent'] == pytest.approx(100 * math.exp(-math.pi * zeta / math.sqrt(1 - zeta ** 2)), rel=1e-3)
+    assert m['overshoot_percent'] == pytest.approx(
+        100 * math.exp(-math.pi * zeta / math.sqrt(1 - zeta**2)), rel=1e-3
+    )
     wd = wn * math.sqrt(1 - zeta ** 2)
     # crossings at wd t = pi k - phi: count those inside the record (after the first)
     phi = math.atan(zeta / math.sqrt(1 - zeta ** 2))
@@ -84,7 +88,11 @@ def test_run_metrics_second_order_synthetic():
     assert m['time_at_limit'] == 0.0
     # residual p-p from t_step + 3 s: the next two extremes lie within pi/wd and 2 pi/wd
     env = lambda s: amp * math.exp(-zeta * wn * s) / math.sqrt(1 - zeta ** 2)  # noqa: E731
-    assert env(3 + math.pi / wd) + env(3 + 2 * math.pi / wd) < m['residual_oscillation'] < 2 * env(3.0)
+    assert (
+        env(3 + math.pi / wd) + env(3 + 2 * math.pi / wd)
+        < m['residual_oscillation']
+        < 2 * env(3.0)
+    )
     # steer of length N+1 gives the same metrics
     m2 = F.run_metrics(_run(t, y, _step_ref(t, amp, 1.0), np.append(steer, steer[-1])))
     assert m2 == m
@@ -115,7 +123,9 @@ def test_ise_vs_model_and_window_and_band_crossings():
     # negative step: metrics in the step direction
     yn = -_second_order(t, 0.7, 5.0, 1.0) * 0.02   # OS 4.6 %, undershoot 0.2 %
     mn = F.run_metrics(_run(t, yn, np.where(t >= 1.0, -0.02, 0.0), np.zeros(t.size)))
-    assert mn['overshoot_percent'] == pytest.approx(100 * math.exp(-math.pi * 0.7 / math.sqrt(0.51)), rel=1e-3)
+    assert mn['overshoot_percent'] == pytest.approx(
+        100 * math.exp(-math.pi * 0.7 / math.sqrt(0.51)), rel=1e-3
+    )
     assert mn['crossings_2pct'] == 0
     with pytest.raises(ValueError):
         F.run_metrics(_run(t, y, np.zeros(t.size), steer))   # no step
@@ -179,7 +189,9 @@ def test_mrc_with_actuator_follows_model_in_linear_range(linear_1khz):
     # loop_sim; the rig adds the rest); it is first order in dt (next test).
     assert w['max_dev_rel'] < 6e-3
     assert w['ise_norm'] < 1.5e-5
-    assert w['overshoot_percent'] == pytest.approx(F.model_metrics(runs['mrc_with_actuator'])['overshoot_percent'], abs=1.0)
+    assert w['overshoot_percent'] == pytest.approx(
+        F.model_metrics(runs['mrc_with_actuator'])['overshoot_percent'], abs=1.0
+    )
     # neglecting the actuator: clearly worse model following and more overshoot
     assert wo['ise_vs_model'] > 100 * w['ise_vs_model']
     assert wo['max_dev_rel'] > 10 * w['max_dev_rel']
@@ -203,5 +215,8 @@ def test_linear_closed_loop_poles():
     d = dominant(p)
     assert d['zeta'] == pytest.approx(0.8, abs=1e-6) and d['wn'] == pytest.approx(5.0, rel=1e-6)
     assert dominant(closed_loop_poles('mrc_without_actuator'))['zeta'] < 0.6
-    assert dominant(closed_loop_poles('pi'))['zeta'] < dominant(closed_loop_poles('mrc_without_actuator'))['zeta']
+    assert (
+        dominant(closed_loop_poles('pi'))['zeta']
+        < dominant(closed_loop_poles('mrc_without_actuator'))['zeta']
+    )
     assert dominant(closed_loop_poles('mrc_with_actuator', 0.017))['zeta'] < 0.8

@@ -1,1 +1,4 @@
-"""Node plumbing shared by the IRS nodes (the only IRS modules besides the nodes that import rclpy)."""
+"""Node plumbing shared by the IRS nodes.
+
+The only IRS modules besides the nodes that import rclpy.
+"""

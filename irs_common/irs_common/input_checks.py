@@ -6,7 +6,8 @@ wording, so a log or a status message says the same thing whichever node found t
 Rules
 -----
 Values (:func:`finite_problem`, :func:`range_problem`)
-    A value is *usable* when it is a real number (``int``, ``float``, numpy scalars; not ``bool``), finite
+    A value is *usable* when it is a real number (``int``, ``float``, numpy scalars; not ``bool``),
+    finite
     (not NaN, not +-inf) and, for a range check, ``low <= value <= high`` (limits in the value's
     unit, inclusive). Each check returns ``None`` for a usable value or one sentence saying what
     is wrong (naming the input, its value and the expected range). Finite-but-absurd values such
@@ -42,8 +43,8 @@ import numbers
 from dataclasses import dataclass, field
 from typing import Callable, Optional, Tuple
 
-__all__ = ["StampVerdict", "finite_problem", "range_problem", "abs_limit_problem",
-           "stamp_problem", "ThrottledWarner", "DEFAULT_FUTURE_TOLERANCE_NS"]
+__all__ = ['StampVerdict', 'finite_problem', 'range_problem', 'abs_limit_problem',
+           'stamp_problem', 'ThrottledWarner', 'DEFAULT_FUTURE_TOLERANCE_NS']
 
 #: Default tolerance for stamps ahead of the receiving node's clock [ns] (0.5 s): generous for
 #: clock offsets between processes on one machine, far below a stale timeout's consequences.
@@ -57,13 +58,13 @@ def _is_real(value) -> bool:
 def finite_problem(name: str, value) -> Optional[str]:
     """``None`` if ``value`` is a finite real number, else a sentence naming ``name``."""
     if not _is_real(value):
-        return f"{name} is not a number ({value!r})"
+        return f'{name} is not a number ({value!r})'
     if not math.isfinite(value):
-        return f"{name} is not finite ({value!r})"
+        return f'{name} is not finite ({value!r})'
     return None
 
 
-def range_problem(name: str, value, low: float, high: float, unit: str = "") -> Optional[str]:
+def range_problem(name: str, value, low: float, high: float, unit: str = '') -> Optional[str]:
     """``None`` if ``value`` is finite and ``low <= value <= high``, else a sentence.
 
     ``low``/``high`` may be +-inf (one-sided range). ``unit`` is appended to the numbers in the
@@ -73,23 +74,23 @@ def range_problem(name: str, value, low: float, high: float, unit: str = "") -> 
     if problem is not None:
         return problem
     if not low <= value <= high:
-        u = f" {unit}" if unit else ""
-        return f"{name} = {value:.6g}{u} is outside [{low:.6g}, {high:.6g}]{u}"
+        u = f' {unit}' if unit else ''
+        return f'{name} = {value:.6g}{u} is outside [{low:.6g}, {high:.6g}]{u}'
     return None
 
 
-def abs_limit_problem(name: str, value, limit: float, unit: str = "") -> Optional[str]:
-    """``range_problem(name, value, -limit, limit, unit)``: a symmetric bound ``|value| <= limit``."""
+def abs_limit_problem(name: str, value, limit: float, unit: str = '') -> Optional[str]:
+    """Symmetric bound ``|value| <= limit``, as ``range_problem(name, value, -limit, limit)``."""
     return range_problem(name, value, -limit, limit, unit)
 
 
 class StampVerdict(str, enum.Enum):
-    """Outcome of :func:`stamp_problem` (a ``str``: ``'ok'``, ``'future'``, ``'repeat'``, ``'old'``)."""
+    """Outcome of :func:`stamp_problem`: ``'ok'``, ``'future'``, ``'repeat'`` or ``'old'``."""
 
-    OK = "ok"
-    FUTURE = "future"
-    REPEAT = "repeat"
-    OLD = "old"
+    OK = 'ok'
+    FUTURE = 'future'
+    REPEAT = 'repeat'
+    OLD = 'old'
 
 
 def stamp_problem(stamp_ns: int, now_ns: Optional[int], future_tolerance_ns: int,
@@ -118,18 +119,19 @@ def stamp_problem(stamp_ns: int, now_ns: Optional[int], future_tolerance_ns: int
         ``future_tolerance_ns`` negative (a programming error, not a data error).
     """
     if future_tolerance_ns < 0:
-        raise ValueError(f"future_tolerance_ns must be >= 0 ns, got {future_tolerance_ns!r}")
+        raise ValueError(f'future_tolerance_ns must be >= 0 ns, got {future_tolerance_ns!r}')
     stamp_ns = int(stamp_ns)
     if now_ns is not None and stamp_ns - int(now_ns) > future_tolerance_ns:
         return StampVerdict.FUTURE, (
-            f"stamp {stamp_ns * 1e-9:.9f} s is {(stamp_ns - int(now_ns)) * 1e-9:.3f} s ahead of "
-            f"the clock ({int(now_ns) * 1e-9:.9f} s; tolerance {future_tolerance_ns * 1e-9:.3f} s)")
+            f'stamp {stamp_ns * 1e-9:.9f} s is {(stamp_ns - int(now_ns)) * 1e-9:.3f} s ahead of '
+            f'the clock ({int(now_ns) * 1e-9:.9f} s; tolerance {future_tolerance_ns * 1e-9:.3f} s)'
+        )
     if last_ns is not None:
         if stamp_ns == int(last_ns):
-            return StampVerdict.REPEAT, f"stamp {stamp_ns * 1e-9:.9f} s repeats the last one"
+            return StampVerdict.REPEAT, f'stamp {stamp_ns * 1e-9:.9f} s repeats the last one'
         if stamp_ns < int(last_ns):
-            return StampVerdict.OLD, (f"stamp {stamp_ns * 1e-9:.9f} s is older than the last "
-                                      f"accepted one ({int(last_ns) * 1e-9:.9f} s)")
+            return StampVerdict.OLD, (f'stamp {stamp_ns * 1e-9:.9f} s is older than the last '
+                                      f'accepted one ({int(last_ns) * 1e-9:.9f} s)')
     return StampVerdict.OK, None
 
 
@@ -155,7 +157,7 @@ class ThrottledWarner:
             return False
         n = self._suppressed.pop(key, 0)
         self._last[key] = now
-        self.log(text + (f" ({n} more suppressed)" if n else ""))
+        self.log(text + (f' ({n} more suppressed)' if n else ''))
         return True
 
     def suppressed(self, key: str) -> int:

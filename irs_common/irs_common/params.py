@@ -301,11 +301,17 @@ class ParameterGuard:
             p = self.params.get(param.name)
             if p is None:
                 pass
-            elif p.kind in ('double', 'double[]') and param.type_.value == _DOUBLE_TYPES[_ptype(p)]:
+            elif (
+                p.kind in ('double', 'double[]') and param.type_.value == _DOUBLE_TYPES[_ptype(p)]
+            ):
                 value = float(param.value) if p.kind == 'double' else \
                     [float(v) for v in param.value]
                 param = type(param)(param.name, value=value)
-            elif p.kind.endswith('[]') and param.type_.value in _ARRAY_TYPES and not len(param.value):
+            elif (
+                p.kind.endswith('[]')
+                and param.type_.value in _ARRAY_TYPES
+                and not len(param.value)
+            ):
                 # [] has no element type: give it the parameter's, so on_set can say what is wrong
                 param = _parameter(param, p, [])
             out.append(param)
@@ -360,8 +366,10 @@ def declare_table(node, table, on_change=None, *, strict: bool = False,
     """
     writable = [p.name for p in table if p.writable]
     if writable and on_change is None:
-        raise TypeError(f'writable parameter(s) {writable} of node {node.get_name()!r} need an '
-                        'on_change(name, value) handler: declare_table(node, table, on_change=...)')
+        raise TypeError(
+            f'writable parameter(s) {writable} of node {node.get_name()!r} need an '
+            'on_change(name, value) handler: declare_table(node, table, on_change=...)'
+        )
     guard = ParameterGuard.of(node)
     overrides = getattr(node, '_parameter_overrides', {})
     values = {}
@@ -436,7 +444,9 @@ def markdown_table(table) -> str:
     for p in table:
         rng = '' if p.low is None and p.high is None else f'[{p.low}, {p.high}]'
         rw = 'yes' if p.writable else ''
-        rows.append(f'| `{p.name}` | `{p.default!r}` | {p.unit} | {rng} | {rw} | {p.description} |')
+        rows.append(
+            f'| `{p.name}` | `{p.default!r}` | {p.unit} | {rng} | {rw} | {p.description} |'
+        )
     return '\n'.join(rows)
 
 

@@ -1,7 +1,8 @@
 """The node's ``/clock`` subscription, validated: bad clock messages are dropped, not fatal.
 
 rclpy's ``TimeSource`` subscribes ``/clock`` for every node with ``use_sim_time`` and converts each
-message with ``Time.from_msg``, which raises on a negative time: one bad ``/clock`` message ends the
+message with ``Time.from_msg``, which raises on a negative time: one bad ``/clock`` message ends
+the
 node. ``guard_clock(node)`` replaces that subscription (``node._time_source._clock_sub``, rclpy
 7.1.6; the one place that knows this internal) by one whose callback
 

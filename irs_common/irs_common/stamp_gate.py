@@ -76,7 +76,8 @@ class StampGate:
                     ' message dropped')
         last = 'none' if self.last_ns is None else f'{self.last_ns * 1e-9:.9f} s'
         if verdict == OLD:
-            return f'stamp {s:.9f} s is older than the last accepted one ({last}): out of order, dropped'
+            return (f'stamp {s:.9f} s is older than the last accepted one ({last}): '
+                    'out of order, dropped')
         if verdict == RESET:
             return (f'stamp {s:.9f} s is more than {self.reset_after_ns * 1e-9:.3g} s older than '
                     'the last accepted one: time went back, state reset')

@@ -30,7 +30,9 @@ def ctx():
     nodes = []
 
     def make(*args):
-        node = Node('params_test', context=context, cli_args=['--ros-args', *args] if args else None)
+        node = Node(
+            'params_test', context=context, cli_args=['--ros-args', *args] if args else None
+        )
         nodes.append(node)
         return node
     yield make
@@ -71,18 +73,29 @@ def test_changes_of_writable_parameters_reach_the_handler_as_doubles(ctx):
     assert seen[1:] == [('poles', [3.0, 4.0]), ('even', 4)] and values['even'] == 4
 
 
-@pytest.mark.parametrize('name, value, reason', [
-    ('x0', 2.0, 'out of range'),                      # rclpy's range check (descriptor)
-    ('x0', math.nan, 'out of range'),
-    ('x0', 'abc', 'Wrong parameter type'),           # rclpy's type check (descriptor)
-    ('gain', math.nan, "parameter 'gain': got nan (not a finite number), expected a finite double"),
-    ('gain', math.inf, "parameter 'gain': got inf (not a finite number)"),
-    ('poles', [], "parameter 'poles': got an empty array, expected a non-empty array of finite"),
-    ('poles', [1.0, math.nan], "parameter 'poles': got nan (not a finite number)"),
-    ('even', 3, "parameter 'even': 3 refused: must be even"),
-    ('mode', 'b', 'read-only'),
-    ('dt', 0.002, 'read-only'),
-])
+@pytest.mark.parametrize(
+    'name, value, reason',
+    [
+        ('x0', 2.0, 'out of range'),  # rclpy's range check (descriptor)
+        ('x0', math.nan, 'out of range'),
+        ('x0', 'abc', 'Wrong parameter type'),  # rclpy's type check (descriptor)
+        (
+            'gain',
+            math.nan,
+            "parameter 'gain': got nan (not a finite number), expected a finite double",
+        ),
+        ('gain', math.inf, "parameter 'gain': got inf (not a finite number)"),
+        (
+            'poles',
+            [],
+            "parameter 'poles': got an empty array, expected a non-empty array of finite",
+        ),
+        ('poles', [1.0, math.nan], "parameter 'poles': got nan (not a finite number)"),
+        ('even', 3, "parameter 'even': 3 refused: must be even"),
+        ('mode', 'b', 'read-only'),
+        ('dt', 0.002, 'read-only'),
+    ],
+)
 def test_bad_changes_are_refused_with_a_reason_and_change_nothing(ctx, name, value, reason):
     node = ctx()
     values, seen = _declare(node)
@@ -108,15 +121,27 @@ def test_a_writable_parameter_without_a_handler_is_a_programming_error(ctx):
     assert declare_table(ctx(), [p for p in TABLE if p.read_only]) == {'mode': 'a', 'dt': 0.001}
 
 
-@pytest.mark.parametrize('args, message', [
-    (('-p', 'x0:=abc'), "parameter 'x0': got 'abc' (string), expected a finite double in [-1.0, 1.0]"),
-    (('-p', 'x0:=5.0'), "parameter 'x0': got 5.0 (out of range), expected a finite double in [-1.0, 1.0]"),
-    (('-p', 'gain:=.nan'), "parameter 'gain': got nan (not a finite number)"),
-    (('-p', 'poles:=[]'), "parameter 'poles': got an empty array, expected a non-empty array"),
-    (('-p', 'even:=3'), "parameter 'even': 3 refused: must be even"),
-    (('-p', 'even:=true'), "parameter 'even': got True (boolean), expected an integer in [0, 100]"),
-    (('-p', 'mode:=1'), "parameter 'mode': got 1 (integer), expected a string"),
-])
+@pytest.mark.parametrize(
+    'args, message',
+    [
+        (
+            ('-p', 'x0:=abc'),
+            "parameter 'x0': got 'abc' (string), expected a finite double in [-1.0, 1.0]",
+        ),
+        (
+            ('-p', 'x0:=5.0'),
+            "parameter 'x0': got 5.0 (out of range), expected a finite double in [-1.0, 1.0]",
+        ),
+        (('-p', 'gain:=.nan'), "parameter 'gain': got nan (not a finite number)"),
+        (('-p', 'poles:=[]'), "parameter 'poles': got an empty array, expected a non-empty array"),
+        (('-p', 'even:=3'), "parameter 'even': 3 refused: must be even"),
+        (
+            ('-p', 'even:=true'),
+            "parameter 'even': got True (boolean), expected an integer in [0, 100]",
+        ),
+        (('-p', 'mode:=1'), "parameter 'mode': got 1 (integer), expected a string"),
+    ],
+)
 def test_bad_start_up_values_are_one_value_error(ctx, args, message):
     with pytest.raises(ValueError) as info:
         _declare(ctx(*args))
@@ -139,7 +164,9 @@ def test_rclpy_refusals_at_declaration_become_value_errors(ctx):
     node = ctx()
     node.add_on_set_parameters_callback(
         lambda params: type(_declare_result())(successful=False, reason='vetoed by the node'))
-    with pytest.raises(ValueError, match=r"parameter 'x0' \(node 'params_test'\): .*vetoed by the node"):
+    with pytest.raises(
+        ValueError, match=r"parameter 'x0' \(node 'params_test'\): .*vetoed by the node"
+    ):
         _declare(node)
 
 
@@ -153,8 +180,11 @@ def test_unknown_override_names_are_reported(ctx, capfd):
                '-p', 'qos_overrides./clock.subscription.depth:=5')
     _declare(node)
     assert unknown_overrides(node) == ['gian', 'x00']
-    assert captured_contains(capfd, "unknown parameter(s) given to node 'params_test' (misspelt?): "
-                                'gian (did you mean gain?), x00 (did you mean x0?); ignored')
+    assert captured_contains(
+        capfd,
+        "unknown parameter(s) given to node 'params_test' (misspelt?): "
+        'gian (did you mean gain?), x00 (did you mean x0?); ignored',
+    )
     strict = ctx('-p', 'x00:=1.0')
     with pytest.raises(ValueError, match=r'unknown parameter\(s\) .*x00 \(did you mean x0\?\)'):
         _declare(strict, strict=True)
@@ -173,14 +203,18 @@ def test_two_tables_on_one_node_share_one_set_of_callbacks(ctx):
     node = ctx('-p', 'b:=1')
     seen = []
     handler = lambda n, v: seen.append((n, v))  # noqa: E731
-    a = declare_table(node, [Param('a', 1.0, 'a', 'm', writable=True)], handler, check_unknown=False)
+    a = declare_table(
+        node, [Param('a', 1.0, 'a', 'm', writable=True)], handler, check_unknown=False
+    )
     b = declare_table(node, [Param('b', 1.0, 'b', 'm', writable=True)], handler)
     guard = getattr(node, ParameterGuard.ATTRIBUTE)
     assert b == {'b': 1.0}
     for callbacks in (node._pre_set_parameters_callbacks, node._on_set_parameters_callbacks,
                       node._post_set_parameters_callbacks):
         assert sum(getattr(cb, '__self__', None) is guard for cb in callbacks) == 1
-    assert node.set_parameters_atomically([Parameter('a', value=2), Parameter('b', value=3)]).successful
+    assert node.set_parameters_atomically(
+        [Parameter('a', value=2), Parameter('b', value=3)]
+    ).successful
     assert seen == [('a', 2.0), ('b', 3.0)] and a == {'a': 2.0} and b == {'b': 3.0}
 
 
@@ -195,7 +229,9 @@ def test_parameters_of_other_mechanisms_pass_untouched(ctx):
 
 
 @settings(max_examples=60, deadline=None)
-@given(value=st.one_of(st.floats(width=64), st.integers(-5, 5), st.booleans(), st.text(max_size=2)))
+@given(
+    value=st.one_of(st.floats(width=64), st.integers(-5, 5), st.booleans(), st.text(max_size=2))
+)
 def test_set_of_a_double_is_accepted_exactly_when_valid(value):
     """Fuzz through the node (one context per example is too slow: one node for all examples)."""
     node = _FUZZ_NODE['node']

@@ -11,7 +11,10 @@ from irs_common.params import (Param, check_values, flatten, markdown_table, tab
 def test_descriptor_carries_unit_range_and_read_only():
     d = Param('gain', 2.0, 'drive gain', 'm/s/V', 0.0, 10.0, read_only=True).descriptor()
     assert d.description == 'drive gain [m/s/V]' and d.read_only
-    assert (d.floating_point_range[0].from_value, d.floating_point_range[0].to_value) == (0.0, 10.0)
+    assert (d.floating_point_range[0].from_value, d.floating_point_range[0].to_value) == (
+        0.0,
+        10.0,
+    )
     i = Param('window', 20, 'fit window', 'samples', 2, 100).descriptor()
     assert (i.integer_range[0].from_value, i.integer_range[0].to_value) == (2, 100)
     assert not Param('flag', True, 'a flag', '-', 0, 1).descriptor().integer_range
@@ -60,16 +63,18 @@ def test_coerce_takes_integers_for_doubles_and_says_what_is_wrong():
     assert x.coerce(0) == 0.0 and type(x.coerce(0)) is float
     arr = Param('arr', [0.5], 'a', '1')
     assert arr.coerce([1, 2]) == [1.0, 2.0] and all(type(v) is float for v in arr.coerce([1, 2]))
-    cases = [(x, 'abc', "got 'abc' (string), expected a finite double in [-1.0, 1.0]"),
-             (x, 2.0, 'got 2.0 (out of range), expected a finite double in [-1.0, 1.0]'),
-             (x, math.nan, 'got nan (not a finite number)'),
-             (x, True, 'got True (boolean)'),
-             (arr, [], 'got an empty array, expected a non-empty array of finite doubles'),
-             (arr, None, 'got an empty array'),
-             (arr, [1.0, math.inf], 'got inf (not a finite number)'),
-             (Param('n', 3, 'n', '1', 0, 10), 2.5, 'got 2.5 (double), expected an integer in [0, 10]'),
-             (Param('s', 'a', 's', '-'), 1, 'got 1 (integer), expected a string'),
-             (Param('f', False, 'f', '-'), 1, 'got 1 (integer), expected a boolean')]
+    cases = [
+        (x, 'abc', "got 'abc' (string), expected a finite double in [-1.0, 1.0]"),
+        (x, 2.0, 'got 2.0 (out of range), expected a finite double in [-1.0, 1.0]'),
+        (x, math.nan, 'got nan (not a finite number)'),
+        (x, True, 'got True (boolean)'),
+        (arr, [], 'got an empty array, expected a non-empty array of finite doubles'),
+        (arr, None, 'got an empty array'),
+        (arr, [1.0, math.inf], 'got inf (not a finite number)'),
+        (Param('n', 3, 'n', '1', 0, 10), 2.5, 'got 2.5 (double), expected an integer in [0, 10]'),
+        (Param('s', 'a', 's', '-'), 1, 'got 1 (integer), expected a string'),
+        (Param('f', False, 'f', '-'), 1, 'got 1 (integer), expected a boolean'),
+    ]
     for p, value, message in cases:
         with pytest.raises(ValueError) as info:
             p.coerce(value)
@@ -124,8 +129,11 @@ def test_coerce_of_a_double_matches_the_oracle(value, low, high):
 
 
 @settings(max_examples=200, deadline=None)
-@given(value=st.lists(st.one_of(st.floats(width=64), st.integers(-1000, 1000), st.text(max_size=2)),
-                      max_size=4))
+@given(
+    value=st.lists(
+        st.one_of(st.floats(width=64), st.integers(-1000, 1000), st.text(max_size=2)), max_size=4
+    )
+)
 def test_coerce_of_a_double_array_matches_the_oracle(value):
     p = Param('a', [1.0], 'a', '1')
     ok = bool(value) and all(_oracle(-math.inf, math.inf, v) is not None for v in value)

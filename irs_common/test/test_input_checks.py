@@ -56,7 +56,8 @@ def test_stamp_rule():
 def test_future_stamp_never_blocks_later_data(stamps, tol):
     """Following the rule (store only OK stamps), a stamp accepted ahead of the clock can hide
     genuine readings for at most ``future_tolerance`` s: a reading stamped with the clock is
-    accepted again once the clock has advanced by the tolerance, whatever was seen before."""
+    accepted again once the clock has advanced by the tolerance, whatever was seen before.
+    """
     now = 1_000_000_000
     last = None
     for s in stamps:

@@ -87,7 +87,7 @@ def plant_polynomials(cfg: dict):
     try:
         preset = get_preset(cfg['plant'])
     except KeyError as exc:
-        raise ValueError(f"plant: {exc.args[0]}") from None
+        raise ValueError(f'plant: {exc.args[0]}') from None
     num, den = transfer_function(preset.params, float(cfg['speed']), float(cfg['ds']),
                                  actuator_pole=pole if include else None, as_control=False)
     return np.trim_zeros(np.asarray(num, float), 'f'), np.asarray(den, float)
@@ -102,8 +102,10 @@ def observer_polynomial(cfg: dict) -> np.ndarray:
     if ao == [0.0]:
         return np.array([1.0, 24.0, 144.0]) if cfg['include_actuator'] else np.array([1.0, 12.0])
     if not ao or ao[0] == 0.0 or not all(np.isfinite(ao)):
-        raise ValueError(f'observer must be finite polynomial coefficients with a non-zero '
-                         f"leading coefficient, or [0.0] for the paper choice; got {cfg['observer']!r}")
+        raise ValueError(
+            f'observer must be finite polynomial coefficients with a non-zero '
+            f'leading coefficient, or [0.0] for the paper choice; got {cfg["observer"]!r}'
+        )
     return np.array(ao)
 
 
@@ -169,7 +171,9 @@ def make_controller(params: dict | None = None) -> LateralControllerSpec:
         ctl = DiscretePiController(kp=float(cfg['kp']), ki=float(cfg['ki']), dt=dt,
                                    limits=(-limit, limit), anti_windup=bool(cfg['anti_windup']),
                                    **guard)
-        return LateralControllerSpec(ctl, None, f"PI: Kp = {cfg['kp']} rad/m, Ki = {cfg['ki']} rad/(m s)")
+        return LateralControllerSpec(
+            ctl, None, f'PI: Kp = {cfg["kp"]} rad/m, Ki = {cfg["ki"]} rad/(m s)'
+        )
     if cfg['mode'] != 'mrc':
         raise ValueError(f"mode must be 'mrc' or 'pi', got {cfg['mode']!r}")
     B, A = plant_polynomials(cfg)
@@ -179,6 +183,8 @@ def make_controller(params: dict | None = None) -> LateralControllerSpec:
     ctl = DiscreteRstController(design, dt=dt, u_min=-limit, u_max=limit,
                                 anti_windup=bool(cfg['anti_windup']), **guard)
     fmt = lambda p: '[' + ', '.join(f'{c:.6g}' for c in p) + ']'  # noqa: E731
-    summary = (f"MRC on plant '{cfg['plant']}' ({'with' if cfg['include_actuator'] else 'without'} "
-               f"actuator): R = {fmt(design.R)}, S = {fmt(design.S)}, T = {fmt(design.T)}")
+    summary = (
+        f"MRC on plant '{cfg['plant']}' ({'with' if cfg['include_actuator'] else 'without'} "
+        f'actuator): R = {fmt(design.R)}, S = {fmt(design.S)}, T = {fmt(design.T)}'
+    )
     return LateralControllerSpec(ctl, design, summary)

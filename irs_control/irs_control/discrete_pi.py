@@ -1,10 +1,10 @@
-"""Discrete PI lateral controller with back-calculation anti-windup (paper: Kp = 5, Ki = 3).
+r"""Discrete PI lateral controller with back-calculation anti-windup (paper: Kp = 5, Ki = 3).
 
 .. math::
 
-    e_k = r_k - y_k, \\quad u_k = K_p e_k + I_k, \\quad v_k = \\mathrm{sat}(u_k),
+    e_k = r_k - y_k, \quad u_k = K_p e_k + I_k, \quad v_k = \mathrm{sat}(u_k),
 
-    I_{k+1} = I_k + dt \\left( K_i e_k + \\frac{v_k - u_k}{T_t} \\right).
+    I_{k+1} = I_k + dt \left( K_i e_k + \frac{v_k - u_k}{T_t} \right).
 
 **Back-calculation** (not conditional integration): while the steer is clipped the
 integrator is bled towards the value that makes ``u = v`` with tracking time constant
@@ -23,7 +23,7 @@ import math
 
 from .discrete_rst import DEFAULT_INPUT_LIMIT, STEER_LIMIT, ControlOutput, InputGuard
 
-__all__ = ["DiscretePiController"]
+__all__ = ['DiscretePiController']
 
 
 class DiscretePiController(InputGuard):
@@ -54,19 +54,21 @@ class DiscretePiController(InputGuard):
                  anti_windup: bool = True, measurement_limit: float = DEFAULT_INPUT_LIMIT,
                  reference_limit: float = DEFAULT_INPUT_LIMIT, initial_reference: float = 0.0):
         if not dt > 0:
-            raise ValueError(f"dt must be a positive sample time in seconds; got {dt}.")
+            raise ValueError(f'dt must be a positive sample time in seconds; got {dt}.')
         if kp < 0 or ki < 0:
-            raise ValueError(f"Expected non-negative gains kp, ki; got {kp}, {ki}.")
+            raise ValueError(f'Expected non-negative gains kp, ki; got {kp}, {ki}.')
         u_min, u_max = limits
         if not (math.isfinite(u_min) and math.isfinite(u_max) and u_min < u_max):
-            raise ValueError(f"Expected finite limits (u_min, u_max) with u_min < u_max; got {limits}.")
+            raise ValueError(
+                f'Expected finite limits (u_min, u_max) with u_min < u_max; got {limits}.'
+            )
         if not (math.isfinite(kp) and math.isfinite(ki)):
-            raise ValueError(f"Expected finite gains kp, ki; got {kp}, {ki}.")
+            raise ValueError(f'Expected finite gains kp, ki; got {kp}, {ki}.')
         self._init_guard(measurement_limit, reference_limit, initial_reference)
         if tracking_time is None:
             tracking_time = kp / ki if ki > 0 and kp > 0 else 1.0
         if not tracking_time > 0:
-            raise ValueError(f"tracking_time must be positive seconds; got {tracking_time}.")
+            raise ValueError(f'tracking_time must be positive seconds; got {tracking_time}.')
         self.kp, self.ki, self.dt = float(kp), float(ki), float(dt)
         self.u_min, self.u_max = float(u_min), float(u_max)
         self.tracking_time = float(tracking_time)
@@ -91,8 +93,8 @@ class DiscretePiController(InputGuard):
         aw = (v - u) / self.tracking_time if self.anti_windup else 0.0
         integral = self.integral + self.dt * (self.ki * e + aw)
         if not (math.isfinite(u) and math.isfinite(integral)):
-            return self._invalid(ref, f"PI state became non-finite (u = {u!r}, integral = "
-                                      f"{integral!r}): integrator reset, zero steer")
+            return self._invalid(ref, f'PI state became non-finite (u = {u!r}, integral = '
+                                      f'{integral!r}): integrator reset, zero steer')
         self.integral = integral
-        return ControlOutput(u_unsat=u, u_sat=v, saturated=(v != u), reason=ref_problem or "",
+        return ControlOutput(u_unsat=u, u_sat=v, saturated=(v != u), reason=ref_problem or '',
                              reference=ref)

@@ -1,4 +1,4 @@
-"""Fixed-rate discrete implementation of a continuous RST controller with anti-windup.
+r"""Fixed-rate discrete implementation of a continuous RST controller with anti-windup.
 
 Control law (continuous design, s-domain polynomials, u steer [rad], y, u_c [m]):
 
@@ -7,7 +7,7 @@ Control law (continuous design, s-domain polynomials, u steer [rad], y, u_c [m])
 Anti-windup (Astrom & Wittenmark, *Computer-Controlled Systems*, Sec. 9.4): with a monic,
 Hurwitz polynomial ``F`` of the same degree as ``R`` the law is rewritten as
 
-.. math:: F u = T u_c - S y + (F - R) v, \\qquad v = \\mathrm{sat}(u),
+.. math:: F u = T u_c - S y + (F - R) v, \qquad v = \mathrm{sat}(u),
 
 so the controller states are driven by the steer ``v`` that is actually applied. In the
 linear range ``v = u`` and this is exactly ``R u = T u_c - S y``; during saturation the
@@ -24,12 +24,13 @@ step overshoots 37 % (worse than no anti-windup, 30 %), while ``A_o (s+30)^2`` g
 Realisation and discretisation: the *linear* law ``u = [T/R, -S/R] [u_c, y]`` is realised
 as an observable-canonical state space (denominator ``R``) and discretised with
 **zero-order hold** (exact matrix exponential) to ``(Phi, Gamma, C, D)``. Anti-windup is
-then added in the equivalent observer form (Astrom & Wittenmark, Computer-Controlled Systems, "anti-windup in state-space/observer form"):
+then added in the equivalent observer form (Astrom & Wittenmark, Computer-Controlled Systems,
+"anti-windup in state-space/observer form"):
 
 .. math::
 
-    u_k = C x_k + D w_k, \\quad v_k = \\mathrm{sat}(u_k), \\quad
-    x_{k+1} = \\Phi x_k + \\Gamma w_k + L (v_k - u_k),
+    u_k = C x_k + D w_k, \quad v_k = \mathrm{sat}(u_k), \quad
+    x_{k+1} = \Phi x_k + \Gamma w_k + L (v_k - u_k),
 
 whose characteristic polynomial from ``v`` is ``F_d(z) = prod(z - exp(f_i dt))``, the ZOH
 image of ``F``: this is the discrete ``F_d u = T_d u_c - S_d y + (F_d - R_d) v``. ``L`` is
@@ -81,16 +82,16 @@ from irs_models.constants import STEER_LIMIT  # [rad] +-15 deg
 from .polynomials import degree, is_hurwitz, poly_from_roots, require_polynomial, trim
 from .rst_design import RstDesign
 
-__all__ = ["ControlOutput", "DiscreteRstController", "InputGuard", "anti_windup_polynomial",
-           "observable_canonical_miso", "STATE_RUNNING", "STATE_INVALID",
-           "DEFAULT_INPUT_LIMIT"]
+__all__ = ['ControlOutput', 'DiscreteRstController', 'InputGuard', 'anti_windup_polynomial',
+           'observable_canonical_miso', 'STATE_RUNNING', 'STATE_INVALID',
+           'DEFAULT_INPUT_LIMIT']
 
 #: Default bound on |measurement| and |reference| [m] (the belt is 4 x 8 ft: |y| < 0.61 m).
 DEFAULT_INPUT_LIMIT = 2.0
 #: ``ControlOutput.state``: the loop was closed this step.
-STATE_RUNNING = "RUNNING"
+STATE_RUNNING = 'RUNNING'
 #: ``ControlOutput.state``: no valid feedback (or a non-finite state): zero steer, state reset.
-STATE_INVALID = "INVALID"
+STATE_INVALID = 'INVALID'
 
 
 @dataclass(frozen=True)
@@ -121,7 +122,7 @@ class ControlOutput:
     u_sat: float
     saturated: bool
     state: str = STATE_RUNNING
-    reason: str = ""
+    reason: str = ''
     reference: float = 0.0
     reset: bool = False
 
@@ -140,13 +141,13 @@ class InputGuard:
 
     def _init_guard(self, measurement_limit: float, reference_limit: float,
                     initial_reference: float) -> None:
-        for name, v in (("measurement_limit", measurement_limit),
-                        ("reference_limit", reference_limit)):
+        for name, v in (('measurement_limit', measurement_limit),
+                        ('reference_limit', reference_limit)):
             if isinstance(v, bool) or not isinstance(v, (int, float)) or not v > 0:
-                raise ValueError(f"{name} must be a positive bound in m (inf allowed); got {v!r}.")
-        if abs_limit_problem("initial_reference", initial_reference, reference_limit) is not None:
-            raise ValueError(f"initial_reference must be a finite reference in m within "
-                             f"+-reference_limit = {reference_limit}; got {initial_reference!r}.")
+                raise ValueError(f'{name} must be a positive bound in m (inf allowed); got {v!r}.')
+        if abs_limit_problem('initial_reference', initial_reference, reference_limit) is not None:
+            raise ValueError(f'initial_reference must be a finite reference in m within '
+                             f'+-reference_limit = {reference_limit}; got {initial_reference!r}.')
         self.measurement_limit = float(measurement_limit)
         self.reference_limit = float(reference_limit)
         self._held_reference = float(initial_reference)
@@ -158,13 +159,13 @@ class InputGuard:
 
     def _screen(self, reference, measurement):
         """``(reference to use, reference problem or None, measurement problem or None)``."""
-        ref_problem = abs_limit_problem("reference", reference, self.reference_limit, "m")
+        ref_problem = abs_limit_problem('reference', reference, self.reference_limit, 'm')
         if ref_problem is None:
             ref = self._held_reference = float(reference)
         else:
             ref = self._held_reference
-            ref_problem += f"; holding the last valid reference {ref:.6g} m"
-        meas_problem = abs_limit_problem("measurement", measurement, self.measurement_limit, "m")
+            ref_problem += f'; holding the last valid reference {ref:.6g} m'
+        meas_problem = abs_limit_problem('measurement', measurement, self.measurement_limit, 'm')
         return ref, ref_problem, meas_problem
 
     def _invalid(self, ref: float, reason: str) -> ControlOutput:
@@ -175,8 +176,8 @@ class InputGuard:
                              reason=reason, reference=ref, reset=True)
 
     def _measurement_invalid(self, ref: float, ref_problem, meas_problem: str) -> ControlOutput:
-        reason = f"{meas_problem}: no valid feedback, zero steer and controller reset"
-        return self._invalid(ref, reason if ref_problem is None else f"{reason}; {ref_problem}")
+        reason = f'{meas_problem}: no valid feedback, zero steer and controller reset'
+        return self._invalid(ref, reason if ref_problem is None else f'{reason}; {ref_problem}')
 
     def step_checked(self, reference, measurement) -> ControlOutput:
         """The node's entry point: :meth:`step` (which applies the bad-input rule itself).
@@ -189,13 +190,13 @@ class InputGuard:
 
 
 def anti_windup_polynomial(design: RstDesign) -> np.ndarray:
-    """Default anti-windup polynomial ``F = Ao (s + w_f)^k`` (monic, Hurwitz, ``deg F = deg R``)."""
+    """Default anti-windup polynomial ``F = Ao (s + w_f)^k``: monic, Hurwitz, ``deg F = deg R``."""
     Ao = trim(design.Ao)
     k = degree(design.R) - degree(Ao)
     if k < 0:
         raise ValueError(
-            f"Ao has degree {degree(Ao)} > deg R = {degree(design.R)}; pass an explicit "
-            "anti-windup polynomial of degree deg R."
+            f'Ao has degree {degree(Ao)} > deg R = {degree(design.R)}; pass an explicit '
+            'anti-windup polynomial of degree deg R.'
         )
     wf = float(np.max(np.abs(np.roots(design.Am)))) if degree(design.Am) > 0 else 1.0
     F = np.polymul(Ao, poly_from_roots([-wf] * k))
@@ -219,7 +220,7 @@ def observable_canonical_miso(F, numerators):
     F = trim(F)
     n = F.size - 1
     if n < 1 or abs(F[0] - 1.0) > 1e-12:
-        raise ValueError("observable_canonical_miso expected a monic denominator of degree >= 1.")
+        raise ValueError('observable_canonical_miso expected a monic denominator of degree >= 1.')
     A = np.zeros((n, n))
     A[:, 0] = -F[1:]
     A[: n - 1, 1:] = np.eye(n - 1)
@@ -229,7 +230,9 @@ def observable_canonical_miso(F, numerators):
     for i, N in enumerate(numerators):
         N = trim(N)
         if N.size > n + 1:
-            raise ValueError(f"Numerator {i} has degree {N.size - 1} > {n}: improper transfer function.")
+            raise ValueError(
+                f'Numerator {i} has degree {N.size - 1} > {n}: improper transfer function.'
+            )
         N = np.pad(N, (n + 1 - N.size, 0))
         D[0, i] = N[0]
         B[:, i] = N[1:] - N[0] * F[1:]
@@ -241,12 +244,12 @@ def observable_canonical_miso(F, numerators):
 def _ackermann_observer(A, c, poles):
     """Gain ``l`` with ``eig(A - l c^T) = poles`` (single output, Ackermann's formula)."""
     n = A.shape[0]
-    O = np.vstack([c @ np.linalg.matrix_power(A, k) for k in range(n)])
+    obs = np.vstack([c @ np.linalg.matrix_power(A, k) for k in range(n)])
     p = np.real(np.poly(poles))
     pA = sum(coef * np.linalg.matrix_power(A, n - k) for k, coef in enumerate(p))
     e = np.zeros(n)
     e[-1] = 1.0
-    return pA @ np.linalg.solve(O, e)
+    return pA @ np.linalg.solve(obs, e)
 
 
 class DiscreteRstController(InputGuard):
@@ -278,22 +281,24 @@ class DiscreteRstController(InputGuard):
                  measurement_limit: float = DEFAULT_INPUT_LIMIT,
                  reference_limit: float = DEFAULT_INPUT_LIMIT, initial_reference: float = 0.0):
         if not dt > 0:
-            raise ValueError(f"dt must be a positive sample time in seconds; got {dt}.")
+            raise ValueError(f'dt must be a positive sample time in seconds; got {dt}.')
         if not (math.isfinite(u_min) and math.isfinite(u_max) and u_min < u_max):
-            raise ValueError(f"Expected finite steer limits u_min < u_max; got {u_min} and {u_max}.")
+            raise ValueError(
+                f'Expected finite steer limits u_min < u_max; got {u_min} and {u_max}.'
+            )
         self._init_guard(measurement_limit, reference_limit, initial_reference)
         R = trim(design.R)
         if abs(R[0]) < 1e-12:
-            raise ValueError("design.R has a zero leading coefficient.")
+            raise ValueError('design.R has a zero leading coefficient.')
         # Normalise so R is monic (R u = T uc - S y is invariant to scaling all three).
         r0 = R[0]
         R, S, T = R / r0, trim(design.S) / r0, trim(design.T) / r0
-        F = require_polynomial("aw_poly", aw_poly) if aw_poly is not None \
+        F = require_polynomial('aw_poly', aw_poly) if aw_poly is not None \
             else anti_windup_polynomial(design)
         if degree(F) != degree(R) or abs(F[0] - 1.0) > 1e-12 or not is_hurwitz(F):
             raise ValueError(
-                f"The anti-windup polynomial must be monic, Hurwitz and of degree deg R = "
-                f"{degree(R)}; got {F}."
+                f'The anti-windup polynomial must be monic, Hurwitz and of degree deg R = '
+                f'{degree(R)}; got {F}.'
             )
         self.design = design
         self.dt = float(dt)
@@ -301,7 +306,7 @@ class DiscreteRstController(InputGuard):
         self.anti_windup = bool(anti_windup)
         self.F = F
         Ac, Bc, Cc, Dc = observable_canonical_miso(R, [T, -S])
-        self._Ad, self._Bd, *_ = cont2discrete((Ac, Bc, Cc, Dc), self.dt, method="zoh")
+        self._Ad, self._Bd, *_ = cont2discrete((Ac, Bc, Cc, Dc), self.dt, method='zoh')
         self._C = Cc[0]
         self._D = Dc[0]
         n = Ac.shape[0]
@@ -311,7 +316,9 @@ class DiscreteRstController(InputGuard):
                                           (zf - 1.0) / self.dt) * self.dt
             eig = np.linalg.eigvals(self._Ad - np.outer(self._L, self._C))
             if not np.all(np.abs(eig) < 1.0):
-                raise ValueError("Anti-windup gain placement failed (saturated controller unstable).")
+                raise ValueError(
+                    'Anti-windup gain placement failed (saturated controller unstable).'
+                )
         else:
             self._L = np.zeros(n)
         self._x = np.zeros(n)
@@ -352,8 +359,8 @@ class DiscreteRstController(InputGuard):
         u_sat = min(max(u, self.u_min), self.u_max)
         x_next = self._Ad @ x + self._Bd @ w + self._L * (u_sat - u)
         if not (math.isfinite(u) and np.all(np.isfinite(x_next))):
-            return self._invalid(ref, f"controller state became non-finite (u = {u!r}): state "
-                                      "reset, zero steer")
+            return self._invalid(ref, f'controller state became non-finite (u = {u!r}): state '
+                                      'reset, zero steer')
         self._x = x_next
         return ControlOutput(u_unsat=u, u_sat=u_sat, saturated=(u_sat != u),
-                             reason=ref_problem or "", reference=ref)
+                             reason=ref_problem or '', reference=ref)

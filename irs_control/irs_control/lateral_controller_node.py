@@ -55,45 +55,154 @@ from .discrete_rst import STATE_RUNNING
 
 D = CONTROLLER_DEFAULTS
 PARAMS = [
-    Param('mode', D['mode'], "control law: 'mrc' (RST model reference) or 'pi'", '-', read_only=True),
+    Param(
+        'mode', D['mode'], "control law: 'mrc' (RST model reference) or 'pi'", '-', read_only=True
+    ),
     Param('dt', D['dt'], 'controller period = measurement period', 's', 1e-5, 1.0, read_only=True),
-    Param('plant', D['plant'], "design plant: 'identified' (paper Eq. 6) or a vehicle preset name",
-          '-', read_only=True),
-    Param('speed', D['speed'], 'forward speed the design assumes (presets only)', 'm/s', 0.01, 50.0,
-          read_only=True),
-    Param('ds', D['ds'], 'sensor distance ahead of the c.g. the design assumes (presets only)', 'm',
-          0.0, 10.0, read_only=True),
-    Param('plant_gain', D['plant_gain'], 'high-frequency gain b0 of the identified plant with '
-          'actuator; 0 = paper reconstruction 363.394', 'm/(rad s^3)', 0.0, 1e9, read_only=True),
-    Param('include_actuator', D['include_actuator'], 'design with the actuator lag in the plant',
-          '-', read_only=True),
-    Param('actuator_pole', D['actuator_pole'], 'actuator lag pole magnitude (4.6 Hz ~ 29)', 'rad/s',
-          0.01, 1e4, read_only=True),
-    Param('reference_model_num', D['reference_model_num'], 'reference model Bm(s), highest power '
-          'first (paper Eq. 21)', '1/s^k', read_only=True),
-    Param('reference_model_den', D['reference_model_den'], 'reference model Am(s), monic, highest '
-          'power first (paper Eq. 21)', '1/s^k', read_only=True),
-    Param('observer', D['observer'], 'observer polynomial Ao(s), highest power first; [0.0] = '
-          'paper choice ((s+12)^2 with actuator, s+12 without)', '1/s^k', read_only=True),
-    Param('cancel_zeros', D['cancel_zeros'], "plant zeros to cancel: 'stable' or 'none'", '-',
-          read_only=True),
+    Param(
+        'plant',
+        D['plant'],
+        "design plant: 'identified' (paper Eq. 6) or a vehicle preset name",
+        '-',
+        read_only=True,
+    ),
+    Param(
+        'speed',
+        D['speed'],
+        'forward speed the design assumes (presets only)',
+        'm/s',
+        0.01,
+        50.0,
+        read_only=True,
+    ),
+    Param(
+        'ds',
+        D['ds'],
+        'sensor distance ahead of the c.g. the design assumes (presets only)',
+        'm',
+        0.0,
+        10.0,
+        read_only=True,
+    ),
+    Param(
+        'plant_gain',
+        D['plant_gain'],
+        'high-frequency gain b0 of the identified plant with '
+        'actuator; 0 = paper reconstruction 363.394',
+        'm/(rad s^3)',
+        0.0,
+        1e9,
+        read_only=True,
+    ),
+    Param(
+        'include_actuator',
+        D['include_actuator'],
+        'design with the actuator lag in the plant',
+        '-',
+        read_only=True,
+    ),
+    Param(
+        'actuator_pole',
+        D['actuator_pole'],
+        'actuator lag pole magnitude (4.6 Hz ~ 29)',
+        'rad/s',
+        0.01,
+        1e4,
+        read_only=True,
+    ),
+    Param(
+        'reference_model_num',
+        D['reference_model_num'],
+        'reference model Bm(s), highest power first (paper Eq. 21)',
+        '1/s^k',
+        read_only=True,
+    ),
+    Param(
+        'reference_model_den',
+        D['reference_model_den'],
+        'reference model Am(s), monic, highest power first (paper Eq. 21)',
+        '1/s^k',
+        read_only=True,
+    ),
+    Param(
+        'observer',
+        D['observer'],
+        'observer polynomial Ao(s), highest power first; [0.0] = '
+        'paper choice ((s+12)^2 with actuator, s+12 without)',
+        '1/s^k',
+        read_only=True,
+    ),
+    Param(
+        'cancel_zeros',
+        D['cancel_zeros'],
+        "plant zeros to cancel: 'stable' or 'none'",
+        '-',
+        read_only=True,
+    ),
     Param('kp', D['kp'], 'PI proportional gain', 'rad/m', 0.0, 1e6, read_only=True),
     Param('ki', D['ki'], 'PI integral gain', 'rad/(m s)', 0.0, 1e6, read_only=True),
-    Param('steer_limit', D['steer_limit'], 'steer command limit (15 deg)', 'rad', 0.0, 1.6,
-          read_only=True),
-    Param('anti_windup', D['anti_windup'], 'keep the controller state consistent with the '
-          'saturated steer', '-', read_only=True),
-    Param('stale_timeout', 0.05, 'measurement age after which zero steer is commanded (and the '
-          'controller restarts from rest)', 's', 0.001, 10.0, writable=True),
-    Param('reference_sync', False, 'pair each measurement with the reference of the same stamp '
-          '(lock-step runs)', '-', read_only=True),
-    Param('default_reference', 0.0, 'reference used until one arrives (set at run time: used at '
-          'once, until the next lateral/reference message; not with reference_sync)', 'm', -1.0,
-          1.0, writable=True),
-    Param('future_tolerance', 0.5, 'inputs stamped further ahead of the node clock are dropped',
-          's', 0.0, 3600.0, read_only=True),
-    Param('status_decimation', 10, 'publish lateral/status every this many steps (and on a state '
-          'change); 0 = on state changes only', '1', 0, 1_000_000, read_only=True),
+    Param(
+        'steer_limit',
+        D['steer_limit'],
+        'steer command limit (15 deg)',
+        'rad',
+        0.0,
+        1.6,
+        read_only=True,
+    ),
+    Param(
+        'anti_windup',
+        D['anti_windup'],
+        'keep the controller state consistent with the saturated steer',
+        '-',
+        read_only=True,
+    ),
+    Param(
+        'stale_timeout',
+        0.05,
+        'measurement age after which zero steer is commanded (and the '
+        'controller restarts from rest)',
+        's',
+        0.001,
+        10.0,
+        writable=True,
+    ),
+    Param(
+        'reference_sync',
+        False,
+        'pair each measurement with the reference of the same stamp (lock-step runs)',
+        '-',
+        read_only=True,
+    ),
+    Param(
+        'default_reference',
+        0.0,
+        'reference used until one arrives (set at run time: used at '
+        'once, until the next lateral/reference message; not with reference_sync)',
+        'm',
+        -1.0,
+        1.0,
+        writable=True,
+    ),
+    Param(
+        'future_tolerance',
+        0.5,
+        'inputs stamped further ahead of the node clock are dropped',
+        's',
+        0.0,
+        3600.0,
+        read_only=True,
+    ),
+    Param(
+        'status_decimation',
+        10,
+        'publish lateral/status every this many steps (and on a state '
+        'change); 0 = on state changes only',
+        '1',
+        0,
+        1_000_000,
+        read_only=True,
+    ),
 ]
 
 
@@ -122,8 +231,12 @@ class LateralControllerNode(Node):
         # that alone overloads the loop, so per-step warnings are throttled before rclpy.
         self.warner = ThrottledWarner(self.get_logger().warning, 1.0)
         self.pub_cmd = self.create_publisher(SteeringCommand, 'steering/command', qos.COMMAND)
-        self.pub_status = self.create_publisher(LateralControllerStatus, 'lateral/status', qos.SENSOR)
-        self.create_subscription(PointStamped, 'lateral_position', self._on_measurement, qos.SENSOR)
+        self.pub_status = self.create_publisher(
+            LateralControllerStatus, 'lateral/status', qos.SENSOR
+        )
+        self.create_subscription(
+            PointStamped, 'lateral_position', self._on_measurement, qos.SENSOR
+        )
         self.create_subscription(LateralReference, 'lateral/reference', self._on_reference,
                                  qos.COMMAND)
         self.stale_timer = self.create_timer(max(self.p['stale_timeout'] / 2.0, 0.001),
@@ -141,7 +254,8 @@ class LateralControllerNode(Node):
 
     def _reset_time_state(self):
         """Time went back: forget stamps and the controller state (restart from rest). Pending
-        pairs stay: they may hold a part of a newer step already taken from the other input."""
+        pairs stay: they may hold a part of a newer step already taken from the other input.
+        """
         self.time_resets += 1
         self.gate.clear()
         self.ref_gate.clear()

@@ -15,7 +15,7 @@ from scipy.signal import cont2discrete
 from .discrete_rst import observable_canonical_miso
 from .polynomials import trim
 
-__all__ = ["LoopResult", "simulate_loop"]
+__all__ = ['LoopResult', 'simulate_loop']
 
 
 @dataclass
@@ -60,21 +60,21 @@ def simulate_loop(controller, B, A, reference, t_end: float, y0: float = 0.0) ->
     A = A / A[0]
     B = B / trim(A)[0]
     if B.size >= A.size:
-        raise ValueError("simulate_loop expected a strictly proper plant (deg B < deg A).")
+        raise ValueError('simulate_loop expected a strictly proper plant (deg B < deg A).')
     Ac, Bc, Cc, Dc = observable_canonical_miso(A, [B])
     dt = controller.dt
-    Ad, Bd, *_ = cont2discrete((Ac, Bc, Cc, Dc), dt, method="zoh")
+    Ad, Bd, *_ = cont2discrete((Ac, Bc, Cc, Dc), dt, method='zoh')
     n = int(round(t_end / dt)) + 1
     t = np.arange(n) * dt
     x = np.zeros(A.size - 1)
     x[0] = y0  # observable form: x0 = y; with no input this is only an equilibrium if A(0)=0
-    out = {k: np.zeros(n) for k in ("r", "y", "u_unsat", "u")}
+    out = {k: np.zeros(n) for k in ('r', 'y', 'u_unsat', 'u')}
     sat = np.zeros(n, dtype=bool)
     for k in range(n):
         y = float(Cc[0] @ x)
         r = float(reference(t[k]))
         o = controller.step(r, y)
-        out["r"][k], out["y"][k], out["u_unsat"][k], out["u"][k] = r, y, o.u_unsat, o.u_sat
+        out['r'][k], out['y'][k], out['u_unsat'][k], out['u'][k] = r, y, o.u_unsat, o.u_sat
         sat[k] = o.saturated
         x = Ad @ x + Bd[:, 0] * o.u_sat
     return LoopResult(t=t, saturated=sat, **out)

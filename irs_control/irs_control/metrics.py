@@ -20,9 +20,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
-__all__ = ["StepMetrics", "rise_time", "overshoot_percent", "settling_time",
-           "oscillation_count", "residual_oscillation", "ise_vs_model", "peak_abs",
-           "step_metrics"]
+__all__ = ['StepMetrics', 'rise_time', 'overshoot_percent', 'settling_time',
+           'oscillation_count', 'residual_oscillation', 'ise_vs_model', 'peak_abs',
+           'step_metrics']
 
 
 def _arrays(*arrs):
@@ -30,14 +30,14 @@ def _arrays(*arrs):
     n = out[0].shape
     for a in out:
         if a.ndim != 1 or a.shape != n:
-            raise ValueError("Metric inputs must be 1-D arrays of equal length.")
+            raise ValueError('Metric inputs must be 1-D arrays of equal length.')
     return out
 
 
 def _delta(setpoint, y0):
     d = float(setpoint) - float(y0)
     if d == 0.0:
-        raise ValueError("The step size setpoint - y0 must be non-zero for step metrics.")
+        raise ValueError('The step size setpoint - y0 must be non-zero for step metrics.')
     return d
 
 
@@ -45,7 +45,7 @@ def _first_crossing(t, x, level):
     """First time the (normalised, rising) signal x reaches level; nan if never."""
     idx = np.nonzero(x >= level)[0]
     if idx.size == 0:
-        return float("nan")
+        return float('nan')
     i = int(idx[0])
     if i == 0:
         return float(t[0])
@@ -73,7 +73,7 @@ def settling_time(t, y, setpoint, y0=0.0, band=0.02, t_step=0.0) -> float:
     d = _delta(setpoint, y0)
     out = np.abs(y - setpoint) > band * abs(d)
     if out[-1]:
-        return float("nan")
+        return float('nan')
     idx = np.nonzero(out)[0]
     if idx.size == 0:
         return float(max(t[0] - t_step, 0.0))
@@ -93,7 +93,7 @@ def residual_oscillation(t, y, t_from) -> float:
     """Peak-to-peak of ``y`` [m] over ``t >= t_from`` (nan if no samples there)."""
     t, y = _arrays(t, y)
     sel = y[t >= t_from]
-    return float(np.ptp(sel)) if sel.size else float("nan")
+    return float(np.ptp(sel)) if sel.size else float('nan')
 
 
 def ise_vs_model(t, y, y_model) -> float:
@@ -139,6 +139,6 @@ def step_metrics(t, y, setpoint, y_model=None, steer=None, y0=0.0, t_step=0.0,
         settling_time=settling_time(ts, ys, setpoint, y0, t_step=t_step),
         oscillation_count=oscillation_count(ys, setpoint),
         residual_oscillation=residual_oscillation(t, y, residual_from),
-        ise_vs_model=ise_vs_model(t, y, y_model) if y_model is not None else float("nan"),
-        peak_steer=peak_abs(steer) if steer is not None else float("nan"),
+        ise_vs_model=ise_vs_model(t, y, y_model) if y_model is not None else float('nan'),
+        peak_steer=peak_abs(steer) if steer is not None else float('nan'),
     )

@@ -52,7 +52,8 @@ Design without the actuator
 ---------------------------
 Vehicle-only plant ``(b0/29) (s+2.4)(s+4.8) / (s^2 (s+8)(s+20))``: the actuator lag
 ``29/(s+29)`` (unit DC gain) is replaced by 1, so the high-frequency gain becomes
-``b0/29 = 12.53``. R does not depend on the gain (B- is a constant); S and T scale by 1/gain. The paper's rule gives ``deg Ao = 4 - 2 - 1 = 1``; we use
+``b0/29 = 12.53``. R does not depend on the gain (B- is a constant); S and T scale by 1/gain. The
+paper's rule gives ``deg Ao = 4 - 2 - 1 = 1``; we use
 ``Ao = s + 12`` (one of the paper's observer roots): R = s^4 + 45.2 s^3 + 662.1 s^2 +
 3152.2 s + 4343.0, deg S = 3, deg T = 3 -- causal. ``observer='paper'`` keeps
 ``(s+12)^2`` instead (deg R = 5, deg S = 3, deg T = 4, also causal).
@@ -67,9 +68,9 @@ from irs_models.identified import identified_plant
 
 from .rst_design import RstDesign, RstDesignError, design_rst
 
-__all__ = ["PAPER_PLANT_GAIN", "PAPER_ACTUATOR_POLE", "PAPER_VEHICLE_POLES", "PAPER_ZEROS",
-           "PRINTED_R", "PRINTED_T", "identified_plant", "reference_model", "paper_observer",
-           "paper_mrc_design", "relative_coefficient_errors", "reconstruction_hypotheses"]
+__all__ = ['PAPER_PLANT_GAIN', 'PAPER_ACTUATOR_POLE', 'PAPER_VEHICLE_POLES', 'PAPER_ZEROS',
+           'PRINTED_R', 'PRINTED_T', 'identified_plant', 'reference_model', 'paper_observer',
+           'paper_mrc_design', 'relative_coefficient_errors', 'reconstruction_hypotheses']
 
 #: Eq. 22 as printed.
 PRINTED_R = np.array([1.0, 44.9, 707.2, 3530.8, 6364.5])
@@ -89,7 +90,7 @@ def paper_observer():
 
 
 def paper_mrc_design(include_actuator: bool = True, actuator_pole: float = PAPER_ACTUATOR_POLE,
-                     gain: float = PAPER_PLANT_GAIN, observer: str = "minimal") -> RstDesign:
+                     gain: float = PAPER_PLANT_GAIN, observer: str = 'minimal') -> RstDesign:
     """MRC design of Sec. 5: both (stable, real) zeros cancelled.
 
     Parameters
@@ -105,13 +106,13 @@ def paper_mrc_design(include_actuator: bool = True, actuator_pole: float = PAPER
     """
     B, A = identified_plant(include_actuator, actuator_pole, gain)
     Bm, Am = reference_model()
-    if include_actuator or observer == "paper":
+    if include_actuator or observer == 'paper':
         Ao = paper_observer()
-    elif observer == "minimal":
+    elif observer == 'minimal':
         Ao = np.array([1.0, 12.0])
     else:
         raise ValueError(f"observer must be 'minimal' or 'paper'; got {observer!r}.")
-    return design_rst(B, A, Bm, Am, Ao, cancel="stable")
+    return design_rst(B, A, Bm, Am, Ao, cancel='stable')
 
 
 def relative_coefficient_errors(p, printed=PRINTED_R) -> np.ndarray:
@@ -133,15 +134,15 @@ def reconstruction_hypotheses():
     Bm, Am = reference_model()
     a12 = paper_observer()
     cases = [
-        ("cancel both, act 29, Ao=(s+12)^2 [chosen]", True, 29.0, a12, "stable"),
-        ("cancel both, act 28.90 (2 pi 4.6), Ao=(s+12)^2", True, 2 * np.pi * 4.6, a12, "stable"),
-        ("cancel both, act 23.88 (3.8 Hz), Ao=(s+12)^2", True, 2 * np.pi * 3.8, a12, "stable"),
-        ("cancel none, act 29, Ao=(s+12)^4", True, 29.0, np.polymul(a12, a12), "none"),
-        ("cancel -2.4 only, act 29, Ao=(s+12)^3", True, 29.0, np.polymul(a12, [1, 12]), [-2.4]),
-        ("cancel -4.8 only, act 29, Ao=(s+12)^3", True, 29.0, np.polymul(a12, [1, 12]), [-4.8]),
-        ("vehicle only, cancel both, Ao=s+12", False, 29.0, np.array([1.0, 12.0]), "stable"),
-        ("vehicle only, cancel -2.4, Ao=(s+12)^2", False, 29.0, a12, [-2.4]),
-        ("vehicle only, cancel none, Ao=(s+12)^3", False, 29.0, np.polymul(a12, [1, 12]), "none"),
+        ('cancel both, act 29, Ao=(s+12)^2 [chosen]', True, 29.0, a12, 'stable'),
+        ('cancel both, act 28.90 (2 pi 4.6), Ao=(s+12)^2', True, 2 * np.pi * 4.6, a12, 'stable'),
+        ('cancel both, act 23.88 (3.8 Hz), Ao=(s+12)^2', True, 2 * np.pi * 3.8, a12, 'stable'),
+        ('cancel none, act 29, Ao=(s+12)^4', True, 29.0, np.polymul(a12, a12), 'none'),
+        ('cancel -2.4 only, act 29, Ao=(s+12)^3', True, 29.0, np.polymul(a12, [1, 12]), [-2.4]),
+        ('cancel -4.8 only, act 29, Ao=(s+12)^3', True, 29.0, np.polymul(a12, [1, 12]), [-4.8]),
+        ('vehicle only, cancel both, Ao=s+12', False, 29.0, np.array([1.0, 12.0]), 'stable'),
+        ('vehicle only, cancel -2.4, Ao=(s+12)^2', False, 29.0, a12, [-2.4]),
+        ('vehicle only, cancel none, Ao=(s+12)^3', False, 29.0, np.polymul(a12, [1, 12]), 'none'),
     ]
     out = []
     for label, act, pole, Ao, cancel in cases:
@@ -149,7 +150,7 @@ def reconstruction_hypotheses():
         try:
             d = design_rst(B, A, Bm, Am, Ao, cancel=cancel, absorb_zeros=True)
         except RstDesignError as exc:
-            out.append((f"{label}: infeasible ({exc})", None, None, np.inf))
+            out.append((f'{label}: infeasible ({exc})', None, None, np.inf))
             continue
         err = relative_coefficient_errors(d.R)
         out.append((label, d.R, err, float(np.max(err)) if np.all(np.isfinite(err)) else np.inf))

@@ -1,4 +1,4 @@
-"""Small polynomial helpers for continuous-time pole-placement design.
+r"""Small polynomial helpers for continuous-time pole-placement design.
 
 All polynomials are 1-D ``numpy`` arrays of real coefficients, **highest power first**
 (the ``numpy.polyval`` / ``control.tf`` convention): ``[1, 3, 2]`` is ``s**2 + 3 s + 2``.
@@ -7,7 +7,7 @@ holds what numpy does not do: validation, trimming, exact division, Diophantine 
 
 The central routine is :func:`solve_diophantine`, which solves
 
-.. math:: A(s) X(s) + B(s) Y(s) = C(s), \\qquad \\deg Y < \\deg A,
+.. math:: A(s) X(s) + B(s) Y(s) = C(s), \qquad \deg Y < \deg A,
 
 (the minimum-degree solution in ``Y``) through a Sylvester-type linear system.
 
@@ -21,17 +21,17 @@ from __future__ import annotations
 import numpy as np
 
 __all__ = [
-    "require_polynomial",
-    "trim",
-    "poly_from_roots",
-    "poly_div_exact",
-    "degree",
-    "common_roots",
-    "convolution_matrix",
-    "solve_diophantine",
-    "coeff_rel_error",
-    "is_hurwitz",
-    "DiophantineError",
+    'require_polynomial',
+    'trim',
+    'poly_from_roots',
+    'poly_div_exact',
+    'degree',
+    'common_roots',
+    'convolution_matrix',
+    'solve_diophantine',
+    'coeff_rel_error',
+    'is_hurwitz',
+    'DiophantineError',
 ]
 
 
@@ -56,20 +56,20 @@ def require_polynomial(name: str, p, monic: bool = False, hurwitz: bool = False)
     ValueError
         With one sentence naming ``name``, what was expected and what was given.
     """
-    expected = (f"{name} must be a non-empty list of finite polynomial coefficients, highest "
-                "power first, not all zero")
+    expected = (f'{name} must be a non-empty list of finite polynomial coefficients, highest '
+                'power first, not all zero')
     try:
         arr = np.asarray(p, dtype=float)
     except (TypeError, ValueError):
-        raise ValueError(f"{expected}; got {p!r}.") from None
+        raise ValueError(f'{expected}; got {p!r}.') from None
     if arr.ndim > 1 or arr.size == 0 or not np.all(np.isfinite(arr)) or not np.any(arr != 0.0):
-        raise ValueError(f"{expected}; got {p!r}.")
+        raise ValueError(f'{expected}; got {p!r}.')
     arr = trim(arr)
     if monic and abs(arr[0] - 1.0) > 1e-12:
-        raise ValueError(f"{name} must be monic (leading coefficient 1); got {arr.tolist()}.")
+        raise ValueError(f'{name} must be monic (leading coefficient 1); got {arr.tolist()}.')
     if hurwitz and arr.size > 1 and not np.all(np.real(np.roots(arr)) < 0.0):
-        raise ValueError(f"{name} must be stable (all roots with negative real part); got roots "
-                         f"{np.roots(arr)} of {arr.tolist()}.")
+        raise ValueError(f'{name} must be stable (all roots with negative real part); got roots '
+                         f'{np.roots(arr)} of {arr.tolist()}.')
     return arr
 
 
@@ -97,7 +97,7 @@ def trim(p, tol: float = 0.0) -> np.ndarray:
     if p.size == 0:
         return np.array([0.0])
     if not np.all(np.isfinite(p)):
-        raise ValueError(f"Polynomial coefficients must be finite numbers; got {p.tolist()}.")
+        raise ValueError(f'Polynomial coefficients must be finite numbers; got {p.tolist()}.')
     scale = np.max(np.abs(p))
     if scale == 0.0:
         return np.array([0.0])
@@ -122,8 +122,8 @@ def poly_from_roots(roots, gain: float = 1.0) -> np.ndarray:
     p = np.poly(roots)
     if np.max(np.abs(np.imag(p))) > 1e-8 * max(1.0, np.max(np.abs(p))):
         raise ValueError(
-            "poly_from_roots expected complex roots in conjugate pairs so that the "
-            f"polynomial is real; got roots {roots}."
+            'poly_from_roots expected complex roots in conjugate pairs so that the '
+            f'polynomial is real; got roots {roots}.'
         )
     return gain * np.real(p)
 
@@ -179,7 +179,7 @@ def convolution_matrix(p, ncols: int, nrows: int) -> np.ndarray:
         v = np.convolve(p, e)
         if v.size > nrows:
             if np.any(v[: v.size - nrows] != 0):
-                raise ValueError("convolution_matrix: product does not fit in nrows rows.")
+                raise ValueError('convolution_matrix: product does not fit in nrows rows.')
             v = v[v.size - nrows:]
         M[nrows - v.size:, j] = v
     return M
@@ -218,12 +218,12 @@ def solve_diophantine(A, B, C, rtol: float = 1e-9):
     A, B, C = trim(A), trim(B), trim(C)
     nA, nB, nC = A.size - 1, B.size - 1, C.size - 1
     if nA < 1:
-        raise DiophantineError("solve_diophantine expected deg A >= 1 (a dynamic plant).")
+        raise DiophantineError('solve_diophantine expected deg A >= 1 (a dynamic plant).')
     nX = nC - nA
     if nX < 0:
         raise DiophantineError(
-            f"deg C = {nC} is lower than deg A = {nA}; the desired closed-loop polynomial "
-            "must have at least the degree of A (raise the observer degree)."
+            f'deg C = {nC} is lower than deg A = {nA}; the desired closed-loop polynomial '
+            'must have at least the degree of A (raise the observer degree).'
         )
     nY = nA - 1
     nrows = max(nC, nA + nX, nB + nY) + 1
@@ -249,9 +249,9 @@ def solve_diophantine(A, B, C, rtol: float = 1e-9):
     rel = np.max(np.abs(res)) / max(np.max(np.abs(C)), 1e-300)
     if not np.isfinite(rel) or rel > rtol:
         raise DiophantineError(
-            "A X + B Y = C has no solution with deg X = deg C - deg A and deg Y < deg A "
-            f"(relative residual {rel:.2e}); usually deg C is too low for deg B "
-            "(choose an observer polynomial of higher degree) or A and B share a root."
+            'A X + B Y = C has no solution with deg X = deg C - deg A and deg Y < deg A '
+            f'(relative residual {rel:.2e}); usually deg C is too low for deg B '
+            '(choose an observer polynomial of higher degree) or A and B share a root.'
         )
     return X, Y
 

@@ -27,8 +27,8 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass, fields
 
-__all__ = ["Constant", "Step", "Square", "Sine", "from_dict", "SIGNALS", "console_reference",
-           "CONSOLE_LIMIT"]
+__all__ = ['Constant', 'Step', 'Square', 'Sine', 'from_dict', 'SIGNALS', 'console_reference',
+           'CONSOLE_LIMIT']
 
 #: Default bound on a console reference [m] (belt half width 0.6096 m less a 0.10 m margin).
 CONSOLE_LIMIT = 0.5
@@ -82,9 +82,9 @@ class Square(_FiniteFields):
     def __post_init__(self):
         super().__post_init__()
         if self.period <= 0:
-            raise ValueError(f"Square wave period must be positive seconds; got {self.period}.")
+            raise ValueError(f'Square wave period must be positive seconds; got {self.period}.')
         if not 0.0 < self.duty < 1.0:
-            raise ValueError(f"Square wave duty must be in (0, 1); got {self.duty}.")
+            raise ValueError(f'Square wave duty must be in (0, 1); got {self.duty}.')
 
     def __call__(self, t: float) -> float:
         if t < self.start_time:
@@ -106,7 +106,7 @@ class Sine(_FiniteFields):
     def __post_init__(self):
         super().__post_init__()
         if self.period <= 0:
-            raise ValueError(f"Sine period must be positive seconds; got {self.period}.")
+            raise ValueError(f'Sine period must be positive seconds; got {self.period}.')
 
     def __call__(self, t: float) -> float:
         if t < self.start_time:
@@ -115,7 +115,7 @@ class Sine(_FiniteFields):
             2.0 * math.pi * (t - self.start_time) / self.period + self.phase))
 
 
-SIGNALS = {"constant": Constant, "step": Step, "square": Square, "sine": Sine}
+SIGNALS = {'constant': Constant, 'step': Step, 'square': Square, 'sine': Sine}
 
 
 def from_dict(spec: dict):
@@ -126,20 +126,22 @@ def from_dict(spec: dict):
     ValueError
         Unknown type, unknown keys, or invalid values (message names them).
     """
-    if not isinstance(spec, dict) or "type" not in spec:
+    if not isinstance(spec, dict) or 'type' not in spec:
         raise ValueError(
-            f"A reference spec must be a mapping with a 'type' key (one of {sorted(SIGNALS)}); got {spec!r}."
+            f"A reference spec must be a mapping with a 'type' key (one of {sorted(SIGNALS)}); "
+            f"got {spec!r}."
         )
-    kind = spec["type"]
+    kind = spec['type']
     if kind not in SIGNALS:
-        raise ValueError(f"Unknown reference type {kind!r}; expected one of {sorted(SIGNALS)}.")
+        raise ValueError(f'Unknown reference type {kind!r}; expected one of {sorted(SIGNALS)}.')
     cls = SIGNALS[kind]
     allowed = {f.name for f in fields(cls)}
-    params = {k: v for k, v in spec.items() if k != "type"}
+    params = {k: v for k, v in spec.items() if k != 'type'}
     unknown = set(params) - allowed
     if unknown:
         raise ValueError(
-            f"Unknown parameter(s) {sorted(unknown)} for reference type {kind!r}; allowed: {sorted(allowed)}."
+            f'Unknown parameter(s) {sorted(unknown)} for reference type {kind!r}; allowed: '
+            f'{sorted(allowed)}.'
         )
     return cls(**params)
 
@@ -170,11 +172,11 @@ def console_reference(value, last_valid: float = 0.0, limit: float = CONSOLE_LIM
 
     if isinstance(limit, bool) or not isinstance(limit, (int, float)) or \
             not (math.isfinite(limit) and limit > 0):
-        raise ValueError(f"The console reference limit must be a positive finite distance in m; "
-                         f"got {limit!r}.")
-    if abs_limit_problem("last_valid", last_valid, limit) is not None:
+        raise ValueError(f'The console reference limit must be a positive finite distance in m; '
+                         f'got {limit!r}.')
+    if abs_limit_problem('last_valid', last_valid, limit) is not None:
         last_valid = 0.0
-    problem = abs_limit_problem("console reference", value, limit, "m")
+    problem = abs_limit_problem('console reference', value, limit, 'm')
     if problem is None:
         return float(value), None
-    return float(last_valid), f"{problem}: refused, keeping {float(last_valid):.6g} m"
+    return float(last_valid), f'{problem}: refused, keeping {float(last_valid):.6g} m'

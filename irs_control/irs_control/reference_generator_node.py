@@ -38,6 +38,8 @@ from .reference_params import PARAMS, signal_from_params
 
 
 class ReferenceGeneratorNode(Node):
+    """Publishes ``lateral/reference`` from a signal or the console, per tick."""
+
     def __init__(self, **node_options):
         super().__init__('reference_generator', **node_options)
         self.p = declare_table(self, PARAMS, on_change=self._on_parameter)

@@ -1,4 +1,4 @@
-"""Continuous-time RST / model-reference pole-placement design (Astrom & Wittenmark).
+r"""Continuous-time RST / model-reference pole-placement design (Astrom & Wittenmark).
 
 Plant ``y = B/A u``, controller ``R u = T u_c - S y``, reference model ``y_m = Bm/Am u_c``.
 
@@ -22,7 +22,7 @@ Algorithm (Astrom & Wittenmark, *Computer-Controlled Systems* / *Adaptive Contro
 
 The closed loop is
 
-.. math:: \\frac{B T}{A R + B S} = \\frac{B^+ B^- A_o B_m'}{B^+ A_m A_o} = \\frac{B_m}{A_m},
+.. math:: \frac{B T}{A R + B S} = \frac{B^+ B^- A_o B_m'}{B^+ A_m A_o} = \frac{B_m}{A_m},
 
 with characteristic polynomial ``A_m A_o B+`` (the cancelled factors ``A_o B+`` are
 unobservable / uncontrollable from ``u_c`` but must be stable).
@@ -53,7 +53,7 @@ from .polynomials import (
     trim,
 )
 
-__all__ = ["RstDesignError", "RstDesign", "design_rst", "select_cancelled_zeros"]
+__all__ = ['RstDesignError', 'RstDesign', 'design_rst', 'select_cancelled_zeros']
 
 
 class RstDesignError(ValueError):
@@ -134,7 +134,7 @@ def _damping(z: complex) -> float:
     return -z.real / abs(z) if abs(z) > 0 else 0.0
 
 
-def select_cancelled_zeros(zeros, cancel="stable", zeta_min: float = 0.5,
+def select_cancelled_zeros(zeros, cancel='stable', zeta_min: float = 0.5,
                            sigma_min: float = 0.1, tol: float = 1e-6):
     """Choose which plant zeros to cancel.
 
@@ -154,9 +154,9 @@ def select_cancelled_zeros(zeros, cancel="stable", zeta_min: float = 0.5,
     """
     zeros = [complex(z) for z in np.atleast_1d(zeros)]
     if isinstance(cancel, str):
-        if cancel == "none":
+        if cancel == 'none':
             return np.array([], dtype=complex), np.array(zeros, dtype=complex)
-        if cancel != "stable":
+        if cancel != 'stable':
             raise RstDesignError(
                 f"cancel must be 'stable', 'none' or a list of zeros; got {cancel!r}."
             )
@@ -167,19 +167,19 @@ def select_cancelled_zeros(zeros, cancel="stable", zeta_min: float = 0.5,
         for c in np.atleast_1d(cancel):
             c = complex(c)
             if not remaining:
-                raise RstDesignError(f"Cannot cancel {c}: it is not a zero of the plant.")
+                raise RstDesignError(f'Cannot cancel {c}: it is not a zero of the plant.')
             d = [abs(z - c) for z in remaining]
             i = int(np.argmin(d))
             if d[i] > tol * max(1.0, abs(c)):
                 raise RstDesignError(
-                    f"Cannot cancel {c}: it is not a zero of the plant (zeros: {zeros})."
+                    f'Cannot cancel {c}: it is not a zero of the plant (zeros: {zeros}).'
                 )
             canc.append(remaining.pop(i))
         for z in canc:
             if z.real >= 0:
                 raise RstDesignError(
-                    f"Cannot cancel the zero {z}: it is not in the open left half plane, so "
-                    "the cancelled mode would be unstable."
+                    f'Cannot cancel the zero {z}: it is not in the open left half plane, so '
+                    'the cancelled mode would be unstable.'
                 )
     kept = list(zeros)
     for z in canc:
@@ -188,7 +188,7 @@ def select_cancelled_zeros(zeros, cancel="stable", zeta_min: float = 0.5,
     return np.array(canc, dtype=complex), np.array(kept, dtype=complex)
 
 
-def design_rst(B, A, Bm, Am, Ao, cancel="stable", zeta_min: float = 0.5,
+def design_rst(B, A, Bm, Am, Ao, cancel='stable', zeta_min: float = 0.5,
                sigma_min: float = 0.1, coprime_tol: float = 1e-6,
                absorb_zeros: bool = False, verify_rtol: float = 1e-9) -> RstDesign:
     """Continuous-time MRC / RST design by pole placement.
@@ -222,19 +222,19 @@ def design_rst(B, A, Bm, Am, Ao, cancel="stable", zeta_min: float = 0.5,
     """
     try:
         A, B, Am, Bm, Ao = (require_polynomial(name, p) for name, p in
-                            (("A", A), ("B", B), ("Am", Am), ("Bm", Bm), ("Ao", Ao)))
+                            (('A', A), ('B', B), ('Am', Am), ('Bm', Bm), ('Ao', Ao)))
     except ValueError as exc:
         raise RstDesignError(str(exc)) from None
-    for name, p in (("A", A), ("Am", Am), ("Ao", Ao)):
+    for name, p in (('A', A), ('Am', Am), ('Ao', Ao)):
         if abs(p[0] - 1.0) > 1e-12:
-            raise RstDesignError(f"{name} must be monic (leading coefficient 1); got {p[0]}.")
+            raise RstDesignError(f'{name} must be monic (leading coefficient 1); got {p[0]}.')
     if degree(B) > degree(A):
-        raise RstDesignError("The plant B/A must be proper (deg B <= deg A).")
-    for name, p in (("Am", Am), ("Ao", Ao)):
+        raise RstDesignError('The plant B/A must be proper (deg B <= deg A).')
+    for name, p in (('Am', Am), ('Ao', Ao)):
         if not is_hurwitz(p):
             raise RstDesignError(
-                f"{name} has roots {np.roots(p)} that are not in the open left half plane; "
-                "the closed-loop poles it places would be unstable."
+                f'{name} has roots {np.roots(p)} that are not in the open left half plane; '
+                'the closed-loop poles it places would be unstable.'
             )
 
     zeros = np.roots(B) if degree(B) > 0 else np.array([], dtype=complex)
@@ -246,14 +246,14 @@ def design_rst(B, A, Bm, Am, Ao, cancel="stable", zeta_min: float = 0.5,
     common = common_roots(A, B_minus, tol=coprime_tol)
     if common:
         raise RstDesignError(
-            f"A and B- are not coprime: they share the root {common[0]:.6g}, so that plant "
-            "mode cannot be moved by feedback and the Diophantine equation has no solution."
+            f'A and B- are not coprime: they share the root {common[0]:.6g}, so that plant '
+            'mode cannot be moved by feedback and the Diophantine equation has no solution.'
         )
     common = common_roots(A, B_plus, tol=coprime_tol)
     if common:
         raise RstDesignError(
-            f"The plant has a pole-zero cancellation at {common[0]:.6g} (A and B+ share it); "
-            "remove it from the plant model first."
+            f'The plant has a pole-zero cancellation at {common[0]:.6g} (A and B+ share it); '
+            'remove it from the plant model first.'
         )
 
     notes = []
@@ -268,7 +268,9 @@ def design_rst(B, A, Bm, Am, Ao, cancel="stable", zeta_min: float = 0.5,
             )
         Bm = np.polymul(Bm, B_minus / np.polyval(B_minus, 0.0))
         Bm_prime = poly_div_exact(Bm, B_minus)[0]
-        notes.append("Bm multiplied by B-(s)/B-(0): the uncancelled zeros stay in the closed loop.")
+        notes.append(
+            'Bm multiplied by B-(s)/B-(0): the uncancelled zeros stay in the closed loop.'
+        )
 
     C = np.polymul(Am, Ao)
     try:
@@ -279,16 +281,18 @@ def design_rst(B, A, Bm, Am, Ao, cancel="stable", zeta_min: float = 0.5,
     S = trim(S, 1e-13)
     T = trim(np.polymul(Ao, Bm_prime))
     if abs(R[0]) < 1e-12:
-        raise RstDesignError("The computed R has a zero leading coefficient; the controller is not proper.")
+        raise RstDesignError(
+            'The computed R has a zero leading coefficient; the controller is not proper.'
+        )
     if degree(S) > degree(R):
         raise RstDesignError(
-            f"Non-causal controller: deg S = {degree(S)} > deg R = {degree(R)}; raise the "
-            "degree of the observer polynomial Ao (deg Ao >= deg A - deg B+ - 1)."
+            f'Non-causal controller: deg S = {degree(S)} > deg R = {degree(R)}; raise the '
+            'degree of the observer polynomial Ao (deg Ao >= deg A - deg B+ - 1).'
         )
     if degree(T) > degree(R):
         raise RstDesignError(
-            f"Non-causal controller: deg T = {degree(T)} > deg R = {degree(R)}; the reference "
-            "model has too small a pole excess (need deg Am - deg Bm >= deg A - deg B)."
+            f'Non-causal controller: deg T = {degree(T)} > deg R = {degree(R)}; the reference '
+            'model has too small a pole excess (need deg Am - deg Bm >= deg A - deg B).'
         )
 
     design = RstDesign(R=R, S=S, T=T, Ao=Ao, B_plus=B_plus, B_minus=B_minus, A=A, B=B,
@@ -301,9 +305,9 @@ def design_rst(B, A, Bm, Am, Ao, cancel="stable", zeta_min: float = 0.5,
     e_num = coeff_rel_error(num, num_expected)
     if e_den > verify_rtol or e_num > verify_rtol:
         raise RstDesignError(
-            "The closed loop B T/(A R + B S) does not equal the model Bm/Am after cancelling "
-            f"Ao B+ (relative coefficient errors {e_num:.1e} numerator, {e_den:.1e} "
-            "denominator); the problem is numerically ill-conditioned."
+            'The closed loop B T/(A R + B S) does not equal the model Bm/Am after cancelling '
+            f'Ao B+ (relative coefficient errors {e_num:.1e} numerator, {e_den:.1e} '
+            'denominator); the problem is numerically ill-conditioned.'
         )
     design.closed_loop_poles = np.roots(den)
     return design

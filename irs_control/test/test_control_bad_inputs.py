@@ -1,5 +1,6 @@
 """Bad inputs cannot make a lateral controller emit a non-finite or out-of-limit steer, and it
-recovers (issue 10). The rule is documented in irs_control.discrete_rst (module docstring)."""
+recovers (issue 10). The rule is documented in irs_control.discrete_rst (module docstring).
+"""
 import copy
 import math
 
@@ -70,7 +71,8 @@ def test_output_always_finite_and_within_limits(kind, seq):
        tail=st.lists(st.tuples(GOOD, GOOD), min_size=1, max_size=40))
 def test_after_a_bad_measurement_output_equals_a_fresh_controller(kind, prefix, bad_y, tail):
     """Recovery: a bad measurement resets to rest, so from the next valid sample on the output is
-    exactly that of a freshly built controller fed the same inputs."""
+    exactly that of a freshly built controller fed the same inputs.
+    """
     c = fresh(kind)
     for r, y in prefix:
         c.step_checked(r, y)
@@ -88,7 +90,8 @@ def test_after_a_bad_measurement_output_equals_a_fresh_controller(kind, prefix, 
                     max_size=60))
 def test_bad_reference_is_the_last_valid_one_held(kind, seq):
     """A bad reference neither resets the controller nor reaches it: the run equals the run with
-    every bad reference replaced by the last valid one (0 before the first), bit for bit."""
+    every bad reference replaced by the last valid one (0 before the first), bit for bit.
+    """
     c, ref = fresh(kind), fresh(kind)
     held = 0.0
     for r, y in seq:
@@ -121,7 +124,8 @@ def test_one_huge_measurement_does_not_poison_later_steps(kind):
 @given(seq=st.lists(st.tuples(ANY, ANY), min_size=1, max_size=30))
 def test_unbounded_limits_state_overflow_is_reset_and_reported(kind, seq):
     """With the input bounds switched off (inf) the state can overflow; it is never stored:
-    the step answers zero steer, resets and says so."""
+    the step answers zero steer, resets and says so.
+    """
     if kind == 'mrc':
         c = DiscreteRstController(paper_mrc_design(True), measurement_limit=math.inf,
                                   reference_limit=math.inf)
@@ -138,7 +142,8 @@ def test_unbounded_limits_state_overflow_is_reset_and_reported(kind, seq):
 
 def test_nan_references_mixed_with_valid_ones_track_like_a_clean_run():
     """The fuzzer's case: NaN references between valid ones used to reset the controller each
-    time (the car went to 0.104 m against a 0.05 m reference)."""
+    time (the car went to 0.104 m against a 0.05 m reference).
+    """
     B, A = identified_plant(True)
     for kind in ('mrc', 'pi'):
         clean = simulate_loop(fresh(kind), B, A, lambda t: 0.05, 3.0)
@@ -204,25 +209,33 @@ def test_console_reference_examples():
 
 
 # ---------------------------------------------------------------- design path: ValueError only
-@pytest.mark.parametrize('params, words', [
-    ({'reference_model_num': [math.nan]}, 'reference_model_num must be a non-empty list of finite'),
-    ({'reference_model_num': []}, 'reference_model_num must be a non-empty list'),
-    ({'reference_model_num': [0.0, 0.0]}, 'not all zero'),
-    ({'reference_model_num': ['a']}, 'reference_model_num'),
-    ({'reference_model_den': [1.0, math.inf, 2.0]}, 'reference_model_den must be'),
-    ({'reference_model_den': [1.0, -1.0, 2.0]}, 'reference_model_den must be stable'),
-    ({'reference_model_den': [2.0, 1.0, 2.0]}, 'reference_model_den must be monic'),
-    ({'reference_model_num': [1.0, 2.0, 3.0], 'reference_model_den': [1.0, 2.0, 3.0]},
-     'strictly proper'),
-    ({'observer': [1.0, math.nan]}, 'observer must be finite'),
-    ({'observer': []}, 'observer must be'),
-    ({'plant_gain': math.nan}, 'plant_gain must be a finite number'),
-    ({'dt': math.inf}, 'dt must be a positive finite'),
-    ({'steer_limit': math.nan}, 'steer_limit must be a positive finite'),
-    ({'mode': 'pi', 'kp': math.inf}, 'kp must be a finite'),
-    ({'mode': 'pi', 'ki': -1.0}, 'ki must be >= 0'),
-    ({'reference_limit': math.nan}, 'reference_limit must be a positive bound'),
-])
+@pytest.mark.parametrize(
+    'params, words',
+    [
+        (
+            {'reference_model_num': [math.nan]},
+            'reference_model_num must be a non-empty list of finite',
+        ),
+        ({'reference_model_num': []}, 'reference_model_num must be a non-empty list'),
+        ({'reference_model_num': [0.0, 0.0]}, 'not all zero'),
+        ({'reference_model_num': ['a']}, 'reference_model_num'),
+        ({'reference_model_den': [1.0, math.inf, 2.0]}, 'reference_model_den must be'),
+        ({'reference_model_den': [1.0, -1.0, 2.0]}, 'reference_model_den must be stable'),
+        ({'reference_model_den': [2.0, 1.0, 2.0]}, 'reference_model_den must be monic'),
+        (
+            {'reference_model_num': [1.0, 2.0, 3.0], 'reference_model_den': [1.0, 2.0, 3.0]},
+            'strictly proper',
+        ),
+        ({'observer': [1.0, math.nan]}, 'observer must be finite'),
+        ({'observer': []}, 'observer must be'),
+        ({'plant_gain': math.nan}, 'plant_gain must be a finite number'),
+        ({'dt': math.inf}, 'dt must be a positive finite'),
+        ({'steer_limit': math.nan}, 'steer_limit must be a positive finite'),
+        ({'mode': 'pi', 'kp': math.inf}, 'kp must be a finite'),
+        ({'mode': 'pi', 'ki': -1.0}, 'ki must be >= 0'),
+        ({'reference_limit': math.nan}, 'reference_limit must be a positive bound'),
+    ],
+)
 def test_bad_design_parameters_raise_one_clear_value_error(params, words):
     with pytest.raises(ValueError, match=words.replace('(', r'\(')):
         make_controller(params)
@@ -238,7 +251,8 @@ COEF = st.one_of(st.floats(allow_nan=True, allow_infinity=True, allow_subnormal=
        observer=st.one_of(st.just([0.0]), st.lists(COEF, max_size=4)))
 def test_make_controller_raises_only_value_errors(num, den, observer):
     """Whatever polynomials are given, the design either succeeds with a finite controller or
-    raises ValueError (never IndexError, LinAlgError, ZeroDivisionError, ...)."""
+    raises ValueError (never IndexError, LinAlgError, ZeroDivisionError, ...).
+    """
     try:
         spec = make_controller({'reference_model_num': num, 'reference_model_den': den,
                                 'observer': observer})

@@ -5,21 +5,21 @@ from irs_control.design_cli import format_poly, main
 def test_cli_prints_designs(capsys):
     assert main([]) == 0
     out = capsys.readouterr().out
-    for key in ("with_actuator", "without_actuator", "R   =", "S   =", "T   =", "Ao  =",
-                "B+  =", "B-  =", "closed-loop poles"):
+    for key in ('with_actuator', 'without_actuator', 'R   =', 'S   =', 'T   =', 'Ao  =',
+                'B+  =', 'B-  =', 'closed-loop poles'):
         assert key in out
-    assert "2580.48" in out  # R(0) of the design with the actuator
+    assert '2580.48' in out  # R(0) of the design with the actuator
 
 
 def test_cli_reconstruction_and_plots(tmp_path, capsys):
-    assert main(["--reconstruction", "--plots", str(tmp_path)]) == 0
+    assert main(['--reconstruction', '--plots', str(tmp_path)]) == 0
     out = capsys.readouterr().out
-    assert "[chosen]" in out
+    assert '[chosen]' in out
     names = sorted(p.name for p in tmp_path.iterdir())
-    assert names == ["bode_with_actuator.png", "bode_without_actuator.png",
-                     "step_with_actuator.png", "step_without_actuator.png"]
+    assert names == ['bode_with_actuator.png', 'bode_without_actuator.png',
+                     'step_with_actuator.png', 'step_without_actuator.png']
     assert all(p.stat().st_size > 1000 for p in tmp_path.iterdir())
 
 
 def test_format_poly():
-    assert format_poly([1, -2, 3]) == "1 s^2 - 2 s + 3"
+    assert format_poly([1, -2, 3]) == '1 s^2 - 2 s + 3'

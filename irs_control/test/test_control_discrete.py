@@ -16,7 +16,7 @@ def _model_step(d, t):
     return ym
 
 
-@pytest.mark.parametrize("act", [True, False])
+@pytest.mark.parametrize('act', [True, False])
 def test_linear_range_matches_reference_model(act):
     d = paper_mrc_design(act)
     B, A = identified_plant(act)
@@ -65,11 +65,11 @@ def test_default_aw_polynomial_and_validation():
     d = paper_mrc_design(True)
     F = anti_windup_polynomial(d)
     np.testing.assert_allclose(np.sort(np.roots(F).real), [-30, -30, -12, -12], atol=1e-4)
-    with pytest.raises(ValueError, match="degree"):
+    with pytest.raises(ValueError, match='degree'):
         DiscreteRstController(d, aw_poly=[1, 1])
-    with pytest.raises(ValueError, match="positive sample time"):
+    with pytest.raises(ValueError, match='positive sample time'):
         DiscreteRstController(d, dt=0.0)
-    with pytest.raises(ValueError, match="u_min < u_max"):
+    with pytest.raises(ValueError, match='u_min < u_max'):
         DiscreteRstController(d, u_min=0.1, u_max=-0.1)
 
 
@@ -105,7 +105,7 @@ def test_pi_steady_state_and_back_calculation():
 
 
 def test_pi_validation():
-    with pytest.raises(ValueError, match="u_min < u_max"):
+    with pytest.raises(ValueError, match='u_min < u_max'):
         DiscretePiController(limits=(0.2, -0.2))
-    with pytest.raises(ValueError, match="non-negative"):
+    with pytest.raises(ValueError, match='non-negative'):
         DiscretePiController(kp=-1.0)

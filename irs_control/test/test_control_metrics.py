@@ -29,7 +29,7 @@ def test_first_order_rise_and_settling():
     assert oscillation_count(y, 1.0) == 0
 
 
-@pytest.mark.parametrize("zeta", [0.2, 0.5, 0.7])
+@pytest.mark.parametrize('zeta', [0.2, 0.5, 0.7])
 def test_second_order_overshoot(zeta):
     y = second_order(zeta)
     expected = 100.0 * math.exp(-math.pi * zeta / math.sqrt(1 - zeta ** 2))
@@ -50,9 +50,9 @@ def test_second_order_oscillations_and_settling():
 def test_negative_step_and_errors():
     y = -first_order()
     assert rise_time(T, y, -1.0) == pytest.approx(0.5 * math.log(9.0), rel=1e-4)
-    with pytest.raises(ValueError, match="non-zero"):
+    with pytest.raises(ValueError, match='non-zero'):
         rise_time(T, y, 0.0)
-    with pytest.raises(ValueError, match="equal length"):
+    with pytest.raises(ValueError, match='equal length'):
         ise_vs_model(T, y, y[:-1])
 
 
@@ -71,7 +71,7 @@ def test_step_metrics_bundle():
     assert math.isnan(m2.ise_vs_model) and math.isnan(m2.peak_steer)
 
 
-@pytest.mark.parametrize("step", [1.0, -0.02])
+@pytest.mark.parametrize('step', [1.0, -0.02])
 def test_step_metrics_match_python_control(step):
     """Rise time, overshoot and settling time agree with ``control.step_info`` on a step response.
 
@@ -85,8 +85,8 @@ def test_step_metrics_match_python_control(step):
     dt = t[1] - t[0]
     _, y = control.step_response(control.tf([4.0 * step], [1.0, 1.2, 4.0]), t)
     info = control.step_info(y, t, yfinal=step)
-    assert rise_time(t, y, step) == pytest.approx(info["RiseTime"], abs=dt)
-    assert overshoot_percent(y, step) == pytest.approx(info["Overshoot"], rel=1e-12)
-    assert settling_time(t, y, step) == pytest.approx(info["SettlingTime"], abs=dt)
-    assert info["Overshoot"] == pytest.approx(100 * math.exp(-0.3 * math.pi / math.sqrt(0.91)),
+    assert rise_time(t, y, step) == pytest.approx(info['RiseTime'], abs=dt)
+    assert overshoot_percent(y, step) == pytest.approx(info['Overshoot'], rel=1e-12)
+    assert settling_time(t, y, step) == pytest.approx(info['SettlingTime'], abs=dt)
+    assert info['Overshoot'] == pytest.approx(100 * math.exp(-0.3 * math.pi / math.sqrt(0.91)),
                                               rel=1e-6)

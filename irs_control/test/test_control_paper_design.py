@@ -25,11 +25,11 @@ def test_identified_plant_structure():
     # neglecting the unit-DC-gain lag 29/(s+29): same low-frequency gain lim s^2 G(s)
     assert B2[-1] / A2[-3] == pytest.approx(B[-1] / A[-3], rel=1e-12)
     assert B2[0] == pytest.approx(PAPER_PLANT_GAIN / 29.0)
-    with pytest.raises(ValueError, match="positive"):
+    with pytest.raises(ValueError, match='positive'):
         identified_plant(True, actuator_pole=-1.0)
 
 
-@pytest.mark.parametrize("act,obs", [(True, "minimal"), (False, "minimal"), (False, "paper")])
+@pytest.mark.parametrize('act,obs', [(True, 'minimal'), (False, 'minimal'), (False, 'paper')])
 def test_closed_loop_equals_model(act, obs):
     d = paper_mrc_design(act, observer=obs)
     assert d.closed_loop_freq_error(np.logspace(-2, 3, 500)) < 1e-9
@@ -63,7 +63,7 @@ def test_reconstruction_table():
     rows = reconstruction_hypotheses()
     errs = [r[3] for r in rows]
     assert errs == sorted(errs)
-    chosen = [r for r in rows if "[chosen]" in r[0]][0]
+    chosen = [r for r in rows if '[chosen]' in r[0]][0]
     assert chosen[3] == pytest.approx(0.595, abs=2e-3)
     assert rows[0][3] == pytest.approx(0.318, abs=2e-3)  # vehicle-only, Ao = s + 12
-    assert any(np.isinf(r[3]) and "Non-causal" in r[0] for r in rows)
+    assert any(np.isinf(r[3]) and 'Non-causal' in r[0] for r in rows)

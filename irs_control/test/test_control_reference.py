@@ -28,18 +28,18 @@ def test_sine_and_constant():
 
 
 def test_from_dict():
-    q = from_dict({"type": "square", "amplitude": 0.1, "period": 8.0})
+    q = from_dict({'type': 'square', 'amplitude': 0.1, 'period': 8.0})
     assert isinstance(q, Square) and q.period == 8.0
-    assert from_dict({"type": "constant", "value": 0.2})(0) == 0.2
+    assert from_dict({'type': 'constant', 'value': 0.2})(0) == 0.2
 
 
-@pytest.mark.parametrize("spec,msg", [
-    ({"amplitude": 1}, "'type' key"),
-    ({"type": "ramp"}, "Unknown reference type"),
-    ({"type": "step", "amplitud": 1}, "Unknown parameter"),
-    ({"type": "square", "period": 0.0}, "period must be positive"),
-    ({"type": "sine", "amplitude": math.nan}, "finite number"),
-    ({"type": "square", "duty": 1.5}, "duty"),
+@pytest.mark.parametrize('spec,msg', [
+    ({'amplitude': 1}, "'type' key"),
+    ({'type': 'ramp'}, 'Unknown reference type'),
+    ({'type': 'step', 'amplitud': 1}, 'Unknown parameter'),
+    ({'type': 'square', 'period': 0.0}, 'period must be positive'),
+    ({'type': 'sine', 'amplitude': math.nan}, 'finite number'),
+    ({'type': 'square', 'duty': 1.5}, 'duty'),
 ])
 def test_validation(spec, msg):
     with pytest.raises(ValueError, match=msg):

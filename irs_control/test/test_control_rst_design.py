@@ -26,7 +26,7 @@ def test_diophantine_nonconstant_b():
 
 
 def test_diophantine_common_root_fails():
-    with pytest.raises(DiophantineError, match="no solution"):
+    with pytest.raises(DiophantineError, match='no solution'):
         solve_diophantine(np.polymul([1, 0], [1, 1]), [1, 1], poly_from_roots([-3] * 3))
 
 
@@ -63,48 +63,48 @@ def test_zero_cancellation_puts_b_plus_in_r():
 
 def test_coprimeness_error_names_root():
     # A = s (s + 1), B = s + 1 kept (cancel='none'): common root -1.
-    with pytest.raises(RstDesignError, match=r"not coprime.*-1"):
-        design_rst([1, 1], [1, 1, 0], [1, 1], [1, 2, 1], [1, 5], cancel="none")
+    with pytest.raises(RstDesignError, match=r'not coprime.*-1'):
+        design_rst([1, 1], [1, 1, 0], [1, 1], [1, 2, 1], [1, 5], cancel='none')
 
 
 def test_causality_error_deg_s():
     # A = s^2, B = 1, Am = (s + 1)^2, Ao = 1 -> R = 1 (deg 0), S = 2 s + 1 (deg 1) > deg R.
-    with pytest.raises(RstDesignError, match=r"Non-causal.*deg S = 1 > deg R = 0"):
+    with pytest.raises(RstDesignError, match=r'Non-causal.*deg S = 1 > deg R = 0'):
         design_rst([1.0], [1, 0, 0], [1.0], [1, 2, 1], [1.0])
 
 
 def test_causality_error_deg_t():
     # Bm = s + 1 over Am = (s + 1)^2: pole excess 1 < 2 = pole excess of 1/s^2.
-    with pytest.raises(RstDesignError, match=r"Non-causal.*deg T = 2 > deg R = 1"):
+    with pytest.raises(RstDesignError, match=r'Non-causal.*deg T = 2 > deg R = 1'):
         design_rst([1.0], [1, 0, 0], [1, 1], [1, 2, 1], [1, 2])
 
 
 def test_bminus_not_in_bm_raises_and_absorb_option():
     B, A = [1, 2], [1, 1, 0]
-    with pytest.raises(RstDesignError, match="not zeros of the reference model"):
-        design_rst(B, A, [2.0], [1, 3, 2], [1, 4], cancel="none")
-    d = design_rst(B, A, [2.0], [1, 3, 2], [1, 4], cancel="none", absorb_zeros=True)
+    with pytest.raises(RstDesignError, match='not zeros of the reference model'):
+        design_rst(B, A, [2.0], [1, 3, 2], [1, 4], cancel='none')
+    d = design_rst(B, A, [2.0], [1, 3, 2], [1, 4], cancel='none', absorb_zeros=True)
     np.testing.assert_allclose(d.Bm, [1, 2])  # 2 * (s + 2)/2
     assert d.closed_loop_freq_error() < 1e-12
 
 
 def test_unstable_observer_and_nonmonic_rejected():
-    with pytest.raises(RstDesignError, match="open left half plane"):
+    with pytest.raises(RstDesignError, match='open left half plane'):
         design_rst([1.0], [1, 0, 0], [1.0], [1, 2, 1], [1, -1])
-    with pytest.raises(RstDesignError, match="monic"):
+    with pytest.raises(RstDesignError, match='monic'):
         design_rst([1.0], [2, 0, 0], [1.0], [1, 2, 1], [1, 1])
 
 
 def test_select_cancelled_zeros_thresholds():
     zeros = [-2.0, 1.0, complex(-0.1, 3.0), complex(-0.1, -3.0)]
-    canc, kept = select_cancelled_zeros(zeros, "stable", zeta_min=0.5)
+    canc, kept = select_cancelled_zeros(zeros, 'stable', zeta_min=0.5)
     np.testing.assert_allclose(canc, [-2.0])
     assert len(kept) == 3
-    canc, kept = select_cancelled_zeros(zeros, "none")
+    canc, kept = select_cancelled_zeros(zeros, 'none')
     assert canc.size == 0 and kept.size == 4
-    with pytest.raises(RstDesignError, match="not in the open left half plane"):
+    with pytest.raises(RstDesignError, match='not in the open left half plane'):
         select_cancelled_zeros(zeros, [1.0])
-    with pytest.raises(RstDesignError, match="not a zero"):
+    with pytest.raises(RstDesignError, match='not a zero'):
         select_cancelled_zeros(zeros, [-5.0])
 
 

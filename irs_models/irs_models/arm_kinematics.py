@@ -95,7 +95,9 @@ class ArmGeometry:
         for name in ('l1', 'l2', 'base_x', 'base_y', 'attach_offset'):
             value = getattr(self, name)
             if isinstance(value, bool) or not isinstance(value, (int, float)):
-                raise ValueError(f'ArmGeometry.{name} must be a real number in metres, got {value!r}.')
+                raise ValueError(
+                    f'ArmGeometry.{name} must be a real number in metres, got {value!r}.'
+                )
             if not math.isfinite(value):
                 raise ValueError(f'ArmGeometry.{name} must be finite, got {value!r}.')
             object.__setattr__(self, name, float(value))

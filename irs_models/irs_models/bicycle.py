@@ -19,10 +19,15 @@ constant forward speed ``V`` [m/s], linear tyres with per-axle cornering stiffne
 State ``x = [v_y, r, y, psi]``, input ``u = [delta_f, delta_r]`` (rad, positive steers the car
 left, i.e. CCW yaw), output ``y_s`` [m].  With ``L = l_f + l_r``::
 
-        | -(C_f+C_r)/(mV)          -(C_f l_f - C_r l_r)/(mV) - V   0  0 |       | C_f/m        C_r/m       |
-    A = | -(C_f l_f - C_r l_r)/(I_z V)  -(C_f l_f^2 + C_r l_r^2)/(I_z V)  0  0 |   B = | C_f l_f/I_z  -C_r l_r/I_z |
-        |  1                        0                            0  V |       | 0            0           |
-        |  0                        1                            0  0 |       | 0            0           |
+        | -(C_f+C_r)/(mV)              -(C_f l_f - C_r l_r)/(mV) - V      0  0 |
+    A = | -(C_f l_f - C_r l_r)/(I_z V)  -(C_f l_f^2 + C_r l_r^2)/(I_z V)  0  0 |
+        |  1                             0                                 0  V |
+        |  0                             1                                 0  0 |
+
+        | C_f/m        C_r/m       |
+    B = | C_f l_f/I_z  -C_r l_r/I_z |
+        | 0            0           |
+        | 0            0           |
     C = [0, 0, 1, d_s],  D = [0, 0]
 
 These are the paper's A1..A4, B1, B2 of Eq. (4) (A1 = -(C_f + C_r)/m, A2 = (C_r l_r - C_f l_f)/m,
@@ -47,7 +52,8 @@ Front steer (paper Eq. 5)::
 
   numerator coefficients:  n2 = C_f V^2 (I_z + m l_f d_s),  n1 = C_f C_r L V (l_r + d_s),
   n0 = C_f C_r L V^2.  Hence the zeros obey
-  ``z1 z2 = C_r L / (I_z + m l_f d_s)`` and ``z1 + z2 = -C_r L (l_r + d_s) / (V (I_z + m l_f d_s))``,
+  ``z1 z2 = C_r L / (I_z + m l_f d_s)`` and
+  ``z1 + z2 = -C_r L (l_r + d_s) / (V (I_z + m l_f d_s))``,
   so ``1/z1 + 1/z2 = -(l_r + d_s) / V`` *independently of mass, inertia and tyres*.
   With ``d_s = 0`` the zeros are the roots of ``I_z V s^2 + C_r L l_r s + C_r L V``.
 
@@ -61,7 +67,8 @@ Rear steer (same denominator)::
 
 The OCR of the paper garbles Eq. 5; the form above is the one consistent with the legible
 fragments ("C_sf C_sr L V (d_s + L_2) s", "C_sf C_sr L V^2", "I_z m V^2 s^4",
-"V(I_z(C_sr + C_sf) + m(C_sr L_r^2 + C_sf L_f^2)) s^3", "(m V^2 (C_sr L_2 - C_sf L_1) + C_sf C_sr L^2) s^2")
+"V(I_z(C_sr + C_sf) + m(C_sr L_r^2 + C_sf L_f^2)) s^3", "(m V^2 (C_sr L_2 - C_sf L_1) + C_sf C_sr
+L^2) s^2")
 and it is verified numerically against the state-space model in the tests.
 
 The optional actuator is a first-order lag ``w_a / (s + w_a)``, ``w_a = 2 pi f_a``
@@ -236,7 +243,9 @@ def _actuator_omega(actuator_pole):
         return None
     w = abs(float(actuator_pole))
     if not math.isfinite(w) or w == 0.0:
-        raise ValueError(f'actuator_pole must be a finite non-zero pole in rad/s, got {actuator_pole!r}.')
+        raise ValueError(
+            f'actuator_pole must be a finite non-zero pole in rad/s, got {actuator_pole!r}.'
+        )
     return w
 
 
@@ -270,7 +279,9 @@ def transfer_function(params: BicycleParams, speed: float, ds: float = 0.0, axle
     return control.tf(num, den)
 
 
-def zpk(params: BicycleParams, speed: float, ds: float = 0.0, axle: str = 'front', actuator_pole=None):
+def zpk(
+    params: BicycleParams, speed: float, ds: float = 0.0, axle: str = 'front', actuator_pole=None
+):
     """Zeros, poles and high-frequency gain of :func:`transfer_function`.
 
     ``G(s) = k prod(s - z_i) / prod(s - p_j)``.

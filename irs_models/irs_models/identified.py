@@ -22,7 +22,8 @@ Realisation (states chosen so that y_s and its rate are states)::
 
     x = [y_s, v_s, z1, z2]           v_s = dy_s/dt [m/s]
     z1' = z2,   z2' = -160 z1 - 28 z2 + delta        (denominator (s+8)(s+20) = s^2+28s+160)
-    v_s' = a_s = K (delta - 148.48 z1 - 20.8 z2)     (numerator/denominator - 1 = (-20.8 s - 148.48)/(...))
+    v_s' = a_s = K (delta - 148.48 z1 - 20.8 z2)
+                 (numerator/denominator - 1 = (-20.8 s - 148.48)/(...))
     y_s' = v_s
 
 so ``a_s / delta = K (s^2 + 7.2 s + 11.52) / (s^2 + 28 s + 160)``.  Discretised exactly (ZOH on
@@ -115,7 +116,9 @@ class IdentifiedParams:
 
     def resolved_gain(self) -> float:
         """K [m/s^2/rad]: ``gain`` or b0 / 29 from the paper."""
-        return float(self.gain) if self.gain is not None else PAPER_PLANT_GAIN / PAPER_ACTUATOR_POLE
+        return (
+            float(self.gain) if self.gain is not None else PAPER_PLANT_GAIN / PAPER_ACTUATOR_POLE
+        )
 
     def validate(self) -> None:
         if len(self.zeros) != 2 or len(self.poles) != 2:
@@ -123,7 +126,9 @@ class IdentifiedParams:
         if not all(math.isfinite(float(v)) for v in (*self.zeros, *self.poles)):
             raise ValueError('zeros and poles must be finite values in rad/s')
         if not (math.isfinite(self.resolved_gain()) and self.resolved_gain() > 0.0):
-            raise ValueError(f'gain must be a positive finite value in m/s^2/rad, got {self.gain!r}')
+            raise ValueError(
+                f'gain must be a positive finite value in m/s^2/rad, got {self.gain!r}'
+            )
         if not (math.isfinite(self.speed) and self.speed > 0.0):
             raise ValueError(f'speed must be a positive speed in m/s, got {self.speed!r}')
         if not (math.isfinite(self.ds) and self.ds >= 0.0):

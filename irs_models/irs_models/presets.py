@@ -102,7 +102,9 @@ def root_errors(fitted, target) -> np.ndarray:
     f = np.asarray(fitted, dtype=complex)
     t = np.asarray(target, dtype=complex)
     if f.shape != t.shape:
-        raise ValueError(f'fitted and target root sets must have the same size, got {f.size} and {t.size}.')
+        raise ValueError(
+            f'fitted and target root sets must have the same size, got {f.size} and {t.size}.'
+        )
     if t.size == 0:
         return np.zeros(0)
     best = None
@@ -137,8 +139,13 @@ class Preset:
 
     def zpk(self, speed=None, ds=None, axle='front', actuator_pole=None):
         """Zeros, poles, gain at the preset's (or the given) speed and ds."""
-        return zpk(self.params, self.speed if speed is None else speed, self.ds if ds is None else ds,
-                   axle, actuator_pole)
+        return zpk(
+            self.params,
+            self.speed if speed is None else speed,
+            self.ds if ds is None else ds,
+            axle,
+            actuator_pole,
+        )
 
     def errors(self):
         """(pole_errors, zero_errors) of the model vs the stored target, integrators excluded."""
@@ -170,7 +177,9 @@ def load_presets(path: str | None = None) -> dict:
                 fit=d.get('fit'),
             )
         except (KeyError, TypeError) as exc:
-            raise ValueError(f'preset {name!r} in {path} is missing or has a bad field: {exc}.') from exc
+            raise ValueError(
+                f'preset {name!r} in {path} is missing or has a bad field: {exc}.'
+            ) from exc
     return out
 
 
@@ -206,7 +215,9 @@ class FitResult:
     @property
     def max_error(self) -> float:
         """Largest relative pole/zero error."""
-        return float(max(np.max(self.pole_errors, initial=0.0), np.max(self.zero_errors, initial=0.0)))
+        return float(
+            max(np.max(self.pole_errors, initial=0.0), np.max(self.zero_errors, initial=0.0))
+        )
 
 
 def _monic_quadratic(roots):
@@ -231,9 +242,19 @@ def _model_coeffs(x, speed, ds):
     return np.array([a1, a0, b1, b0])
 
 
-def fit_preset(target_poles, target_zeros, speed: float, ds: float, bounds: dict, x0: dict | None = None,
-               reg: float = 1e-3, track: float = 1.0, wheel_radius: float = 0.3,
-               rear_steer: bool = False, objective: str = 'coeffs') -> FitResult:
+def fit_preset(
+    target_poles,
+    target_zeros,
+    speed: float,
+    ds: float,
+    bounds: dict,
+    x0: dict | None = None,
+    reg: float = 1e-3,
+    track: float = 1.0,
+    wheel_radius: float = 0.3,
+    rear_steer: bool = False,
+    objective: str = 'coeffs',
+) -> FitResult:
     """Fit (m, I_z, l_f, l_r, C_f, C_r) to published front-steer poles/zeros.
 
     Parameters
@@ -330,8 +351,16 @@ def fit_preset(target_poles, target_zeros, speed: float, ds: float, bounds: dict
     tol = 1e-6
     at_b = [n for n, v, a, b, f in zip(PARAM_NAMES, x, lo, hi, free)
             if f and (abs(math.log(v / a)) < tol or abs(math.log(v / b)) < tol)]
-    return FitResult(params=pdict, poles=p, zeros=z, pole_errors=pe, zero_errors=ze, coef_residual=coef,
-                     at_bounds=at_b, success=bool(best.success))
+    return FitResult(
+        params=pdict,
+        poles=p,
+        zeros=z,
+        pole_errors=pe,
+        zero_errors=ze,
+        coef_residual=coef,
+        at_bounds=at_b,
+        success=bool(best.success),
+    )
 
 
 def _fmt(r):
@@ -356,14 +385,31 @@ def refit_all(path: str | None = None, verbose: bool = True) -> dict:
         tgt = d.get('target')
         if not fit or not tgt or 'bounds' not in fit:
             continue
-        res = fit_preset(tgt['poles'], tgt['zeros'], float(d['speed']), float(d['ds']), fit['bounds'],
-                         x0=fit.get('nominal'), objective=fit.get('objective', 'coeffs'), track=d['params']['track'],
-                         wheel_radius=d['params']['wheel_radius'], rear_steer=d['params']['rear_steer'])
+        res = fit_preset(
+            tgt['poles'],
+            tgt['zeros'],
+            float(d['speed']),
+            float(d['ds']),
+            fit['bounds'],
+            x0=fit.get('nominal'),
+            objective=fit.get('objective', 'coeffs'),
+            track=d['params']['track'],
+            wheel_radius=d['params']['wheel_radius'],
+            rear_steer=d['params']['rear_steer'],
+        )
         results[name] = res
         if verbose:
-            print(f"{name}: V={d['speed']} ds={d['ds']}  max rel err={res.max_error:.4f}  at bounds={res.at_bounds}")
+            print(
+                f'{name}: V={d["speed"]} ds={d["ds"]}  max rel err={res.max_error:.4f}  at '
+                f'bounds={res.at_bounds}'
+            )
             print('   ' + '  '.join(f'{k}={v:.6g}' for k, v in res.params.items()))
-            print('   poles ' + ', '.join(_fmt(v) for v in res.poles) + '   zeros ' + ', '.join(_fmt(v) for v in res.zeros))
+            print(
+                '   poles '
+                + ', '.join(_fmt(v) for v in res.poles)
+                + '   zeros '
+                + ', '.join(_fmt(v) for v in res.zeros)
+            )
             print('   pole err ' + np.array2string(res.pole_errors, precision=4) + '  zero err '
                   + np.array2string(res.zero_errors, precision=4))
     return results

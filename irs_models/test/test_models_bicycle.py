@@ -35,8 +35,16 @@ def ss_tf(p, V, ds, col):
     return num / den[0], den / den[0]
 
 
-@pytest.mark.parametrize('p,V,ds', [(SCALE, 1.2, 0.33), (SCALE, 0.7, 0.0), (SEDAN, 12.0, 0.0), (SEDAN, 25.0, 1.9),
-                                    (SEDAN, 12.0, -0.5)])
+@pytest.mark.parametrize(
+    'p,V,ds',
+    [
+        (SCALE, 1.2, 0.33),
+        (SCALE, 0.7, 0.0),
+        (SEDAN, 12.0, 0.0),
+        (SEDAN, 25.0, 1.9),
+        (SEDAN, 12.0, -0.5),
+    ],
+)
 def test_state_space_matches_symbolic_eq5_front(p, V, ds):
     n_sym, d_sym = eq5_front(p, V, ds)
     n_ss, d_ss = ss_tf(p, V, ds, 0)
@@ -68,7 +76,9 @@ def test_zero_reciprocal_sum_is_lr_plus_ds_over_speed(p, V, ds):
     z, poles, _ = zpk(p, V, ds)
     assert np.sum(np.abs(poles) == 0.0) == 2  # double integrator
     np.testing.assert_allclose(np.sum(1.0 / z).real, -(p.lr + ds) / V, rtol=1e-9)
-    np.testing.assert_allclose(np.prod(z).real, p.c_r * p.wheelbase / (p.yaw_inertia + p.mass * p.lf * ds), rtol=1e-9)
+    np.testing.assert_allclose(
+        np.prod(z).real, p.c_r * p.wheelbase / (p.yaw_inertia + p.mass * p.lf * ds), rtol=1e-9
+    )
 
 
 def test_positive_front_steer_turns_left():
@@ -113,8 +123,17 @@ def test_control_transfer_function_object():
     np.testing.assert_allclose(k, SEDAN.c_f / SEDAN.mass, rtol=1e-12)  # ds = 0: k = C_f/m
 
 
-@pytest.mark.parametrize('field,value', [('mass', -1.0), ('yaw_inertia', 0.0), ('lf', float('nan')),
-                                         ('c_r', 'abc'), ('track', float('inf')), ('rear_steer', 'yes')])
+@pytest.mark.parametrize(
+    'field,value',
+    [
+        ('mass', -1.0),
+        ('yaw_inertia', 0.0),
+        ('lf', float('nan')),
+        ('c_r', 'abc'),
+        ('track', float('inf')),
+        ('rear_steer', 'yes'),
+    ],
+)
 def test_params_validation(field, value):
     with pytest.raises(ValueError, match=field):
         BicycleParams(**{**SCALE.to_dict(), field: value})

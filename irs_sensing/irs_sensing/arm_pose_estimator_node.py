@@ -55,6 +55,8 @@ NAN = math.nan
 
 
 class ArmPoseEstimatorNode(Node):
+    """Arm joint angles in, car pose, velocity and lateral position out (module docstring)."""
+
     def __init__(self, **node_options):
         super().__init__('arm_pose_estimator', **node_options)
         values = declare_table(self, estimator_parameter_table(), on_change=self._on_parameter)
@@ -130,8 +132,11 @@ class ArmPoseEstimatorNode(Node):
                 return
             if verdict != RESET:     # future or out of order: dropped, not answered
                 self.dropped += 1
-                self.warner.warn(verdict, f'arm reading {self.gate.reason(verdict, stamp_ns, now_ns)}',
-                                 time.monotonic())
+                self.warner.warn(
+                    verdict,
+                    f'arm reading {self.gate.reason(verdict, stamp_ns, now_ns)}',
+                    time.monotonic(),
+                )
                 return
             self.warner.warn(verdict, f'arm reading {self.gate.reason(verdict, stamp_ns, now_ns)}',
                              time.monotonic())

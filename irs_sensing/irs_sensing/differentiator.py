@@ -44,8 +44,8 @@ from typing import Optional, Tuple
 
 import numpy as np
 
-__all__ = ["Differentiator", "BackwardDifferenceLowPass", "SavitzkyGolayDifferentiator",
-           "make_differentiator"]
+__all__ = ['Differentiator', 'BackwardDifferenceLowPass', 'SavitzkyGolayDifferentiator',
+           'make_differentiator']
 
 
 class Differentiator:
@@ -53,7 +53,7 @@ class Differentiator:
 
     def __init__(self, dt: float, b: np.ndarray, a: np.ndarray) -> None:
         if not (isinstance(dt, (int, float)) and math.isfinite(dt) and dt > 0.0):
-            raise ValueError(f"dt must be a finite sample period > 0 s, got {dt!r}.")
+            raise ValueError(f'dt must be a finite sample period > 0 s, got {dt!r}.')
         self.dt = float(dt)
         self._b = np.asarray(b, dtype=float)
         self._a = np.asarray(a, dtype=float)
@@ -69,7 +69,7 @@ class Differentiator:
     def update(self, x: float) -> float:
         """Feed sample ``x`` (the signal at the newest instant); return its derivative [x/s]."""
         if not math.isfinite(x):
-            raise ValueError(f"differentiator input must be finite, got {x!r}.")
+            raise ValueError(f'differentiator input must be finite, got {x!r}.')
         if self._x is None:
             self._x = np.full(len(self._b), float(x))
         else:
@@ -118,7 +118,7 @@ class Differentiator:
         """Low-frequency delay of the derivative estimate [s] (see module docstring)."""
         bp, rem = np.polydiv(self._b, np.array([1.0, -1.0]))  # B = (1 - z^-1) B'
         if np.max(np.abs(rem)) > 1e-9 * max(1.0, np.max(np.abs(self._b))):
-            raise ValueError("filter has no zero at z = 1, it is not a differentiator.")
+            raise ValueError('filter has no zero at z = 1, it is not a differentiator.')
         k_b = np.arange(len(bp))
         k_a = np.arange(len(self._a))
         return self.dt * (0.5 + float(k_b @ bp) / float(np.sum(bp))
@@ -155,18 +155,18 @@ class BackwardDifferenceLowPass(Differentiator):
         See module docstring.
     """
 
-    def __init__(self, dt: float, cutoff_hz: float, discretization: str = "matched") -> None:
+    def __init__(self, dt: float, cutoff_hz: float, discretization: str = 'matched') -> None:
         if not (isinstance(cutoff_hz, (int, float)) and math.isfinite(cutoff_hz)
                 and cutoff_hz > 0.0):
-            raise ValueError(f"cutoff_hz must be a finite frequency > 0 Hz, got {cutoff_hz!r}.")
-        if discretization not in ("matched", "zoh"):
+            raise ValueError(f'cutoff_hz must be a finite frequency > 0 Hz, got {cutoff_hz!r}.')
+        if discretization not in ('matched', 'zoh'):
             raise ValueError(f"discretization must be 'matched' or 'zoh', got {discretization!r}.")
         self.cutoff_hz = float(cutoff_hz)
         self.discretization = discretization
         alpha = math.exp(-2.0 * math.pi * cutoff_hz * dt)
         self.alpha = alpha
         g = (1.0 - alpha) / dt
-        if discretization == "matched":
+        if discretization == 'matched':
             b = np.array([g, -g])
         else:
             b = np.array([0.0, g, -g])
@@ -180,7 +180,7 @@ class BackwardDifferenceLowPass(Differentiator):
 
     def analytic_group_delay(self) -> float:
         """Closed form ``dt/2 + alpha dt/(1-alpha)`` (+ dt for 'zoh') [s]."""
-        extra = self.dt if self.discretization == "zoh" else 0.0
+        extra = self.dt if self.discretization == 'zoh' else 0.0
         return self.dt / 2 + self.alpha * self.dt / (1 - self.alpha) + extra
 
     def analytic_noise_gain(self) -> float:
@@ -208,13 +208,13 @@ class SavitzkyGolayDifferentiator(Differentiator):
 
     def __init__(self, dt: float, window: int, order: int = 1) -> None:
         if not isinstance(order, int) or isinstance(order, bool) or order < 1:
-            raise ValueError(f"order must be an integer >= 1, got {order!r}.")
+            raise ValueError(f'order must be an integer >= 1, got {order!r}.')
         if not isinstance(window, int) or isinstance(window, bool) or window < order + 1 \
                 or window < 2:
-            raise ValueError(f"window must be an integer >= order + 1 = {order + 1}, got "
-                             f"{window!r}.")
+            raise ValueError(f'window must be an integer >= order + 1 = {order + 1}, got '
+                             f'{window!r}.')
         if not (isinstance(dt, (int, float)) and math.isfinite(dt) and dt > 0.0):
-            raise ValueError(f"dt must be a finite sample period > 0 s, got {dt!r}.")
+            raise ValueError(f'dt must be a finite sample period > 0 s, got {dt!r}.')
         self.window = window
         self.order = order
         t = -(window - 1 - np.arange(window)) * float(dt)   # oldest ... newest (= 0)
@@ -233,10 +233,10 @@ class SavitzkyGolayDifferentiator(Differentiator):
 
 
 def make_differentiator(kind: str, dt: float, cutoff_hz: float = 10.0, window: int = 10,
-                        order: int = 1, discretization: str = "matched") -> Differentiator:
+                        order: int = 1, discretization: str = 'matched') -> Differentiator:
     """Factory: ``kind`` is ``'lowpass'`` (backward difference + low pass) or ``'savgol'``."""
-    if kind == "lowpass":
+    if kind == 'lowpass':
         return BackwardDifferenceLowPass(dt, cutoff_hz, discretization)
-    if kind == "savgol":
+    if kind == 'savgol':
         return SavitzkyGolayDifferentiator(dt, window, order)
     raise ValueError(f"differentiator kind must be 'lowpass' or 'savgol', got {kind!r}.")

@@ -20,11 +20,30 @@ _EST = {
     'max_yaw_rate': ('rad/s', 0.0, INF, 'plausibility bound on yaw rate between samples'),
     'jump_margin': ('m', 0.0, INF, 'extra allowance on the position jump'),
     'jump_margin_psi': ('rad', 0.0, INF, 'extra allowance on the heading jump'),
-    'stale_timeout': ('s', 0.0, INF, 'no valid reading for this long: input stale (writable: '
-                      'applied at once)'),
-    'dt_tolerance': ('1', 0.0, INF, 'relative sample-period deviation that resets the differentiators'),
-    'singular_tolerance': ('rad', 0.0, math.pi, 'near-singular arm when |theta2| or pi-|theta2| is below this'),
-    'differentiator': ('-', None, None, "'savgol' (causal least-squares line fit) or 'lowpass' (backward difference + low pass)"),
+    'stale_timeout': (
+        's',
+        0.0,
+        INF,
+        'no valid reading for this long: input stale (writable: applied at once)',
+    ),
+    'dt_tolerance': (
+        '1',
+        0.0,
+        INF,
+        'relative sample-period deviation that resets the differentiators',
+    ),
+    'singular_tolerance': (
+        'rad',
+        0.0,
+        math.pi,
+        'near-singular arm when |theta2| or pi-|theta2| is below this',
+    ),
+    'differentiator': (
+        '-',
+        None,
+        None,
+        "'savgol' (causal least-squares line fit) or 'lowpass' (backward difference + low pass)",
+    ),
     'cutoff_hz': ('Hz', 0.0, INF, "low-pass cut-off ('lowpass')"),
     'window': ('samples', 2, 100000, "fit window ('savgol')"),
     'order': ('1', 0, 10, "polynomial order ('savgol')"),
@@ -44,17 +63,44 @@ _CAL = {
     'counts_zero': ('counts', -INF, INF, 'ADC reading at 0 V'),
 }
 NODE = [
-    Param('rate_hz', 1000.0, 'sampling rate of the arm potentiometers', 'Hz', 1.0, 100000.0,
-          read_only=True),
-    Param('input', 'angles', "'angles' (joint_states positions are angles) or 'raw' (volts/counts, "
-          'calibrated with calibration.*)', '-', read_only=True),
+    Param(
+        'rate_hz',
+        1000.0,
+        'sampling rate of the arm potentiometers',
+        'Hz',
+        1.0,
+        100000.0,
+        read_only=True,
+    ),
+    Param(
+        'input',
+        'angles',
+        "'angles' (joint_states positions are angles) or 'raw' (volts/counts, "
+        'calibrated with calibration.*)',
+        '-',
+        read_only=True,
+    ),
     Param('frame_id', 'treadmill', 'frame of the published pose and sensor point', '-'),
     Param('child_frame_id', 'base_link', 'frame of the published velocity (car body)', '-'),
-    Param('future_tolerance', 0.5, 'readings stamped further ahead of the node clock are dropped '
-          '(not answered, not stored)', 's', 0.0, 3600.0, read_only=True),
-    Param('pose_decimation', 1, 'publish pose and velocity every this many readings (the '
-          'treadmill loop needs less than the lateral loop); lateral_position goes every reading',
-          '1', 1, 1_000_000, read_only=True),
+    Param(
+        'future_tolerance',
+        0.5,
+        'readings stamped further ahead of the node clock are dropped (not answered, not stored)',
+        's',
+        0.0,
+        3600.0,
+        read_only=True,
+    ),
+    Param(
+        'pose_decimation',
+        1,
+        'publish pose and velocity every this many readings (the '
+        'treadmill loop needs less than the lateral loop); lateral_position goes every reading',
+        '1',
+        1,
+        1_000_000,
+        read_only=True,
+    ),
 ]
 
 

@@ -52,8 +52,8 @@ from irs_models.constants import BELT_HALF_LENGTH, BELT_HALF_WIDTH
 
 from .differentiator import make_differentiator
 
-__all__ = ["PoseEstimatorParams", "PoseEstimate", "PoseEstimator", "reading_problem",
-           "ANGLE_LIMIT", "BELT_SPEED_LIMIT", "DEFAULT_FUTURE_TOLERANCE"]
+__all__ = ['PoseEstimatorParams', 'PoseEstimate', 'PoseEstimator', 'reading_problem',
+           'ANGLE_LIMIT', 'BELT_SPEED_LIMIT', 'DEFAULT_FUTURE_TOLERANCE']
 
 #: Largest |joint angle| [rad] that is a reading at all (16 turns; wrapped or unwrapped pots).
 ANGLE_LIMIT = 100.0
@@ -75,15 +75,15 @@ def reading_problem(theta1, theta2, theta3, stamp, belt_speed=0.0) -> Optional[s
     """
     for i, a in enumerate((theta1, theta2, theta3)):
         if a is None or not _real(a) or not math.isfinite(a):
-            return f"joint {i + 1} angle is not a finite number ({a!r})"
+            return f'joint {i + 1} angle is not a finite number ({a!r})'
         if abs(a) > ANGLE_LIMIT:
-            return f"joint {i + 1} angle {a:.6g} rad is beyond +-{ANGLE_LIMIT:g} rad"
+            return f'joint {i + 1} angle {a:.6g} rad is beyond +-{ANGLE_LIMIT:g} rad'
     if stamp is None or not _real(stamp) or not math.isfinite(stamp):
-        return f"time stamp is not a finite number ({stamp!r})"
+        return f'time stamp is not a finite number ({stamp!r})'
     if belt_speed is None or not _real(belt_speed) or not math.isfinite(belt_speed):
-        return f"belt speed is not a finite number ({belt_speed!r})"
+        return f'belt speed is not a finite number ({belt_speed!r})'
     if abs(belt_speed) > BELT_SPEED_LIMIT:
-        return f"belt speed {belt_speed:.6g} m/s is beyond +-{BELT_SPEED_LIMIT:g} m/s"
+        return f'belt speed {belt_speed:.6g} m/s is beyond +-{BELT_SPEED_LIMIT:g} m/s'
     return None
 
 
@@ -114,49 +114,50 @@ class PoseEstimatorParams:
     stale_timeout: float = 0.05
     dt_tolerance: float = 0.5
     singular_tolerance: float = math.radians(5.0)
-    differentiator: str = "savgol"
+    differentiator: str = 'savgol'
     cutoff_hz: float = 10.0
     window: int = 20
     order: int = 1
     geometry: ArmGeometry = field(default_factory=ArmGeometry)
 
     def __post_init__(self) -> None:
-        check_numbers(self, ("dt", "belt_half_length", "belt_half_width", "max_speed",
-                             "max_yaw_rate", "stale_timeout", "dt_tolerance", "cutoff_hz"),
+        check_numbers(self, ('dt', 'belt_half_length', 'belt_half_width', 'max_speed',
+                             'max_yaw_rate', 'stale_timeout', 'dt_tolerance', 'cutoff_hz'),
                       above=0.0)
-        check_numbers(self, ("ds",))
-        check_numbers(self, ("off_belt_margin", "jump_margin", "jump_margin_psi",
-                             "singular_tolerance"), at_least=0.0)
+        check_numbers(self, ('ds',))
+        check_numbers(self, ('off_belt_margin', 'jump_margin', 'jump_margin_psi',
+                             'singular_tolerance'), at_least=0.0)
         if len(self.joint_min) != 3 or len(self.joint_max) != 3 or any(
                 not lo < hi for lo, hi in zip(self.joint_min, self.joint_max)):
-            raise ValueError("PoseEstimatorParams.joint_min/joint_max must be three (min < max) "
-                             "angle pairs in rad.")
-        object.__setattr__(self, "joint_min", tuple(float(v) for v in self.joint_min))
-        object.__setattr__(self, "joint_max", tuple(float(v) for v in self.joint_max))
+            raise ValueError('PoseEstimatorParams.joint_min/joint_max must be three (min < max) '
+                             'angle pairs in rad.')
+        object.__setattr__(self, 'joint_min', tuple(float(v) for v in self.joint_min))
+        object.__setattr__(self, 'joint_max', tuple(float(v) for v in self.joint_max))
         if not isinstance(self.geometry, ArmGeometry):
-            raise ValueError("PoseEstimatorParams.geometry must be an ArmGeometry.")
+            raise ValueError('PoseEstimatorParams.geometry must be an ArmGeometry.')
         make_differentiator(self.differentiator, self.dt, self.cutoff_hz, self.window, self.order)
 
     @classmethod
     def from_ros_params(cls, d):
         """Build from the ``arm_pose_estimator.ros__parameters`` mapping of ``sensing.yaml``
         (keys ``rate_hz`` -> ``dt``, ``geometry`` -> :class:`ArmGeometry`; ``calibration`` is
-        ignored here, see :func:`irs_sensing.calibration.ArmCalibration.from_dict`)."""
+        ignored here, see :func:`irs_sensing.calibration.ArmCalibration.from_dict`).
+        """
         import dataclasses
         kw = dict(d)
-        kw.pop("calibration", None)
-        if "rate_hz" in kw:
-            rate = kw.pop("rate_hz")
+        kw.pop('calibration', None)
+        if 'rate_hz' in kw:
+            rate = kw.pop('rate_hz')
             if not isinstance(rate, (int, float)) or not rate > 0:
-                raise ValueError(f"rate_hz must be a rate > 0 Hz, got {rate!r}.")
-            kw["dt"] = 1.0 / rate
-        if "geometry" in kw:
-            kw["geometry"] = ArmGeometry(**kw["geometry"])
+                raise ValueError(f'rate_hz must be a rate > 0 Hz, got {rate!r}.')
+            kw['dt'] = 1.0 / rate
+        if 'geometry' in kw:
+            kw['geometry'] = ArmGeometry(**kw['geometry'])
         names = {f.name for f in dataclasses.fields(cls)}
         unknown = set(kw) - names
         if unknown:
-            raise ValueError(f"PoseEstimatorParams: unknown parameters {sorted(unknown)}.")
-        for key in ("joint_min", "joint_max"):
+            raise ValueError(f'PoseEstimatorParams: unknown parameters {sorted(unknown)}.')
+        for key in ('joint_min', 'joint_max'):
             if key in kw:
                 kw[key] = tuple(kw[key])
         return cls(**kw)
@@ -196,8 +197,8 @@ class PoseEstimator:
                  future_tolerance: float = DEFAULT_FUTURE_TOLERANCE) -> None:
         if not _real(future_tolerance) or not (math.isfinite(future_tolerance)
                                                 and future_tolerance >= 0):
-            raise ValueError(f"future_tolerance must be a finite time >= 0 s, got "
-                             f"{future_tolerance!r}.")
+            raise ValueError(f'future_tolerance must be a finite time >= 0 s, got '
+                             f'{future_tolerance!r}.')
         self.future_tolerance = float(future_tolerance)
         self.params = params if params is not None else PoseEstimatorParams()
         p = self.params
@@ -211,7 +212,7 @@ class PoseEstimator:
             d.reset()
         self._last: Optional[Tuple[float, float, float, float]] = None  # t, x, y, psi
         self._psi_unwrapped = 0.0
-        self.last_reason = "no sample yet"
+        self.last_reason = 'no sample yet'
 
     @property
     def last_valid_stamp(self) -> Optional[float]:
@@ -225,12 +226,12 @@ class PoseEstimator:
     def stale_reason(self, now: float) -> str:
         """Empty string if fresh, else a sentence."""
         if self._last is None:
-            return "stale: no valid arm reading received yet"
+            return 'stale: no valid arm reading received yet'
         age = now - self._last[0]
         if age > self.params.stale_timeout:
-            return (f"stale: no valid arm reading for {age:.3f} s "
-                    f"(timeout {self.params.stale_timeout:.3f} s)")
-        return ""
+            return (f'stale: no valid arm reading for {age:.3f} s '
+                    f'(timeout {self.params.stale_timeout:.3f} s)')
+        return ''
 
     def _reject(self, reason: str) -> Tuple[None, str]:
         self.last_reason = reason
@@ -253,11 +254,11 @@ class PoseEstimator:
             return self._reject(problem)
         if now is not None and _real(now) and math.isfinite(now) and \
                 stamp - now > self.future_tolerance:
-            return self._reject(f"time stamp {stamp:.9g} s is {stamp - now:.3g} s ahead of the "
-                                f"clock ({now:.9g} s; tolerance {self.future_tolerance:.3g} s)")
+            return self._reject(f'time stamp {stamp:.9g} s is {stamp - now:.3g} s ahead of the '
+                                f'clock ({now:.9g} s; tolerance {self.future_tolerance:.3g} s)')
         if self._last is not None and stamp <= self._last[0]:
-            return self._reject(f"time stamp {stamp:.6f} s does not increase "
-                                f"(last {self._last[0]:.6f} s)")
+            return self._reject(f'time stamp {stamp:.6f} s does not increase '
+                                f'(last {self._last[0]:.6f} s)')
         for i, a in enumerate(angles):
             # compared modulo 2 pi (FK only sees the angle modulo 2 pi): the reading is valid if
             # some a + 2 pi k lies in [joint_min, joint_max]
@@ -270,14 +271,14 @@ class PoseEstimator:
                 shifted = p.joint_min[i]
             if not p.joint_min[i] <= shifted <= p.joint_max[i]:
                 return self._reject(
-                    f"joint {i + 1} angle {a:.4f} rad outside mechanical range "
-                    f"[{p.joint_min[i]:.4f}, {p.joint_max[i]:.4f}] rad")
+                    f'joint {i + 1} angle {a:.4f} rad outside mechanical range '
+                    f'[{p.joint_min[i]:.4f}, {p.joint_max[i]:.4f}] rad')
         pose = forward_kinematics(theta1, theta2, theta3, p.geometry)
         if abs(pose.x_cg) > p.belt_half_length + p.off_belt_margin or \
                 abs(pose.y_cg) > p.belt_half_width + p.off_belt_margin:
             return self._reject(
-                f"pose ({pose.x_cg:.3f}, {pose.y_cg:.3f}) m is off the belt by more than "
-                f"{p.off_belt_margin:.3f} m")
+                f'pose ({pose.x_cg:.3f}, {pose.y_cg:.3f}) m is off the belt by more than '
+                f'{p.off_belt_margin:.3f} m')
         gap = None
         if self._last is not None:
             t0, x0, y0, psi0 = self._last
@@ -285,13 +286,13 @@ class PoseEstimator:
             dist = math.hypot(pose.x_cg - x0, pose.y_cg - y0)
             lim = p.max_speed * gap + p.jump_margin
             if dist > lim:
-                return self._reject(f"implausible jump of {dist:.3f} m in {gap:.4f} s "
-                                    f"(limit {lim:.3f} m)")
+                return self._reject(f'implausible jump of {dist:.3f} m in {gap:.4f} s '
+                                    f'(limit {lim:.3f} m)')
             dpsi = abs(wrap_angle(pose.psi - psi0))
             lim_psi = p.max_yaw_rate * gap + p.jump_margin_psi
             if dpsi > lim_psi:
-                return self._reject(f"implausible heading jump of {dpsi:.3f} rad in {gap:.4f} s "
-                                    f"(limit {lim_psi:.3f} rad)")
+                return self._reject(f'implausible heading jump of {dpsi:.3f} rad in {gap:.4f} s '
+                                    f'(limit {lim_psi:.3f} rad)')
         # ---- accepted: update state
         if gap is None or abs(gap - p.dt) > p.dt_tolerance * p.dt:
             for d in self._diff:
@@ -312,9 +313,9 @@ class PoseEstimator:
         else:
             xdot = ydot = r = u = v = math.nan
         xs, ys = sensor_point(pose, p.ds)
-        self.last_reason = ""
+        self.last_reason = ''
         est = PoseEstimate(stamp=float(stamp), x_cg=pose.x_cg, y_cg=pose.y_cg, psi=pose.psi,
                            x_s=xs, y_s=ys, xdot=xdot, ydot=ydot, yaw_rate=r, u=u, v=v,
                            velocity_valid=valid,
                            near_singular=singularity_margin(theta2) < p.singular_tolerance)
-        return est, ""
+        return est, ''

@@ -1,5 +1,6 @@
 """Bad arm readings are rejected with a reason, never raise, and a future-stamped reading cannot
-make the pose estimator ignore later readings (issue 10)."""
+make the pose estimator ignore later readings (issue 10).
+"""
 import math
 
 import pytest
@@ -53,7 +54,8 @@ def test_any_reading_gives_an_estimate_or_a_reason(seq):
 @given(inserts=st.lists(st.tuples(st.integers(0, 59), st.sampled_from(FUTURE)), max_size=8))
 def test_future_stamped_readings_do_not_block_later_ones(inserts):
     """Genuine readings (stamp = clock) give exactly the estimates of a clean run, whatever
-    future-stamped readings come in between; each of those is rejected with a reason."""
+    future-stamped readings come in between; each of those is rejected with a reason.
+    """
     traj = trajectory(60)
     clean, noisy = PoseEstimator(), PoseEstimator()
     where = {}

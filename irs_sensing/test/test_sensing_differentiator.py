@@ -10,14 +10,14 @@ from irs_sensing.differentiator import (BackwardDifferenceLowPass, SavitzkyGolay
 
 DT = 0.001
 FILTERS = [
-    ("lowpass 10 Hz", lambda: BackwardDifferenceLowPass(DT, 10.0)),
-    ("lowpass 25 Hz zoh", lambda: BackwardDifferenceLowPass(DT, 25.0, "zoh")),
-    ("savgol N=20 p=1", lambda: SavitzkyGolayDifferentiator(DT, 20, 1)),
-    ("savgol N=31 p=2", lambda: SavitzkyGolayDifferentiator(DT, 31, 2)),
+    ('lowpass 10 Hz', lambda: BackwardDifferenceLowPass(DT, 10.0)),
+    ('lowpass 25 Hz zoh', lambda: BackwardDifferenceLowPass(DT, 25.0, 'zoh')),
+    ('savgol N=20 p=1', lambda: SavitzkyGolayDifferentiator(DT, 20, 1)),
+    ('savgol N=31 p=2', lambda: SavitzkyGolayDifferentiator(DT, 31, 2)),
 ]
 
 
-@pytest.mark.parametrize("name,make", FILTERS)
+@pytest.mark.parametrize('name,make', FILTERS)
 def test_ramp_slope_exact(name, make):
     d = make()
     t = np.arange(400) * DT
@@ -26,19 +26,19 @@ def test_ramp_slope_exact(name, make):
     assert d.dc_slope_gain() == pytest.approx(1.0, abs=1e-9)
 
 
-@pytest.mark.parametrize("name,make", FILTERS)
+@pytest.mark.parametrize('name,make', FILTERS)
 def test_group_delay_from_parabola_lag(name, make):
     """x = t^2/2 has derivative t; the steady-state estimate is t - tau_d."""
     d = make()
     t = np.arange(2000) * DT
     y = np.array([d.update(0.5 * tt * tt) for tt in t])
     lag = t[-1] - y[-1]
-    print(f"{name}: group delay {d.group_delay() * 1e3:.3f} ms, parabola lag {lag * 1e3:.3f} ms")
+    print(f'{name}: group delay {d.group_delay() * 1e3:.3f} ms, parabola lag {lag * 1e3:.3f} ms')
     assert lag == pytest.approx(d.group_delay(), abs=1e-9)
     assert d.group_delay() == pytest.approx(d.analytic_group_delay(), abs=1e-12)
 
 
-@pytest.mark.parametrize("name,make", FILTERS)
+@pytest.mark.parametrize('name,make', FILTERS)
 def test_group_delay_matches_phase_slope(name, make):
     d = make()
     f = np.array([0.05, 0.1])
@@ -47,7 +47,7 @@ def test_group_delay_matches_phase_slope(name, make):
     assert gd == pytest.approx(d.group_delay(), abs=1e-6)
 
 
-@pytest.mark.parametrize("name,make", FILTERS)
+@pytest.mark.parametrize('name,make', FILTERS)
 def test_noise_gain_empirical(name, make):
     d = make()
     rng = np.random.default_rng(42)
@@ -56,7 +56,7 @@ def test_noise_gain_empirical(name, make):
     b, a = d.transfer_function()
     y = lfilter(b, a, x)[2000:]
     empirical = np.std(y) / (sigma / DT)
-    print(f"{name}: noise gain computed {d.noise_gain():.4f}, empirical {empirical:.4f}")
+    print(f'{name}: noise gain computed {d.noise_gain():.4f}, empirical {empirical:.4f}')
     assert empirical == pytest.approx(d.noise_gain(), rel=0.02)
 
 
@@ -88,23 +88,23 @@ def test_savgol_linear_matches_closed_form():
 
 
 def test_factory_and_validation():
-    assert isinstance(make_differentiator("savgol", DT, window=5), SavitzkyGolayDifferentiator)
+    assert isinstance(make_differentiator('savgol', DT, window=5), SavitzkyGolayDifferentiator)
     with pytest.raises(ValueError):
-        make_differentiator("bogus", DT)
+        make_differentiator('bogus', DT)
     with pytest.raises(ValueError):
         BackwardDifferenceLowPass(DT, -1.0)
     with pytest.raises(ValueError):
         SavitzkyGolayDifferentiator(DT, 2, 2)
     with pytest.raises(ValueError):
-        BackwardDifferenceLowPass(DT, 10.0).update(float("nan"))
+        BackwardDifferenceLowPass(DT, 10.0).update(float('nan'))
 
 
-@pytest.mark.parametrize("window,order", [(2, 1), (10, 1), (20, 1), (31, 2), (8, 3)])
+@pytest.mark.parametrize('window,order', [(2, 1), (10, 1), (20, 1), (31, 2), (8, 3)])
 def test_savgol_taps_match_scipy(window, order):
-    """Our causal taps equal scipy's Savitzky-Golay derivative coefficients at the newest sample."""
+    """Our causal taps equal scipy's Savitzky-Golay derivative coefficients (newest sample)."""
     from scipy.signal import savgol_coeffs
 
     b, a = SavitzkyGolayDifferentiator(DT, window, order).transfer_function()
-    ref = savgol_coeffs(window, order, deriv=1, delta=DT, pos=window - 1, use="conv")
+    ref = savgol_coeffs(window, order, deriv=1, delta=DT, pos=window - 1, use='conv')
     np.testing.assert_array_equal(a, [1.0])
     np.testing.assert_allclose(b, ref, rtol=0.0, atol=1e-12 * np.max(np.abs(ref)))

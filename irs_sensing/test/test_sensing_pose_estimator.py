@@ -23,14 +23,14 @@ def feed(est, traj, t0=0.0, belt_speed=0.0):
 def test_pose_and_sensor_point():
     est = PoseEstimator(PoseEstimatorParams(ds=0.2))
     (e, reason), = feed(est, [(0.3, -0.1, 0.25)])
-    assert reason == ""
+    assert reason == ''
     assert (e.x_cg, e.y_cg, e.psi) == pytest.approx((0.3, -0.1, 0.25), abs=1e-9)
     assert e.y_s == pytest.approx(-0.1 + 0.2 * math.sin(0.25))
     assert e.x_s == pytest.approx(0.3 + 0.2 * math.cos(0.25))
     assert not e.velocity_valid and math.isnan(e.xdot)
 
 
-@pytest.mark.parametrize("kind", ["lowpass", "savgol"])
+@pytest.mark.parametrize('kind', ['lowpass', 'savgol'])
 def test_constant_velocity_car_frame(kind):
     est = PoseEstimator(PoseEstimatorParams(differentiator=kind, window=15))
     psi = 0.3
@@ -69,24 +69,24 @@ def test_rejections_return_none_and_keep_state():
     g = est.params.geometry
     q = inverse_kinematics(0.0, 0.0, 0.0, g)
     e, reason = est.update(*q, stamp=0.0)
-    assert e is not None and reason == ""
-    e, reason = est.update(float("nan"), q[1], q[2], stamp=0.001)
-    assert e is None and "finite" in reason
+    assert e is not None and reason == ''
+    e, reason = est.update(float('nan'), q[1], q[2], stamp=0.001)
+    assert e is None and 'finite' in reason
     e, reason = est.update(*q, stamp=0.0)
-    assert e is None and "does not increase" in reason
+    assert e is None and 'does not increase' in reason
     # implausible jump: 0.5 m in 1 ms
     q2 = inverse_kinematics(0.5, 0.0, 0.0, g)
     e, reason = est.update(*q2, stamp=0.002)
-    assert e is None and "jump" in reason
+    assert e is None and 'jump' in reason
     # heading jump
     q3 = inverse_kinematics(0.0, 0.0, 1.0, g)
     e, reason = est.update(*q3, stamp=0.002)
-    assert e is None and "heading" in reason
+    assert e is None and 'heading' in reason
     # off the belt: c.g. at x = 1.5 m (belt half-length 1.2192 + margin 0.1)
     est2 = PoseEstimator(PoseEstimatorParams())
     q4 = inverse_kinematics(1.5, 0.0, 0.0, g)
     e, reason = est2.update(*q4, stamp=0.0)
-    assert e is None and "off the belt" in reason
+    assert e is None and 'off the belt' in reason
     assert est.last_valid_stamp == 0.0
 
 
@@ -102,7 +102,7 @@ def test_joint_range_rejection_modulo_two_pi():
     assert e is not None, reason
     # theta3 = 2.8 rad is outside +-2.5656 in every 2 pi shift
     e, reason = PoseEstimator(p).update(q[0], q[1], 2.8, stamp=0.0)
-    assert e is None and "joint 3" in reason and "mechanical range" in reason
+    assert e is None and 'joint 3' in reason and 'mechanical range' in reason
 
 
 def test_jump_allowed_after_long_gap():
@@ -117,15 +117,15 @@ def test_jump_allowed_after_long_gap():
 
 def test_stale_detection():
     est = PoseEstimator(PoseEstimatorParams(stale_timeout=0.05))
-    assert est.stale(0.0) and "no valid" in est.stale_reason(0.0)
+    assert est.stale(0.0) and 'no valid' in est.stale_reason(0.0)
     g = est.params.geometry
     q = inverse_kinematics(0.0, 0.0, 0.0, g)
     est.update(*q, stamp=1.0)
-    assert not est.stale(1.04) and est.stale_reason(1.04) == ""
+    assert not est.stale(1.04) and est.stale_reason(1.04) == ''
     for k in range(1, 60):  # only bad readings afterwards
-        est.update(float("nan"), 0.0, 0.0, stamp=1.0 + k * DT)
+        est.update(float('nan'), 0.0, 0.0, stamp=1.0 + k * DT)
     assert est.stale(1.06)
-    assert "stale" in est.stale_reason(1.06)
+    assert 'stale' in est.stale_reason(1.06)
 
 
 def test_near_singular_flag():
@@ -143,4 +143,4 @@ def test_params_validation():
     with pytest.raises(ValueError):
         PoseEstimatorParams(joint_min=(0.0, 0.0, 0.0), joint_max=(0.0, 1.0, 1.0))
     with pytest.raises(ValueError):
-        PoseEstimatorParams(differentiator="kalman")
+        PoseEstimatorParams(differentiator='kalman')

@@ -70,8 +70,8 @@ from typing import Optional
 from irs_common.field_checks import check_numbers
 from irs_common.input_checks import abs_limit_problem
 
-__all__ = ["RegulatorParams", "RegulatorOutput", "BeltSpeedRegulator", "DEFAULT_POSITION_LIMIT",
-           "DEFAULT_SPEED_LIMIT"]
+__all__ = ['RegulatorParams', 'RegulatorOutput', 'BeltSpeedRegulator', 'DEFAULT_POSITION_LIMIT',
+           'DEFAULT_SPEED_LIMIT']
 
 
 def dataclass_from_mapping(cls, d):
@@ -80,8 +80,8 @@ def dataclass_from_mapping(cls, d):
     names = {f.name for f in dataclasses.fields(cls)}
     unknown = set(d) - names
     if unknown:
-        raise ValueError(f"{cls.__name__}: unknown parameters {sorted(unknown)}; expected a "
-                         f"subset of {sorted(names)}.")
+        raise ValueError(f'{cls.__name__}: unknown parameters {sorted(unknown)}; expected a '
+                         f'subset of {sorted(names)}.')
     return cls(**dict(d))
 
 
@@ -108,15 +108,16 @@ class RegulatorParams:
     xdot_cutoff_hz: float = 5.0
 
     def __post_init__(self) -> None:
-        check_numbers(self, ("x_ref",))
-        check_numbers(self, ("k_i", "integral_limit", "k_v"), at_least=0.0)
-        check_numbers(self, ("k_x", "belt_gain", "u_max", "slew_rate", "v_top", "xdot_cutoff_hz"),
+        check_numbers(self, ('x_ref',))
+        check_numbers(self, ('k_i', 'integral_limit', 'k_v'), at_least=0.0)
+        check_numbers(self, ('k_x', 'belt_gain', 'u_max', 'slew_rate', 'v_top', 'xdot_cutoff_hz'),
                       above=0.0)
 
     @classmethod
     def from_dict(cls, d):
         """Build from a parameter mapping (e.g. the YAML ``ros__parameters`` sub-tree); unknown
-        keys raise ``ValueError``."""
+        keys raise ``ValueError``.
+        """
         return dataclass_from_mapping(cls, d)
 
 
@@ -130,7 +131,7 @@ class RegulatorOutput:
     car_speed_estimate: float
     saturated: bool
     integrating: bool
-    reason: str = ""     # empty, or what was wrong with the inputs (module docstring rule)
+    reason: str = ''     # empty, or what was wrong with the inputs (module docstring rule)
 
 
 #: Default bound on |x| [m] beyond which a position is not a measurement of the car.
@@ -150,9 +151,9 @@ class BeltSpeedRegulator:
                  position_limit: float = DEFAULT_POSITION_LIMIT,
                  speed_limit: float = DEFAULT_SPEED_LIMIT) -> None:
         self.params = params if params is not None else RegulatorParams()
-        for name, v in (("position_limit", position_limit), ("speed_limit", speed_limit)):
+        for name, v in (('position_limit', position_limit), ('speed_limit', speed_limit)):
             if isinstance(v, bool) or not isinstance(v, (int, float)) or not v > 0:
-                raise ValueError(f"{name} must be a positive bound (inf allowed), got {v!r}.")
+                raise ValueError(f'{name} must be a positive bound (inf allowed), got {v!r}.')
         self.position_limit = float(position_limit)
         self.speed_limit = float(speed_limit)
         self.reset()
@@ -197,24 +198,24 @@ class BeltSpeedRegulator:
         """
         p = self.params
         if not math.isfinite(dt) or dt <= 0:
-            raise ValueError(f"dt must be a finite sample period > 0 s, got {dt!r}.")
-        problem = (abs_limit_problem("x", x, self.position_limit, "m")
-                   or abs_limit_problem("belt_speed", belt_speed, self.speed_limit, "m/s"))
+            raise ValueError(f'dt must be a finite sample period > 0 s, got {dt!r}.')
+        problem = (abs_limit_problem('x', x, self.position_limit, 'm')
+                   or abs_limit_problem('belt_speed', belt_speed, self.speed_limit, 'm/s'))
         if not enabled or problem is not None:
             self.reset()
-            reason = "" if problem is None else f"{problem}: drive 0 V, regulator reset"
+            reason = '' if problem is None else f'{problem}: drive 0 V, regulator reset'
             return RegulatorOutput(0.0, 0.0, math.nan, math.nan, False, False, reason)
-        reason = ""
+        reason = ''
         xd_int = self._xdot_internal(x, dt)
         if not math.isfinite(xd_int):
-            return self._fail(f"internal velocity estimate became non-finite ({xd_int!r})")
+            return self._fail(f'internal velocity estimate became non-finite ({xd_int!r})')
         xd = xd_int
         if xdot is not None:
-            xdot_problem = abs_limit_problem("xdot", xdot, self.speed_limit, "m/s")
+            xdot_problem = abs_limit_problem('xdot', xdot, self.speed_limit, 'm/s')
             if xdot_problem is None:
                 xd = xdot
             else:
-                reason = f"{xdot_problem}: internal velocity estimate used"
+                reason = f'{xdot_problem}: internal velocity estimate used'
         e = x - p.x_ref
         u_car = belt_speed + xd
         v_star_raw = u_car + p.k_x * e + p.k_i * self.integral
@@ -225,7 +226,7 @@ class BeltSpeedRegulator:
         du_max = p.slew_rate * dt
         u = min(self.voltage + du_max, max(self.voltage - du_max, u_clip))
         if not (math.isfinite(u) and math.isfinite(v_star)):
-            return self._fail(f"voltage became non-finite (u = {u!r}, V* = {v_star!r})")
+            return self._fail(f'voltage became non-finite (u = {u!r}, V* = {v_star!r})')
         sat_low = u_raw <= 0.0 or v_star_raw <= 0.0
         sat_high = u_raw >= p.u_max or v_star_raw >= p.v_top
         slew_up = u < u_clip - 1e-12
@@ -248,4 +249,4 @@ class BeltSpeedRegulator:
     def _fail(self, what: str) -> RegulatorOutput:
         self.reset()
         return RegulatorOutput(0.0, 0.0, math.nan, math.nan, False, False,
-                               f"{what}: drive 0 V, regulator reset")
+                               f'{what}: drive 0 V, regulator reset')

@@ -10,33 +10,90 @@ from .safety import SafetyParams
 
 INF = math.inf
 _META = {
-    'regulator.x_ref': ('m', -BELT_HALF_LENGTH, BELT_HALF_LENGTH, 'longitudinal set point of the car c.g. on the belt'),
+    'regulator.x_ref': (
+        'm',
+        -BELT_HALF_LENGTH,
+        BELT_HALF_LENGTH,
+        'longitudinal set point of the car c.g. on the belt',
+    ),
     'regulator.k_x': ('1/s', 0.0, INF, 'position gain (outer loop)'),
     'regulator.k_i': ('1/s^2', 0.0, INF, 'position integral gain (conditional integration)'),
-    'regulator.integral_limit': ('m/s', 0.0, INF, 'bound on k_i times the integral of the position error'),
-    'regulator.k_v': ('1', 0.0, INF, 'inner belt-speed proportional gain relative to the feed-forward'),
-    'regulator.belt_gain': ('m/s/V', 0.0, INF, 'belt DC gain 2.38/4.5 (paper Eq. 2) for the feed-forward'),
-    'regulator.u_max': ('V', 0.0, 100.0, 'drive voltage upper limit (lower limit 0 V: no reversing)'),
+    'regulator.integral_limit': (
+        'm/s',
+        0.0,
+        INF,
+        'bound on k_i times the integral of the position error',
+    ),
+    'regulator.k_v': (
+        '1',
+        0.0,
+        INF,
+        'inner belt-speed proportional gain relative to the feed-forward',
+    ),
+    'regulator.belt_gain': (
+        'm/s/V',
+        0.0,
+        INF,
+        'belt DC gain 2.38/4.5 (paper Eq. 2) for the feed-forward',
+    ),
+    'regulator.u_max': (
+        'V',
+        0.0,
+        100.0,
+        'drive voltage upper limit (lower limit 0 V: no reversing)',
+    ),
     'regulator.slew_rate': ('V/s', 0.0, INF, 'drive voltage slew limit'),
     'regulator.v_top': ('m/s', 0.0, 20.0, 'belt top speed (15 mph)'),
     'regulator.xdot_cutoff_hz': ('Hz', 0.0, INF, 'cut-off of the internal car-velocity filter'),
     'safety.belt_half_length': ('m', 0.0, INF, 'half of the belt length'),
     'safety.belt_half_width': ('m', 0.0, INF, 'half of the belt width'),
     'safety.end_margin': ('m', 0.0, INF, 'fault when the c.g. is closer than this to a belt end'),
-    'safety.edge_margin': ('m', 0.0, INF, 'fault when the c.g. is closer than this to a belt edge'),
+    'safety.edge_margin': (
+        'm',
+        0.0,
+        INF,
+        'fault when the c.g. is closer than this to a belt edge',
+    ),
     'safety.stale_timeout': ('s', 0.0, INF, 'fault when no valid position for this long'),
 }
 NODE = [
     Param('rate_hz', 1000.0, 'control rate = pose rate', 'Hz', 1.0, 100000.0, read_only=True),
-    Param('use_velocity_input', True, "feed the estimator's car velocity (topic velocity) forward "
-          'instead of the internal filter', '-', read_only=True),
-    Param('sync_belt_speed', True, 'pair each pose with the belt speed of the same stamp (lock-step '
-          'and rig-synchronous sampling); false: latest belt speed', '-', read_only=True),
+    Param(
+        'use_velocity_input',
+        True,
+        "feed the estimator's car velocity (topic velocity) forward "
+        'instead of the internal filter',
+        '-',
+        read_only=True,
+    ),
+    Param(
+        'sync_belt_speed',
+        True,
+        'pair each pose with the belt speed of the same stamp (lock-step '
+        'and rig-synchronous sampling); false: latest belt speed',
+        '-',
+        read_only=True,
+    ),
     Param('enabled', True, 'regulate (false: drive held at 0 V, belt coasts)', '-', writable=True),
-    Param('future_tolerance', 0.5, 'poses stamped further ahead of the node clock are dropped',
-          's', 0.0, 3600.0, read_only=True),
-    Param('state_decimation', 10, 'publish treadmill/state every this many steps (and on a mode '
-          'change); 0 = on mode changes only', '1', 0, 1_000_000, read_only=True),
+    Param(
+        'future_tolerance',
+        0.5,
+        'poses stamped further ahead of the node clock are dropped',
+        's',
+        0.0,
+        3600.0,
+        read_only=True,
+    ),
+    Param(
+        'state_decimation',
+        10,
+        'publish treadmill/state every this many steps (and on a mode '
+        'change); 0 = on mode changes only',
+        '1',
+        0,
+        1_000_000,
+        read_only=True,
+    ),
 ]
 
 

@@ -37,7 +37,7 @@ from irs_models.constants import BELT_HALF_LENGTH, BELT_HALF_WIDTH
 
 from .regulator import dataclass_from_mapping
 
-__all__ = ["FaultCode", "SafetyParams", "SafetyMonitor", "DEFAULT_FUTURE_TOLERANCE"]
+__all__ = ['FaultCode', 'SafetyParams', 'SafetyMonitor', 'DEFAULT_FUTURE_TOLERANCE']
 
 
 def _finite(v) -> bool:
@@ -61,20 +61,21 @@ class FaultCode(enum.IntEnum):
 
 
 _FAULT_TEXT = {
-    FaultCode.NONE: "no fault",
-    FaultCode.NEAR_FRONT_END: "car too close to the front (+x) end of the belt",
-    FaultCode.NEAR_REAR_END: "car too close to the rear (-x) end of the belt",
-    FaultCode.NEAR_LEFT_EDGE: "car too close to the left (+y) edge of the belt",
-    FaultCode.NEAR_RIGHT_EDGE: "car too close to the right (-y) edge of the belt",
-    FaultCode.STALE_POSITION: "car position input stale (timeout)",
-    FaultCode.INVALID_INPUT: "car position input not finite",
+    FaultCode.NONE: 'no fault',
+    FaultCode.NEAR_FRONT_END: 'car too close to the front (+x) end of the belt',
+    FaultCode.NEAR_REAR_END: 'car too close to the rear (-x) end of the belt',
+    FaultCode.NEAR_LEFT_EDGE: 'car too close to the left (+y) edge of the belt',
+    FaultCode.NEAR_RIGHT_EDGE: 'car too close to the right (-y) edge of the belt',
+    FaultCode.STALE_POSITION: 'car position input stale (timeout)',
+    FaultCode.INVALID_INPUT: 'car position input not finite',
 }
 
 
 @dataclass(frozen=True)
 class SafetyParams:
     """belt_half_length, belt_half_width [m]; end_margin, edge_margin [m] (distance from the
-    end/edge at which the fault trips); stale_timeout [s]."""
+    end/edge at which the fault trips); stale_timeout [s].
+    """
 
     belt_half_length: float = BELT_HALF_LENGTH
     belt_half_width: float = BELT_HALF_WIDTH
@@ -83,17 +84,20 @@ class SafetyParams:
     stale_timeout: float = 0.1
 
     def __post_init__(self) -> None:
-        check_numbers(self, ("belt_half_length", "belt_half_width", "end_margin", "edge_margin",
-                             "stale_timeout"), at_least=0.0)
+        check_numbers(self, ('belt_half_length', 'belt_half_width', 'end_margin', 'edge_margin',
+                             'stale_timeout'), at_least=0.0)
         if self.end_margin >= self.belt_half_length or self.edge_margin >= self.belt_half_width:
-            raise ValueError("SafetyParams margins must be smaller than the belt half length/width.")
+            raise ValueError(
+                'SafetyParams margins must be smaller than the belt half length/width.'
+            )
         if self.stale_timeout <= 0:
-            raise ValueError("SafetyParams.stale_timeout must be > 0 s.")
+            raise ValueError('SafetyParams.stale_timeout must be > 0 s.')
 
     @classmethod
     def from_dict(cls, d):
         """Build from a parameter mapping (e.g. the YAML ``ros__parameters`` sub-tree); unknown
-        keys raise ``ValueError``."""
+        keys raise ``ValueError``.
+        """
         return dataclass_from_mapping(cls, d)
 
 
@@ -116,14 +120,14 @@ class SafetyMonitor:
         self.params = params if params is not None else SafetyParams()
         if isinstance(future_tolerance, bool) or not isinstance(future_tolerance, (int, float)) \
                 or not (math.isfinite(future_tolerance) and future_tolerance >= 0):
-            raise ValueError(f"future_tolerance must be a finite time >= 0 s, got "
-                             f"{future_tolerance!r}.")
+            raise ValueError(f'future_tolerance must be a finite time >= 0 s, got '
+                             f'{future_tolerance!r}.')
         self.future_tolerance = float(future_tolerance)
         self.fault = FaultCode.NONE
-        self.fault_detail = ""
+        self.fault_detail = ''
         self._last_stamp: Optional[float] = None
         self.rejected_stamps = 0
-        self.last_rejection = ""
+        self.last_rejection = ''
         self.recoveries = 0
 
     # ------------------------------------------------------------------ inputs
@@ -143,51 +147,52 @@ class SafetyMonitor:
         """
         p = self.params
         if not (_finite(x) and _finite(y) and _finite(stamp)):
-            self._latch(FaultCode.INVALID_INPUT, f"x={x!r}, y={y!r}, stamp={stamp!r}")
+            self._latch(FaultCode.INVALID_INPUT, f'x={x!r}, y={y!r}, stamp={stamp!r}')
             return self.fault
         verdict, why = self.stamp_verdict(stamp, now)
         if verdict is StampVerdict.OK:
             if self.fault in TRANSIENT:          # valid input again: the input fault is over
-                self.fault, self.fault_detail = FaultCode.NONE, ""
+                self.fault, self.fault_detail = FaultCode.NONE, ''
                 self.recoveries += 1
             self.check(stamp)
             self._last_stamp = float(stamp)
         else:
             self.rejected_stamps += 1
-            self.last_rejection = f"position {verdict.value}: {why}"
+            self.last_rejection = f'position {verdict.value}: {why}'
         if x > p.belt_half_length - p.end_margin:
-            self._latch(FaultCode.NEAR_FRONT_END, f"x = {x:.3f} m")
+            self._latch(FaultCode.NEAR_FRONT_END, f'x = {x:.3f} m')
         elif x < -p.belt_half_length + p.end_margin:
-            self._latch(FaultCode.NEAR_REAR_END, f"x = {x:.3f} m")
+            self._latch(FaultCode.NEAR_REAR_END, f'x = {x:.3f} m')
         if y > p.belt_half_width - p.edge_margin:
-            self._latch(FaultCode.NEAR_LEFT_EDGE, f"y = {y:.3f} m")
+            self._latch(FaultCode.NEAR_LEFT_EDGE, f'y = {y:.3f} m')
         elif y < -p.belt_half_width + p.edge_margin:
-            self._latch(FaultCode.NEAR_RIGHT_EDGE, f"y = {y:.3f} m")
+            self._latch(FaultCode.NEAR_RIGHT_EDGE, f'y = {y:.3f} m')
         return self.fault
 
     def stamp_verdict(self, stamp: float, now: Optional[float] = None):
         """``(StampVerdict, reason or None)`` of a finite position stamp [s] against ``now`` [s]
         and the last stored stamp: the rule of :func:`irs_common.input_checks.stamp_problem`,
-        evaluated in float seconds (a stamp of 1e308 s has no integer nanoseconds)."""
+        evaluated in float seconds (a stamp of 1e308 s has no integer nanoseconds).
+        """
         if now is not None and _finite(now) and stamp - now > self.future_tolerance:
             return StampVerdict.FUTURE, (
-                f"stamp {stamp:.9g} s is {stamp - now:.3g} s ahead of the clock ({now:.9g} s; "
-                f"tolerance {self.future_tolerance:.3g} s)")
+                f'stamp {stamp:.9g} s is {stamp - now:.3g} s ahead of the clock ({now:.9g} s; '
+                f'tolerance {self.future_tolerance:.3g} s)')
         last = self._last_stamp
         if last is not None and stamp == last:
-            return StampVerdict.REPEAT, f"stamp {stamp:.9g} s repeats the last one"
+            return StampVerdict.REPEAT, f'stamp {stamp:.9g} s repeats the last one'
         if last is not None and stamp < last:
-            return StampVerdict.OLD, (f"stamp {stamp:.9g} s is older than the last accepted one "
-                                      f"({last:.9g} s)")
+            return StampVerdict.OLD, (f'stamp {stamp:.9g} s is older than the last accepted one '
+                                      f'({last:.9g} s)')
         return StampVerdict.OK, None
 
     def check(self, now: float) -> FaultCode:
         """Check the position age at time ``now`` [s]; call every control period."""
         if not math.isfinite(now):
-            self._latch(FaultCode.INVALID_INPUT, f"now={now!r}")
+            self._latch(FaultCode.INVALID_INPUT, f'now={now!r}')
         elif self._last_stamp is not None and now - self._last_stamp > self.params.stale_timeout:
             self._latch(FaultCode.STALE_POSITION,
-                        f"last position {now - self._last_stamp:.3f} s old")
+                        f'last position {now - self._last_stamp:.3f} s old')
         return self.fault
 
     # ------------------------------------------------------------------ outputs
@@ -210,18 +215,20 @@ class SafetyMonitor:
         """Fault text plus detail, e.g. for a diagnostics message."""
         if not self.faulted:
             return FaultCode.NONE.text if self._last_stamp is not None else \
-                "drive inhibited: no position received yet"
-        return f"{self.fault.text} ({self.fault_detail})"
+                'drive inhibited: no position received yet'
+        return f'{self.fault.text} ({self.fault_detail})'
 
     def forget_time(self) -> None:
         """Forget the last position stamp (time went back: a replay loop, a restarted rig); the
-        next valid position is accepted whatever its stamp. Latched faults stay latched."""
+        next valid position is accepted whatever its stamp. Latched faults stay latched.
+        """
         self._last_stamp = None
 
     def reset(self) -> None:
         """Clear the latched fault and the position history (drive inhibited until the next
-        valid position arrives; a persisting condition re-latches on that update)."""
+        valid position arrives; a persisting condition re-latches on that update).
+        """
         self.fault = FaultCode.NONE
-        self.fault_detail = ""
+        self.fault_detail = ''
         self._last_stamp = None
-        self.last_rejection = ""
+        self.last_rejection = ''

@@ -59,6 +59,8 @@ from .safety import TRANSIENT, SafetyMonitor, SafetyParams
 
 
 class TreadmillRegulatorNode(Node):
+    """Pose and belt speed in, treadmill drive command and state out (module docstring)."""
+
     def __init__(self, **node_options):
         super().__init__('treadmill_regulator', **node_options)
         self.p = declare_table(self, regulator_parameter_table(), on_change=self._on_parameter)
@@ -84,7 +86,9 @@ class TreadmillRegulatorNode(Node):
         self.warner = ThrottledWarner(self.get_logger().warning, 1.0)
         self.fault_warner = ThrottledWarner(self._log_error, 1.0)
         self.info_warner = ThrottledWarner(self._log_info, 1.0)
-        self.pub_drive = self.create_publisher(TreadmillDriveCommand, 'treadmill/drive', qos.COMMAND)
+        self.pub_drive = self.create_publisher(
+            TreadmillDriveCommand, 'treadmill/drive', qos.COMMAND
+        )
         self.pub_state = self.create_publisher(TreadmillState, 'treadmill/state', qos.SENSOR)
         self.create_subscription(PoseStamped, 'pose', lambda m: self._add('pose', m), qos.SENSOR)
         if self.p['use_velocity_input']:
@@ -117,7 +121,8 @@ class TreadmillRegulatorNode(Node):
     def _reset_time_state(self):
         """Time went back: forget stamps, the regulator state and the position timing (latched
         faults stay latched). Pending pairs stay: they may hold parts of newer steps already
-        taken from another input."""
+        taken from another input.
+        """
         self.time_resets += 1
         self.gate.clear()
         self.regulator.reset()
@@ -138,8 +143,11 @@ class TreadmillRegulatorNode(Node):
 
     def _drop(self, what, verdict, stamp_ns, now_ns):
         self.dropped += 1
-        self.warner.warn(f'{what}-{verdict}', f'{what}: {self.gate.reason(verdict, stamp_ns, now_ns)}',
-                         time.monotonic())
+        self.warner.warn(
+            f'{what}-{verdict}',
+            f'{what}: {self.gate.reason(verdict, stamp_ns, now_ns)}',
+            time.monotonic(),
+        )
 
     def _add(self, name, msg):
         stamp_ns = to_ns(msg.header.stamp)
@@ -194,7 +202,9 @@ class TreadmillRegulatorNode(Node):
         if out.reason:
             self.warner.warn('input', f'treadmill input: {out.reason}', time.monotonic())
         voltage = self.safety.gate(out.voltage) if self.p['enabled'] else 0.0
-        self._publish(pose.header.stamp, voltage, belt, x, out.voltage == 0.0 and out.speed_setpoint < belt)
+        self._publish(
+            pose.header.stamp, voltage, belt, x, out.voltage == 0.0 and out.speed_setpoint < belt
+        )
 
     def _publish(self, stamp, voltage, belt, x, coasting):
         drive = TreadmillDriveCommand()

@@ -1,5 +1,6 @@
 """Bad inputs cannot make the treadmill regulator emit a non-finite or out-of-limit voltage, its
-state recovers, and a future-stamped position cannot blind the safety monitor (issue 10)."""
+state recovers, and a future-stamped position cannot blind the safety monitor (issue 10).
+"""
 import math
 
 import pytest
@@ -35,7 +36,9 @@ def test_voltage_always_finite_and_within_limits(seq):
     for x, belt, xdot in seq:
         out = reg.update(x, belt, DT, xdot=xdot)
         check(reg, out)
-        bad = not (math.isfinite(x) and abs(x) <= 5.0 and math.isfinite(belt) and abs(belt) <= 20.0)
+        bad = not (
+            math.isfinite(x) and abs(x) <= 5.0 and math.isfinite(belt) and abs(belt) <= 20.0
+        )
         if bad:
             assert out.voltage == 0.0 and 'regulator reset' in out.reason
             assert reg.integral == 0.0 and reg.voltage == 0.0
@@ -55,7 +58,11 @@ def test_after_a_bad_position_the_regulator_equals_a_fresh_one(prefix, bad_x, ta
     fresh = BeltSpeedRegulator()
     for x, belt, xdot in tail:
         assert reg.update(x, belt, DT, xdot=xdot) == fresh.update(x, belt, DT, xdot=xdot)
-    assert (reg.integral, reg.voltage, reg._xdot_f) == (fresh.integral, fresh.voltage, fresh._xdot_f)
+    assert (reg.integral, reg.voltage, reg._xdot_f) == (
+        fresh.integral,
+        fresh.voltage,
+        fresh._xdot_f,
+    )
 
 
 @settings(max_examples=60, deadline=None)
@@ -114,7 +121,11 @@ def test_future_stamped_position_is_rejected_and_never_stored():
     s.update_position(0.3, 0.0, now, now=now)
     assert s.drive_permitted
     s.update_position(0.3, 0.0, now + DAY, now=now)
-    assert s.rejected_stamps == 1 and 'future' in s.last_rejection and 'ahead of the clock' in s.last_rejection
+    assert (
+        s.rejected_stamps == 1
+        and 'future' in s.last_rejection
+        and 'ahead of the clock' in s.last_rejection
+    )
     for k in range(1, 100):          # later genuine data is used: no stale fault, permitted
         t = now + k * DT
         s.update_position(0.3, 0.0, t, now=t)
@@ -154,7 +165,8 @@ def test_old_and_repeated_stamps_are_not_stored():
                               ANY, XDOT), min_size=1, max_size=40))
 def test_safety_and_regulator_never_emit_a_bad_voltage(seq):
     """The node's composition (closed_loop.py) under arbitrary inputs: the gated voltage is
-    finite and within [0, u_max]; no exception escapes."""
+    finite and within [0, u_max]; no exception escapes.
+    """
     s, reg = SafetyMonitor(), BeltSpeedRegulator()
     now = 0.0
     for x, y, stamp_off, belt, xdot in seq:

@@ -22,7 +22,7 @@ def simulate(params=None, t_end=30.0, t_up=1.0, t_down=12.0, u_hi=1.2, u_lo=0.6,
     rng = np.random.default_rng(seed)
     x, y, u_car = p.x_ref, 0.0, 0.0
     n = int(round(t_end / DT))
-    log = {k: np.empty(n) for k in ("t", "x", "v_belt", "volt", "u_car")}
+    log = {k: np.empty(n) for k in ('t', 'x', 'v_belt', 'volt', 'u_car')}
     faults = []
     a_car = 1.0 - math.exp(-DT / TAU_CAR)
     for k in range(n):
@@ -38,23 +38,23 @@ def simulate(params=None, t_end=30.0, t_up=1.0, t_down=12.0, u_hi=1.2, u_lo=0.6,
         u_car += a_car * (cmd - u_car)
         if safety.faulted:
             faults.append((t, safety.fault))
-        log["t"][k], log["x"][k], log["v_belt"][k] = t, x, belt.speed
-        log["volt"][k], log["u_car"][k] = volt, u_car
-    log["faults"] = faults
+        log['t'][k], log['x'][k], log['v_belt'][k] = t, x, belt.speed
+        log['volt'][k], log['u_car'][k] = volt, u_car
+    log['faults'] = faults
     return log
 
 
 def phase_metrics(log, x_ref, t0, t1, band=0.02):
-    m = (log["t"] >= t0) & (log["t"] < t1)
-    e = log["x"][m] - x_ref
-    t = log["t"][m]
+    m = (log['t'] >= t0) & (log['t'] < t1)
+    e = log['x'][m] - x_ref
+    t = log['t'][m]
     peak = float(np.max(np.abs(e)))
     outside = np.nonzero(np.abs(e) > band)[0]
     settle = float(t[outside[-1]] - t0) if len(outside) else 0.0
     return peak, settle
 
 
-@pytest.fixture(scope="module")
+@pytest.fixture(scope='module')
 def nominal():
     return simulate()
 
@@ -64,10 +64,10 @@ def test_speed_up_and_slow_down_recovers_set_point(nominal):
     log = nominal
     peak_up, settle_up = phase_metrics(log, p.x_ref, 1.0, 12.0)
     peak_dn, settle_dn = phase_metrics(log, p.x_ref, 12.0, 30.0)
-    print(f"\nspeed-up 0 -> 1.2 m/s: peak |x - x_ref| = {peak_up:.3f} m, 2 cm settling "
-          f"{settle_up:.2f} s")
-    print(f"slow-down 1.2 -> 0.6 m/s: peak |x - x_ref| = {peak_dn:.3f} m, 2 cm settling "
-          f"{settle_dn:.2f} s")
+    print(f'\nspeed-up 0 -> 1.2 m/s: peak |x - x_ref| = {peak_up:.3f} m, 2 cm settling '
+          f'{settle_up:.2f} s')
+    print(f'slow-down 1.2 -> 0.6 m/s: peak |x - x_ref| = {peak_dn:.3f} m, 2 cm settling '
+          f'{settle_dn:.2f} s')
     print(f"x range [{log['x'].min():.3f}, {log['x'].max():.3f}] m, max voltage "
           f"{log['volt'].max():.2f} V")
     assert peak_up < 0.12
@@ -77,20 +77,20 @@ def test_speed_up_and_slow_down_recovers_set_point(nominal):
     assert 0.6 < peak_dn < 0.85
     assert settle_dn < 10.0
     # final state: on the set point, belt at the car speed
-    assert abs(log["x"][-1] - p.x_ref) < 0.01
-    assert log["v_belt"][-1] == pytest.approx(0.6, abs=0.01)
+    assert abs(log['x'][-1] - p.x_ref) < 0.01
+    assert log['v_belt'][-1] == pytest.approx(0.6, abs=0.01)
 
 
 def test_car_stays_on_belt_without_fault(nominal):
     sp = SafetyParams()
-    assert nominal["faults"] == []
-    assert nominal["x"].max() < sp.belt_half_length - sp.end_margin
-    assert nominal["x"].min() > -sp.belt_half_length + sp.end_margin
+    assert nominal['faults'] == []
+    assert nominal['x'].max() < sp.belt_half_length - sp.end_margin
+    assert nominal['x'].min() > -sp.belt_half_length + sp.end_margin
 
 
 def test_voltage_limits_and_slew(nominal):
     p = RegulatorParams()
-    v = nominal["volt"]
+    v = nominal['volt']
     assert v.min() >= 0.0 and v.max() <= p.u_max
     assert np.max(np.abs(np.diff(v))) <= p.slew_rate * DT + 1e-9
 
@@ -100,8 +100,8 @@ def test_settling_without_integral_and_with_heavier_noise():
     log = simulate(p, noise=0.003, seed=5)
     peak_up, settle_up = phase_metrics(log, p.x_ref, 1.0, 12.0, band=0.03)
     peak_dn, settle_dn = phase_metrics(log, p.x_ref, 12.0, 30.0, band=0.03)
-    print(f"\nk_i=0, 3 mm noise: up {peak_up:.3f} m / {settle_up:.2f} s, "
-          f"down {peak_dn:.3f} m / {settle_dn:.2f} s")
+    print(f'\nk_i=0, 3 mm noise: up {peak_up:.3f} m / {settle_up:.2f} s, '
+          f'down {peak_dn:.3f} m / {settle_dn:.2f} s')
     assert peak_up < 0.12 and settle_up < 2.5
     assert peak_dn < 0.85 and settle_dn < 10.0
 

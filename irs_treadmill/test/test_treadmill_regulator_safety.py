@@ -68,7 +68,7 @@ def test_disabled_outputs_zero_and_resets():
     assert reg.integral > 0
     out = reg.update(p.x_ref, 2.0, DT, enabled=False)
     assert out.voltage == 0.0 and reg.integral == 0.0 and reg.voltage == 0.0
-    assert reg.update(float("nan"), 2.0, DT).voltage == 0.0
+    assert reg.update(float('nan'), 2.0, DT).voltage == 0.0
 
 
 def test_regulator_param_validation():
@@ -81,7 +81,7 @@ def test_regulator_param_validation():
 
 
 # ---------------------------------------------------------------------------- safety
-@pytest.mark.parametrize("x,y,code", [
+@pytest.mark.parametrize('x,y,code', [
     (1.10, 0.0, FaultCode.NEAR_FRONT_END),
     (-1.10, 0.0, FaultCode.NEAR_REAR_END),
     (0.0, 0.55, FaultCode.NEAR_LEFT_EDGE),
@@ -126,14 +126,14 @@ def test_stale_position_latches():
     assert s.gate(3.0) == 0.0
     s.update_position(0.0, 0.0, 1.12)   # fresh data does not clear the latch
     assert s.fault == FaultCode.STALE_POSITION
-    assert "stale" in FaultCode.STALE_POSITION.text
+    assert 'stale' in FaultCode.STALE_POSITION.text
 
 
 def test_invalid_input_latches():
     s = SafetyMonitor()
     s.update_position(0.0, 0.0, 0.0)
-    assert s.update_position(float("nan"), 0.0, 0.001) == FaultCode.INVALID_INPUT
-    assert s.gate(float("nan")) == 0.0
+    assert s.update_position(float('nan'), 0.0, 0.001) == FaultCode.INVALID_INPUT
+    assert s.gate(float('nan')) == 0.0
 
 
 def test_safety_param_validation():
@@ -148,19 +148,19 @@ def test_treadmill_yaml_units_and_params():
     import re
 
     import yaml
-    path = pathlib.Path(__file__).resolve().parents[1] / "config" / "treadmill.yaml"
+    path = pathlib.Path(__file__).resolve().parents[1] / 'config' / 'treadmill.yaml'
     for line in path.read_text().splitlines():
-        code = line.split("#")[0]
-        if re.search(r":\s*\[?-?\d", code):
-            assert re.search(r"#\s*\[", line), f"number without a unit comment: {line!r}"
-    ros = yaml.safe_load(path.read_text())["treadmill_regulator"]["ros__parameters"]
+        code = line.split('#')[0]
+        if re.search(r':\s*\[?-?\d', code):
+            assert re.search(r'#\s*\[', line), f'number without a unit comment: {line!r}'
+    ros = yaml.safe_load(path.read_text())['treadmill_regulator']['ros__parameters']
     import dataclasses
-    got = dataclasses.asdict(RegulatorParams.from_dict(ros["regulator"]))
+    got = dataclasses.asdict(RegulatorParams.from_dict(ros['regulator']))
     for k, v in dataclasses.asdict(RegulatorParams()).items():
         assert got[k] == pytest.approx(v, rel=1e-6), k
-    assert SafetyParams.from_dict(ros["safety"]) == SafetyParams()
+    assert SafetyParams.from_dict(ros['safety']) == SafetyParams()
     with pytest.raises(ValueError):
-        RegulatorParams.from_dict({"kx": 1.0})
+        RegulatorParams.from_dict({'kx': 1.0})
 
 
 def test_first_fault_is_kept():

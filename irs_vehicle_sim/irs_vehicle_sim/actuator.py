@@ -44,8 +44,8 @@ from dataclasses import dataclass
 
 from irs_models.constants import STEER_LIMIT_DEG
 
-__all__ = ["ActuatorParams", "ActuatorState", "SteeringActuator",
-           "DEFAULT_STEER_LIMIT_RAD", "DEFAULT_RATE_LIMIT_RAD_S"]
+__all__ = ['ActuatorParams', 'ActuatorState', 'SteeringActuator',
+           'DEFAULT_STEER_LIMIT_RAD', 'DEFAULT_RATE_LIMIT_RAD_S']
 
 #: Hard steer limit, 15 deg [rad] (paper Sec. 5: +-15 deg hard constraint).
 DEFAULT_STEER_LIMIT_RAD = math.radians(STEER_LIMIT_DEG)
@@ -90,20 +90,20 @@ class ActuatorParams:
     def validate(self) -> None:
         """Raise ``ValueError`` if a parameter is not physically meaningful."""
         checks = [
-            (self.lag_hz > 0.0, f"lag_hz must be a positive frequency in Hz, got {self.lag_hz!r}"),
+            (self.lag_hz > 0.0, f'lag_hz must be a positive frequency in Hz, got {self.lag_hz!r}'),
             (self.rate_limit > 0.0,
-             f"rate_limit must be a positive slew rate in rad/s, got {self.rate_limit!r}"),
-            (self.delay >= 0.0, f"delay must be a non-negative time in s, got {self.delay!r}"),
+             f'rate_limit must be a positive slew rate in rad/s, got {self.rate_limit!r}'),
+            (self.delay >= 0.0, f'delay must be a non-negative time in s, got {self.delay!r}'),
             (self.backlash >= 0.0,
-             f"backlash must be a non-negative total play width in rad, got {self.backlash!r}"),
-            (self.limit > 0.0, f"limit must be a positive steer angle in rad, got {self.limit!r}"),
+             f'backlash must be a non-negative total play width in rad, got {self.backlash!r}'),
+            (self.limit > 0.0, f'limit must be a positive steer angle in rad, got {self.limit!r}'),
         ]
         for ok, msg in checks:
             if not ok:
                 raise ValueError(msg)
-        for name in ("lag_hz", "rate_limit", "delay", "backlash", "limit"):
+        for name in ('lag_hz', 'rate_limit', 'delay', 'backlash', 'limit'):
             if not math.isfinite(getattr(self, name)):
-                raise ValueError(f"{name} must be a finite number, got {getattr(self, name)!r}")
+                raise ValueError(f'{name} must be a finite number, got {getattr(self, name)!r}')
 
     @property
     def tau(self) -> float:
@@ -182,7 +182,7 @@ class SteeringActuator:
 
     def _configure(self, dt: float) -> None:
         if not (math.isfinite(dt) and dt > 0.0):
-            raise ValueError(f"dt must be a positive finite step in s, got {dt!r}")
+            raise ValueError(f'dt must be a positive finite step in s, got {dt!r}')
         p = self.params
         self._dt = dt
         self._a = math.exp(-dt / p.tau) if p.enable_lag else 0.0
@@ -199,7 +199,7 @@ class SteeringActuator:
             self._configure(float(dt))
         elif abs(dt - self._dt) > 1e-12 * self._dt:
             raise ValueError(
-                f"dt must stay constant between resets (was {self._dt!r} s, got {dt!r} s)")
+                f'dt must stay constant between resets (was {self._dt!r} s, got {dt!r} s)')
         p = self.params
         st = self.state
         u = float(command_rad)

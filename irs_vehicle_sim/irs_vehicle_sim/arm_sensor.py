@@ -25,7 +25,7 @@ import numpy as np
 
 from irs_models.arm_kinematics import ArmGeometry, inverse_kinematics
 
-__all__ = ["ArmSensorParams", "ArmSensor", "quantize"]
+__all__ = ['ArmSensorParams', 'ArmSensor', 'quantize']
 
 
 def quantize(angle: float, lsb: float) -> float:
@@ -63,13 +63,17 @@ class ArmSensorParams:
 
     def validate(self) -> None:
         if not (math.isfinite(self.noise_std) and self.noise_std >= 0.0):
-            raise ValueError(f"noise_std must be a non-negative angle in rad, got {self.noise_std!r}")
+            raise ValueError(
+                f'noise_std must be a non-negative angle in rad, got {self.noise_std!r}'
+            )
         if not (isinstance(self.adc_bits, int) and 1 <= self.adc_bits <= 32):
-            raise ValueError(f"adc_bits must be an integer in [1, 32], got {self.adc_bits!r}")
+            raise ValueError(f'adc_bits must be an integer in [1, 32], got {self.adc_bits!r}')
         if not (math.isfinite(self.adc_range) and self.adc_range > 0.0):
-            raise ValueError(f"adc_range must be a positive angle in rad, got {self.adc_range!r}")
+            raise ValueError(f'adc_range must be a positive angle in rad, got {self.adc_range!r}')
         if not (math.isfinite(self.lsb) and self.lsb >= 0.0):
-            raise ValueError(f"lsb must be a non-negative angle in rad (0 = from bits), got {self.lsb!r}")
+            raise ValueError(
+                f'lsb must be a non-negative angle in rad (0 = from bits), got {self.lsb!r}'
+            )
 
     @property
     def step_size(self) -> float:

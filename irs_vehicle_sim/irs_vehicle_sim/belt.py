@@ -61,7 +61,8 @@ An encoder with ``counts_per_rev`` counts per revolution sits on a shaft turning
 Belt travel per count ``d_c = 2 pi r / (counts_per_rev * gear_ratio)`` [m].  The count is
 ``floor(position / d_c)``; the speed estimate is the count difference over the last
 ``window_samples`` steps divided by their duration, so its resolution is
-``d_c / (window_samples dt)`` [m/s] and its mean lag about ``(window_samples/2 + delay_samples) dt``.
+``d_c / (window_samples dt)`` [m/s] and its mean lag about
+``(window_samples/2 + delay_samples) dt``.
 The estimate is further delayed by ``delay_samples`` steps.
 """
 from __future__ import annotations
@@ -73,8 +74,8 @@ from typing import Deque, List, Tuple
 
 from irs_common.field_checks import check_numbers
 
-__all__ = ["BeltParams", "TreadmillBelt", "BeltEncoder", "coast_speed", "coast_stop_time",
-           "coast_distance", "MPH"]
+__all__ = ['BeltParams', 'TreadmillBelt', 'BeltEncoder', 'coast_speed', 'coast_stop_time',
+           'coast_distance', 'MPH']
 
 MPH = 0.44704  # [m/s] per mph
 
@@ -125,23 +126,23 @@ class BeltParams:
     delay_samples: int = 1
 
     def __post_init__(self) -> None:
-        check_numbers(self, ("gain", "pole", "b_over_j", "f_over_b", "v_top", "u_max",
-                             "roller_radius", "gear_ratio"), above=0.0)
+        check_numbers(self, ('gain', 'pole', 'b_over_j', 'f_over_b', 'v_top', 'u_max',
+                             'roller_radius', 'gear_ratio'), above=0.0)
         if not isinstance(self.delay, (int, float)) or not math.isfinite(self.delay) \
                 or self.delay < 0.0:
-            raise ValueError(f"BeltParams.delay must be a finite time >= 0 s, got {self.delay!r}.")
+            raise ValueError(f'BeltParams.delay must be a finite time >= 0 s, got {self.delay!r}.')
         if self.pole <= self.b_over_j:
             raise ValueError(
-                "BeltParams.pole (drive pole a) must exceed b_over_j (coast rate B/J) so that the "
-                f"drive is faster than friction, got a={self.pole}, B/J={self.b_over_j}.")
-        for name in ("counts_per_rev", "window_samples"):
+                'BeltParams.pole (drive pole a) must exceed b_over_j (coast rate B/J) so that the '
+                f'drive is faster than friction, got a={self.pole}, B/J={self.b_over_j}.')
+        for name in ('counts_per_rev', 'window_samples'):
             v = getattr(self, name)
             if not isinstance(v, int) or isinstance(v, bool) or v < 1:
-                raise ValueError(f"BeltParams.{name} must be an integer >= 1, got {v!r}.")
+                raise ValueError(f'BeltParams.{name} must be an integer >= 1, got {v!r}.')
         if not isinstance(self.delay_samples, int) or isinstance(self.delay_samples, bool) \
                 or self.delay_samples < 0:
             raise ValueError(
-                f"BeltParams.delay_samples must be an integer >= 0, got {self.delay_samples!r}.")
+                f'BeltParams.delay_samples must be an integer >= 0, got {self.delay_samples!r}.')
 
     @property
     def dc_gain(self) -> float:
@@ -241,7 +242,7 @@ class TreadmillBelt:
         """
         p = self.params
         if not math.isfinite(speed) or speed < 0.0 or speed > p.v_top:
-            raise ValueError(f"reset speed must be in [0, {p.v_top}] m/s, got {speed!r}.")
+            raise ValueError(f'reset speed must be in [0, {p.v_top}] m/s, got {speed!r}.')
         self._v = float(speed)
         self._s = 0.0
         self._t = 0.0
@@ -287,9 +288,9 @@ class TreadmillBelt:
         NaN voltage is rejected (``ValueError``); finite values are clamped to ``[0, u_max]``.
         """
         if not math.isfinite(dt) or dt <= 0.0:
-            raise ValueError(f"dt must be a finite time > 0 s, got {dt!r}.")
+            raise ValueError(f'dt must be a finite time > 0 s, got {dt!r}.')
         if math.isnan(voltage):
-            raise ValueError("voltage must be a number in volts, got NaN.")
+            raise ValueError('voltage must be a number in volts, got NaN.')
         u = self._clamp_u(voltage)
         segments: List[Tuple[float, float]] = []
         if self.params.delay > 0.0:

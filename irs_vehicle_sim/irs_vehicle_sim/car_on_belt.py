@@ -41,8 +41,8 @@ import numpy as np
 from irs_common.field_checks import check_numbers
 from irs_models.constants import BELT_HALF_LENGTH, BELT_HALF_WIDTH
 
-__all__ = ["CarParams", "CarOnBelt", "wheel_speeds", "off_belt_edge",
-           "BELT_HALF_LENGTH", "BELT_HALF_WIDTH"]
+__all__ = ['CarParams', 'CarOnBelt', 'wheel_speeds', 'off_belt_edge',
+           'BELT_HALF_LENGTH', 'BELT_HALF_WIDTH']
 
 
 @dataclass
@@ -72,11 +72,11 @@ class CarParams:
     wheel_radius: float = 0.033
 
     def validate(self) -> None:
-        check_numbers(self, ("tau_u", "length", "width", "lf", "lr", "track", "wheel_radius"),
+        check_numbers(self, ('tau_u', 'length', 'width', 'lf', 'lr', 'track', 'wheel_radius'),
                       above=0.0)
         if self.length >= 2 * BELT_HALF_LENGTH or self.width >= 2 * BELT_HALF_WIDTH:
-            raise ValueError("CarParams.length/width must be smaller than the belt "
-                             f"({2 * BELT_HALF_LENGTH} m x {2 * BELT_HALF_WIDTH} m)")
+            raise ValueError('CarParams.length/width must be smaller than the belt '
+                             f'({2 * BELT_HALF_LENGTH} m x {2 * BELT_HALF_WIDTH} m)')
 
 
 def off_belt_edge(x: float, y: float, params: CarParams) -> str:
@@ -85,18 +85,18 @@ def off_belt_edge(x: float, y: float, params: CarParams) -> str:
     Non-finite positions are reported as ``'nonfinite'``.
     """
     if not (math.isfinite(x) and math.isfinite(y)):
-        return "nonfinite"
+        return 'nonfinite'
     xm = BELT_HALF_LENGTH - 0.5 * params.length
     ym = BELT_HALF_WIDTH - 0.5 * params.width
     if x > xm:
-        return "front"
+        return 'front'
     if x < -xm:
-        return "rear"
+        return 'rear'
     if y > ym:
-        return "left"
+        return 'left'
     if y < -ym:
-        return "right"
-    return ""
+        return 'right'
+    return ''
 
 
 def wheel_speeds(u: float, v: float, r: float, delta_f: float, delta_r: float,
@@ -152,9 +152,10 @@ class CarOnBelt:
 
     def step(self, u_cmd: float, psi: float, v: float, belt_speed: float, dt: float) -> None:
         """Advance dt [s]; ``u_cmd`` [m/s], ``psi`` [rad], ``v`` [m/s] and ``belt_speed`` [m/s]
-        held over the step."""
+        held over the step.
+        """
         if not (math.isfinite(dt) and dt > 0.0):
-            raise ValueError(f"dt must be a positive finite step in s, got {dt!r}")
+            raise ValueError(f'dt must be a positive finite step in s, got {dt!r}')
         tau = self.params.tau_u
         a = math.exp(-dt / tau)
         u_int = u_cmd * dt + (self.u - u_cmd) * tau * (1.0 - a)   # exact integral of u

@@ -45,8 +45,8 @@ from .car_on_belt import CarParams, CarOnBelt, wheel_speeds
 from .arm_sensor import ArmSensorParams, ArmSensor
 from .belt import BeltParams, TreadmillBelt
 
-__all__ = ["RigInputs", "RigOutputs", "RigConfig", "RigSimulation", "simulate",
-           "sanitize_steer", "sanitize_voltage", "sanitize_speed", "unflatten"]
+__all__ = ['RigInputs', 'RigOutputs', 'RigConfig', 'RigSimulation', 'simulate',
+           'sanitize_steer', 'sanitize_voltage', 'sanitize_speed', 'unflatten']
 
 #: Steer commands beyond this magnitude are rejected as garbage (30 deg) [rad]; commands between
 #: the actuator limit (15 deg) and this value are accepted and saturated by the actuator.
@@ -57,15 +57,16 @@ DEFAULT_STEER_REJECT_RAD = math.radians(30.0)
 def _screen(value, what: str, accept, out_of_range, safe: float, instead: str):
     """``(float(value), None)`` if ``value`` is a finite number that ``accept`` takes, else
     ``(safe, reason)``; ``out_of_range(v)`` words the refusal of a finite number, ``instead``
-    says what is used in its place."""
+    says what is used in its place.
+    """
     try:
         v = float(value)
     except (TypeError, ValueError):
-        return safe, f"{what} {value!r} is not a number; {instead}"
+        return safe, f'{what} {value!r} is not a number; {instead}'
     if not math.isfinite(v):
-        return safe, f"{what} {v!r} is not finite; {instead}"
+        return safe, f'{what} {v!r} is not finite; {instead}'
     if not accept(v):
-        return safe, f"{what} {out_of_range(v)}; {instead}"
+        return safe, f'{what} {out_of_range(v)}; {instead}'
     return v, None
 
 
@@ -74,23 +75,24 @@ def sanitize_steer(value: float, reject_limit: float = DEFAULT_STEER_REJECT_RAD)
 
     Non-finite values and ``|value| > reject_limit`` are replaced by 0 rad.
     """
-    return _screen(value, "steer command", lambda v: abs(v) <= reject_limit,
-                   lambda v: f"{v:.4f} rad exceeds the accepted range +-{reject_limit:.4f} rad",
-                   0.0, "using 0 rad")
+    return _screen(value, 'steer command', lambda v: abs(v) <= reject_limit,
+                   lambda v: f'{v:.4f} rad exceeds the accepted range +-{reject_limit:.4f} rad',
+                   0.0, 'using 0 rad')
 
 
 def sanitize_voltage(value: float, u_max: float):
     """Safe drive voltage [V] and a reason; non-finite or outside [0, u_max] -> 0 V."""
-    return _screen(value, "drive voltage", lambda v: 0.0 <= v <= u_max,
-                   lambda v: f"{v:.3f} V is outside [0, {u_max:.3f}] V", 0.0, "using 0 V")
+    return _screen(value, 'drive voltage', lambda v: 0.0 <= v <= u_max,
+                   lambda v: f'{v:.3f} V is outside [0, {u_max:.3f}] V', 0.0, 'using 0 V')
 
 
 def sanitize_speed(value: float, u_max: float, fallback: float):
     """Safe driver speed command [m/s] and a reason; non-finite or outside [0, u_max] ->
-    ``fallback`` (the last accepted command: stopping the car on a moving belt is not safe)."""
-    return _screen(value, "speed command", lambda v: 0.0 <= v <= u_max,
-                   lambda v: f"{v:.3f} m/s is outside [0, {u_max:.3f}] m/s", fallback,
-                   f"holding {fallback:.3f} m/s")
+    ``fallback`` (the last accepted command: stopping the car on a moving belt is not safe).
+    """
+    return _screen(value, 'speed command', lambda v: 0.0 <= v <= u_max,
+                   lambda v: f'{v:.3f} m/s is outside [0, {u_max:.3f}] m/s', fallback,
+                   f'holding {fallback:.3f} m/s')
 
 
 # ----------------------------------------------------------------------------- data
@@ -137,12 +139,12 @@ def unflatten(d: dict) -> dict:
     for k, v in d.items():
         if isinstance(v, dict):
             v = unflatten(v)
-        parts = str(k).split(".")
+        parts = str(k).split('.')
         cur = out
         for p in parts[:-1]:
             cur = cur.setdefault(p, {})
             if not isinstance(cur, dict):
-                raise ValueError(f"parameter {k!r} conflicts with a scalar parameter {p!r}")
+                raise ValueError(f'parameter {k!r} conflicts with a scalar parameter {p!r}')
         if parts[-1] in cur and isinstance(cur[parts[-1]], dict) and isinstance(v, dict):
             cur[parts[-1]].update(v)
         else:
@@ -154,21 +156,21 @@ def _coerce(name: str, default, value):
     """Convert a YAML value to the type of the default, with a clear error."""
     if isinstance(default, bool):
         if not isinstance(value, bool):
-            raise ValueError(f"{name} must be true or false, got {value!r}")
+            raise ValueError(f'{name} must be true or false, got {value!r}')
         return value
     if isinstance(default, int):
         if isinstance(value, bool) or not isinstance(value, int):
-            raise ValueError(f"{name} must be an integer, got {value!r}")
+            raise ValueError(f'{name} must be an integer, got {value!r}')
         return value
     if isinstance(default, float):
         if isinstance(value, bool) or not isinstance(value, (int, float)):
-            raise ValueError(f"{name} must be a number, got {value!r}")
+            raise ValueError(f'{name} must be a number, got {value!r}')
         if not math.isfinite(float(value)):
-            raise ValueError(f"{name} must be finite, got {value!r}")
+            raise ValueError(f'{name} must be finite, got {value!r}')
         return float(value)
     if isinstance(default, str):
         if not isinstance(value, str):
-            raise ValueError(f"{name} must be a string, got {value!r}")
+            raise ValueError(f'{name} must be a string, got {value!r}')
         return value
     return value
 
@@ -177,21 +179,22 @@ def _section(name: str, defaults: dict, given) -> dict:
     if given is None:
         return dict(defaults)
     if not isinstance(given, dict):
-        raise ValueError(f"parameter section {name!r} must be a mapping, got {given!r}")
+        raise ValueError(f'parameter section {name!r} must be a mapping, got {given!r}')
     unknown = set(given) - set(defaults)
     if unknown:
-        raise ValueError(f"unknown parameter(s) {sorted(unknown)} in section {name!r}; "
-                         f"expected some of {sorted(defaults)}")
+        raise ValueError(f'unknown parameter(s) {sorted(unknown)} in section {name!r}; '
+                         f'expected some of {sorted(defaults)}')
     out = dict(defaults)
     for k, v in given.items():
-        out[k] = _coerce(f"{name}.{k}", defaults[k], v)
+        out[k] = _coerce(f'{name}.{k}', defaults[k], v)
     return out
 
 
 def _bicycle_defaults() -> dict:
     """Bicycle section defaults: preset ``irs_2wd``; the explicit fields (assumed 1:10 car) are
-    used only when ``preset`` is ''."""
-    return dict(preset="irs_2wd", mass=1.9, yaw_inertia=0.03, lf=0.13, lr=0.13, c_f=40.0, c_r=50.0,
+    used only when ``preset`` is ''.
+    """
+    return dict(preset='irs_2wd', mass=1.9, yaw_inertia=0.03, lf=0.13, lr=0.13, c_f=40.0, c_r=50.0,
                 track=0.16, wheel_radius=0.033, speed=1.2)
 
 
@@ -205,7 +208,7 @@ class RigConfig:
 
     dt: float = 1e-3
     seed: int = 0
-    plant: str = "identified"
+    plant: str = 'identified'
     ds: float = SENSOR_DISTANCE
     steer_reject: float = DEFAULT_STEER_REJECT_RAD
     speed_cmd_max: float = 5.0
@@ -222,8 +225,8 @@ class RigConfig:
     arm_sensor: ArmSensorParams = field(default_factory=ArmSensorParams)
     belt: BeltParams = field(default_factory=BeltParams)
 
-    _SCALARS = ("dt", "seed", "plant", "ds", "steer_reject", "speed_cmd_max", "x0", "y0", "u0",
-                "belt_speed0")
+    _SCALARS = ('dt', 'seed', 'plant', 'ds', 'steer_reject', 'speed_cmd_max', 'x0', 'y0', 'u0',
+                'belt_speed0')
 
     @classmethod
     def from_dict(cls, params: dict | None) -> "RigConfig":
@@ -231,35 +234,35 @@ class RigConfig:
         d = unflatten(dict(params or {}))
         base = cls()
         scal = {k: getattr(base, k) for k in cls._SCALARS}
-        sections = ("actuator_front", "actuator_rear", "identified", "bicycle", "car", "arm",
-                    "belt")
+        sections = ('actuator_front', 'actuator_rear', 'identified', 'bicycle', 'car', 'arm',
+                    'belt')
         unknown = set(d) - set(scal) - set(sections)
         if unknown:
-            raise ValueError(f"unknown parameter(s) {sorted(unknown)}; expected some of "
-                             f"{sorted(set(scal) | set(sections))}")
+            raise ValueError(f'unknown parameter(s) {sorted(unknown)}; expected some of '
+                             f'{sorted(set(scal) | set(sections))}')
         kw = {k: _coerce(k, scal[k], d[k]) for k in scal if k in d}
 
         act_def = {f.name: getattr(ActuatorParams(), f.name) for f in fields(ActuatorParams)}
-        for side in ("actuator_front", "actuator_rear"):
+        for side in ('actuator_front', 'actuator_rear'):
             kw[side] = ActuatorParams(**_section(side, act_def, d.get(side)))
 
-        idd = {"gain": 0.0, "speed": 1.2, "ds": -1.0}
-        ids = _section("identified", idd, d.get("identified"))
-        kw["identified"] = IdentifiedParams(
-            gain=None if ids["gain"] == 0.0 else ids["gain"], speed=ids["speed"],
-            ds=kw.get("ds", base.ds) if ids["ds"] < 0.0 else ids["ds"])
-        kw["bicycle"] = _section("bicycle", _bicycle_defaults(), d.get("bicycle"))
+        idd = {'gain': 0.0, 'speed': 1.2, 'ds': -1.0}
+        ids = _section('identified', idd, d.get('identified'))
+        kw['identified'] = IdentifiedParams(
+            gain=None if ids['gain'] == 0.0 else ids['gain'], speed=ids['speed'],
+            ds=kw.get('ds', base.ds) if ids['ds'] < 0.0 else ids['ds'])
+        kw['bicycle'] = _section('bicycle', _bicycle_defaults(), d.get('bicycle'))
         car_def = asdict(CarParams())
-        kw["car"] = CarParams(**_section("car", car_def, d.get("car")))
+        kw['car'] = CarParams(**_section('car', car_def, d.get('car')))
         geo_def = asdict(ArmGeometry())
         sen_def = asdict(ArmSensorParams())
-        sen_def.pop("seed")
-        arm = _section("arm", {**geo_def, **sen_def}, d.get("arm"))
-        kw["arm_geometry"] = ArmGeometry(**{k: arm[k] for k in geo_def})
-        kw["arm_sensor"] = ArmSensorParams(**{k: arm[k] for k in sen_def},
-                                           seed=kw.get("seed", base.seed))
+        sen_def.pop('seed')
+        arm = _section('arm', {**geo_def, **sen_def}, d.get('arm'))
+        kw['arm_geometry'] = ArmGeometry(**{k: arm[k] for k in geo_def})
+        kw['arm_sensor'] = ArmSensorParams(**{k: arm[k] for k in sen_def},
+                                           seed=kw.get('seed', base.seed))
         belt_def = asdict(BeltParams())
-        kw["belt"] = BeltParams(**_section("belt", belt_def, d.get("belt")))
+        kw['belt'] = BeltParams(**_section('belt', belt_def, d.get('belt')))
         cfg = cls(**kw)
         cfg.validate()
         return cfg
@@ -267,23 +270,29 @@ class RigConfig:
     def validate(self) -> None:
         """Raise ``ValueError`` for non-physical values."""
         if not (math.isfinite(self.dt) and 0.0 < self.dt <= 0.05):
-            raise ValueError(f"dt must be a step in (0, 0.05] s, got {self.dt!r}")
-        if self.plant not in ("identified", "bicycle"):
+            raise ValueError(f'dt must be a step in (0, 0.05] s, got {self.dt!r}')
+        if self.plant not in ('identified', 'bicycle'):
             raise ValueError(f"plant must be 'identified' or 'bicycle', got {self.plant!r}")
         if not (self.steer_reject > 0.0):
-            raise ValueError(f"steer_reject must be a positive angle in rad, got {self.steer_reject!r}")
+            raise ValueError(
+                f'steer_reject must be a positive angle in rad, got {self.steer_reject!r}'
+            )
         if not (self.speed_cmd_max > 0.0):
-            raise ValueError(f"speed_cmd_max must be a positive speed in m/s, got {self.speed_cmd_max!r}")
+            raise ValueError(
+                f'speed_cmd_max must be a positive speed in m/s, got {self.speed_cmd_max!r}'
+            )
         if not (0.0 <= self.u0 <= self.speed_cmd_max):
-            raise ValueError(f"u0 must be in [0, speed_cmd_max] m/s, got {self.u0!r}")
+            raise ValueError(f'u0 must be in [0, speed_cmd_max] m/s, got {self.u0!r}')
         if not (0.0 <= self.belt_speed0 <= self.belt.v_top):
-            raise ValueError(f"belt_speed0 must be in [0, {self.belt.v_top}] m/s, got {self.belt_speed0!r}")
+            raise ValueError(
+                f'belt_speed0 must be in [0, {self.belt.v_top}] m/s, got {self.belt_speed0!r}'
+            )
         self.actuator_front.validate()
         self.actuator_rear.validate()
         self.identified.validate()
         self.car.validate()
         self.arm_sensor.validate()
-        if self.plant == "bicycle":
+        if self.plant == 'bicycle':
             self.make_bicycle_params()
 
     def make_bicycle_params(self):
@@ -291,15 +300,15 @@ class RigConfig:
         from irs_models.bicycle import BicycleParams
 
         b = dict(self.bicycle)
-        name = b.pop("preset", "")
-        b.pop("speed", None)
+        name = b.pop('preset', '')
+        b.pop('speed', None)
         if name:
             from irs_models.presets import get_preset  # the bicycle-model engineer's presets
 
             try:
                 return get_preset(name).params
             except KeyError as exc:
-                raise ValueError(f"bicycle.preset: {exc.args[0]}") from None
+                raise ValueError(f'bicycle.preset: {exc.args[0]}') from None
         return BicycleParams(**b)
 
 
@@ -313,10 +322,10 @@ class RigSimulation:
         c = self.config
         self.act_front = SteeringActuator(copy.deepcopy(c.actuator_front))
         self.act_rear = SteeringActuator(copy.deepcopy(c.actuator_rear))
-        if c.plant == "identified":
+        if c.plant == 'identified':
             self.plant: LateralPlant = IdentifiedPlant(c.identified)
         else:
-            self.plant = BicyclePlant(c.make_bicycle_params(), c.bicycle["speed"], c.ds)
+            self.plant = BicyclePlant(c.make_bicycle_params(), c.bicycle['speed'], c.ds)
         self.car = CarOnBelt(c.car, c.x0, c.u0)
         self.arm = ArmSensor(c.arm_geometry, c.arm_sensor)
         self.belt = TreadmillBelt(c.belt)
@@ -333,7 +342,7 @@ class RigSimulation:
         self.belt.reset(c.belt_speed0)
         self.k = 0
         self._speed_cmd = c.u0
-        self._fault_reason = ""
+        self._fault_reason = ''
         self._outputs = self._make_outputs((), None)
         return self._outputs
 
@@ -368,7 +377,7 @@ class RigSimulation:
         self.plant.reset(c.y0)
         self.car.reset(c.x0, c.u0)
         self._speed_cmd = c.u0
-        self._fault_reason = ""
+        self._fault_reason = ''
         self._outputs = self._make_outputs((), None)
         return self._outputs
 
@@ -391,10 +400,10 @@ class RigSimulation:
         dr, r2 = sanitize_steer(inputs.rear_steer, c.steer_reject)
         vb, r3 = sanitize_voltage(inputs.drive_voltage, c.belt.u_max)
         uc, r4 = sanitize_speed(inputs.speed_cmd, c.speed_cmd_max, self._speed_cmd)
-        for tag, r in (("front_steer", r1), ("rear_steer", r2), ("drive_voltage", r3),
-                       ("speed_cmd", r4)):
+        for tag, r in (('front_steer', r1), ('rear_steer', r2), ('drive_voltage', r3),
+                       ('speed_cmd', r4)):
             if r is not None:
-                warn.append(f"{tag}: {r}")
+                warn.append(f'{tag}: {r}')
         self._speed_cmd = uc
         applied = RigInputs(df, dr, vb, uc)
 
@@ -426,9 +435,9 @@ class RigSimulation:
             arm_fault = True
         if not self._fault_reason:
             if edge:
-                self._fault_reason = f"off_belt:{edge}"
+                self._fault_reason = f'off_belt:{edge}'
             elif arm_fault:
-                self._fault_reason = "arm_reach"
+                self._fault_reason = 'arm_reach'
         ws = wheel_speeds(self.car.u, pl.lateral_velocity, pl.yaw_rate,
                           self.act_front.achieved, self.act_rear.achieved, self.config.car)
         return RigOutputs(
@@ -441,8 +450,8 @@ class RigSimulation:
             fault_reason=self._fault_reason, input_warnings=warnings, applied_inputs=applied)
 
 
-_SCALAR_OUT = ("time", "belt_speed_measured", "belt_speed", "x", "y", "psi", "u", "v",
-               "yaw_rate", "y_s")
+_SCALAR_OUT = ('time', 'belt_speed_measured', 'belt_speed', 'x', 'y', 'psi', 'u', 'v',
+               'yaw_rate', 'y_s')
 
 
 def simulate(config: RigConfig | dict | None, input_fn: Callable[[RigOutputs], RigInputs],
@@ -466,7 +475,7 @@ def simulate(config: RigConfig | dict | None, input_fn: Callable[[RigOutputs], R
     sim = RigSimulation(config)
     n = int(round(duration / config.dt))
     if n < 0:
-        raise ValueError(f"duration must be >= 0 s, got {duration!r}")
+        raise ValueError(f'duration must be >= 0 s, got {duration!r}')
     outs = [sim.outputs]
     ins = []
     for _ in range(n):
@@ -475,15 +484,15 @@ def simulate(config: RigConfig | dict | None, input_fn: Callable[[RigOutputs], R
         ins.append(o.applied_inputs)
         outs.append(o)
     res = {k: np.array([getattr(o, k) for o in outs], dtype=float) for k in _SCALAR_OUT}
-    res["arm_angles"] = np.array([o.arm_angles for o in outs], dtype=float).reshape(-1, 3)
-    res["wheel_speeds"] = np.array([o.wheel_speeds for o in outs], dtype=float).reshape(-1, 4)
-    res["steer_front"] = np.array([o.actuator_front.achieved for o in outs])
-    res["steer_rear"] = np.array([o.actuator_rear.achieved for o in outs])
-    res["servo_front"] = np.array([o.actuator_front.servo for o in outs])
-    res["servo_rear"] = np.array([o.actuator_rear.servo for o in outs])
-    res["fault"] = np.array([o.fault for o in outs], dtype=bool)
-    res["front_steer_cmd"] = np.array([i.front_steer for i in ins], dtype=float)
-    res["rear_steer_cmd"] = np.array([i.rear_steer for i in ins], dtype=float)
-    res["drive_voltage"] = np.array([i.drive_voltage for i in ins], dtype=float)
-    res["speed_cmd"] = np.array([i.speed_cmd for i in ins], dtype=float)
+    res['arm_angles'] = np.array([o.arm_angles for o in outs], dtype=float).reshape(-1, 3)
+    res['wheel_speeds'] = np.array([o.wheel_speeds for o in outs], dtype=float).reshape(-1, 4)
+    res['steer_front'] = np.array([o.actuator_front.achieved for o in outs])
+    res['steer_rear'] = np.array([o.actuator_rear.achieved for o in outs])
+    res['servo_front'] = np.array([o.actuator_front.servo for o in outs])
+    res['servo_rear'] = np.array([o.actuator_rear.servo for o in outs])
+    res['fault'] = np.array([o.fault for o in outs], dtype=bool)
+    res['front_steer_cmd'] = np.array([i.front_steer for i in ins], dtype=float)
+    res['rear_steer_cmd'] = np.array([i.rear_steer for i in ins], dtype=float)
+    res['drive_voltage'] = np.array([i.drive_voltage for i in ins], dtype=float)
+    res['speed_cmd'] = np.array([i.speed_cmd for i in ins], dtype=float)
     return res

@@ -78,43 +78,140 @@ INPUTS = {
 }
 
 NODE_PARAMS = [
-    Param('clock_mode', 'realtime', "'realtime' (wall timer, latest commands) or 'lockstep' "
-          '(publishes /clock, waits for the commands of each step)', '-', read_only=True),
-    Param('lockstep_inputs', ['steering'], 'inputs whose command for step k must arrive before '
-          "step k+1 in lockstep mode: any of 'steering', 'drive', 'driver'", '-', read_only=True),
-    Param('lockstep_resend_period', 1.0, 'wall time without progress after which the outputs of '
-          'the current step are published again (lockstep)', 's', 0.01, 3600.0, writable=True),
-    Param('command_timeout', 0.1, 'real time: a steering or drive command older than this is stale '
-          'and the safe value is used (steer 0 rad, drive 0 V); the driver speed is held', 's',
-          0.001, 3600.0, writable=True),
-    Param('future_tolerance', 0.5, "commands stamped further ahead of the rig's time are dropped "
-          'and counted as rejected', 's', 0.0, 3600.0, read_only=True),
-    Param('default_drive_voltage', 0.0, 'drive voltage used until the first drive command arrives '
-          '(0 = belt coasts)', 'V', 0.0, 100.0),
+    Param(
+        'clock_mode',
+        'realtime',
+        "'realtime' (wall timer, latest commands) or 'lockstep' "
+        '(publishes /clock, waits for the commands of each step)',
+        '-',
+        read_only=True,
+    ),
+    Param(
+        'lockstep_inputs',
+        ['steering'],
+        'inputs whose command for step k must arrive before '
+        "step k+1 in lockstep mode: any of 'steering', 'drive', 'driver'",
+        '-',
+        read_only=True,
+    ),
+    Param(
+        'lockstep_resend_period',
+        1.0,
+        'wall time without progress after which the outputs of '
+        'the current step are published again (lockstep)',
+        's',
+        0.01,
+        3600.0,
+        writable=True,
+    ),
+    Param(
+        'command_timeout',
+        0.1,
+        'real time: a steering or drive command older than this is stale '
+        'and the safe value is used (steer 0 rad, drive 0 V); the driver speed is held',
+        's',
+        0.001,
+        3600.0,
+        writable=True,
+    ),
+    Param(
+        'future_tolerance',
+        0.5,
+        "commands stamped further ahead of the rig's time are dropped and counted as rejected",
+        's',
+        0.0,
+        3600.0,
+        read_only=True,
+    ),
+    Param(
+        'default_drive_voltage',
+        0.0,
+        'drive voltage used until the first drive command arrives (0 = belt coasts)',
+        'V',
+        0.0,
+        100.0,
+    ),
     Param('frame_id', 'treadmill', 'fixed frame of poses and points', '-'),
     Param('child_frame_id', 'base_link', 'car body frame (ground-truth odometry)', '-'),
-    Param('publish_wheel_speeds', False, 'publish the four wheel speeds (independent-wheel-torque '
-          'car encoders)', '-'),
-    Param('autostart', True, 'start by itself: lock-step at once; real time once every input in '
-          'start_inputs has delivered a command (the car is held at its start pose until then). '
-          'false: wait for a call of the rig/start service (std_srvs/Trigger)', '-',
-          read_only=True),
-    Param('start_inputs', ['steering', 'drive'], "real time with autostart: inputs ('steering', "
-          "'drive', 'driver') that must have delivered a command before the car is released; "
-          "[''] = none", '-', read_only=True),
-    Param('ground_truth_decimation', 1, 'publish ground_truth/odom and ground_truth/sensor_point '
-          'every this many steps (0 = never)', '1', 0, 1_000_000, read_only=True),
-    Param('belt_speed_decimation', 1, 'publish belt/speed every this many steps (the treadmill '
-          'regulator may run slower than the lateral loop)', '1', 1, 1_000_000, read_only=True),
-    Param('actuator_state_decimation', 1, 'publish steering/state every this many steps '
-          '(0 = never)', '1', 0, 1_000_000, read_only=True),
-    Param('status_period', 0.1, 'rig/status is published on a change and at least this often '
-          '(simulated time)', 's', 0.001, 3600.0, read_only=True),
-    Param('start_subscribers', '', "lock-step: before publishing step 0, wait until these of the "
-          "rig's topics have matched this many subscriptions ('topic=count,...'; the experiment "
-          'runner sets it), so no consumer misses the first step', '-', read_only=True),
-    Param('max_steps', 0, 'stop stepping after this many steps (0 = run until shut down)', '1',
-          0, 2**62),
+    Param(
+        'publish_wheel_speeds',
+        False,
+        'publish the four wheel speeds (independent-wheel-torque car encoders)',
+        '-',
+    ),
+    Param(
+        'autostart',
+        True,
+        'start by itself: lock-step at once; real time once every input in '
+        'start_inputs has delivered a command (the car is held at its start pose until then). '
+        'false: wait for a call of the rig/start service (std_srvs/Trigger)',
+        '-',
+        read_only=True,
+    ),
+    Param(
+        'start_inputs',
+        ['steering', 'drive'],
+        "real time with autostart: inputs ('steering', "
+        "'drive', 'driver') that must have delivered a command before the car is released; "
+        "[''] = none",
+        '-',
+        read_only=True,
+    ),
+    Param(
+        'ground_truth_decimation',
+        1,
+        'publish ground_truth/odom and ground_truth/sensor_point '
+        'every this many steps (0 = never)',
+        '1',
+        0,
+        1_000_000,
+        read_only=True,
+    ),
+    Param(
+        'belt_speed_decimation',
+        1,
+        'publish belt/speed every this many steps (the treadmill '
+        'regulator may run slower than the lateral loop)',
+        '1',
+        1,
+        1_000_000,
+        read_only=True,
+    ),
+    Param(
+        'actuator_state_decimation',
+        1,
+        'publish steering/state every this many steps (0 = never)',
+        '1',
+        0,
+        1_000_000,
+        read_only=True,
+    ),
+    Param(
+        'status_period',
+        0.1,
+        'rig/status is published on a change and at least this often (simulated time)',
+        's',
+        0.001,
+        3600.0,
+        read_only=True,
+    ),
+    Param(
+        'start_subscribers',
+        '',
+        'lock-step: before publishing step 0, wait until these of the '
+        "rig's topics have matched this many subscriptions ('topic=count,...'; the experiment "
+        'runner sets it), so no consumer misses the first step',
+        '-',
+        read_only=True,
+    ),
+    Param(
+        'max_steps',
+        0,
+        'stop stepping after this many steps (0 = run until shut down)',
+        '1',
+        0,
+        2**62,
+    ),
 ]
 
 ARM_JOINTS = ['arm_joint1', 'arm_joint2', 'arm_joint3']
@@ -131,7 +228,9 @@ class VehicleSimNode(Node):
         self.p = {p.name: values[p.name] for p in NODE_PARAMS}
         self.config = RigConfig.from_dict({k: v for k, v in values.items() if k not in self.p})
         if self.p['clock_mode'] not in ('realtime', 'lockstep'):
-            raise ValueError(f"clock_mode must be 'realtime' or 'lockstep', got {self.p['clock_mode']!r}")
+            raise ValueError(
+                f"clock_mode must be 'realtime' or 'lockstep', got {self.p['clock_mode']!r}"
+            )
         self.lockstep = self.p['clock_mode'] == 'lockstep'
         required = [n for n in self.p['lockstep_inputs'] if n]
         unknown = set(required) - set(INPUTS)
@@ -165,19 +264,23 @@ class VehicleSimNode(Node):
         # rclpy's throttled logging costs ~1 ms per call: per-step warnings are throttled first.
         self.warner = ThrottledWarner(self.get_logger().warning, 1.0)
         self.info_warner = ThrottledWarner(self._log_info, 1.0)
-        self.pub_clock = self.create_publisher(Clock, '/clock', qos.CLOCK) if self.lockstep else None
+        self.pub_clock = (
+            self.create_publisher(Clock, '/clock', qos.CLOCK) if self.lockstep else None
+        )
         self.pub_arm = self.create_publisher(JointState, 'arm/joint_states', qos.SENSOR)
         self.pub_belt = self.create_publisher(BeltSpeed, 'belt/speed', qos.SENSOR)
         self.pub_act = self.create_publisher(SteeringActuatorState, 'steering/state', qos.SENSOR)
         self.pub_odom = self.create_publisher(Odometry, 'ground_truth/odom', qos.SENSOR)
-        self.pub_point = self.create_publisher(PointStamped, 'ground_truth/sensor_point', qos.SENSOR)
+        self.pub_point = self.create_publisher(
+            PointStamped, 'ground_truth/sensor_point', qos.SENSOR
+        )
         self.pub_wheels = (self.create_publisher(JointState, 'wheel_speeds', qos.SENSOR)
                            if self.p['publish_wheel_speeds'] else None)
         self.pub_status = self.create_publisher(RigStatus, 'rig/status', qos.STATUS)
         self.pub_timing = (None if self.lockstep else
                            self.create_publisher(DiagnosticArray, 'rig/timing', qos.STATUS))
         self.timing = LoopTiming()
-        self.arm_sent = {}               # real time: arm stamp [ns] -> monotonic time of publishing
+        self.arm_sent = {}  # real time: arm stamp [ns] -> monotonic time of publishing
         self.last_steer_stamp = -1       # real time: stamp of the newest steering command
         self.subs = {name: self.create_subscription(
             mtype, topic, lambda msg, n=name: self._on_command(n, msg), qos.COMMAND)
@@ -199,7 +302,7 @@ class VehicleSimNode(Node):
                 self._hold()
         self.get_logger().info(
             f"rig up: {self.p['clock_mode']}, dt = {self.config.dt} s, plant = {self.config.plant}"
-            + (f", lock-step inputs {list(self.required)}" if self.lockstep else ''))
+            + (f', lock-step inputs {list(self.required)}' if self.lockstep else ''))
 
 
     # rclpy fixes a logging call site's severity at its first call (a later call with another
@@ -211,8 +314,10 @@ class VehicleSimNode(Node):
     def _hold(self):
         """Real time, before the start: publish the start pose at the step rate, stamped now."""
         self.holding = True
-        self.get_logger().info(f'holding the car at its start pose until {list(self.start_inputs)} '
-                               'have delivered a command (or rig/start is called)')
+        self.get_logger().info(
+            f'holding the car at its start pose until {list(self.start_inputs)} '
+            'have delivered a command (or rig/start is called)'
+        )
 
         def hold_tick():
             missing = [n for n in self.start_inputs if n not in self.received_at]
@@ -235,7 +340,9 @@ class VehicleSimNode(Node):
             t0 = time.monotonic()
 
             def begin():
-                unmatched = [t for t, (pub, n) in waits.items() if pub.get_subscription_count() < n]
+                unmatched = [
+                    t for t, (pub, n) in waits.items() if pub.get_subscription_count() < n
+                ]
                 if unmatched and time.monotonic() - t0 < 10.0:
                     return
                 if unmatched:
@@ -282,8 +389,10 @@ class VehicleSimNode(Node):
         self.sim.reset_to_start()
         self.resets += 1
         response.success = True
-        response.message = (f"car back at its start pose (x = {self.config.x0} m, y = "
-                            f"{self.config.y0} m) at t = {self.sim.time:.3f} s; was: {was or 'no fault'}")
+        response.message = (
+            f'car back at its start pose (x = {self.config.x0} m, y = '
+            f'{self.config.y0} m) at t = {self.sim.time:.3f} s; was: {was or "no fault"}'
+        )
         self.get_logger().info(f'rig/reset: {response.message}')
         if self.started and not self.holding:
             self._publish_status(self.sim.outputs, from_ns(self._stamp_ns()))
@@ -333,7 +442,9 @@ class VehicleSimNode(Node):
             sent = self.arm_sent.pop(stamp, None)
             if sent is not None:
                 self.timing.add_latency(now - sent)
-            self.last_steer_stamp = stamp if verdict == 'reset' else max(self.last_steer_stamp, stamp)
+            self.last_steer_stamp = (
+                stamp if verdict == 'reset' else max(self.last_steer_stamp, stamp)
+            )
 
     def _reject_stamp(self, name, verdict, stamp, now_ns):
         if verdict == FUTURE:

@@ -108,13 +108,13 @@ def test_full_chain_state_and_order():
 
 
 def test_bad_params_and_dt_change():
-    with pytest.raises(ValueError, match="lag_hz"):
+    with pytest.raises(ValueError, match='lag_hz'):
         SteeringActuator(ActuatorParams(lag_hz=0.0))
-    with pytest.raises(ValueError, match="delay"):
+    with pytest.raises(ValueError, match='delay'):
         SteeringActuator(ActuatorParams(delay=-1.0))
-    with pytest.raises(ValueError, match="rate_limit"):
+    with pytest.raises(ValueError, match='rate_limit'):
         SteeringActuator(ActuatorParams(rate_limit=math.nan))
     act = SteeringActuator()
     act.step(0.0, DT)
-    with pytest.raises(ValueError, match="constant"):
+    with pytest.raises(ValueError, match='constant'):
         act.step(0.0, 2 * DT)

@@ -66,7 +66,7 @@ def test_seeded_and_reset_reproducible():
 def test_unreachable_pose_and_bad_params():
     with pytest.raises(ArmReachError):
         ArmSensor().measure(0.0, -2.0, 0.0)
-    with pytest.raises(ValueError, match="noise_std"):
+    with pytest.raises(ValueError, match='noise_std'):
         ArmSensor(params=ArmSensorParams(noise_std=-1.0))
-    with pytest.raises(ValueError, match="adc_bits"):
+    with pytest.raises(ValueError, match='adc_bits'):
         ArmSensor(params=ArmSensorParams(adc_bits=0))

@@ -8,7 +8,7 @@ from irs_vehicle_sim.belt import (BeltParams, TreadmillBelt, coast_distance, coa
                                   coast_stop_time)
 
 
-@pytest.mark.parametrize("volts", [1.0, 2.0, 3.0, 4.0])
+@pytest.mark.parametrize('volts', [1.0, 2.0, 3.0, 4.0])
 def test_spin_up_steady_state_and_time_constant(volts):
     belt = TreadmillBelt(BeltParams(delay=0.0))
     dt = 0.001
@@ -24,7 +24,10 @@ def test_spin_up_steady_state_and_time_constant(volts):
 
 def test_step_size_independence_exact_discretisation():
     a, b = TreadmillBelt(), TreadmillBelt()
-    u = lambda t: 6.0 if t < 2.0 else (1.0 if t < 6.0 else 0.0)
+
+    def u(t):
+        return 6.0 if t < 2.0 else (1.0 if t < 6.0 else 0.0)
+
     for k in range(8000):
         a.step(u(k * 0.001), 0.001)
     for k in range(80):
@@ -55,7 +58,7 @@ def test_coast_down_matches_closed_form():
         t += dt
         if abs(t - 5.0) < dt / 2:
             assert belt.speed == pytest.approx(coast_speed(v0, 5.0), rel=1e-9)
-    print(f"coast-down from {v0} m/s: simulated {t:.2f} s, closed form {t_stop:.3f} s")
+    print(f'coast-down from {v0} m/s: simulated {t:.2f} s, closed form {t_stop:.3f} s')
     assert abs(t - t_stop) <= dt
     assert belt.position == pytest.approx(coast_distance(v0), abs=1e-9)
 
@@ -94,7 +97,7 @@ def test_voltage_and_top_speed_clamps():
     belt.step(-3.0, 0.1)  # negative -> 0 V -> coasts, never negative
     assert 0.0 < belt.speed < 5.3
     with pytest.raises(ValueError):
-        belt.step(float("nan"), 0.01)
+        belt.step(float('nan'), 0.01)
     with pytest.raises(ValueError):
         belt.step(1.0, 0.0)
 

@@ -10,7 +10,7 @@ from irs_vehicle_sim.car_on_belt import CarOnBelt, CarParams, off_belt_edge, whe
 DT = 1e-3
 
 
-@pytest.mark.parametrize("psi", [0.0, 0.2])
+@pytest.mark.parametrize('psi', [0.0, 0.2])
 def test_position_integration_closed_form(psi):
     p = CarParams(tau_u=0.3)
     car = CarOnBelt(p, x0=0.1, u0=0.5)
@@ -44,13 +44,13 @@ def test_stationary_when_speed_equals_belt():
 def test_off_belt_edges():
     p = CarParams(length=0.4, width=0.2)
     xm, ym = 1.2192 - 0.2, 0.6096 - 0.1
-    assert off_belt_edge(0.0, 0.0, p) == ""
-    assert off_belt_edge(xm - 1e-9, ym - 1e-9, p) == ""
-    assert off_belt_edge(xm + 1e-6, 0.0, p) == "front"
-    assert off_belt_edge(-xm - 1e-6, 0.0, p) == "rear"
-    assert off_belt_edge(0.0, ym + 1e-6, p) == "left"
-    assert off_belt_edge(0.0, -ym - 1e-6, p) == "right"
-    assert off_belt_edge(math.nan, 0.0, p) == "nonfinite"
+    assert off_belt_edge(0.0, 0.0, p) == ''
+    assert off_belt_edge(xm - 1e-9, ym - 1e-9, p) == ''
+    assert off_belt_edge(xm + 1e-6, 0.0, p) == 'front'
+    assert off_belt_edge(-xm - 1e-6, 0.0, p) == 'rear'
+    assert off_belt_edge(0.0, ym + 1e-6, p) == 'left'
+    assert off_belt_edge(0.0, -ym - 1e-6, p) == 'right'
+    assert off_belt_edge(math.nan, 0.0, p) == 'nonfinite'
 
 
 def test_wheel_speeds_straight_turn_and_steer():
@@ -69,7 +69,7 @@ def test_wheel_speeds_straight_turn_and_steer():
 
 
 def test_bad_params():
-    with pytest.raises(ValueError, match="tau_u"):
+    with pytest.raises(ValueError, match='tau_u'):
         CarOnBelt(CarParams(tau_u=0.0))
-    with pytest.raises(ValueError, match="length"):
+    with pytest.raises(ValueError, match='length'):
         CarOnBelt(CarParams(length=3.0))

@@ -10,7 +10,7 @@ import yaml
 from irs_vehicle_sim.rig import (RigConfig, RigInputs, RigSimulation, sanitize_speed,
                                  sanitize_steer, sanitize_voltage, simulate)
 
-YAML = os.path.join(os.path.dirname(__file__), "..", "config", "rig.yaml")
+YAML = os.path.join(os.path.dirname(__file__), '..', 'config', 'rig.yaml')
 V_HOLD = 1.2 / (2.38 / 4.5)  # [V] holds the belt at 1.2 m/s
 
 
@@ -25,10 +25,10 @@ def test_two_runs_bit_identical_and_seed_matters():
     b = simulate({}, lane_keeper, 1.0)
     for k in a:
         np.testing.assert_array_equal(a[k], b[k], err_msg=k)
-    c = simulate({"seed": 1}, lane_keeper, 1.0)
-    assert not np.array_equal(a["arm_angles"], c["arm_angles"])
-    np.testing.assert_array_equal(a["y_s"], c["y_s"])  # noise only enters the measurement
-    assert a["time"].shape == (1001,) and a["front_steer_cmd"].shape == (1000,)
+    c = simulate({'seed': 1}, lane_keeper, 1.0)
+    assert not np.array_equal(a['arm_angles'], c['arm_angles'])
+    np.testing.assert_array_equal(a['y_s'], c['y_s'])  # noise only enters the measurement
+    assert a['time'].shape == (1001,) and a['front_steer_cmd'].shape == (1000,)
 
 
 def test_timing_convention_and_actuator_delay():
@@ -41,11 +41,11 @@ def test_timing_convention_and_actuator_delay():
     r = simulate({}, fn, 0.05)
     np.testing.assert_allclose(seen, np.arange(50) * 1e-3)
     # command applied from step 0; 17-sample delay: achieved first moves at t_18
-    np.testing.assert_array_equal(r["steer_front"][:18], 0.0)
-    assert r["steer_front"][18] > 0.0
+    np.testing.assert_array_equal(r['steer_front'][:18], 0.0)
+    assert r['steer_front'][18] > 0.0
     # plant sees the achieved angle at t_k over step k: y_s first moves at t_19
-    np.testing.assert_array_equal(r["y_s"][:19], 0.0)
-    assert r["y_s"][19] > 0.0
+    np.testing.assert_array_equal(r['y_s'][:19], 0.0)
+    assert r['y_s'][19] > 0.0
 
 
 def test_step_api_matches_simulate():
@@ -57,12 +57,12 @@ def test_step_api_matches_simulate():
         o = sim.step(lane_keeper(o))
         ys.append(o.y_s)
     r = simulate(cfg, lane_keeper, 0.3)
-    np.testing.assert_array_equal(ys, r["y_s"])
+    np.testing.assert_array_equal(ys, r['y_s'])
 
 
 def test_sanitize_functions():
     assert sanitize_steer(0.1) == (0.1, None)
-    for bad in (math.nan, math.inf, -math.inf, 1.0, "x"):
+    for bad in (math.nan, math.inf, -math.inf, 1.0, 'x'):
         v, why = sanitize_steer(bad)
         assert v == 0.0 and isinstance(why, str) and why
     assert sanitize_voltage(3.0, 10.0) == (3.0, None)
@@ -80,35 +80,35 @@ def test_rig_rejects_bad_inputs_with_warning():
     assert o.applied_inputs.front_steer == 0.0
     assert o.applied_inputs.drive_voltage == 0.0
     assert len(o.input_warnings) == 2
-    assert o.input_warnings[0].startswith("front_steer")
+    assert o.input_warnings[0].startswith('front_steer')
     o = sim.step(RigInputs(0.2, 0.0, V_HOLD, 1.2))
     assert o.input_warnings == ()
 
 
 def test_car_drifts_off_rear_when_stopped_fault_latched():
     r = simulate({}, lambda o: RigInputs(0.0, 0.0, V_HOLD, 0.0), 3.0)
-    assert r["fault"][-1]
+    assert r['fault'][-1]
     sim = RigSimulation()
     o = sim.outputs
     while not o.fault and o.time < 3.0:
         o = sim.step(RigInputs(0.0, 0.0, V_HOLD, 0.0))
-    assert o.off_belt_edge == "rear" and o.fault_reason == "off_belt:rear"
+    assert o.off_belt_edge == 'rear' and o.fault_reason == 'off_belt:rear'
     assert o.x < -(1.2192 - 0.45 / 2)
     o = sim.step(RigInputs(0.0, 0.0, V_HOLD, 1.2))
-    assert o.fault and o.fault_reason == "off_belt:rear"
+    assert o.fault and o.fault_reason == 'off_belt:rear'
 
 
 def test_steady_run_stays_put_and_wheels_roll():
     r = simulate({}, lambda o: RigInputs(0.0, 0.0, V_HOLD, 1.2), 1.0)
-    assert not r["fault"].any()
-    assert np.max(np.abs(r["x"])) < 1e-9
-    np.testing.assert_allclose(r["wheel_speeds"][-1], 1.2 / 0.033, rtol=1e-9)
-    assert r["belt_speed_measured"][-1] == pytest.approx(1.2, abs=0.02)
+    assert not r['fault'].any()
+    assert np.max(np.abs(r['x'])) < 1e-9
+    np.testing.assert_allclose(r['wheel_speeds'][-1], 1.2 / 0.033, rtol=1e-9)
+    assert r['belt_speed_measured'][-1] == pytest.approx(1.2, abs=0.02)
 
 
 def test_yaml_defaults_match_dataclass_defaults():
     with open(YAML) as fh:
-        params = yaml.safe_load(fh)["vehicle_sim"]["ros__parameters"]
+        params = yaml.safe_load(fh)['vehicle_sim']['ros__parameters']
     cfg = RigConfig.from_dict(params)
     ref = RigConfig.from_dict({})
     assert cfg.dt == ref.dt and cfg.plant == ref.plant
@@ -122,32 +122,32 @@ def test_yaml_defaults_match_dataclass_defaults():
     with open(YAML) as fh:
         text = fh.read()
     for line in text.splitlines():
-        if ":" in line and line.split(":", 1)[1].split("#")[0].strip()[:1].isdigit():
-            assert "#" in line and "[" in line.split("#", 1)[1], line  # unit comment
+        if ':' in line and line.split(':', 1)[1].split('#')[0].strip()[:1].isdigit():
+            assert '#' in line and '[' in line.split('#', 1)[1], line  # unit comment
 
 
 def test_config_validation_and_dotted_keys():
-    cfg = RigConfig.from_dict({"actuator_front.lag_hz": 3.8, "arm.noise_std": 0.0})
+    cfg = RigConfig.from_dict({'actuator_front.lag_hz': 3.8, 'arm.noise_std': 0.0})
     assert cfg.actuator_front.lag_hz == 3.8 and cfg.arm_sensor.noise_std == 0.0
-    with pytest.raises(ValueError, match="unknown"):
-        RigConfig.from_dict({"actuator_front": {"lag_hzz": 3.8}})
-    with pytest.raises(ValueError, match="unknown"):
-        RigConfig.from_dict({"dtt": 0.001})
-    with pytest.raises(ValueError, match="number"):
-        RigConfig.from_dict({"dt": "fast"})
-    with pytest.raises(ValueError, match="dt"):
-        RigConfig.from_dict({"dt": 0.0})
-    with pytest.raises(ValueError, match="plant"):
-        RigConfig.from_dict({"plant": "magic"})
-    with pytest.raises(ValueError, match="lag_hz"):
-        RigConfig.from_dict({"actuator_rear": {"lag_hz": -1.0}})
+    with pytest.raises(ValueError, match='unknown'):
+        RigConfig.from_dict({'actuator_front': {'lag_hzz': 3.8}})
+    with pytest.raises(ValueError, match='unknown'):
+        RigConfig.from_dict({'dtt': 0.001})
+    with pytest.raises(ValueError, match='number'):
+        RigConfig.from_dict({'dt': 'fast'})
+    with pytest.raises(ValueError, match='dt'):
+        RigConfig.from_dict({'dt': 0.0})
+    with pytest.raises(ValueError, match='plant'):
+        RigConfig.from_dict({'plant': 'magic'})
+    with pytest.raises(ValueError, match='lag_hz'):
+        RigConfig.from_dict({'actuator_rear': {'lag_hz': -1.0}})
 
 
 def test_bicycle_plant_rig_runs_and_is_deterministic():
-    pytest.importorskip("irs_models.presets")
-    a = simulate({"plant": "bicycle"}, lane_keeper, 1.0)
-    b = simulate({"plant": "bicycle"}, lane_keeper, 1.0)
-    np.testing.assert_array_equal(a["y_s"], b["y_s"])
-    assert np.max(np.abs(a["y_s"])) > 1e-4 and not a["fault"].any()
-    with pytest.raises(ValueError, match="preset"):
-        RigConfig.from_dict({"plant": "bicycle", "bicycle": {"preset": "nope"}})
+    pytest.importorskip('irs_models.presets')
+    a = simulate({'plant': 'bicycle'}, lane_keeper, 1.0)
+    b = simulate({'plant': 'bicycle'}, lane_keeper, 1.0)
+    np.testing.assert_array_equal(a['y_s'], b['y_s'])
+    assert np.max(np.abs(a['y_s'])) > 1e-4 and not a['fault'].any()
+    with pytest.raises(ValueError, match='preset'):
+        RigConfig.from_dict({'plant': 'bicycle', 'bicycle': {'preset': 'nope'}})

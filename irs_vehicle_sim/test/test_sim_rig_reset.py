@@ -1,5 +1,6 @@
 """RigSimulation.reset_to_start: the car back at its start pose, the off-belt fault cleared, the
-clock running on (for a rig/reset service; issue 10)."""
+clock running on (for a rig/reset service; issue 10).
+"""
 import math
 
 import pytest
@@ -45,7 +46,8 @@ def test_reset_to_start_clears_the_off_belt_fault_and_keeps_the_clock():
 
 def test_after_reset_to_start_the_car_moves_like_a_fresh_rig():
     """With the belt reset too, the car/belt dynamics after the reset equal a fresh rig's for
-    the same inputs (the clock and the arm-noise stream aside)."""
+    the same inputs (the clock and the arm-noise stream aside).
+    """
     cfg = RigConfig.from_dict({'x0': 0.3, 'y0': 0.02})
     rig, fresh = RigSimulation(cfg), RigSimulation(RigConfig.from_dict({'x0': 0.3, 'y0': 0.02}))
     drive_off_the_left_edge(rig)

@@ -150,8 +150,11 @@ def make_plots(bag_path, out_dir) -> List[Path]:
     data = load_series(bag_path)
     if not data:
         raise NoPlottableTopics(
-            f'{getattr(bag_path, "path", bag_path)}: none of the plotted topics is in the bag (looked for '
-            + ', '.join(sorted({s for v in SERIES.values() for s, _, _ in v})) + ')')
+            f'{getattr(bag_path, "path", bag_path)}: none of the plotted topics is in the bag '
+            f'(looked for '
+            + ', '.join(sorted({s for v in SERIES.values() for s, _, _ in v}))
+            + ')'
+        )
     t0 = min(xs[0] for xs, _ in data.values() if xs)
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)

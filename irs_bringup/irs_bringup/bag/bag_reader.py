@@ -509,7 +509,8 @@ class BagReader:
 def open_bag(bag: Union[PathLike, BagReader], prog: str, stream=None) -> BagReader:
     """What the ``bag`` verbs use: a :class:`BagReader` with ``allow_partial=True``; its
     warnings (if any) are printed as one line ``<prog>: warning: ...`` on ``stream`` (stderr).
-    An already open reader is returned as it is."""
+    An already open reader is returned as it is.
+    """
     if isinstance(bag, BagReader):
         return bag
     r = BagReader(bag, allow_partial=True)
@@ -522,7 +523,8 @@ def open_bag(bag: Union[PathLike, BagReader], prog: str, stream=None) -> BagRead
 
 def reading(bag: Union[PathLike, BagReader]):
     """Context manager: ``bag`` if it is an open :class:`BagReader` (left open), else a new
-    strict ``BagReader(bag)`` closed on exit."""
+    strict ``BagReader(bag)`` closed on exit.
+    """
     import contextlib
     return contextlib.nullcontext(bag) if isinstance(bag, BagReader) else BagReader(bag)
 

@@ -136,7 +136,8 @@ class BagSummary:
 
 def _qos_for_metadata(qos: str):
     """Version 9 metadata.yaml stores QoS profiles as a YAML list (the MCAP channel keeps the
-    string); an empty string becomes ``[]``; an unparsable string is kept as is."""
+    string); an empty string becomes ``[]``; an unparsable string is kept as is.
+    """
     if not qos.strip():
         return []
     try:

@@ -1,4 +1,4 @@
-"""Full ROS 2 message definitions (``ros2msg``) as rosbag2 writes them into MCAP schemas.
+r"""Full ROS 2 message definitions (``ros2msg``) as rosbag2 writes them into MCAP schemas.
 
 rosbag2 (``rosbag2_cpp::LocalMessageDefinitionSource``) stores, for every topic type, the
 *complete* message definition: the type's own ``.msg`` text followed, for every nested type it
@@ -17,7 +17,7 @@ Details reproduced here so the schema bytes match what ``ros2 bag record`` write
   package (``Type``) belongs to the package of the file that mentions it (``pkg/Type``);
 * the dependencies of one file are visited in sorted (``std::set``) order, depth first, and a
   dependency already emitted anywhere in the definition is not emitted again;
-* each delimiter is ``"\\n" + "=" * 80 + "\\n" + "MSG: " + name + "\\n"`` where ``name`` is the
+* each delimiter is ``"\n" + "=" * 80 + "\n" + "MSG: " + name + "\n"`` where ``name`` is the
   dependency exactly as spelled in the file (``std_msgs/Header``, no ``/msg/``).
 
 Deviation: rosbag2 does not list ``wstring`` as a primitive type (it would then fail to find a

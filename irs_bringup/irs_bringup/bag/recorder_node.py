@@ -1,4 +1,4 @@
-"""``recorder`` node: record topics off DDS into a rosbag2-compatible MCAP bag (``BagWriter``).
+r"""``recorder`` node: record topics off DDS into a rosbag2-compatible MCAP bag (``BagWriter``).
 
 Messages are taken as the serialized CDR bytes DDS delivered (never deserialized and
 re-serialized) and written with :class:`irs_bringup.bag.bag_writer.BagWriter`.
@@ -132,7 +132,8 @@ def _qos_text(info) -> str:
 
 def _uncreatable(directory: Path) -> str:
     """Why ``directory`` cannot be created (the writer makes missing parents: the nearest
-    existing ancestor must be a writable directory), or '' if it can (or exists)."""
+    existing ancestor must be a writable directory), or '' if it can (or exists).
+    """
     ancestor = directory.absolute()
     while not ancestor.exists():
         ancestor = ancestor.parent
@@ -387,7 +388,9 @@ class Recorder(Node):
             if not isinstance(rec.handle, Subscription):
                 rec.handle.destroy_when_not_in_use()
         if self.writer is None:
-            return f'recorder: nothing recorded (no topic matched), no bag written at {self.output}'
+            return (
+                f'recorder: nothing recorded (no topic matched), no bag written at {self.output}'
+            )
         s = self.writer.close()
         per = ', '.join(f'{t}: {st.message_count}' for t, st in sorted(s.topics.items())
                         if st.type)

@@ -3,7 +3,8 @@
 Publishes ``driver/command`` (irs_msgs/DriverCommand, the car's forward speed over the belt
 [m/s]) from the profile in the parameters (``profile.times`` [s], ``profile.speeds`` [m/s],
 ``profile.interpolation``): once per ``/clock`` tick with ``use_sim_time`` (lock-step runs list
-``driver`` among the rig's lock-step inputs), otherwise at ``rate`` on a wall timer, with the profile's time counted from the node's first tick.
+``driver`` among the rig's lock-step inputs), otherwise at ``rate`` on a wall timer, with the
+profile's time counted from the node's first tick.
 
 No data inputs: only ``/clock`` (with ``use_sim_time``). A negative ``/clock`` is dropped
 (irs_common.sim_time); time going back (``bag play --loop --clock``) restarts the profile's time
@@ -22,6 +23,8 @@ from .speed_profile import DRIVER_PARAMS as PARAMS, SpeedProfile
 
 
 class DriverNode(Node):
+    """Publishes ``driver/command`` from the speed profile, per tick of the ticker."""
+
     def __init__(self, **node_options):
         super().__init__('driver', **node_options)
         self.p = declare_table(self, PARAMS)

@@ -39,7 +39,8 @@ after the change. The *step window* runs from ``t_step`` to the next reference c
 the end of the record). Within it (``irs_control.metrics``): rise time 10-90 %, overshoot
 [%], 2 % settling time (from ``t_step``; nan if not settled by the window end), oscillation
 count (set-point crossings after the first; ``crossings_2pct``: the same with a +-2 % of
-step hysteresis band, so noise/backlash jitter does not count), residual oscillation = peak-to-peak of ``y_s``
+step hysteresis band, so noise/backlash jitter does not count), residual oscillation = peak-to-peak
+of ``y_s``
 over ``[t_step + RESIDUAL_DELAY, window end]`` (3 s after the step: the model has settled
 to 0.02 % by then), ISE vs model = ``int (y_s - y_model)^2 dt`` over the step window
 [m^2 s], also normalised by ``delta^2`` [s] and as ``max |y_s - y_model| / |delta|``,
@@ -60,11 +61,11 @@ from irs_control import metrics as M
 from irs_control.paper_design import reference_model
 from irs_models.constants import STEER_LIMIT  # [rad] 15 deg: the "time at limit" metric
 
-__all__ = ["RUN_NAMES", "RUN_LABELS", "DEFAULT_STEP", "DEFAULT_STEP_TIME", "DEFAULT_DURATION",
-           "DEFAULT_RIG", "DEFAULT_CONTROLLERS", "METRIC_COLUMNS", "RESIDUAL_DELAY",
-           "STEER_LIMIT", "reference_model_response", "step_window", "run_metrics",
-           "write_report", "model_metrics", "band_crossings", "metrics_markdown",
-           "simulate_offline", "main"]
+__all__ = ['RUN_NAMES', 'RUN_LABELS', 'DEFAULT_STEP', 'DEFAULT_STEP_TIME', 'DEFAULT_DURATION',
+           'DEFAULT_RIG', 'DEFAULT_CONTROLLERS', 'METRIC_COLUMNS', 'RESIDUAL_DELAY',
+           'STEER_LIMIT', 'reference_model_response', 'step_window', 'run_metrics',
+           'write_report', 'model_metrics', 'band_crossings', 'metrics_markdown',
+           'simulate_offline', 'main']
 
 #: Run names in panel order (top, middle, bottom).
 RUN_NAMES = ('mrc_with_actuator', 'mrc_without_actuator', 'pi')
@@ -188,7 +189,8 @@ def step_window(time, reference):
 def band_crossings(y, setpoint, band) -> int:
     """Set-point crossings after the first, with hysteresis: a crossing counts only when
     ``y`` goes from above ``setpoint + band`` to below ``setpoint - band`` or back (noise
-    and backlash jitter inside the band are ignored). ``band`` >= 0 [m]."""
+    and backlash jitter inside the band are ignored). ``band`` >= 0 [m].
+    """
     y = np.asarray(y, dtype=float)
     s = np.where(y > setpoint + band, 1, np.where(y < setpoint - band, -1, 0))
     s = s[s != 0]
@@ -207,7 +209,11 @@ def run_metrics(run: dict, steer_limit: float = STEER_LIMIT) -> dict:
     delta = sp - y0
     tw, yw, ymw = t[i0:i1], y[i0:i1], y_model[i0:i1]
     cmd = _align(run['steer_cmd'], n)[i0:i1]
-    ach = _align(run['steer_achieved'], n)[i0:i1] if 'steer_achieved' in run else np.full(tw.size, np.nan)
+    ach = (
+        _align(run['steer_achieved'], n)[i0:i1]
+        if 'steer_achieved' in run
+        else np.full(tw.size, np.nan)
+    )
     ise = M.ise_vs_model(tw, yw, ymw)
     at_limit = np.abs(cmd) >= steer_limit * (1.0 - 1e-6)
     dt = np.diff(tw, append=tw[-1] + (tw[-1] - tw[-2] if tw.size > 1 else 0.0))
@@ -221,15 +227,19 @@ def run_metrics(run: dict, steer_limit: float = STEER_LIMIT) -> dict:
         'overshoot_percent': M.overshoot_percent(yw, sp, y0),
         'settling_time': M.settling_time(tw, yw, sp, y0, t_step=t_step),
         'oscillation_count': M.oscillation_count(yw, sp),
-        'crossings_2pct': band_crossings(np.sign(delta) * (yw - y0), abs(delta),
-                                         0.02 * abs(delta)),
-        'residual_oscillation': (M.residual_oscillation(tw, yw, res_from)
-                                 if tw[-1] >= res_from else float('nan')),
+        'crossings_2pct': band_crossings(
+            np.sign(delta) * (yw - y0), abs(delta), 0.02 * abs(delta)
+        ),
+        'residual_oscillation': (
+            M.residual_oscillation(tw, yw, res_from) if tw[-1] >= res_from else float('nan')
+        ),
         'ise_vs_model': ise,
-        'ise_norm': ise / delta ** 2,
+        'ise_norm': ise / delta**2,
         'max_dev_rel': float(np.max(np.abs(yw - ymw)) / abs(delta)),
         'peak_steer_cmd_deg': math.degrees(M.peak_abs(cmd)),
-        'peak_steer_achieved_deg': math.degrees(float(np.nanmax(np.abs(ach)))) if np.isfinite(ach).any() else float('nan'),
+        'peak_steer_achieved_deg': math.degrees(float(np.nanmax(np.abs(ach))))
+        if np.isfinite(ach).any()
+        else float('nan'),
         'time_at_limit': float(np.sum(dt[at_limit])),
     }
 
@@ -247,7 +257,7 @@ def metrics_markdown(table: dict, title: str = '') -> str:
     """Markdown table of ``{run name: run_metrics(...)}``."""
     head = '| run | ' + ' | '.join(h for _, h, _ in METRIC_COLUMNS) + ' |'
     sep = '|---|' + '---|' * len(METRIC_COLUMNS)
-    rows = [f"| {name} | " + ' | '.join(_fmt(f, m[k]) for k, _, f in METRIC_COLUMNS) + ' |'
+    rows = [f'| {name} | ' + ' | '.join(_fmt(f, m[k]) for k, _, f in METRIC_COLUMNS) + ' |'
             for name, m in table.items()]
     out = ([f'# {title}', ''] if title else []) + [head, sep] + rows
     return '\n'.join(out) + '\n'

@@ -4,7 +4,8 @@ import numpy as np
 
 def phase_metrics(time, x, x_ref, change_times, band=0.02):
     """For each phase starting at a driver speed change: peak |x - x_ref| [m] and the time after
-    the change [s] from which |x - x_ref| stays within ``band`` [m] (NaN: never settles)."""
+    the change [s] from which |x - x_ref| stays within ``band`` [m] (NaN: never settles).
+    """
     time, err = np.asarray(time), np.asarray(x) - x_ref
     ends = list(change_times[1:]) + [time[-1] + 1.0]
     out = []

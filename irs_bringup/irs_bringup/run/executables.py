@@ -5,7 +5,8 @@
 ``AMENT_PREFIX_PATH``) and then runs ``<prefix>/lib/<package>/<executable>``. We do the same, so
 whatever our bringup starts is what ``ros2 run`` would start.
 
-Run as a module to print the path: ``python -m irs_bringup.run.executables <package> <executable>``.
+Run as a module to print the path:
+``python -m irs_bringup.run.executables <package> <executable>``.
 """
 import os
 import sys
@@ -22,8 +23,10 @@ def package_executables(package: str) -> list[str]:
     try:
         prefix = get_package_prefix(package)
     except PackageNotFoundError as exc:
-        raise ExecutableNotFound(f"package '{package}' is not in the ament index "
-                                 f"(AMENT_PREFIX_PATH={os.environ.get('AMENT_PREFIX_PATH', '')!r})") from exc
+        raise ExecutableNotFound(
+            f"package '{package}' is not in the ament index "
+            f'(AMENT_PREFIX_PATH={os.environ.get("AMENT_PREFIX_PATH", "")!r})'
+        ) from exc
     lib_dir = os.path.join(prefix, 'lib', package)
     if not os.path.isdir(lib_dir):
         return []
@@ -44,7 +47,9 @@ def resolve_executable(package: str, executable: str) -> str:
 def main(argv=None) -> int:
     args = sys.argv[1:] if argv is None else argv
     if len(args) != 2:
-        print('usage: python -m irs_bringup.run.executables <package> <executable>', file=sys.stderr)
+        print(
+            'usage: python -m irs_bringup.run.executables <package> <executable>', file=sys.stderr
+        )
         return 2
     try:
         print(resolve_executable(*args))

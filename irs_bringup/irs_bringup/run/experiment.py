@@ -57,6 +57,8 @@ class ExperimentError(ValueError):
 
 @dataclass
 class NodeEntry:
+    """One node of an experiment: what to start, with which parameters, in which process."""
+
     name: str
     package: str
     executable: str
@@ -72,6 +74,8 @@ class NodeEntry:
 
 @dataclass
 class Experiment:
+    """A loaded experiment file (format: the module docstring)."""
+
     name: str
     description: str
     clock: str
@@ -139,8 +143,18 @@ def load_experiment(name_or_path: str) -> Experiment:
         raise ExperimentError(one_line(path, problems))
     name = model.name or path.stem
     if not SAFE_NAME.fullmatch(name):
-        raise ExperimentError(one_line(path, [('name', f'the file name {name!r} is not a plain '
-                                                       "name for the run directory: set 'name:'")]))
+        raise ExperimentError(
+            one_line(
+                path,
+                [
+                    (
+                        'name',
+                        f'the file name {name!r} is not a plain '
+                        "name for the run directory: set 'name:'",
+                    )
+                ],
+            )
+        )
     problems = environment_problems(model)
     if problems:
         raise ExperimentError(one_line(path, problems))

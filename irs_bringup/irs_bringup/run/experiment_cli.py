@@ -1,5 +1,6 @@
 """``experiment``: run IRS experiments (``ros2 run irs_bringup experiment ...``, or ``./irs run``).
 
+commands:
   experiment list                        installed experiment files
   experiment run <name|file.yaml>        run one through the ROS graph, record, plot
   experiment run <name> --offline        the same cores without ROS (closed_loop.py)
@@ -25,7 +26,10 @@ def _post_process(result, log=print):
     from ..bag.bag_reader import BagError, validate
     try:
         report = validate(result.bag_dir)
-        log(f'[experiment] bag: {result.bag_dir} ({"valid" if report.ok else "INVALID: " + "; ".join(report.problems)})')
+        log(
+            f'[experiment] bag: {result.bag_dir} '
+            f'({"valid" if report.ok else "INVALID: " + "; ".join(report.problems)})'
+        )
     except BagError as exc:
         log(f'[experiment] bag unreadable: {exc}')
         return written
@@ -87,9 +91,15 @@ def figure10(out_dir, offline=False, runs_dir='runs', log=print) -> int:
             return 1
         runs[key] = lateral_run(result.bag_dir)
     out = Path(out_dir)
-    metrics = write_report(runs, out, 'Figure 10 ' + ('(offline cores)' if offline else '(ROS graph, lock-step)'))
+    metrics = write_report(
+        runs, out, 'Figure 10 ' + ('(offline cores)' if offline else '(ROS graph, lock-step)')
+    )
     log(f'[figure10] report: {out / "figure10.png"}, {out / "figure10_metrics.md"}')
-    log((out / 'figure10_metrics.md').read_text() if (out / 'figure10_metrics.md').exists() else str(metrics))
+    log(
+        (out / 'figure10_metrics.md').read_text()
+        if (out / 'figure10_metrics.md').exists()
+        else str(metrics)
+    )
     return 0
 
 
@@ -100,7 +110,9 @@ def main(argv=None) -> int:
     sub.add_parser('list', help='installed experiment files')
     p_run = sub.add_parser('run', help='run an experiment')
     p_run.add_argument('experiment', help='name of an installed experiment or a YAML file')
-    p_run.add_argument('--runs-dir', default='runs', help='where run directories go (default: runs)')
+    p_run.add_argument(
+        '--runs-dir', default='runs', help='where run directories go (default: runs)'
+    )
     p_run.add_argument('--no-plots', action='store_true', help='skip plots and the .rrd')
     p_run.add_argument('--offline', action='store_true', help='simulate the cores without ROS')
     p_run.add_argument('--rt-priority', type=int, default=0, metavar='N',
@@ -110,7 +122,9 @@ def main(argv=None) -> int:
         p = sub.add_parser(cmd, help='the three Figure 10 runs and their report')
         p.add_argument('--offline', action='store_true', help='simulate the cores without ROS')
         p.add_argument('--runs-dir', default='runs')
-        p.add_argument('--out', default=None, help='report directory (default: <runs-dir>/figure10)')
+        p.add_argument(
+            '--out', default=None, help='report directory (default: <runs-dir>/figure10)'
+        )
     args = parser.parse_args(argv)
     try:
         if args.cmd == 'list':

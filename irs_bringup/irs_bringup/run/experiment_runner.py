@@ -57,6 +57,8 @@ class ExperimentFailed(RuntimeError):
 
 @dataclass
 class RunResult:
+    """What one run left: its directories, whether it completed, times and exit codes."""
+
     run_dir: Path
     bag_dir: Path | None
     completed: bool
@@ -246,9 +248,11 @@ class ExperimentRunner:
         timing = clock.get('timing', {})
         if timing:
             (self.run_dir / 'timing.json').write_text(json.dumps(timing, indent=1))
-            self.log('[experiment] real-time loop: {steps} steps, {miss_pct:.3f} % deadline misses, '
-                     'latency p50 {latency_p50_ms:.3f} / p99 {latency_p99_ms:.3f} / max '
-                     '{latency_max_ms:.3f} ms, {late_ticks} late ticks'.format(**timing))
+            self.log(
+                '[experiment] real-time loop: {steps} steps, {miss_pct:.3f} % deadline misses, '
+                'latency p50 {latency_p50_ms:.3f} / p99 {latency_p99_ms:.3f} / max '
+                '{latency_max_ms:.3f} ms, {late_ticks} late ticks'.format(**timing)
+            )
         cpu = {label: getattr(proc, 'cpu_at_stop', float('nan')) - cpu0.get(label, float('nan'))
                for label, proc in self.procs.items()}   # CPU of the run itself, start-up excluded
         return RunResult(self.run_dir, bag_dir, completed, sim_time, time.monotonic() - t_wall0,
@@ -272,9 +276,11 @@ class ExperimentRunner:
         if not watcher.spin_until(ready, max(0.0, deadline - time.monotonic())):
             missing = sorted({'/' + n for n in names} - watcher.node_names())
             node = watcher.node
-            lacking = [f'{t} ({node.count_publishers(t)}/{p} pub, {node.count_subscribers(t)}/{s} sub)'
-                       for t, (p, s) in expected.items()
-                       if node.count_publishers(t) < p or node.count_subscribers(t) < s]
+            lacking = [
+                f'{t} ({node.count_publishers(t)}/{p} pub, {node.count_subscribers(t)}/{s} sub)'
+                for t, (p, s) in expected.items()
+                if node.count_publishers(t) < p or node.count_subscribers(t) < s
+            ]
             raise ExperimentFailed(f'graph not up after {self.graph_timeout:.0f} s; missing nodes '
                                    f'{missing}, unmatched topics {lacking}')
         self.log(f'[experiment] graph up: {len(names)} nodes, {len(expected)} topics connected')
@@ -287,7 +293,9 @@ class ExperimentRunner:
             raise ExperimentFailed('rig/start service not available')
         future = client.call_async(Trigger.Request())
         if not watcher.spin_until(future.done, 20.0) or not future.result().success:
-            raise ExperimentFailed(f'rig/start failed: {future.result() and future.result().message}')
+            raise ExperimentFailed(
+                f'rig/start failed: {future.result() and future.result().message}'
+            )
 
     def _follow(self, watcher, clock, t_start) -> bool:
         exp = self.exp
@@ -326,7 +334,8 @@ class ExperimentRunner:
 
     def _drain(self, watcher, seconds: float = 0.5):
         """Every node has published all of the run (the rig saw the last step's answers); give
-        the messages still in flight to the recorder ``seconds`` of wall time before stopping."""
+        the messages still in flight to the recorder ``seconds`` of wall time before stopping.
+        """
         deadline = time.monotonic() + seconds
         while time.monotonic() < deadline:
             watcher.executor.spin_once(timeout_sec=0.05)

@@ -1,4 +1,7 @@
-"""An experiment file as an offline :class:`~irs_bringup.paper.closed_loop.LoopConfig` (no rclpy)."""
+"""An experiment file as an offline :class:`~irs_bringup.paper.closed_loop.LoopConfig`.
+
+No rclpy.
+"""
 from ..paper.closed_loop import LoopConfig
 from .experiment import Experiment, RIG_KEY, node_parameters
 

@@ -22,7 +22,8 @@ _PR_SET_PDEATHSIG = 1
 
 def _die_with_parent():
     """In the child before exec: get SIGTERM when the parent dies (Linux prctl), so even a
-    SIGKILLed runner leaves no node behind."""
+    SIGKILLed runner leaves no node behind.
+    """
     try:
         import ctypes
         ctypes.CDLL('libc.so.6', use_errno=True).prctl(_PR_SET_PDEATHSIG, signal.SIGTERM)
