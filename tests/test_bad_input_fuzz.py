@@ -75,12 +75,8 @@ def test_fuzz_lateral_controller(ros, launch):
     ref = node.create_publisher(LateralReference, 'lateral/reference', qos.COMMAND)
     cmds, status = {}, []
     subs = [
-        node.create_subscription(
-            SteeringCommand,
-            'steering/command',
-            lambda m: cmds.setdefault(to_ns(m.header.stamp), m),
-            qos.COMMAND,
-        ),
+        node.create_subscription(SteeringCommand, 'steering/command',
+                                 lambda m: cmds.setdefault(to_ns(m.header.stamp), m), qos.COMMAND),
         node.create_subscription(
             LateralControllerStatus, 'lateral/status', status.append, qos.SENSOR
         ),
@@ -184,12 +180,9 @@ def test_fuzz_treadmill_regulator(ros, launch):
     vel_pub = node.create_publisher(TwistStamped, 'velocity', qos.SENSOR)
     belt_pub = node.create_publisher(BeltSpeed, 'belt/speed', qos.SENSOR)
     drive = {}
-    sub = node.create_subscription(
-        TreadmillDriveCommand,
-        'treadmill/drive',
-        lambda m: drive.setdefault(to_ns(m.header.stamp), m),
-        qos.COMMAND,
-    )
+    sub = node.create_subscription(TreadmillDriveCommand, 'treadmill/drive',
+                                   lambda m: drive.setdefault(to_ns(m.header.stamp), m),
+                                   qos.COMMAND)
     assert ros.wait_for_matched([pose_pub, vel_pub, belt_pub, sub], timeout=30.0)
 
     def send(ns, x=0.0, y=0.0, qz=0.0, qw=1.0, vx=0.0, vy=0.0, belt=1.0):

@@ -178,184 +178,109 @@ DELETE = object()
 VS = 'nodes__vehicle_sim__'
 
 BAD_FILES = {
-    'unknown executable': (
-        _doc(**{VS + 'executable': 'vehicle_simm'}),
-        'nodes.vehicle_sim.executable',
-        "no executable 'vehicle_simm' in package 'irs_vehicle_sim' (it has: ",
-    ),
-    'unknown package': (
-        _doc(**{VS + 'package': 'irs_nothing'}),
-        'nodes.vehicle_sim.package',
-        "package 'irs_nothing' is not in the ament index",
-    ),
-    'nodes a list': (
-        _doc(nodes=['vehicle_sim']),
-        'nodes',
-        "expected a valid dictionary, got ['vehicle_sim']",
-    ),
-    'node entry not a mapping': (
-        _doc(nodes={'vehicle_sim': 'irs_vehicle_sim'}),
-        'nodes.vehicle_sim',
-        "expected a valid dictionary, got 'irs_vehicle_sim'",
-    ),
-    'node without executable': (
-        _doc(**{VS + 'executable': DELETE}),
-        'nodes.vehicle_sim.executable',
-        'required but missing',
-    ),
+    'unknown executable': (_doc(**{VS + 'executable': 'vehicle_simm'}),
+                           'nodes.vehicle_sim.executable',
+                           "no executable 'vehicle_simm' in package 'irs_vehicle_sim' (it has: "),
+    'unknown package': (_doc(**{VS + 'package': 'irs_nothing'}), 'nodes.vehicle_sim.package',
+                        "package 'irs_nothing' is not in the ament index"),
+    'nodes a list': (_doc(nodes=['vehicle_sim']), 'nodes',
+                     "expected a valid dictionary, got ['vehicle_sim']"),
+    'node entry not a mapping': (_doc(nodes={'vehicle_sim': 'irs_vehicle_sim'}),
+                                 'nodes.vehicle_sim',
+                                 "expected a valid dictionary, got 'irs_vehicle_sim'"),
+    'node without executable': (_doc(**{VS + 'executable': DELETE}),
+                                'nodes.vehicle_sim.executable', 'required but missing'),
     'unknown node key': (
         _doc(**{VS + 'param': {}}),
         'nodes.vehicle_sim.param',
         'unknown key (expected one of: package, executable, params_files, params, '
         'remaps, process)',
     ),
-    'params a list': (
-        _doc(**{VS + 'params': ['x0', 0.3]}),
-        'nodes.vehicle_sim.params',
-        "expected a valid dictionary, got ['x0', 0.3]",
-    ),
-    'params nested': (
-        _doc(**{VS + 'params': {'actuator_front': {'lag_hz': 4.0}}}),
-        'nodes.vehicle_sim.params.actuator_front',
-        'a nested mapping: give flat names (<name>.<key>: value)',
-    ),
+    'params a list': (_doc(**{VS + 'params': ['x0', 0.3]}), 'nodes.vehicle_sim.params',
+                      "expected a valid dictionary, got ['x0', 0.3]"),
+    'params nested': (_doc(**{VS + 'params': {'actuator_front': {'lag_hz': 4.0}}}),
+                      'nodes.vehicle_sim.params.actuator_front',
+                      'a nested mapping: give flat names (<name>.<key>: value)'),
     'param without value': (
         _doc(**{VS + 'params': {'x0': None}}),
         'nodes.vehicle_sim.params.x0',
         'a boolean, number, string or list of one of those expected, got None',
     ),
-    'param empty list': (
-        _doc(**{VS + 'params': {'lockstep_inputs': []}}),
-        'nodes.vehicle_sim.params.lockstep_inputs',
-        'an empty list cannot be passed',
-    ),
-    'param mixed list': (
-        _doc(**{VS + 'params': {'lockstep_inputs': ['drive', 1]}}),
-        'nodes.vehicle_sim.params.lockstep_inputs',
-        "all elements of a list must have one type, got ['drive', 1]",
-    ),
-    'remaps a list': (
-        _doc(**{VS + 'remaps': ['a:=b']}),
-        'nodes.vehicle_sim.remaps',
-        'expected a valid dictionary',
-    ),
-    'remap to a number': (
-        _doc(**{VS + 'remaps': {'pose': 3}}),
-        'nodes.vehicle_sim.remaps.pose',
-        'expected a valid string, got 3',
-    ),
+    'param empty list': (_doc(**{VS + 'params': {'lockstep_inputs': []}}),
+                         'nodes.vehicle_sim.params.lockstep_inputs',
+                         'an empty list cannot be passed'),
+    'param mixed list': (_doc(**{VS + 'params': {'lockstep_inputs': ['drive', 1]}}),
+                         'nodes.vehicle_sim.params.lockstep_inputs',
+                         "all elements of a list must have one type, got ['drive', 1]"),
+    'remaps a list': (_doc(**{VS + 'remaps': ['a:=b']}), 'nodes.vehicle_sim.remaps',
+                      'expected a valid dictionary'),
+    'remap to a number': (_doc(**{VS + 'remaps': {'pose': 3}}), 'nodes.vehicle_sim.remaps.pose',
+                          'expected a valid string, got 3'),
     'params_files a string': (
         _doc(**{VS + 'params_files': 'pkg://irs_vehicle_sim/config/rig.yaml'}),
         'nodes.vehicle_sim.params_files',
         'expected a valid list',
     ),
-    'record a list': (
-        _doc(record=['/pose']),
-        'record',
-        "expected a valid dictionary, got ['/pose']",
-    ),
-    'record topics a string': (
-        _doc(record={'topics': '/pose'}),
-        'record.topics',
-        "expected a valid list, got '/pose'",
-    ),
-    'record unknown key': (
-        _doc(record={'topic': ['/pose']}),
-        'record.topic',
-        'unknown key (expected one of: topics, process)',
-    ),
+    'record a list': (_doc(record=['/pose']), 'record',
+                      "expected a valid dictionary, got ['/pose']"),
+    'record topics a string': (_doc(record={'topics': '/pose'}), 'record.topics',
+                               "expected a valid list, got '/pose'"),
+    'record unknown key': (_doc(record={'topic': ['/pose']}), 'record.topic',
+                           'unknown key (expected one of: topics, process)'),
     'params file of an unknown package': (
         _doc(**{VS + 'params_files': ['pkg://irs_nothing/config/rig.yaml']}),
         'nodes.vehicle_sim.params_files[0]',
         "'pkg://irs_nothing/config/rig.yaml': package 'irs_nothing' is not in the ament index",
     ),
-    'missing params file': (
-        _doc(**{VS + 'params_files': ['/nonexistent/rig.yaml']}),
-        'nodes.vehicle_sim.params_files[0]',
-        "parameter file '/nonexistent/rig.yaml' not found",
-    ),
+    'missing params file': (_doc(**{VS + 'params_files': ['/nonexistent/rig.yaml']}),
+                            'nodes.vehicle_sim.params_files[0]',
+                            "parameter file '/nonexistent/rig.yaml' not found"),
     'missing file in a package': (
         _doc(**{VS + 'params_files': ['pkg://irs_vehicle_sim/config/no.yaml']}),
         'nodes.vehicle_sim.params_files[0]',
         'not found',
     ),
-    'duration below one step': (
-        _doc(duration=0.0001),
-        'duration',
-        '0.0001 s is shorter than one rig step (dt = 0.001 s)',
-    ),
+    'duration below one step': (_doc(duration=0.0001), 'duration',
+                                '0.0001 s is shorter than one rig step (dt = 0.001 s)'),
     'duration below one step of the rig dt': (
         _doc(duration=0.003, **{VS + 'params': {'dt': 0.004}}),
         'duration',
         'shorter than one rig step (dt = 0.004 s)',
     ),
     'duration true': (_doc(duration=True), 'duration', 'expected a number of seconds, got True'),
-    'duration a string': (
-        _doc(duration='8 s'),
-        'duration',
-        "expected a number of seconds, got '8 s'",
-    ),
-    'duration zero': (
-        _doc(duration=0),
-        'duration',
-        'expected a number of seconds greater than 0, got 0',
-    ),
-    'duration infinite': (
-        _doc(duration=float('inf')),
-        'duration',
-        'expected a finite number of seconds, got inf',
-    ),
+    'duration a string': (_doc(duration='8 s'), 'duration',
+                          "expected a number of seconds, got '8 s'"),
+    'duration zero': (_doc(duration=0), 'duration',
+                      'expected a number of seconds greater than 0, got 0'),
+    'duration infinite': (_doc(duration=float('inf')), 'duration',
+                          'expected a finite number of seconds, got inf'),
     'duration missing': (_doc(duration=DELETE), 'duration', 'required but missing'),
     'name with ../': (_doc(name='../escape'), 'name', "'../escape' is not a plain name"),
     'name with /': (_doc(name='a/b'), 'name', "'a/b' is not a plain name"),
     'name with a space': (_doc(name='a b'), 'name', 'is not a plain name'),
     'name a number': (_doc(name=10), 'name', 'expected a valid string, got 10'),
-    'clock unknown': (
-        _doc(clock='fast'),
-        'clock',
-        "expected 'lockstep' or 'realtime', got 'fast'",
-    ),
-    'unknown top-level key': (
-        _doc(durration=1.0),
-        'durration',
-        'unknown key (expected one of: name, description, clock, duration',
-    ),
+    'clock unknown': (_doc(clock='fast'), 'clock',
+                      "expected 'lockstep' or 'realtime', got 'fast'"),
+    'unknown top-level key': (_doc(durration=1.0), 'durration',
+                              'unknown key (expected one of: name, description, clock, duration'),
     'no nodes': (_doc(nodes={}), 'nodes', 'at least one entry expected, got {}'),
-    'two rigs': (
-        _doc(nodes__rig2=dict(VALID['nodes']['vehicle_sim'])),
-        'nodes',
-        "more than one vehicle_sim: ['vehicle_sim', 'rig2']",
-    ),
-    'bad node name': (
-        _doc(nodes={'my-node': VALID['nodes']['vehicle_sim']}),
-        'nodes',
-        'node names must be ROS names',
-    ),
-    'process not a plain name': (
-        _doc(**{VS + 'process': '../p'}),
-        'nodes.vehicle_sim.process',
-        "'../p' is not a plain name for a process group",
-    ),
-    'process a list': (
-        _doc(**{VS + 'process': ['a']}),
-        'nodes.vehicle_sim.process',
-        'expected a valid string',
-    ),
+    'two rigs': (_doc(nodes__rig2=dict(VALID['nodes']['vehicle_sim'])), 'nodes',
+                 "more than one vehicle_sim: ['vehicle_sim', 'rig2']"),
+    'bad node name': (_doc(nodes={'my-node': VALID['nodes']['vehicle_sim']}), 'nodes',
+                      'node names must be ROS names'),
+    'process not a plain name': (_doc(**{VS + 'process': '../p'}), 'nodes.vehicle_sim.process',
+                                 "'../p' is not a plain name for a process group"),
+    'process a list': (_doc(**{VS + 'process': ['a']}), 'nodes.vehicle_sim.process',
+                       'expected a valid string'),
     'parameter of the wrong type': (
         _doc(**{VS + 'params': {'x0': 'abc'}}),
         'nodes.vehicle_sim.params.x0',
         "parameter 'x0': got 'abc' (string), expected a finite double in [-1.2192, 1.2192]",
     ),
-    'parameter out of range': (
-        _doc(**{VS + 'params': {'x0': 5.0}}),
-        'nodes.vehicle_sim.params.x0',
-        'got 5.0 (out of range)',
-    ),
-    'boolean for a double parameter': (
-        _doc(**{VS + 'params': {'ds': True}}),
-        'nodes.vehicle_sim.params.ds',
-        'got True (boolean)',
-    ),
+    'parameter out of range': (_doc(**{VS + 'params': {'x0': 5.0}}), 'nodes.vehicle_sim.params.x0',
+                               'got 5.0 (out of range)'),
+    'boolean for a double parameter': (_doc(**{VS + 'params': {'ds': True}}),
+                                       'nodes.vehicle_sim.params.ds', 'got True (boolean)'),
     'misspelt parameter of a node with a whole table': (
         _doc(nodes__treadmill_regulator__params={'enabeld': False}),
         'nodes.treadmill_regulator.params.enabeld',
@@ -386,21 +311,15 @@ def test_schema_the_valid_document_loads_with_its_values(tmp_path):
             _write(
                 tmp_path,
                 _doc(
-                    **{
-                        VS + 'process': 'rig_group',
-                        VS + 'params': {'x0': 0, 'lockstep_inputs': ['drive']},
-                    }
+                    **{VS + 'process': 'rig_group',
+                       VS + 'params': {'x0': 0, 'lockstep_inputs': ['drive']}}
                 ),
             )
         )
     )
     rig = exp.node('irs_vehicle_sim', 'vehicle_sim')
-    assert (exp.name, exp.clock, exp.duration, exp.record_topics) == (
-        'schema_test',
-        'lockstep',
-        0.5,
-        ['/pose'],
-    )
+    assert (exp.name, exp.clock, exp.duration, exp.record_topics) == ('schema_test', 'lockstep',
+                                                                      0.5, ['/pose'])
     assert rig == NodeEntry('vehicle_sim', 'irs_vehicle_sim', 'vehicle_sim',
                             ['pkg://irs_vehicle_sim/config/rig.yaml'],
                             {'x0': 0, 'lockstep_inputs': ['drive']}, {}, 'rig_group')
@@ -481,11 +400,8 @@ def test_schema_cli_prints_one_line_and_exits_2(tmp_path, capsys, case):
 
 def test_schema_offline_run_with_a_parameter_only_the_cores_check_is_one_line(tmp_path, capsys):
     doc = _doc(
-        nodes__lateral_controller={
-            'package': 'irs_control',
-            'executable': 'lateral_controller',
-            'params': {'mode': 'bogus'},
-        }
+        nodes__lateral_controller={'package': 'irs_control', 'executable': 'lateral_controller',
+                                   'params': {'mode': 'bogus'}}
     )
     path = _write(tmp_path, doc)
     assert experiment_main(['run', str(path), '--offline']) == 2

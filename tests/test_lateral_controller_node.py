@@ -28,12 +28,9 @@ class ControllerLink:
         self.ref = node.create_publisher(LateralReference, 'lateral/reference', qos.COMMAND)
         self.cmds, self.status = {}, []
         self.subs = [
-            node.create_subscription(
-                SteeringCommand,
-                'steering/command',
-                lambda m: self.cmds.__setitem__(to_ns(m.header.stamp), m),
-                qos.COMMAND,
-            ),
+            node.create_subscription(SteeringCommand, 'steering/command',
+                                     lambda m: self.cmds.__setitem__(to_ns(m.header.stamp), m),
+                                     qos.COMMAND),
             node.create_subscription(
                 LateralControllerStatus, 'lateral/status', self.status.append, qos.SENSOR
             ),

@@ -33,19 +33,14 @@ def test_ruff_configuration_is_the_one_in_the_tree():
 
 def test_cores_do_not_import_rclpy():
     """Cores and libraries stay ROS-free: only nodes, the graph tools and tests import rclpy."""
-    allowed = {
-        'irs_common/irs_common/qos.py',
-        'irs_common/irs_common/node_main.py',
-        'irs_common/irs_common/ticker.py',
-        'irs_common/irs_common/executor.py',
-        'irs_common/irs_common/sim_time.py',
-        'irs_common/irs_common/time_jump.py',
-        'irs_bringup/irs_bringup/run/graph.py',
-        'irs_bringup/irs_bringup/run/experiment_runner.py',
-        'irs_bringup/irs_bringup/bag/recorder_node.py',
-        'irs_bringup/irs_bringup/bag/bag_play.py',
-        'irs_bringup/irs_bringup/bag/bench_replay.py',
-    }
+    allowed = {'irs_common/irs_common/qos.py', 'irs_common/irs_common/node_main.py',
+               'irs_common/irs_common/ticker.py', 'irs_common/irs_common/executor.py',
+               'irs_common/irs_common/sim_time.py', 'irs_common/irs_common/time_jump.py',
+               'irs_bringup/irs_bringup/run/graph.py',
+               'irs_bringup/irs_bringup/run/experiment_runner.py',
+               'irs_bringup/irs_bringup/bag/recorder_node.py',
+               'irs_bringup/irs_bringup/bag/bag_play.py',
+               'irs_bringup/irs_bringup/bag/bench_replay.py'}
     offenders = []
     for path in ROOT.glob('irs_*/irs_*/**/*.py'):
         rel = str(path.relative_to(ROOT))

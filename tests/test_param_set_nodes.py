@@ -83,12 +83,9 @@ def test_controller_default_reference_applies_at_once(ros, launch):
     node = ros.node
     meas = node.create_publisher(PointStamped, 'lateral_position', qos.SENSOR)
     cmds = {}
-    sub = node.create_subscription(
-        SteeringCommand,
-        'steering/command',
-        lambda m: cmds.setdefault(to_ns(m.header.stamp), m),
-        qos.COMMAND,
-    )
+    sub = node.create_subscription(SteeringCommand, 'steering/command',
+                                   lambda m: cmds.setdefault(to_ns(m.header.stamp), m),
+                                   qos.COMMAND)
     assert ros.wait_for_matched([meas, sub], timeout=30.0)
 
     def steer(y=0.0):

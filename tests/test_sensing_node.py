@@ -34,24 +34,15 @@ def test_angles_give_expected_pose_velocity_and_lateral_displacement(ros, launch
     got = {'pose': {}, 'velocity': {}, 'lateral': {}, 'status': []}
     pub = node.create_publisher(JointState, 'arm/joint_states', qos.SENSOR)
     subs = [
-        node.create_subscription(
-            PoseStamped,
-            'pose',
-            lambda m: got['pose'].__setitem__(to_ns(m.header.stamp), m),
-            qos.SENSOR,
-        ),
-        node.create_subscription(
-            TwistStamped,
-            'velocity',
-            lambda m: got['velocity'].__setitem__(to_ns(m.header.stamp), m),
-            qos.SENSOR,
-        ),
-        node.create_subscription(
-            PointStamped,
-            'lateral_position',
-            lambda m: got['lateral'].__setitem__(to_ns(m.header.stamp), m),
-            qos.SENSOR,
-        ),
+        node.create_subscription(PoseStamped, 'pose',
+                                 lambda m: got['pose'].__setitem__(to_ns(m.header.stamp), m),
+                                 qos.SENSOR),
+        node.create_subscription(TwistStamped, 'velocity',
+                                 lambda m: got['velocity'].__setitem__(to_ns(m.header.stamp), m),
+                                 qos.SENSOR),
+        node.create_subscription(PointStamped, 'lateral_position',
+                                 lambda m: got['lateral'].__setitem__(to_ns(m.header.stamp), m),
+                                 qos.SENSOR),
         node.create_subscription(
             SensingStatus, 'sensing/status', lambda m: got['status'].append(m), qos.STATUS
         ),

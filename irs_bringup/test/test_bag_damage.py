@@ -166,12 +166,8 @@ def test_recover_keeps_a_whole_bag_whole(small_bag, tmp_path):
 
 @pytest.mark.parametrize(
     'content',
-    [
-        b'\xff\xfe not utf-8 \x80\n',
-        b'rosbag2_bagfile_information: [',
-        b'just a string',
-        b'rosbag2_bagfile_information:\n  relative_file_paths: [missing_0.mcap]\n',
-    ],
+    [b'\xff\xfe not utf-8 \x80\n', b'rosbag2_bagfile_information: [', b'just a string',
+     b'rosbag2_bagfile_information:\n  relative_file_paths: [missing_0.mcap]\n'],
 )
 def test_bad_metadata_yaml_is_one_line_and_the_mcap_still_reads(small_bag, tmp_path, content):
     bag = tmp_path / 'bag'

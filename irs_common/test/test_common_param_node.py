@@ -79,17 +79,11 @@ def test_changes_of_writable_parameters_reach_the_handler_as_doubles(ctx):
         ('x0', 2.0, 'out of range'),  # rclpy's range check (descriptor)
         ('x0', math.nan, 'out of range'),
         ('x0', 'abc', 'Wrong parameter type'),  # rclpy's type check (descriptor)
-        (
-            'gain',
-            math.nan,
-            "parameter 'gain': got nan (not a finite number), expected a finite double",
-        ),
+        ('gain', math.nan,
+         "parameter 'gain': got nan (not a finite number), expected a finite double"),
         ('gain', math.inf, "parameter 'gain': got inf (not a finite number)"),
-        (
-            'poles',
-            [],
-            "parameter 'poles': got an empty array, expected a non-empty array of finite",
-        ),
+        ('poles', [],
+         "parameter 'poles': got an empty array, expected a non-empty array of finite"),
         ('poles', [1.0, math.nan], "parameter 'poles': got nan (not a finite number)"),
         ('even', 3, "parameter 'even': 3 refused: must be even"),
         ('mode', 'b', 'read-only'),
@@ -124,21 +118,15 @@ def test_a_writable_parameter_without_a_handler_is_a_programming_error(ctx):
 @pytest.mark.parametrize(
     'args, message',
     [
-        (
-            ('-p', 'x0:=abc'),
-            "parameter 'x0': got 'abc' (string), expected a finite double in [-1.0, 1.0]",
-        ),
-        (
-            ('-p', 'x0:=5.0'),
-            "parameter 'x0': got 5.0 (out of range), expected a finite double in [-1.0, 1.0]",
-        ),
+        (('-p', 'x0:=abc'),
+         "parameter 'x0': got 'abc' (string), expected a finite double in [-1.0, 1.0]"),
+        (('-p', 'x0:=5.0'),
+         "parameter 'x0': got 5.0 (out of range), expected a finite double in [-1.0, 1.0]"),
         (('-p', 'gain:=.nan'), "parameter 'gain': got nan (not a finite number)"),
         (('-p', 'poles:=[]'), "parameter 'poles': got an empty array, expected a non-empty array"),
         (('-p', 'even:=3'), "parameter 'even': 3 refused: must be even"),
-        (
-            ('-p', 'even:=true'),
-            "parameter 'even': got True (boolean), expected an integer in [0, 100]",
-        ),
+        (('-p', 'even:=true'),
+         "parameter 'even': got True (boolean), expected an integer in [0, 100]"),
         (('-p', 'mode:=1'), "parameter 'mode': got 1 (integer), expected a string"),
     ],
 )

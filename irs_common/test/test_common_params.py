@@ -11,10 +11,8 @@ from irs_common.params import (Param, check_values, flatten, markdown_table, tab
 def test_descriptor_carries_unit_range_and_read_only():
     d = Param('gain', 2.0, 'drive gain', 'm/s/V', 0.0, 10.0, read_only=True).descriptor()
     assert d.description == 'drive gain [m/s/V]' and d.read_only
-    assert (d.floating_point_range[0].from_value, d.floating_point_range[0].to_value) == (
-        0.0,
-        10.0,
-    )
+    assert (d.floating_point_range[0].from_value, d.floating_point_range[0].to_value) == (0.0,
+                                                                                          10.0)
     i = Param('window', 20, 'fit window', 'samples', 2, 100).descriptor()
     assert (i.integer_range[0].from_value, i.integer_range[0].to_value) == (2, 100)
     assert not Param('flag', True, 'a flag', '-', 0, 1).descriptor().integer_range

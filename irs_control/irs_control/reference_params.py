@@ -13,30 +13,13 @@ def _signal_type(value):
 
 # The signal.* parameters are writable: the node rebuilds the signal at once (same time base).
 PARAMS = [
-    Param(
-        'source',
-        'function',
-        "'function' (signal below) or 'console' (console/lateral_position)",
-        '-',
-        read_only=True,
-    ),
-    Param(
-        'signal.type',
-        'step',
-        "'constant', 'step', 'square' or 'sine'",
-        '-',
-        writable=True,
-        validator=_signal_type,
-    ),
-    Param(
-        'signal.amplitude',
-        0.1,
-        'amplitude (step height, square/sine amplitude)',
-        'm',
-        -1.0,
-        1.0,
-        writable=True,
-    ),
+    Param('source', 'function',
+          "'function' (signal below) or 'console' (console/lateral_position)", '-',
+          read_only=True),
+    Param('signal.type', 'step', "'constant', 'step', 'square' or 'sine'", '-', writable=True,
+          validator=_signal_type),
+    Param('signal.amplitude', 0.1, 'amplitude (step height, square/sine amplitude)', 'm', -1.0,
+          1.0, writable=True),
     Param('signal.offset', 0.0, 'offset (value before start_time)', 'm', -1.0, 1.0, writable=True),
     Param('signal.start_time', 1.0, 'time the signal starts', 's', 0.0, 1e6, writable=True),
     Param('signal.period', 8.0, 'period of square and sine', 's', 1e-3, 1e6, writable=True),

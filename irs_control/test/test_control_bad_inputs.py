@@ -212,20 +212,16 @@ def test_console_reference_examples():
 @pytest.mark.parametrize(
     'params, words',
     [
-        (
-            {'reference_model_num': [math.nan]},
-            'reference_model_num must be a non-empty list of finite',
-        ),
+        ({'reference_model_num': [math.nan]},
+         'reference_model_num must be a non-empty list of finite'),
         ({'reference_model_num': []}, 'reference_model_num must be a non-empty list'),
         ({'reference_model_num': [0.0, 0.0]}, 'not all zero'),
         ({'reference_model_num': ['a']}, 'reference_model_num'),
         ({'reference_model_den': [1.0, math.inf, 2.0]}, 'reference_model_den must be'),
         ({'reference_model_den': [1.0, -1.0, 2.0]}, 'reference_model_den must be stable'),
         ({'reference_model_den': [2.0, 1.0, 2.0]}, 'reference_model_den must be monic'),
-        (
-            {'reference_model_num': [1.0, 2.0, 3.0], 'reference_model_den': [1.0, 2.0, 3.0]},
-            'strictly proper',
-        ),
+        ({'reference_model_num': [1.0, 2.0, 3.0], 'reference_model_den': [1.0, 2.0, 3.0]},
+         'strictly proper'),
         ({'observer': [1.0, math.nan]}, 'observer must be finite'),
         ({'observer': []}, 'observer must be'),
         ({'plant_gain': math.nan}, 'plant_gain must be a finite number'),

@@ -139,13 +139,8 @@ class Preset:
 
     def zpk(self, speed=None, ds=None, axle='front', actuator_pole=None):
         """Zeros, poles, gain at the preset's (or the given) speed and ds."""
-        return zpk(
-            self.params,
-            self.speed if speed is None else speed,
-            self.ds if ds is None else ds,
-            axle,
-            actuator_pole,
-        )
+        return zpk(self.params, self.speed if speed is None else speed,
+                   self.ds if ds is None else ds, axle, actuator_pole)
 
     def errors(self):
         """(pole_errors, zero_errors) of the model vs the stored target, integrators excluded."""
@@ -242,19 +237,10 @@ def _model_coeffs(x, speed, ds):
     return np.array([a1, a0, b1, b0])
 
 
-def fit_preset(
-    target_poles,
-    target_zeros,
-    speed: float,
-    ds: float,
-    bounds: dict,
-    x0: dict | None = None,
-    reg: float = 1e-3,
-    track: float = 1.0,
-    wheel_radius: float = 0.3,
-    rear_steer: bool = False,
-    objective: str = 'coeffs',
-) -> FitResult:
+def fit_preset(target_poles, target_zeros, speed: float, ds: float, bounds: dict,
+               x0: dict | None = None, reg: float = 1e-3, track: float = 1.0,
+               wheel_radius: float = 0.3, rear_steer: bool = False,
+               objective: str = 'coeffs') -> FitResult:
     """Fit (m, I_z, l_f, l_r, C_f, C_r) to published front-steer poles/zeros.
 
     Parameters
@@ -351,16 +337,8 @@ def fit_preset(
     tol = 1e-6
     at_b = [n for n, v, a, b, f in zip(PARAM_NAMES, x, lo, hi, free)
             if f and (abs(math.log(v / a)) < tol or abs(math.log(v / b)) < tol)]
-    return FitResult(
-        params=pdict,
-        poles=p,
-        zeros=z,
-        pole_errors=pe,
-        zero_errors=ze,
-        coef_residual=coef,
-        at_bounds=at_b,
-        success=bool(best.success),
-    )
+    return FitResult(params=pdict, poles=p, zeros=z, pole_errors=pe, zero_errors=ze,
+                     coef_residual=coef, at_bounds=at_b, success=bool(best.success))
 
 
 def _fmt(r):
@@ -385,18 +363,11 @@ def refit_all(path: str | None = None, verbose: bool = True) -> dict:
         tgt = d.get('target')
         if not fit or not tgt or 'bounds' not in fit:
             continue
-        res = fit_preset(
-            tgt['poles'],
-            tgt['zeros'],
-            float(d['speed']),
-            float(d['ds']),
-            fit['bounds'],
-            x0=fit.get('nominal'),
-            objective=fit.get('objective', 'coeffs'),
-            track=d['params']['track'],
-            wheel_radius=d['params']['wheel_radius'],
-            rear_steer=d['params']['rear_steer'],
-        )
+        res = fit_preset(tgt['poles'], tgt['zeros'], float(d['speed']), float(d['ds']),
+                         fit['bounds'], x0=fit.get('nominal'),
+                         objective=fit.get('objective', 'coeffs'), track=d['params']['track'],
+                         wheel_radius=d['params']['wheel_radius'],
+                         rear_steer=d['params']['rear_steer'])
         results[name] = res
         if verbose:
             print(

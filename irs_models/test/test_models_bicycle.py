@@ -37,13 +37,8 @@ def ss_tf(p, V, ds, col):
 
 @pytest.mark.parametrize(
     'p,V,ds',
-    [
-        (SCALE, 1.2, 0.33),
-        (SCALE, 0.7, 0.0),
-        (SEDAN, 12.0, 0.0),
-        (SEDAN, 25.0, 1.9),
-        (SEDAN, 12.0, -0.5),
-    ],
+    [(SCALE, 1.2, 0.33), (SCALE, 0.7, 0.0), (SEDAN, 12.0, 0.0), (SEDAN, 25.0, 1.9),
+     (SEDAN, 12.0, -0.5)],
 )
 def test_state_space_matches_symbolic_eq5_front(p, V, ds):
     n_sym, d_sym = eq5_front(p, V, ds)
@@ -125,14 +120,8 @@ def test_control_transfer_function_object():
 
 @pytest.mark.parametrize(
     'field,value',
-    [
-        ('mass', -1.0),
-        ('yaw_inertia', 0.0),
-        ('lf', float('nan')),
-        ('c_r', 'abc'),
-        ('track', float('inf')),
-        ('rear_steer', 'yes'),
-    ],
+    [('mass', -1.0), ('yaw_inertia', 0.0), ('lf', float('nan')), ('c_r', 'abc'),
+     ('track', float('inf')), ('rear_steer', 'yes')],
 )
 def test_params_validation(field, value):
     with pytest.raises(ValueError, match=field):

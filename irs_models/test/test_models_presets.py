@@ -99,14 +99,8 @@ def test_scale_car_residual_to_eq6(name, record_property):
 
 def test_scale_car_exact_match_needs_implausible_geometry():
     """Wide bounds reproduce Eq. 6 exactly, but only with l_r = 0.42 m (> a 1:10 wheelbase)."""
-    b = dict(
-        mass=(0.1, 100),
-        yaw_inertia=(1e-4, 10),
-        lf=(0.01, 2),
-        lr=(0.01, 2),
-        c_f=(1, 1e4),
-        c_r=(1, 1e4),
-    )
+    b = dict(mass=(0.1, 100), yaw_inertia=(1e-4, 10), lf=(0.01, 2), lr=(0.01, 2), c_f=(1, 1e4),
+             c_r=(1, 1e4))
     x0 = dict(mass=2.2, yaw_inertia=0.036, lf=0.13, lr=0.13, c_f=55, c_r=55)
     r = fit_preset([0, 0, -8, -20], [-2.4, -4.8], 1.2, 0.33, b, x0)
     assert r.max_error < 0.01
@@ -125,16 +119,8 @@ def test_yaml_fit_is_reproducible(name):
 
 
 def test_fit_recovers_known_vehicle():
-    truth = BicycleParams(
-        mass=1500,
-        yaw_inertia=2400,
-        lf=1.1,
-        lr=1.5,
-        c_f=90e3,
-        c_r=80e3,
-        track=1.5,
-        wheel_radius=0.3,
-    )
+    truth = BicycleParams(mass=1500, yaw_inertia=2400, lf=1.1, lr=1.5, c_f=90e3, c_r=80e3,
+                          track=1.5, wheel_radius=0.3)
     z, p, _ = zpk(truth, 20.0, 1.0)
     b = {k: (getattr(truth, k) * 0.5, getattr(truth, k) * 2.0) for k in PARAM_NAMES}
     b['mass'] = (1500, 1500)

@@ -132,11 +132,9 @@ class ArmPoseEstimatorNode(Node):
                 return
             if verdict != RESET:     # future or out of order: dropped, not answered
                 self.dropped += 1
-                self.warner.warn(
-                    verdict,
-                    f'arm reading {self.gate.reason(verdict, stamp_ns, now_ns)}',
-                    time.monotonic(),
-                )
+                self.warner.warn(verdict,
+                                 f'arm reading {self.gate.reason(verdict, stamp_ns, now_ns)}',
+                                 time.monotonic())
                 return
             self.warner.warn(verdict, f'arm reading {self.gate.reason(verdict, stamp_ns, now_ns)}',
                              time.monotonic())

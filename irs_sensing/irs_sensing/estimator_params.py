@@ -20,24 +20,12 @@ _EST = {
     'max_yaw_rate': ('rad/s', 0.0, INF, 'plausibility bound on yaw rate between samples'),
     'jump_margin': ('m', 0.0, INF, 'extra allowance on the position jump'),
     'jump_margin_psi': ('rad', 0.0, INF, 'extra allowance on the heading jump'),
-    'stale_timeout': (
-        's',
-        0.0,
-        INF,
-        'no valid reading for this long: input stale (writable: applied at once)',
-    ),
-    'dt_tolerance': (
-        '1',
-        0.0,
-        INF,
-        'relative sample-period deviation that resets the differentiators',
-    ),
-    'singular_tolerance': (
-        'rad',
-        0.0,
-        math.pi,
-        'near-singular arm when |theta2| or pi-|theta2| is below this',
-    ),
+    'stale_timeout': ('s', 0.0, INF,
+                      'no valid reading for this long: input stale (writable: applied at once)'),
+    'dt_tolerance': ('1', 0.0, INF,
+                     'relative sample-period deviation that resets the differentiators'),
+    'singular_tolerance': ('rad', 0.0, math.pi,
+                           'near-singular arm when |theta2| or pi-|theta2| is below this'),
     'differentiator': (
         '-',
         None,
@@ -63,15 +51,8 @@ _CAL = {
     'counts_zero': ('counts', -INF, INF, 'ADC reading at 0 V'),
 }
 NODE = [
-    Param(
-        'rate_hz',
-        1000.0,
-        'sampling rate of the arm potentiometers',
-        'Hz',
-        1.0,
-        100000.0,
-        read_only=True,
-    ),
+    Param('rate_hz', 1000.0, 'sampling rate of the arm potentiometers', 'Hz', 1.0, 100000.0,
+          read_only=True),
     Param(
         'input',
         'angles',

@@ -143,11 +143,9 @@ class TreadmillRegulatorNode(Node):
 
     def _drop(self, what, verdict, stamp_ns, now_ns):
         self.dropped += 1
-        self.warner.warn(
-            f'{what}-{verdict}',
-            f'{what}: {self.gate.reason(verdict, stamp_ns, now_ns)}',
-            time.monotonic(),
-        )
+        self.warner.warn(f'{what}-{verdict}',
+                         f'{what}: {self.gate.reason(verdict, stamp_ns, now_ns)}',
+                         time.monotonic())
 
     def _add(self, name, msg):
         stamp_ns = to_ns(msg.header.stamp)

@@ -58,11 +58,8 @@ def test_after_a_bad_position_the_regulator_equals_a_fresh_one(prefix, bad_x, ta
     fresh = BeltSpeedRegulator()
     for x, belt, xdot in tail:
         assert reg.update(x, belt, DT, xdot=xdot) == fresh.update(x, belt, DT, xdot=xdot)
-    assert (reg.integral, reg.voltage, reg._xdot_f) == (
-        fresh.integral,
-        fresh.voltage,
-        fresh._xdot_f,
-    )
+    assert (reg.integral, reg.voltage, reg._xdot_f) == (fresh.integral, fresh.voltage,
+                                                        fresh._xdot_f)
 
 
 @settings(max_examples=60, deadline=None)

@@ -23,32 +23,20 @@ INF = math.inf
 _RIG = {
     'dt': ('s', 1e-5, 0.05, 'fixed simulation step (1 kHz default)'),
     'seed': ('1', 0, 2**31 - 1, 'seed of the arm-sensor noise generator'),
-    'plant': (
-        '-',
-        None,
-        None,
-        "lateral plant: 'identified' (paper Eq. 6) or 'bicycle' (physical preset)",
-    ),
+    'plant': ('-', None, None,
+              "lateral plant: 'identified' (paper Eq. 6) or 'bicycle' (physical preset)"),
     'ds': ('m', 0.0, 5.0, 'sensor point ahead of the c.g. (paper: 0.33 m)'),
     'steer_reject': ('rad', 0.0, math.pi, '|steer command| above this is rejected and 0 rad used'),
     'speed_cmd_max': ('m/s', 0.0, 20.0, 'driver speed commands outside [0, this] are rejected'),
     'x0': ('m', -BELT_HALF_LENGTH, BELT_HALF_LENGTH, 'initial c.g. x in the treadmill frame'),
     'y0': ('m', -BELT_HALF_WIDTH, BELT_HALF_WIDTH, 'initial c.g. y in the treadmill frame'),
-    'u0': (
-        'm/s',
-        0.0,
-        20.0,
-        'initial car speed over the belt (and the driver command until one arrives)',
-    ),
+    'u0': ('m/s', 0.0, 20.0,
+           'initial car speed over the belt (and the driver command until one arrives)'),
     'belt_speed0': ('m/s', 0.0, 6.7056, 'initial belt speed'),
 }
 _ACT = {
-    'lag_hz': (
-        'Hz',
-        0.01,
-        1000.0,
-        'servo first-order lag corner (4.6 Hz vehicle fit, 3.8 Hz isolated servo)',
-    ),
+    'lag_hz': ('Hz', 0.01, 1000.0,
+               'servo first-order lag corner (4.6 Hz vehicle fit, 3.8 Hz isolated servo)'),
     'rate_limit': ('rad/s', 0.0, INF, 'servo slew-rate limit'),
     'delay': ('s', 0.0, 1.0, 'transmitter transport delay (quantised to dt)'),
     'backlash': ('rad', 0.0, 0.1, 'total width of the steering backlash (0.175 deg default)'),
@@ -65,12 +53,8 @@ _IDENT = {
     'ds': ('m', -1.0, 5.0, 'sensor distance of the identified model; negative = use ds'),
 }
 _BICYCLE = {
-    'preset': (
-        '-',
-        None,
-        None,
-        "vehicle preset from irs_models/config/presets.yaml; '' = use the fields below",
-    ),
+    'preset': ('-', None, None,
+               "vehicle preset from irs_models/config/presets.yaml; '' = use the fields below"),
     'mass': ('kg', 0.0, INF, 'vehicle mass (preset empty only)'),
     'yaw_inertia': ('kg m^2', 0.0, INF, 'yaw inertia about the c.g. (preset empty only)'),
     'lf': ('m', 0.0, INF, 'c.g. to front axle (preset empty only)'),

@@ -86,12 +86,8 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument(
         '--speed', type=float, default=None, help="forward speed [m/s] (default: preset's)"
     )
-    p.add_argument(
-        '--ds',
-        type=float,
-        default=None,
-        help="sensor distance ahead of c.g. [m] (default: preset's)",
-    )
+    p.add_argument('--ds', type=float, default=None,
+                   help="sensor distance ahead of c.g. [m] (default: preset's)")
     p.add_argument('--axle', choices=('front', 'rear'), default='front', help='steer input')
     p.add_argument(
         '--actuator-hz',

@@ -33,18 +33,8 @@ def test_prints_gain_poles_zeros_with_and_without_actuator(capsys):
 def test_speed_ds_axle_options(capsys):
     assert (
         main(
-            [
-                '--preset',
-                'irs_2wd',
-                '--speed',
-                '2.0',
-                '--ds',
-                '0.1',
-                '--axle',
-                'rear',
-                '--actuator-hz',
-                '0',
-            ]
+            ['--preset', 'irs_2wd', '--speed', '2.0', '--ds', '0.1', '--axle', 'rear',
+             '--actuator-hz', '0']
         )
         == 0
     )

@@ -144,18 +144,13 @@ def _pstr(p):
 
 
 # --------------------------------------------------------------------------- report
-COLS = (
-    ('rise_time', 'rise [s]', '{:.3f}'),
-    ('overshoot_percent', 'OS [%]', '{:.1f}'),
-    ('settling_time', 'settle [s]', '{:.2f}'),
-    ('oscillation_count', 'cross', '{:d}'),
-    ('crossings_2pct', 'cross±2%', '{:d}'),
-    ('residual_oscillation', 'resid p-p/step', '{:.3f}'),
-    ('ise_norm', 'ISE/step² [s]', '{:.2e}'),
-    ('max_dev_rel', 'max|y-ym|/step', '{:.4f}'),
-    ('peak_steer_cmd_deg', 'peak cmd [deg]', '{:.1f}'),
-    ('time_at_limit', 'at limit [s]', '{:.2f}'),
-)
+COLS = (('rise_time', 'rise [s]', '{:.3f}'), ('overshoot_percent', 'OS [%]', '{:.1f}'),
+        ('settling_time', 'settle [s]', '{:.2f}'), ('oscillation_count', 'cross', '{:d}'),
+        ('crossings_2pct', 'cross±2%', '{:d}'),
+        ('residual_oscillation', 'resid p-p/step', '{:.3f}'),
+        ('ise_norm', 'ISE/step² [s]', '{:.2e}'), ('max_dev_rel', 'max|y-ym|/step', '{:.4f}'),
+        ('peak_steer_cmd_deg', 'peak cmd [deg]', '{:.1f}'),
+        ('time_at_limit', 'at limit [s]', '{:.2f}'))
 SHORT = {'mrc_with_actuator': 'MRC+act', 'mrc_without_actuator': 'MRC-act', 'pi': 'PI',
          'model': 'model'}
 

@@ -263,21 +263,12 @@ def environment_problems(model: ExperimentModel) -> list:
 #: errors). vehicle_sim's node-only parameters and the lateral controller's table live in their
 #: node modules (rclpy), so those two are checked for the names their ROS-free tables know.
 PARAMETER_TABLES = {
-    ('irs_vehicle_sim', 'vehicle_sim'): (
-        'irs_vehicle_sim.rig_params',
-        'rig_parameter_table',
-        False,
-    ),
-    ('irs_sensing', 'arm_pose_estimator'): (
-        'irs_sensing.estimator_params',
-        'estimator_parameter_table',
-        True,
-    ),
-    ('irs_treadmill', 'treadmill_regulator'): (
-        'irs_treadmill.regulator_params',
-        'regulator_parameter_table',
-        True,
-    ),
+    ('irs_vehicle_sim', 'vehicle_sim'): ('irs_vehicle_sim.rig_params', 'rig_parameter_table',
+                                         False),
+    ('irs_sensing', 'arm_pose_estimator'): ('irs_sensing.estimator_params',
+                                            'estimator_parameter_table', True),
+    ('irs_treadmill', 'treadmill_regulator'): ('irs_treadmill.regulator_params',
+                                               'regulator_parameter_table', True),
     ('irs_control', 'reference_generator'): ('irs_control.reference_params', 'PARAMS', True),
     ('irs_bringup', 'driver'): ('irs_bringup.driver.speed_profile', 'DRIVER_PARAMS', True),
 }
