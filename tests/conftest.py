@@ -60,13 +60,13 @@ def ros():
 
 @pytest.fixture
 def launch(tmp_path):
-    """Start node processes (``launch(NodeSpec)``); every one is stopped at teardown."""
+    """Start node processes (``launch(NodeSpec, env=None)``); every one is stopped at teardown."""
     from irs_bringup.run.processes import NodeProcess
 
     procs = []
 
-    def start(spec):
-        proc = NodeProcess(spec, tmp_path / 'logs')
+    def start(spec, env=None):
+        proc = NodeProcess(spec, tmp_path / 'logs', env=env)
         procs.append(proc)
         return proc
 

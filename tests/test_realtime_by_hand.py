@@ -2,10 +2,12 @@
 
 Every node is started from its installed executable with its parameter file and the real-time
 deployment file (``irs_bringup/config/realtime.yaml``), in the README's order, at the default
-1 kHz. The rig holds the car at its start pose until steering and drive commands arrive, so the
-order does not matter. Checked over 20 s of wall time: the car stays on the belt (rig/status and
-the ground truth), and the sensor point follows the reference's 0.02 m step.
+1 kHz, with SCHED_FIFO priority 50 where permitted (``IRS_RT_PRIORITY``). The rig holds the car
+at its start pose until steering and drive commands arrive, so the order does not matter.
+Checked over 20 s of wall time: the car stays on the belt (rig/status and the ground truth), and
+the sensor point follows the reference's 0.02 m step.
 """
+import os
 import time
 
 import numpy as np
@@ -47,7 +49,11 @@ def test_realtime_graph_started_by_hand_keeps_the_car_and_follows_a_step(ros, la
             node.create_subscription(PointStamped, 'ground_truth/sensor_point',
                                      lambda m: points.append((time.monotonic(), m.point.x,
                                                               m.point.y)), qos.SENSOR)]
-    procs = [launch(spec) for spec in README_ORDER]
+    # SCHED_FIFO where the machine allows it (root, as in CI; otherwise the nodes say it was
+    # refused and run normally): the README's advice for a loaded machine, so that other work
+    # on the 2 cores cannot starve the 1 kHz loop during the 20 s.
+    env = dict(os.environ, IRS_RT_PRIORITY='50')
+    procs = [launch(spec, env=env) for spec in README_ORDER]
     # The rig starts stepping once steering and drive commands arrive (it logs it).
     assert ros.spin_until(lambda: 'present: starting' in procs[0].output(), 60.0), \
         procs[0].tail()
