@@ -133,11 +133,13 @@ def _message_class(type_name: str):
 
 
 def _messages(bag_dir) -> dict:
-    """``{topic: sorted distinct CDR payloads}``: what 'identical bags' compares.
+    """``{topic: sorted distinct message reprs}``: what 'identical bags' compares.
 
-    Receive times differ from run to run by nature; a lock-step resend (the rig publishing a
-    step again after ``lockstep_resend_period`` without progress) records byte-identical
-    duplicates, which are one message of the run's data.
+    Every field of every decoded message (floats exactly: ``repr`` round-trips to the same bits);
+    not the CDR bytes, whose alignment padding Fast DDS leaves uninitialised. Receive times
+    differ from run to run by nature; a lock-step resend (the rig publishing a step again after
+    ``lockstep_resend_period`` without progress) records identical duplicates, which are one
+    message of the run's data.
     """
     from rclpy.serialization import deserialize_message
     from irs_bringup.bag.bag_reader import BagReader
