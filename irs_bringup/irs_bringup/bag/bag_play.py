@@ -324,12 +324,11 @@ def _run_ros(args, ros_args, plan: Plan) -> int:
     from rosgraph_msgs.msg import Clock
     from builtin_interfaces.msg import Time
     from rclpy.duration import Duration
-    from rclpy.signals import SignalHandlerOptions
-
-    # Ctrl-C (SIGINT) is Python's KeyboardInterrupt only: rclpy's own handler would shut the
-    # context down first, and a publish racing with it failed with "publisher's context is
-    # invalid" instead of ending the replay cleanly.
-    rclpy.init(args=['bag_play', *ros_args], signal_handler_options=SignalHandlerOptions.NO)
+    # Ctrl-C (SIGINT): rclpy's handler shuts the context down and a KeyboardInterrupt follows;
+    # a publish racing with the shutdown fails with "publisher's context is invalid", which
+    # is the same interruption (below). (Without rclpy's handler, a player loaded on a busy
+    # machine was seen not to stop within 10 s of SIGINT.)
+    rclpy.init(args=['bag_play', *ros_args])
     node = rclpy.create_node('bag_player')
     log = (lambda *a: None) if args.quiet else (lambda s: print(s, flush=True))
     stats = TimingStats()
@@ -414,6 +413,11 @@ def _run_ros(args, ros_args, plan: Plan) -> int:
                   flush=True)
     except KeyboardInterrupt:
         interrupted = True
+        elapsed = 0.0
+    except Exception:
+        if rclpy.ok():
+            raise
+        interrupted = True      # Ctrl-C shut the context down while a message was published
         elapsed = 0.0
     finally:
         node.destroy_node()
