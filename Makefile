@@ -15,11 +15,12 @@ PACKAGE_FILES := $(shell find $(PACKAGES) -type f \( -name package.xml -o -name 
   -o -name CMakeLists.txt -o -name '*.cmake' -o -path '*/msg/*' -o -path '*/resource/*' \
   -o -path '*/config/*' \) 2>/dev/null)
 
-.PHONY: demo test env build clean help lock
+.PHONY: demo test figures env build clean help lock
 
 help:
 	@echo "make demo   set up (venv + colcon build) and run the Figure 10 demo"
 	@echo "make test   set up and run the whole test suite"
+	@echo "make figures  reproduce the paper's Figures 5-10 into docs/img (sysid figures)"
 	@echo "make build  set up only;  make clean  remove venv and build products"
 	@echo "make lock   re-resolve env/requirements.txt into the pinned env/requirements.lock"
 
@@ -63,6 +64,10 @@ demo: $(BUILD_STAMP)
 
 test: $(BUILD_STAMP)
 	./irs exec python -m pytest
+
+# The paper's Figures 5-10 through the graph: experiments, identification, PNGs in docs/img.
+figures: $(BUILD_STAMP)
+	./irs run irs_bringup sysid figures
 
 clean:
 	rm -rf $(VENV) build install log

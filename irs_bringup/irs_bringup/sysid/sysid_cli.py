@@ -4,6 +4,7 @@
     ./irs run irs_bringup sysid actuator  <bag> [<bag> ...] [--png ...]
     ./irs run irs_bringup sysid vehicle   <bag> [--png ...]
     ./irs run irs_bringup sysid cycle     ...            (identify, design, run, compare)
+    ./irs run irs_bringup sysid figures   [--only ...]   (every figure of the paper, one command)
 
 Each kind is a module ``irs_bringup.sysid.<kind>_cli`` with ``add_arguments(parser)`` and
 ``run(args) -> int``; it fits from the bag alone, prints identified against configured values
@@ -24,6 +25,7 @@ KINDS = {
     'vehicle': ('vehicle_cli', 'car: open loop from closed-loop frequency response, step (Fig. '
                                '8-9)'),
     'cycle': ('cycle', 'identify the plant, design MRC/RST on it, run it, report model following'),
+    'figures': ('paper_figures', "reproduce the paper's Figures 5-10 (and the cycle) into docs/img"),
 }
 
 
