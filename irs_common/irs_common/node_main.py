@@ -13,6 +13,11 @@ Real-time priority: with ``IRS_RT_PRIORITY=<1..99>`` in the environment the proc
 ``SCHED_FIFO`` at that priority before rclpy starts its DDS threads (which inherit it), as
 ros2_control's real-time loops do. It needs root or ``CAP_SYS_NICE`` (``ulimit -r``); if the
 switch is refused, a warning says so and the node runs at normal priority.
+
+Profiling: with ``IRS_PROFILE=<prefix>`` the spin runs under ``cProfile`` and the statistics are
+written to ``<prefix>.<pid>.prof`` at exit (read them with ``python -m pstats``); an experiment's
+processes inherit the variable, so ``IRS_PROFILE=/tmp/p ./irs run irs_bringup experiment run X``
+profiles every node of a run.
 """
 import os
 import sys
@@ -76,7 +81,7 @@ def run_nodes(factories, args=None) -> int:
         executor = LeanExecutor()
         for node in nodes:
             executor.add_node(node)
-        executor.spin()
+        _spin(executor)
     except (KeyboardInterrupt, ExternalShutdownException):
         pass
     except _START_ERRORS as exc:
@@ -96,6 +101,19 @@ def run_nodes(factories, args=None) -> int:
             node.destroy_node()
         rclpy.try_shutdown()
     return 0
+
+
+def _spin(executor) -> None:
+    prefix = os.environ.get('IRS_PROFILE', '').strip()
+    if not prefix:
+        executor.spin()
+        return
+    import cProfile
+    profile = cProfile.Profile()
+    try:
+        profile.runcall(executor.spin)
+    finally:
+        profile.dump_stats(f'{prefix}.{os.getpid()}.prof')
 
 
 def run_node(node_factory, args=None) -> int:

@@ -25,7 +25,7 @@ KINDS = {
     'vehicle': ('vehicle_cli', 'car: open loop from closed-loop frequency response, step (Fig. '
                                '8-9)'),
     'cycle': ('cycle', 'identify the plant, design MRC/RST on it, run it, report model following'),
-    'figures': ('paper_figures', "reproduce the paper's Figures 5-10 (and the cycle) into docs/img"),
+    'figures': ('paper_figures', "the paper's Figures 5-10 (and the cycle) into docs/img"),
 }
 
 
