@@ -1,9 +1,13 @@
-"""lateral_controller on its topics: saturation with anti-windup, stale input gives zero steer.
+"""lateral_controller on its topics: saturation with anti-windup, stale input gives zero steer;
+the start-up design check refuses an unstable plant/design pair unless overridden.
 
 For the saturation test the test process plays the rig: it steps the offline rig core
 (identified plant + actuator) with the steering command the node answers for each stamp.
 """
 import math
+import os
+import subprocess
+import time
 
 import numpy as np
 import pytest
@@ -12,6 +16,8 @@ from geometry_msgs.msg import PointStamped
 from irs_common import qos
 from irs_common.stamps import from_ns, to_ns
 from irs_msgs.msg import LateralControllerStatus, LateralReference, SteeringCommand
+from ament_index_python.packages import get_package_prefix
+
 from irs_bringup.run.processes import NodeSpec
 from irs_vehicle_sim.rig import RigConfig, RigInputs, RigSimulation
 
@@ -73,7 +79,8 @@ def closed_loop_step_response(ros, launch, anti_windup, step=0.3, duration=4.0):
 
 def test_large_step_saturates_and_anti_windup_prevents_overshoot_blow_up(ros, launch):
     step = 0.3
-    y, steer, status = closed_loop_step_response(ros, launch, anti_windup=True, step=step)
+    y, steer, status = closed_loop_step_response(ros, launch, anti_windup='back_calculation',
+                                               step=step)
     assert np.max(np.abs(steer)) == pytest.approx(LIMIT, abs=1e-12), 'the 15 deg limit must be hit'
     assert any(s.saturated and s.output_unsaturated > LIMIT for s in status)
     overshoot_aw = (y.max() - step) / step
@@ -84,7 +91,7 @@ def test_large_step_saturates_and_anti_windup_prevents_overshoot_blow_up(ros, la
 
 def test_without_anti_windup_the_same_step_overshoots_much_more(ros, launch):
     step = 0.3
-    y, steer, _ = closed_loop_step_response(ros, launch, anti_windup=False, step=step)
+    y, steer, _ = closed_loop_step_response(ros, launch, anti_windup='clip', step=step)
     overshoot = (y.max() - step) / step
     print(f'overshoot without anti-windup {100 * overshoot:.1f} %')
     assert np.max(np.abs(steer)) == pytest.approx(LIMIT, abs=1e-12)
@@ -153,3 +160,27 @@ def test_a_repeated_step_is_answered_again_without_stepping_the_controller(ros, 
     assert [a.front_angle for a in (answers[0], answers[1], answers[3])] == [
         f.front_angle for f in fresh
     ]
+
+
+def test_unstable_design_on_the_check_plant_is_refused_in_one_line(ros, launch):
+    """The paper's MRC (designed on Eq. 6) on the irs_2wd bicycle preset: refused, exit 2."""
+    exe = os.path.join(get_package_prefix('irs_control'), 'lib', 'irs_control',
+                       'lateral_controller')
+    res = subprocess.run([exe, '--ros-args', '-p', 'check_plant:=irs_2wd'], capture_output=True,
+                         text=True, timeout=60)
+    assert res.returncode == 2, (res.stdout, res.stderr)
+    lines = [ln for ln in res.stderr.splitlines() if 'FATAL' in ln]   # (INFO: the design)
+    assert len(lines) == 1 and 'Traceback' not in res.stderr, res.stderr
+    assert 'UNSTABLE' in lines[0] and "'irs_2wd'" in lines[0], lines[0]
+    assert 'allow_unstable_design' in lines[0], lines[0]
+    # ... and it starts, with a warning, when the override is given on purpose.
+    proc = launch(NodeSpec('irs_control', 'lateral_controller',
+                           params={'check_plant': 'irs_2wd', 'allow_unstable_design': True}))
+    # The node joins the graph before its constructor has checked the design: wait for the log.
+    deadline = time.monotonic() + 60.0
+    while 'running anyway' not in proc.output() and proc.poll() is None \
+            and time.monotonic() < deadline:
+        time.sleep(0.1)
+    assert 'running anyway' in proc.output(), proc.output()[-2000:]
+    assert ros.wait_for_nodes(['lateral_controller'], timeout=30.0), proc.tail()
+    assert proc.poll() is None, proc.tail()

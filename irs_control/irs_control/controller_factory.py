@@ -15,6 +15,13 @@ The reference model (``reference_model_num``/``_den``) and observer polynomial (
 ``[0.0]`` = the paper's choice: ``(s+12)^2`` with the actuator, ``s+12`` without) are
 coefficient lists, highest power first.
 
+Anti-windup (``anti_windup``, the paper describes none): ``'back_calculation'`` (default; RST:
+the Astrom-Wittenmark polynomial form, PI: tracking time ``kp/ki``) or ``'clip'`` (the linear law
+runs on, only the output is clipped); see :mod:`.discrete_rst`.
+
+Design check (``check_plant``, ``allow_unstable_design``): not used here; the node closes the
+loop of the built controller with that plant at start-up (:mod:`.design_check`).
+
 Bad-input bounds (:data:`INPUT_CHECK_DEFAULTS`, optional keys of :func:`make_controller`, not
 required from the node): ``measurement_limit`` and ``reference_limit`` [m] bound ``|y|`` and
 ``|u_c|`` (see :mod:`.discrete_rst`, bad-input rule), ``initial_reference`` [m] is held until a
@@ -31,7 +38,7 @@ from irs_models.identified import identified_plant
 from irs_models.presets import get_preset
 
 from .discrete_pi import DiscretePiController
-from .discrete_rst import DEFAULT_INPUT_LIMIT, DiscreteRstController
+from .discrete_rst import DEFAULT_INPUT_LIMIT, DiscreteRstController, anti_windup_mode
 from .paper_design import reference_model
 from .polynomials import require_polynomial
 from .rst_design import RstDesign, design_rst
@@ -55,7 +62,9 @@ CONTROLLER_DEFAULTS = {
     'kp': 5.0,
     'ki': 3.0,
     'steer_limit': STEER_LIMIT,
-    'anti_windup': True,
+    'anti_windup': 'back_calculation',
+    'check_plant': 'identified',
+    'allow_unstable_design': False,
 }
 
 
@@ -124,7 +133,8 @@ def check_controller_params(cfg: dict) -> None:
 
     Numbers: ``dt``, ``steer_limit``, ``actuator_pole``, ``speed`` positive and finite;
     ``ds``, ``plant_gain`` (>= 0), ``kp``, ``ki`` (>= 0), the input bounds (> 0, inf allowed) and
-    ``initial_reference`` finite. Reference model (MRC only): ``reference_model_num`` a non-empty
+    ``initial_reference`` finite; ``anti_windup`` one of ``'back_calculation'``, ``'clip'`` (or a
+    bool, the older spelling). Reference model (MRC only): ``reference_model_num`` a non-empty
     list of finite coefficients, not all zero; ``reference_model_den`` the same, monic and
     stable (Hurwitz), of higher degree than the numerator (a strictly proper model).
     """
@@ -139,6 +149,7 @@ def check_controller_params(cfg: dict) -> None:
         v = cfg[key]
         if isinstance(v, bool) or not isinstance(v, (int, float)) or not v > 0:
             raise ValueError(f'{key} must be a positive bound in m (inf allowed); got {v!r}')
+    anti_windup_mode(cfg['anti_windup'])
     if cfg['mode'] != 'mrc':
         return
     bm = require_polynomial('reference_model_num', cfg['reference_model_num'])
@@ -169,7 +180,7 @@ def make_controller(params: dict | None = None) -> LateralControllerSpec:
     dt = float(cfg['dt'])
     if cfg['mode'] == 'pi':
         ctl = DiscretePiController(kp=float(cfg['kp']), ki=float(cfg['ki']), dt=dt,
-                                   limits=(-limit, limit), anti_windup=bool(cfg['anti_windup']),
+                                   limits=(-limit, limit), anti_windup=cfg['anti_windup'],
                                    **guard)
         return LateralControllerSpec(
             ctl, None, f'PI: Kp = {cfg["kp"]} rad/m, Ki = {cfg["ki"]} rad/(m s)'
@@ -181,7 +192,7 @@ def make_controller(params: dict | None = None) -> LateralControllerSpec:
                         np.asarray(cfg['reference_model_den'], float), observer_polynomial(cfg),
                         cancel=cfg['cancel_zeros'])
     ctl = DiscreteRstController(design, dt=dt, u_min=-limit, u_max=limit,
-                                anti_windup=bool(cfg['anti_windup']), **guard)
+                                anti_windup=cfg['anti_windup'], **guard)
     fmt = lambda p: '[' + ', '.join(f'{c:.6g}' for c in p) + ']'  # noqa: E731
     summary = (
         f"MRC on plant '{cfg['plant']}' ({'with' if cfg['include_actuator'] else 'without'} "

@@ -6,6 +6,7 @@ r"""Discrete PI lateral controller with back-calculation anti-windup (paper: Kp 
 
     I_{k+1} = I_k + dt \left( K_i e_k + \frac{v_k - u_k}{T_t} \right).
 
+``anti_windup = 'back_calculation'`` (default; ``'clip'`` drops the ``(v - u)/T_t`` term).
 **Back-calculation** (not conditional integration): while the steer is clipped the
 integrator is bled towards the value that makes ``u = v`` with tracking time constant
 ``T_t`` [s] (default ``T_t = K_p / K_i``, the integral time, the usual choice for PI).
@@ -21,7 +22,10 @@ from __future__ import annotations
 
 import math
 
-from .discrete_rst import DEFAULT_INPUT_LIMIT, STEER_LIMIT, ControlOutput, InputGuard
+import numpy as np
+
+from .discrete_rst import (DEFAULT_INPUT_LIMIT, STEER_LIMIT, ControlOutput, InputGuard,
+                           anti_windup_mode)
 
 __all__ = ['DiscretePiController']
 
@@ -41,8 +45,9 @@ class DiscretePiController(InputGuard):
         ``(u_min, u_max)`` steer limits [rad].
     tracking_time : float, optional
         Back-calculation time constant ``T_t`` [s]; default ``kp / ki``.
-    anti_windup : bool
-        Disable to compare with a plain clipped PI.
+    anti_windup : str or bool
+        ``'back_calculation'`` (default; ``True``) as above, or ``'clip'`` (``False``): a plain
+        clipped PI whose integrator keeps integrating ``K_i e`` while the steer is at the limit.
     measurement_limit, reference_limit : float
         Bounds on ``|y|`` and ``|r|`` [m] beyond which an input is invalid; default 2 m.
     initial_reference : float
@@ -51,7 +56,7 @@ class DiscretePiController(InputGuard):
 
     def __init__(self, kp: float = 5.0, ki: float = 3.0, dt: float = 1e-3,
                  limits=(-STEER_LIMIT, STEER_LIMIT), tracking_time: float | None = None,
-                 anti_windup: bool = True, measurement_limit: float = DEFAULT_INPUT_LIMIT,
+                 anti_windup='back_calculation', measurement_limit: float = DEFAULT_INPUT_LIMIT,
                  reference_limit: float = DEFAULT_INPUT_LIMIT, initial_reference: float = 0.0):
         if not dt > 0:
             raise ValueError(f'dt must be a positive sample time in seconds; got {dt}.')
@@ -72,12 +77,20 @@ class DiscretePiController(InputGuard):
         self.kp, self.ki, self.dt = float(kp), float(ki), float(dt)
         self.u_min, self.u_max = float(u_min), float(u_max)
         self.tracking_time = float(tracking_time)
-        self.anti_windup = bool(anti_windup)
+        self.anti_windup_mode = anti_windup_mode(anti_windup)
+        self.anti_windup = self.anti_windup_mode != 'clip'
         self.integral = 0.0
 
     def reset(self) -> None:
         """Zero the integrator."""
         self.integral = 0.0
+
+    def linear_state_space(self):
+        """``(Ad, Bd, Cd, Dd)`` of the linear law from y [m] to u [rad] (reference zero):
+        ``I_{k+1} = I_k - dt K_i y_k``, ``u_k = I_k - K_p y_k`` (for :mod:`.design_check`).
+        """
+        return (np.array([[1.0]]), np.array([[-self.dt * self.ki]]), np.array([[1.0]]),
+                np.array([[-self.kp]]))
 
     def step(self, reference: float, measurement: float) -> ControlOutput:
         """Advance one sample; ``reference``, ``measurement`` in m, steer in rad.

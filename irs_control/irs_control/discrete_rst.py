@@ -84,10 +84,30 @@ from .rst_design import RstDesign
 
 __all__ = ['ControlOutput', 'DiscreteRstController', 'InputGuard', 'anti_windup_polynomial',
            'observable_canonical_miso', 'STATE_RUNNING', 'STATE_INVALID',
-           'DEFAULT_INPUT_LIMIT']
+           'DEFAULT_INPUT_LIMIT', 'ANTI_WINDUP_MODES', 'anti_windup_mode']
 
 #: Default bound on |measurement| and |reference| [m] (the belt is 4 x 8 ft: |y| < 0.61 m).
 DEFAULT_INPUT_LIMIT = 2.0
+#: Anti-windup choices of both lateral controllers (the paper describes none, Sec. 5):
+#: ``'back_calculation'`` -- the controller state is driven by the steer actually applied
+#: (RST: the Astrom-Wittenmark polynomial form ``F u = T u_c - S y + (F - R) v`` above, of
+#: which PI back-calculation with tracking time ``T_t`` is the first-order case ``F = s + 1/T_t``);
+#: ``'clip'`` -- no anti-windup: the linear law runs on and only its output is clipped
+#: (the integrating states keep integrating while the steer is at its limit).
+ANTI_WINDUP_MODES = ('back_calculation', 'clip')
+
+
+def anti_windup_mode(value) -> str:
+    """Normalise an anti-windup choice: one of :data:`ANTI_WINDUP_MODES`, or a bool (the older
+    spelling: ``True`` = ``'back_calculation'``, ``False`` = ``'clip'``); ``ValueError`` else.
+    """
+    if isinstance(value, bool):
+        return ANTI_WINDUP_MODES[0] if value else 'clip'
+    if value in ANTI_WINDUP_MODES:
+        return value
+    raise ValueError(f"anti_windup must be one of {', '.join(ANTI_WINDUP_MODES)}; got {value!r}")
+
+
 #: ``ControlOutput.state``: the loop was closed this step.
 STATE_RUNNING = 'RUNNING'
 #: ``ControlOutput.state``: no valid feedback (or a non-finite state): zero steer, state reset.
@@ -263,9 +283,10 @@ class DiscreteRstController(InputGuard):
         Sample time [s] (default 1 kHz).
     u_min, u_max : float
         Steer limits [rad] (default +-0.2618 rad = +-15 deg).
-    anti_windup : bool
-        If False the controller states are driven by the unsaturated ``u`` (plain
-        ``R u = T u_c - S y`` followed by a clip) -- for comparison only.
+    anti_windup : str or bool
+        ``'back_calculation'`` (default; ``True``): the polynomial form with ``F`` above;
+        ``'clip'`` (``False``): the controller states are driven by the unsaturated ``u`` (plain
+        ``R u = T u_c - S y`` followed by a clip). See :data:`ANTI_WINDUP_MODES`.
     aw_poly : array_like, optional
         Anti-windup polynomial ``F`` (monic, Hurwitz, degree ``deg R``); default
         :func:`anti_windup_polynomial`.
@@ -277,7 +298,7 @@ class DiscreteRstController(InputGuard):
     """
 
     def __init__(self, design: RstDesign, dt: float = 1e-3, u_min: float = -STEER_LIMIT,
-                 u_max: float = STEER_LIMIT, anti_windup: bool = True, aw_poly=None,
+                 u_max: float = STEER_LIMIT, anti_windup='back_calculation', aw_poly=None,
                  measurement_limit: float = DEFAULT_INPUT_LIMIT,
                  reference_limit: float = DEFAULT_INPUT_LIMIT, initial_reference: float = 0.0):
         if not dt > 0:
@@ -303,7 +324,8 @@ class DiscreteRstController(InputGuard):
         self.design = design
         self.dt = float(dt)
         self.u_min, self.u_max = float(u_min), float(u_max)
-        self.anti_windup = bool(anti_windup)
+        self.anti_windup_mode = anti_windup_mode(anti_windup)
+        self.anti_windup = self.anti_windup_mode != 'clip'
         self.F = F
         Ac, Bc, Cc, Dc = observable_canonical_miso(R, [T, -S])
         self._Ad, self._Bd, *_ = cont2discrete((Ac, Bc, Cc, Dc), self.dt, method='zoh')
@@ -326,6 +348,14 @@ class DiscreteRstController(InputGuard):
     def reset(self) -> None:
         """Zero the controller state."""
         self._x[:] = 0.0
+
+    def linear_state_space(self):
+        """``(Ad, Bd, Cd, Dd)`` of the linear (unsaturated) law from the measurement y [m] to
+        the steer u [rad] at the sample time ``dt`` (``u = -S/R y``, ZOH), for the design check
+        (:mod:`.design_check`).
+        """
+        return (self._Ad.copy(), self._Bd[:, 1:2].copy(), self._C.reshape(1, -1).copy(),
+                np.array([[self._D[1]]]))
 
     @property
     def state(self) -> np.ndarray:

@@ -29,6 +29,12 @@ bad-input rule in :mod:`.discrete_rst`):
 - the node clock jumping back (``/clock`` of ``bag play --loop --clock``) resets the same time
   state; a STALE measurement resets the controller (it restarts from rest).
 
+Start-up design check: the controller built from the parameters is closed with the plant model
+``check_plant`` (default ``identified``, the rig's Eq. 6 plant, with the actuator lag) --
+continuous and sampled closed-loop poles, gain and phase margins (:mod:`.design_check`). An
+unstable loop is refused with one line naming the poles and the plant (exit code 2) unless
+``allow_unstable_design`` is true (then a warning); the result is logged either way.
+
 Writable parameters (``ros2 param set``): ``stale_timeout`` and ``default_reference`` (applied at
 once: it is the reference until the next ``lateral/reference`` message; without
 ``reference_sync``).
@@ -51,9 +57,20 @@ from irs_common.time_jump import on_time_jump_back
 from irs_msgs.msg import LateralControllerStatus, LateralReference, SteeringCommand
 
 from .controller_factory import CONTROLLER_DEFAULTS, make_controller
-from .discrete_rst import STATE_RUNNING
+from .design_check import require_stable
+from .discrete_rst import STATE_RUNNING, anti_windup_mode
 
 D = CONTROLLER_DEFAULTS
+
+
+def _anti_windup_problem(value):
+    try:
+        anti_windup_mode(value)
+    except ValueError as exc:
+        return str(exc)
+    return None
+
+
 PARAMS = [
     Param(
         'mode', D['mode'], "control law: 'mrc' (RST model reference) or 'pi'", '-', read_only=True
@@ -99,7 +116,17 @@ PARAMS = [
     Param('steer_limit', D['steer_limit'], 'steer command limit (15 deg)', 'rad', 0.0, 1.6,
           read_only=True),
     Param('anti_windup', D['anti_windup'],
-          'keep the controller state consistent with the saturated steer', '-', read_only=True),
+          "anti-windup (the paper describes none): 'back_calculation' (controller state driven "
+          "by the applied, saturated steer; RST: Astrom-Wittenmark polynomial form, PI: tracking "
+          "time kp/ki) or 'clip' (no anti-windup, the output only is clipped)", '-',
+          validator=_anti_windup_problem),
+    Param('check_plant', D['check_plant'],
+          "plant model the design is checked against at start-up (closed-loop poles, margins; "
+          "with the actuator lag): 'identified' (paper Eq. 6, the rig's default plant) or a "
+          'vehicle preset name (at speed and ds)', '-'),
+    Param('allow_unstable_design', D['allow_unstable_design'],
+          'start even when the design is unstable on check_plant (a warning instead of the '
+          'refusal)', '-'),
     Param(
         'stale_timeout',
         0.05,
@@ -144,9 +171,14 @@ class LateralControllerNode(Node):
     def __init__(self, **node_options):
         super().__init__('lateral_controller', **node_options)
         self.p = declare_table(self, PARAMS, on_change=self._on_parameter)
-        spec = make_controller({k: self.p[k] for k in CONTROLLER_DEFAULTS})
+        cfg = {k: self.p[k] for k in CONTROLLER_DEFAULTS}
+        spec = make_controller(cfg)
         self.controller = spec.controller
         self.get_logger().info(spec.summary)
+        # Refuse a design that is unstable on the configured plant (ValueError: one line, exit 2).
+        _check, message, ok = require_stable(cfg, spec.controller, spec.design,
+                                             f"{cfg['mode'].upper()} design")
+        (self.get_logger().info if ok else self.get_logger().warning)(message)
         self.reference = self.p['default_reference']
         tolerance_ns = int(round(self.p['future_tolerance'] * 1e9))
         self.gate = StampGate(tolerance_ns)          # measurement stamps = the steps

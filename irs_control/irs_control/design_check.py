@@ -1,0 +1,190 @@
+r"""Start-up check of a lateral-controller design against a configured plant model (no rclpy).
+
+The paper's designs (Sec. 4-5) are computed on the identified plant of Eq. 6. Run on another
+plant -- e.g. the ``irs_2wd`` bicycle preset, whose zeros differ from Eq. 6 -- the same RST
+polynomials can give an unstable loop, and nothing would say so until the car leaves the belt.
+:func:`check_design` closes the loop of the controller the node built with the *check plant*
+and answers whether it is stable, with the poles and the margins.
+
+Loop (steer [rad] -> sensor-point lateral displacement y_s [m], unity negative feedback)::
+
+    P(s) = B(s)/A(s)          check plant, always with the actuator lag  p/(s + p)
+    C(s) = S(s)/R(s)          MRC/RST feedback part (R u = T u_c - S y);  PI: (kp s + ki)/s
+    closed-loop poles         roots of  A R + B S = 0                    (continuous)
+    L(s) = P(s) C(s)          loop transfer function of the margins
+
+Continuous closed loop: ``control.feedback(P, C)`` (python-control), its poles
+``control.poles``; margins: ``control.stability_margins(L)`` (gain margin [-] and phase margin
+[deg] with their crossover frequencies [rad/s]). The node runs the controller as its exact ZOH
+discretisation at ``dt`` (:mod:`.discrete_rst`; PI: forward-Euler integrator), so the check also
+closes the *sampled* loop: the plant discretised by ZOH at ``dt`` (``control.c2d``) with the
+controller's own discrete state space, in state-space form (well conditioned at 1 kHz, where
+every pole crowds ``z = 1``); its poles must lie inside the unit circle. A design is *stable*
+when every continuous pole has ``Re s < 0`` and every discrete pole ``|z| < 1``.
+
+Not in the model: the actuator's 17 ms transmitter delay, backlash, rate limit and saturation
+(the paper's designs neglect them too); a design passing this check can still oscillate on the
+rig (docs/figure10.md), but one failing it cannot work at all.
+
+Check plant (``check_plant``; the design plant is ``plant``): ``'identified'`` = Eq. 6 with
+gain ``plant_gain`` (0 = the paper reconstruction b0 = 363.394, :mod:`irs_models.identified`) --
+the rig's default plant; any other value names a preset of ``irs_models/config/presets.yaml``,
+taken at the controller's ``speed`` and ``ds`` (:func:`irs_models.bicycle.transfer_function`).
+The actuator lag pole is the controller's ``actuator_pole`` (29 rad/s, Eq. 6).
+
+With the paper's designs (paper_design / controller_factory defaults): on Eq. 6 all three are
+stable; on ``irs_2wd`` at 1.2 m/s, ds = 0.33 m the MRC with the actuator has its rightmost pole
+at +0.60 +- 10.4j and the MRC without it at +1.09 +- 11.4j (unstable), the PI is stable.
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from irs_models.bicycle import transfer_function
+from irs_models.constants import PAPER_PLANT_GAIN
+from irs_models.identified import identified_plant
+from irs_models.presets import get_preset
+
+__all__ = ['DesignCheck', 'check_plant_polynomials', 'check_design', 'check_controller',
+           'require_stable']
+
+
+@dataclass(frozen=True)
+class DesignCheck:
+    """Outcome of :func:`check_design`.
+
+    Attributes
+    ----------
+    plant : str
+        The check plant's name (``'identified'`` or a preset).
+    poles : numpy.ndarray
+        Continuous closed-loop poles [rad/s].
+    discrete_poles : numpy.ndarray
+        Closed-loop poles of the sampled loop (z-plane).
+    gain_margin : float
+        [-] (inf when the phase never crosses -180 deg).
+    phase_margin : float
+        [deg] (inf when |L| never crosses 1).
+    wcg, wcp : float
+        Phase and gain crossover frequencies [rad/s].
+    """
+
+    plant: str
+    poles: np.ndarray
+    discrete_poles: np.ndarray
+    gain_margin: float
+    phase_margin: float
+    wcg: float
+    wcp: float
+
+    @property
+    def max_real(self) -> float:
+        """Largest real part of the continuous closed-loop poles [rad/s]."""
+        return float(np.max(self.poles.real))
+
+    @property
+    def max_abs_z(self) -> float:
+        """Spectral radius of the sampled closed loop [-]."""
+        return float(np.max(np.abs(self.discrete_poles)))
+
+    @property
+    def stable(self) -> bool:
+        """Every continuous pole in the open left half plane, every discrete one inside |z| = 1."""
+        return self.max_real < 0.0 and self.max_abs_z < 1.0
+
+    def unstable_poles(self) -> np.ndarray:
+        """Continuous closed-loop poles with ``Re s >= 0`` (upper half plane and real ones)."""
+        p = self.poles[self.poles.real >= 0.0]
+        return p[p.imag >= -1e-9 * np.abs(p)]
+
+    def summary(self) -> str:
+        """One line: stable or not, the rightmost poles and the margins."""
+        def fmt(z):
+            if abs(z.imag) <= 1e-9 * max(abs(z), 1.0):
+                return f'{z.real:+.3g}'
+            return f'{z.real:+.3g} +- {abs(z.imag):.3g}j'
+        p = self.unstable_poles() if not self.stable else \
+            self.poles[np.argsort(-self.poles.real)][:3]
+        shown = ', '.join(fmt(z) for z in p if z.imag >= -1e-9 * abs(z)) or 'none'
+        gm = 'inf' if not math.isfinite(self.gain_margin) else f'{self.gain_margin:.3g}'
+        pm = 'inf' if not math.isfinite(self.phase_margin) else f'{self.phase_margin:.3g} deg'
+        if self.stable:
+            return (f"closed loop on plant '{self.plant}' stable: rightmost poles {shown} rad/s, "
+                    f'gain margin {gm}, phase margin {pm} (sampled loop |z| max '
+                    f'{self.max_abs_z:.6f})')
+        return (f"closed loop on plant '{self.plant}' UNSTABLE: poles {shown} rad/s "
+                f'(largest real part {self.max_real:+.3g} rad/s; sampled loop |z| max '
+                f'{self.max_abs_z:.6f}), gain margin {gm}, phase margin {pm}')
+
+
+def check_plant_polynomials(plant: str, actuator_pole: float, plant_gain: float = 0.0,
+                            speed: float = 1.2, ds: float = 0.33):
+    """``(B, A)`` of the check plant with the actuator lag ``p/(s+p)``, highest power first.
+
+    ``plant = 'identified'``: Eq. 6, ``b0 = plant_gain or PAPER_PLANT_GAIN`` [m/(rad s^3)];
+    otherwise a preset name (``ValueError`` if unknown) at ``speed`` [m/s] and ``ds`` [m].
+    """
+    if plant == 'identified':
+        return identified_plant(True, float(actuator_pole), float(plant_gain) or PAPER_PLANT_GAIN)
+    try:
+        preset = get_preset(plant)
+    except KeyError as exc:
+        raise ValueError(f'check_plant: {exc.args[0]}') from None
+    num, den = transfer_function(preset.params, float(speed), float(ds),
+                                 actuator_pole=float(actuator_pole), as_control=False)
+    return np.trim_zeros(np.asarray(num, float), 'f'), np.asarray(den, float)
+
+
+def check_design(B, A, R, S, controller_ss, dt: float, plant: str = '') -> DesignCheck:
+    """Close the loop of plant ``B/A`` with feedback ``S/R`` (continuous) and, sampled at ``dt``
+    [s], with the controller's discrete state space ``controller_ss = (Ad, Bd, Cd, Dd)`` from y
+    to u (the sign included: ``u = -S/R y``).
+    """
+    import control
+
+    P = control.tf(np.asarray(B, float), np.asarray(A, float))
+    C = control.tf(np.asarray(S, float), np.asarray(R, float))
+    poles = np.asarray(control.poles(control.feedback(P, C)), complex)
+    gm, pm, wcg, wcp = control.stability_margins(P * C)[:4]
+    Pd = control.c2d(control.ss(P), dt, method='zoh')
+    K = control.ss(*controller_ss, dt)
+    # u = K y and y = P u: a positive-feedback interconnection (K already carries the minus).
+    zpoles = np.asarray(control.poles(control.feedback(Pd, K, sign=+1)), complex)
+    return DesignCheck(plant, poles, zpoles, float(gm), float(pm), float(wcg), float(wcp))
+
+
+def check_controller(cfg: dict, controller, design=None) -> DesignCheck:
+    """:func:`check_design` of a controller built by ``controller_factory.make_controller``.
+
+    ``cfg`` holds the controller parameters (``mode``, ``kp``, ``ki``, ``dt``, ``actuator_pole``,
+    ``plant_gain``, ``speed``, ``ds`` and ``check_plant``); ``design`` is the MRC's RstDesign
+    (``None`` for the PI); ``controller`` the discrete controller (its ``linear_state_space()``).
+    """
+    plant = str(cfg['check_plant'])
+    B, A = check_plant_polynomials(plant, cfg['actuator_pole'], cfg['plant_gain'],
+                                   cfg['speed'], cfg['ds'])
+    if cfg['mode'] == 'pi':
+        R, S = np.array([1.0, 0.0]), np.array([float(cfg['kp']), float(cfg['ki'])])
+    else:
+        R, S = np.asarray(design.R, float), np.asarray(design.S, float)
+    return check_design(B, A, R, S, controller.linear_state_space(), float(cfg['dt']), plant)
+
+
+def require_stable(cfg: dict, controller, design=None, label: str = 'design'):
+    """Run :func:`check_controller`; refuse an unstable loop unless ``allow_unstable_design``.
+
+    Returns ``(check, message, ok)``: ``ok`` False means unstable but allowed (the caller warns
+    with ``message``). Raises ``ValueError`` with one line (which poles, which plant, how to
+    override) when the loop is unstable and ``cfg['allow_unstable_design']`` is false.
+    """
+    check = check_controller(cfg, controller, design)
+    msg = f'{label}: {check.summary()}'
+    if check.stable:
+        return check, msg, True
+    if not cfg.get('allow_unstable_design', False):
+        raise ValueError(f'{msg}; refusing to start (check_plant selects the plant model; '
+                         'allow_unstable_design:=true runs it anyway)')
+    return check, msg + ' -- running anyway (allow_unstable_design is true)', False
