@@ -36,8 +36,9 @@ _RIG = {
 }
 _ACT = {
     'lag_hz': ('Hz', 0.01, 1000.0,
-               'servo first-order lag corner (4.6 Hz vehicle fit, 3.8 Hz isolated servo)'),
-    'rate_limit': ('rad/s', 0.0, INF, 'servo slew-rate limit'),
+               'small-signal bandwidth of the servo position loop (4.6 Hz: Eq. 6 vehicle fit)'),
+    'rate_limit': ('rad/s', 0.0, INF,
+                   'slew limit of the servo horn (at the wheel: rate_limit / gear_ratio)'),
     'delay': ('s', 0.0, 1.0, 'transmitter transport delay (quantised to dt)'),
     'backlash': ('rad', 0.0, 0.1, 'total width of the steering backlash (0.175 deg default)'),
     'limit': ('rad', 0.0, math.pi / 2, 'hard steer saturation (15 deg default)'),
@@ -46,6 +47,13 @@ _ACT = {
     'enable_delay': ('-', None, None, 'simulate the transport delay'),
     'enable_backlash': ('-', None, None, 'simulate the backlash'),
     'enable_saturation': ('-', None, None, 'simulate the saturation'),
+    'gear_ratio': ('rad/rad', 0.01, 100.0,
+                   "servo-horn angle per steer angle (the paper's reference gain)"),
+    'friction_deadband': ('rad', 0.0, 0.5,
+                          'half-width of the servo dead zone in horn angle (linkage friction)'),
+    'enable_friction': ('-', None, None, 'simulate the friction dead zone of the servo loop'),
+    'enable_linkage_geometry': ('-', None, None,
+                                'wheel = asin(sin(horn) / gear_ratio) (off: horn / gear_ratio)'),
 }
 _IDENT = {
     'gain': ('m/s^2/rad', 0.0, INF, 'K of the identified G(s); 0 = paper reconstruction'),

@@ -1,20 +1,30 @@
-"""Steering actuator vs closed forms (lag, delay, rate limit, backlash, saturation)."""
+"""Steering actuator vs closed forms: delay, loop, slew limit, gearing, linkage, friction, play."""
 
 import math
+from collections import deque
 
 import numpy as np
 import pytest
+from hypothesis import given, settings, strategies as st
 
-from irs_vehicle_sim.actuator import ActuatorParams, SteeringActuator, DEFAULT_RATE_LIMIT_RAD_S
+from irs_vehicle_sim.actuator import (ActuatorParams, SteeringActuator, DEFAULT_RATE_LIMIT_RAD_S,
+                                      LEGACY, LEGACY_RATE_LIMIT_RAD_S)
 
 DT = 1e-3
 
 
 def only(**enable):
+    """Every element off but the ones given; gearing 1 (horn = wheel)."""
     flags = dict(enable_lag=False, enable_rate_limit=False, enable_delay=False,
-                 enable_backlash=False, enable_saturation=False)
+                 enable_backlash=False, enable_saturation=False, enable_friction=False,
+                 enable_linkage_geometry=False, gear_ratio=1.0)
     flags.update(enable)
     return flags
+
+
+def legacy(**enable):
+    """The old linear model's numbers with the given elements."""
+    return {**LEGACY, **only(**enable)}
 
 
 def run(act, cmds, dt=DT):
@@ -23,16 +33,19 @@ def run(act, cmds, dt=DT):
 
 def test_defaults_are_documented_values():
     p = ActuatorParams()
-    assert p.lag_hz == 4.6
+    assert p.lag_hz == 7.0 and p.gear_ratio == 3.0
     assert p.delay == 0.017
     assert p.backlash == pytest.approx(math.radians(0.175))
     assert p.limit == pytest.approx(0.2618, abs=1e-4)
-    assert DEFAULT_RATE_LIMIT_RAD_S == pytest.approx(6.981, abs=1e-3)
-    assert p.tau == pytest.approx(1 / (2 * math.pi * 4.6))
+    assert DEFAULT_RATE_LIMIT_RAD_S == pytest.approx(math.radians(60) / 0.30)
+    assert LEGACY_RATE_LIMIT_RAD_S == pytest.approx(6.981, abs=1e-3)
+    assert p.friction_deadband == pytest.approx(math.radians(0.05))
+    assert p.wheel_rate_limit == pytest.approx(DEFAULT_RATE_LIMIT_RAD_S / 3.0)
+    assert p.tau == pytest.approx(1 / (2 * math.pi * 7.0))
 
 
 def test_lag_step_exact_and_63_percent_at_tau():
-    p = ActuatorParams(**only(enable_lag=True))
+    p = ActuatorParams(**legacy(enable_lag=True))
     act = SteeringActuator(p)
     A = 0.05
     y = run(act, [A] * 200)
@@ -41,6 +54,14 @@ def test_lag_step_exact_and_63_percent_at_tau():
     n_tau = int(round(p.tau / DT))  # 35 samples = 0.035 s vs tau = 0.0346 s
     assert y[n_tau - 1] / A == pytest.approx(1 - math.exp(-n_tau * DT / p.tau), abs=1e-12)
     assert y[n_tau - 1] / A == pytest.approx(1 - math.exp(-1), abs=0.01)
+
+
+def test_gear_ratio_alone_is_unity_dc_with_same_pole():
+    # horn = N * wheel: without geometry and friction the wheel response does not depend on N
+    A = 0.05
+    y1 = run(SteeringActuator(ActuatorParams(**only(enable_lag=True))), [A] * 100)
+    y3 = run(SteeringActuator(ActuatorParams(**only(enable_lag=True, gear_ratio=3.0))), [A] * 100)
+    np.testing.assert_allclose(y3, y1, rtol=1e-12)
 
 
 def test_delay_is_exact_fifo_quantised_to_dt():
@@ -60,18 +81,68 @@ def test_default_delay_17_samples_then_lag_starts():
     assert y[17] > 0.0
 
 
-def test_rate_limited_slope():
-    p = ActuatorParams(**only(enable_lag=True, enable_rate_limit=True))
+def test_rate_limit_acts_in_horn_coordinates():
+    # horn limit R, gear N: the wheel moves at R / N while the loop is saturated
+    N, R = 3.0, DEFAULT_RATE_LIMIT_RAD_S
+    p = ActuatorParams(**only(enable_lag=True, enable_rate_limit=True, gear_ratio=N),
+                       rate_limit=R)
     act = SteeringActuator(p)
-    y = run(act, [1.0] * 30)  # saturation disabled; limit active while 1 - s > R dt / (1 - a)
-    # while (1-a)(u - s) > R dt the servo moves exactly R dt per step
+    y = run(act, [0.2] * 30)
     k = np.arange(1, 11)
-    np.testing.assert_allclose(y[:10], k * p.rate_limit * DT, rtol=1e-12)
+    np.testing.assert_allclose(y[:10], k * R / N * DT, rtol=1e-12)
     assert act.state.rate_limited
-    # small steps are not rate limited (pure lag)
+    np.testing.assert_allclose(act.state.horn, N * y[-1], rtol=1e-12)
+    # the loop saturates for steer errors above R tau / N: a step below that is a pure lag
+    small = 0.9 * R * p.tau / N * (1 - math.exp(-DT / p.tau)) / (DT / p.tau)
     act2 = SteeringActuator(p)
-    y2 = run(act2, [0.05] * 5)
-    np.testing.assert_allclose(y2, 0.05 * (1 - np.exp(-np.arange(1, 6) * DT / p.tau)))
+    y2 = run(act2, [small] * 5)
+    np.testing.assert_allclose(y2, small * (1 - np.exp(-np.arange(1, 6) * DT / p.tau)))
+    assert not act2.state.rate_limited
+
+
+def test_large_steps_are_rate_limited_small_ones_not():
+    # default chain: over the 20-80 % part of a 10 deg step the horn slews at exactly its limit
+    # (the wheel at R cos(theta) / (N cos(delta)), the linkage's local gain); 0.5 deg: a lag
+    p = ActuatorParams()
+    for size_deg, limited in ((0.5, False), (10.0, True)):
+        act = SteeringActuator(p)
+        horn = []
+        for _ in range(1500):
+            act.step(math.radians(size_deg), DT)
+            horn.append(act.state.horn)
+        horn = np.array(horn)
+        frac = horn / horn[-1]
+        mid = (frac > 0.2) & (frac < 0.8)
+        slopes = np.diff(horn)[mid[1:]] / DT
+        if limited:
+            np.testing.assert_allclose(slopes, p.rate_limit, rtol=1e-9)
+        else:
+            assert np.max(slopes) < 0.5 * p.rate_limit
+            assert np.ptp(slopes) > 0.3 * np.max(slopes)  # exponential, not a ramp
+
+
+def test_linkage_geometry_closed_form():
+    p = ActuatorParams(**only(enable_linkage_geometry=True, gear_ratio=3.0))
+    act = SteeringActuator(p)
+    u = math.radians(15.0)
+    y = act.step(u, DT)
+    assert act.state.horn == pytest.approx(3.0 * u)
+    assert y == pytest.approx(math.asin(math.sin(3.0 * u) / 3.0), rel=1e-12)
+    assert math.degrees(y) == pytest.approx(13.63, abs=0.01)
+    # small angles: gain 1 to first order
+    assert act.step(1e-4, DT) == pytest.approx(1e-4, rel=1e-6)
+
+
+def test_friction_dead_zone_holds_small_errors_and_leaves_offset():
+    e_f = math.radians(0.5)
+    p = ActuatorParams(**only(enable_lag=True, enable_friction=True), friction_deadband=e_f)
+    act = SteeringActuator(p)
+    y = run(act, [0.9 * e_f] * 200)  # inside the dead zone: no motion at all
+    np.testing.assert_array_equal(y, 0.0)
+    y = run(act, [0.05] * 2000)  # outside: settles e_f short of the reference
+    assert y[-1] == pytest.approx(0.05 - e_f, abs=1e-9)
+    y = run(act, [0.0] * 2000)  # back from above: stops e_f above the reference
+    assert y[-1] == pytest.approx(e_f, abs=1e-9)
 
 
 def test_backlash_dead_zone_and_reversal():
@@ -99,12 +170,73 @@ def test_saturation():
 
 def test_full_chain_state_and_order():
     act = SteeringActuator()
-    for _ in range(500):
+    for _ in range(1500):
         act.step(-1.0, DT)
     s = act.state
     assert s.commanded == -1.0 and s.delayed == pytest.approx(-math.radians(15))
     # approached from above: wheel lags the servo by half the play
     assert s.achieved == pytest.approx(s.servo + 0.5 * math.radians(0.175), abs=1e-12)
+    p = act.params
+    assert s.horn == pytest.approx(-p.gear_ratio * p.limit + p.friction_deadband, abs=1e-9)
+
+
+class _OldActuator:
+    """The pre-servo-model update (commit f35f610), transcribed: the legacy reference."""
+
+    def __init__(self, p):
+        self.p, self.servo, self.achieved, self.fifo, self.a = p, 0.0, 0.0, None, 0.0
+
+    def step(self, u, dt):
+        p = self.p
+        if self.fifo is None:
+            self.a = math.exp(-dt / p.tau) if p.enable_lag else 0.0
+            self.fifo = deque([0.0] * (int(round(p.delay / dt)) if p.enable_delay else 0))
+        if self.fifo:
+            self.fifo.append(u)
+            u = self.fifo.popleft()
+        if p.enable_saturation and abs(u) > p.limit:
+            u = math.copysign(p.limit, u)
+        inc = (1.0 - self.a) * (u - self.servo)
+        limited = False
+        if p.enable_rate_limit and abs(inc) > p.rate_limit * dt:
+            inc, limited = math.copysign(p.rate_limit * dt, inc), True
+        self.servo = self.servo + inc if (p.enable_lag or limited) else u
+        half = 0.5 * p.backlash
+        if p.enable_backlash and p.backlash > 0.0:
+            gap = self.servo - self.achieved
+            if gap > half:
+                self.achieved = self.servo - half
+            elif gap < -half:
+                self.achieved = self.servo + half
+        else:
+            self.achieved = self.servo
+        return self.achieved
+
+
+@pytest.mark.parametrize('lag', [True, False])
+def test_legacy_parameters_reproduce_the_old_model_to_the_bit(lag):
+    p = ActuatorParams(**LEGACY, enable_lag=lag)
+    new, old = SteeringActuator(p), _OldActuator(p)
+    rng = np.random.default_rng(3)
+    cmds = np.concatenate([rng.normal(0.0, 0.2, 800), np.full(300, 0.4), np.full(300, -0.05)])
+    assert [new.step(c, DT) for c in cmds] == [old.step(c, DT) for c in cmds]
+
+
+_finite = st.floats(min_value=-1e6, max_value=1e6, allow_nan=False)
+
+
+@settings(max_examples=60, deadline=None)
+@given(cmds=st.lists(_finite, min_size=1, max_size=300),
+       geometry=st.booleans(), friction=st.booleans(), ratio=st.floats(1.0, 5.0))
+def test_output_finite_and_within_limits_for_any_finite_input(cmds, geometry, friction, ratio):
+    p = ActuatorParams(gear_ratio=ratio, enable_linkage_geometry=geometry,
+                       enable_friction=friction)
+    act = SteeringActuator(p)
+    bound = p.limit + 0.5 * p.backlash + 1e-12
+    for c in cmds:
+        y = act.step(c, DT)
+        assert math.isfinite(y) and abs(y) <= bound
+        assert abs(act.state.horn) <= ratio * p.limit + 1e-12
 
 
 def test_bad_params_and_dt_change():
@@ -114,6 +246,10 @@ def test_bad_params_and_dt_change():
         SteeringActuator(ActuatorParams(delay=-1.0))
     with pytest.raises(ValueError, match='rate_limit'):
         SteeringActuator(ActuatorParams(rate_limit=math.nan))
+    with pytest.raises(ValueError, match='gear_ratio'):
+        SteeringActuator(ActuatorParams(gear_ratio=0.5))
+    with pytest.raises(ValueError, match='friction_deadband'):
+        SteeringActuator(ActuatorParams(friction_deadband=-1e-3))
     act = SteeringActuator()
     act.step(0.0, DT)
     with pytest.raises(ValueError, match='constant'):
