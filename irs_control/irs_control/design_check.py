@@ -28,9 +28,11 @@ rig (docs/figure10.md), but one failing it cannot work at all.
 
 Check plant (``check_plant``; the design plant is ``plant``): ``'identified'`` = Eq. 6 with
 gain ``plant_gain`` (0 = the paper reconstruction b0 = 363.394, :mod:`irs_models.identified`) --
-the rig's default plant; any other value names a preset of ``irs_models/config/presets.yaml``,
-taken at the controller's ``speed`` and ``ds`` (:func:`irs_models.bicycle.transfer_function`).
-The actuator lag pole is the controller's ``actuator_pole`` (29 rad/s, Eq. 6).
+the rig's default plant; ``'custom'`` = the controller's ``plant_num``/``plant_den`` (e.g. a
+vehicle model identified by ``sysid vehicle``); any other value names a preset of
+``irs_models/config/presets.yaml``, taken at the controller's ``speed`` and ``ds``
+(:func:`irs_models.bicycle.transfer_function`). The actuator lag pole is the controller's
+``actuator_pole`` (29 rad/s, Eq. 6).
 
 With the paper's designs (paper_design / controller_factory defaults): on Eq. 6 all three are
 stable; on ``irs_2wd`` at 1.2 m/s, ds = 0.33 m the MRC with the actuator has its rightmost pole
@@ -164,8 +166,12 @@ def check_controller(cfg: dict, controller, design=None) -> DesignCheck:
     (``None`` for the PI); ``controller`` the discrete controller (its ``linear_state_space()``).
     """
     plant = str(cfg['check_plant'])
-    B, A = check_plant_polynomials(plant, cfg['actuator_pole'], cfg['plant_gain'],
-                                   cfg['speed'], cfg['ds'])
+    if plant == 'custom':      # the vehicle plant_num/plant_den of the design (sysid cycle)
+        from .controller_factory import plant_polynomials
+        B, A = plant_polynomials({**cfg, 'plant': 'custom', 'include_actuator': True})
+    else:
+        B, A = check_plant_polynomials(plant, cfg['actuator_pole'], cfg['plant_gain'],
+                                       cfg['speed'], cfg['ds'])
     if cfg['mode'] == 'pi':
         R, S = np.array([1.0, 0.0]), np.array([float(cfg['kp']), float(cfg['ki'])])
     else:

@@ -10,10 +10,25 @@ with ``lsb = adc_range / 2**adc_bits`` [rad], or ``lsb`` given directly (``lsb >
 bits/range).  Noise is drawn from a ``numpy.random.Generator`` seeded by ``seed``: three draws
 per call, in joint order; when the noise is disabled no draws are made.
 
-Defaults (assumptions; the paper gives no numbers): 12-bit ADC over a 2 pi rad potentiometer
-range (lsb = 1.534 mrad = 0.088 deg), noise sigma = 0.5 mrad.  The paper says encoders had only
-1/10 of the potentiometer resolution; a 1024-line encoder x 4 has 1.53 mrad, consistent with a
-pot resolution of order 0.15-1.5 mrad.
+Resolution and noise (paper Sec. 3.2; the paper prints no numbers for either)
+------------------------------------------------------------------------------
+The paper: the joint encoders tried first "had only 1/10 the angular resolution of a
+potentiometer", and the potentiometers were "found to be a better sensor". So the pots resolve
+angles **10x finer** than the encoders did:
+
+* encoder step ``ENCODER_STEP = 2 pi / 4096 = 1.534 mrad`` (0.088 deg) -- *assumed*: a 1024-line
+  quadrature encoder read x4, the common hobby/lab part of the time (the paper gives no count);
+* pot step ``POT_STEP = ENCODER_STEP / 10 = 0.1534 mrad`` (0.0088 deg) -- the paper's ratio;
+  used as the quantisation step ``lsb`` directly (the converter is not known: 12 bit over
+  360 deg would give the encoder's 1.534 mrad, 16 bit 0.096 mrad);
+* noise ``noise_std = POT_STEP = 0.1534 mrad`` per joint -- *assumed*: a sensor chain whose noise
+  exceeded its step would not have the stated resolution, so the noise is taken at the largest
+  value consistent with it (one step rms). On the 1 m + 1 m arm this gives y_s noise of about
+  0.2 mm rms (was 0.9 mm with the earlier 0.5 mrad, which made the pots noisier than the
+  encoders they beat).
+
+``adc_bits`` / ``adc_range`` give the step instead when ``lsb = 0`` (e.g. 12 bit over 2 pi =
+the encoder's 1.534 mrad, the earlier default).
 """
 
 from __future__ import annotations
@@ -25,7 +40,15 @@ import numpy as np
 
 from irs_models.arm_kinematics import ArmGeometry, inverse_kinematics
 
-__all__ = ['ArmSensorParams', 'ArmSensor', 'quantize']
+__all__ = ['ArmSensorParams', 'ArmSensor', 'quantize', 'ENCODER_STEP', 'POT_RESOLUTION_RATIO',
+           'POT_STEP']
+
+#: Joint-encoder angle step [rad]: 1024 lines x 4 (quadrature) per turn -- assumed (module doc).
+ENCODER_STEP = 2.0 * math.pi / 4096
+#: Paper Sec. 3.2: the encoders had 1/10 the angular resolution of a potentiometer.
+POT_RESOLUTION_RATIO = 10
+#: Potentiometer angle step [rad] = ENCODER_STEP / 10 = 0.1534 mrad (default ``lsb`` and noise).
+POT_STEP = ENCODER_STEP / POT_RESOLUTION_RATIO
 
 
 def quantize(angle: float, lsb: float) -> float:
@@ -40,24 +63,25 @@ class ArmSensorParams:
     Attributes
     ----------
     noise_std : float
-        Gaussian noise standard deviation per joint [rad] (default 5e-4).
+        Gaussian noise standard deviation per joint [rad] (default :data:`POT_STEP`, assumed).
     enable_noise : bool
     adc_bits : int
-        ADC resolution [bits] (default 12).
+        ADC resolution [bits] (default 12; used only when ``lsb = 0``).
     adc_range : float
-        Angle spanned by the full ADC range [rad] (default 2 pi).
+        Angle spanned by the full ADC range [rad] (default 2 pi; used only when ``lsb = 0``).
     lsb : float
-        Quantisation step [rad]; 0 means ``adc_range / 2**adc_bits``.
+        Quantisation step [rad] (default :data:`POT_STEP` = 0.1534 mrad, paper Sec. 3.2);
+        0 means ``adc_range / 2**adc_bits``.
     enable_quantization : bool
     seed : int
         Seed of the noise generator.
     """
 
-    noise_std: float = 5e-4
+    noise_std: float = POT_STEP
     enable_noise: bool = True
     adc_bits: int = 12
     adc_range: float = 2.0 * math.pi
-    lsb: float = 0.0
+    lsb: float = POT_STEP
     enable_quantization: bool = True
     seed: int = 0
 

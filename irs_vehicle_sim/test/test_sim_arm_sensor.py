@@ -6,7 +6,9 @@ import numpy as np
 import pytest
 
 from irs_models.arm_kinematics import ArmGeometry, ArmReachError, forward_kinematics
-from irs_vehicle_sim.arm_sensor import ArmSensor, ArmSensorParams
+from irs_vehicle_sim.arm_sensor import (ENCODER_STEP, POT_RESOLUTION_RATIO, POT_STEP, ArmSensor,
+                                        ArmSensorParams)
+from irs_vehicle_sim.rig import RigConfig
 
 POSE = (0.31, -0.12, 0.07)
 
@@ -32,7 +34,7 @@ def test_noise_statistics():
 
 
 def test_quantisation_step_and_error_bound():
-    p = ArmSensorParams(enable_noise=False, adc_bits=12, adc_range=2 * math.pi)
+    p = ArmSensorParams(enable_noise=False, adc_bits=12, adc_range=2 * math.pi, lsb=0.0)
     assert p.step_size == pytest.approx(2 * math.pi / 4096)
     s = ArmSensor(params=p)
     rng = np.random.default_rng(1)
@@ -70,3 +72,26 @@ def test_unreachable_pose_and_bad_params():
         ArmSensor(params=ArmSensorParams(noise_std=-1.0))
     with pytest.raises(ValueError, match='adc_bits'):
         ArmSensor(params=ArmSensorParams(adc_bits=0))
+
+
+def test_pots_resolve_ten_times_finer_than_the_encoders_paper_sec_3_2():
+    """Default step = encoder step / 10 (paper Sec. 3.2); the noise is no larger than the step."""
+    p = ArmSensorParams()
+    assert POT_RESOLUTION_RATIO == 10
+    assert p.step_size * POT_RESOLUTION_RATIO == pytest.approx(ENCODER_STEP, rel=1e-12)
+    assert p.step_size == POT_STEP < ENCODER_STEP
+    assert 0.0 < p.noise_std <= p.step_size
+    # the rig defaults (rig.yaml values, as RigConfig reads them) agree with the sensor's
+    import yaml
+    from ament_index_python.packages import get_package_share_directory
+    path = f"{get_package_share_directory('irs_vehicle_sim')}/config/rig.yaml"
+    with open(path) as f:
+        arm = yaml.safe_load(f)['vehicle_sim']['ros__parameters']['arm']
+    cfg = RigConfig.from_dict({f'arm.{k}': arm[k] for k in ('noise_std', 'lsb')})
+    assert cfg.arm_sensor.step_size == pytest.approx(POT_STEP, rel=1e-12)
+    assert cfg.arm_sensor.noise_std == pytest.approx(p.noise_std, rel=1e-12)
+    # readings are multiples of the pot step, and the quantisation error is within half a step
+    s = ArmSensor(params=ArmSensorParams(enable_noise=False))
+    th = s.measure(*POSE)
+    np.testing.assert_allclose(th / POT_STEP, np.round(th / POT_STEP), atol=1e-6)
+    assert np.all(np.abs(th - np.array(s.true_angles(*POSE))) <= POT_STEP / 2 + 1e-15)
