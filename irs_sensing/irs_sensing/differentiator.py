@@ -70,15 +70,17 @@ class Differentiator:
         """Feed sample ``x`` (the signal at the newest instant); return its derivative [x/s]."""
         if not math.isfinite(x):
             raise ValueError(f'differentiator input must be finite, got {x!r}.')
+        # Histories shift by one in place (newest first): the values np.roll gave, without its
+        # per-call overhead (np.roll was a fifth of the offline closed loop's time).
         if self._x is None:
             self._x = np.full(len(self._b), float(x))
         else:
-            self._x = np.roll(self._x, 1)
+            self._x[1:] = self._x[:-1]
             self._x[0] = x
         y = float(self._b @ self._x)
         if len(self._y):
             y -= float(self._a[1:] @ self._y)
-            self._y = np.roll(self._y, 1)
+            self._y[1:] = self._y[:-1]
             self._y[0] = y / self._a[0]
         y /= self._a[0]
         self.samples_since_reset += 1
