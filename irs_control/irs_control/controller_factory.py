@@ -10,6 +10,9 @@ Plant used for an MRC design (steer [rad] -> sensor-point lateral displacement y
   (:mod:`.paper_design`), with or without the actuator lag ``p/(s+p)``.
 - ``plant = <preset name>``: the physical bicycle model of that preset at ``speed`` and ``ds``
   (:func:`irs_models.bicycle.transfer_function`), with or without the actuator lag.
+- ``plant = 'custom'``: the vehicle ``plant_num / plant_den`` (coefficient lists, highest power
+  first, ``plant_den`` monic; e.g. a model identified by ``sysid vehicle``), with or without the
+  actuator lag. Used by ``sysid cycle`` (identify, design, run).
 
 The reference model (``reference_model_num``/``_den``) and observer polynomial (``observer``;
 ``[0.0]`` = the paper's choice: ``(s+12)^2`` with the actuator, ``s+12`` without) are
@@ -53,6 +56,8 @@ CONTROLLER_DEFAULTS = {
     'speed': IDENTIFICATION_SPEED,
     'ds': SENSOR_DISTANCE,
     'plant_gain': 0.0,
+    'plant_num': [0.0],
+    'plant_den': [0.0],
     'include_actuator': True,
     'actuator_pole': PAPER_ACTUATOR_POLE,
     'reference_model_num': [float(c) for c in _BM],
@@ -93,6 +98,14 @@ def plant_polynomials(cfg: dict):
     if cfg['plant'] == 'identified':
         gain = float(cfg['plant_gain']) or PAPER_PLANT_GAIN
         return identified_plant(include, pole, gain)
+    if cfg['plant'] == 'custom':
+        num = require_polynomial('plant_num', cfg['plant_num'])
+        den = require_polynomial('plant_den', cfg['plant_den'], monic=True)
+        if num.size > den.size:
+            raise ValueError('plant_num/plant_den must be proper (deg num <= deg den)')
+        if include:
+            num, den = pole * num, np.polymul(den, [1.0, pole])
+        return num, den
     try:
         preset = get_preset(cfg['plant'])
     except KeyError as exc:

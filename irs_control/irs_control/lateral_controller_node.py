@@ -76,8 +76,8 @@ PARAMS = [
         'mode', D['mode'], "control law: 'mrc' (RST model reference) or 'pi'", '-', read_only=True
     ),
     Param('dt', D['dt'], 'controller period = measurement period', 's', 1e-5, 1.0, read_only=True),
-    Param('plant', D['plant'], "design plant: 'identified' (paper Eq. 6) or a vehicle preset name",
-          '-', read_only=True),
+    Param('plant', D['plant'], "design plant: 'identified' (paper Eq. 6), a vehicle preset name "
+          "or 'custom' (plant_num/plant_den)", '-', read_only=True),
     Param('speed', D['speed'], 'forward speed the design assumes (presets only)', 'm/s', 0.01,
           50.0, read_only=True),
     Param('ds', D['ds'], 'sensor distance ahead of the c.g. the design assumes (presets only)',
@@ -92,6 +92,10 @@ PARAMS = [
         1e9,
         read_only=True,
     ),
+    Param('plant_num', D['plant_num'], "plant 'custom': vehicle numerator (steer -> y_s, "
+          'without the actuator lag), highest power first', 'm/(rad s^k)', read_only=True),
+    Param('plant_den', D['plant_den'], "plant 'custom': vehicle denominator, monic, highest "
+          'power first', '1/s^k', read_only=True),
     Param('include_actuator', D['include_actuator'], 'design with the actuator lag in the plant',
           '-', read_only=True),
     Param('actuator_pole', D['actuator_pole'], 'actuator lag pole magnitude (4.6 Hz ~ 29)',
