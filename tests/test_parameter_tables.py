@@ -54,6 +54,7 @@ NODE_CLASSES = {
     'lateral_controller': 'irs_control.lateral_controller_node:LateralControllerNode',
     'reference_generator': 'irs_control.reference_generator_node:ReferenceGeneratorNode',
     'driver': 'irs_bringup.driver.driver_node:DriverNode',
+    'excitation': 'irs_bringup.sysid.excitation_node:ExcitationNode',
     'recorder': 'irs_bringup.bag.recorder_node:Recorder',
 }
 RCLPY_PARAMETERS = {'use_sim_time', 'start_type_description_service'}

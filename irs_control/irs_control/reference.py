@@ -13,6 +13,18 @@ returns its ``offset``):
 * ``square``: ``r = offset + amplitude`` in the first half of each period after ``t0``,
   ``offset - amplitude`` in the second half (``duty`` changes the first-half fraction)
 * ``sine``: ``r = offset + amplitude sin(2 pi (t - t0)/period + phase)``
+* ``schedule``: piecewise constant: ``r = values[i]`` for ``times[i] <= t < times[i+1]`` (the
+  last value holds for ever), ``offset`` before ``times[0]``; ``times`` [s] strictly increasing,
+  as many as ``values``
+* ``chirp``: logarithmic swept sine from ``f0`` to ``f1`` [Hz] over ``sweep_time`` [s]:
+  ``r = offset + amplitude sin(phi(t - t0))`` for ``t0 <= t <= t0 + sweep_time`` with
+  ``phi(tau) = 2 pi f0 T/ln(f1/f0) ((f1/f0)^(tau/T) - 1)``, ``T`` = ``sweep_time``
+  (``scipy.signal.chirp``, ``method='logarithmic'``, ``phi=-90`` degrees so it starts at 0 with
+  a positive slope); ``offset`` before and after the sweep
+
+``schedule`` and ``chirp`` are system-identification excitations (voltage steps of the paper's
+Fig. 5, the swept sines of its Fig. 6 and 8); their values are in the unit of whatever they
+drive (m for the lateral reference, V or rad for ``irs_bringup``'s ``excitation`` node).
 
 Console reference (``source: console`` of ``reference_generator``): :func:`console_reference`
 screens each value typed at the driver console. A value is accepted when it is a finite number
@@ -24,11 +36,15 @@ request to drive to the belt edge. The result is always finite.
 """
 from __future__ import annotations
 
+import bisect
 import math
 from dataclasses import dataclass, fields
 
-__all__ = ['Constant', 'Step', 'Square', 'Sine', 'from_dict', 'SIGNALS', 'console_reference',
-           'CONSOLE_LIMIT']
+import numpy as np
+from scipy.signal import chirp as _scipy_chirp
+
+__all__ = ['Constant', 'Step', 'Square', 'Sine', 'Schedule', 'Chirp', 'from_dict', 'SIGNALS',
+           'console_reference', 'CONSOLE_LIMIT']
 
 #: Default bound on a console reference [m] (belt half width 0.6096 m less a 0.10 m margin).
 CONSOLE_LIMIT = 0.5
@@ -115,7 +131,90 @@ class Sine(_FiniteFields):
             2.0 * math.pi * (t - self.start_time) / self.period + self.phase))
 
 
-SIGNALS = {'constant': Constant, 'step': Step, 'square': Square, 'sine': Sine}
+def _finite_sequence(name, seq) -> tuple:
+    if isinstance(seq, (str, bytes)) or not hasattr(seq, '__iter__'):
+        raise ValueError(f"Reference parameter '{name}' must be a list of finite numbers; "
+                         f'got {seq!r}.')
+    seq = tuple(seq)
+    if not seq:
+        raise ValueError(f"Reference parameter '{name}' must not be empty.")
+    for v in seq:
+        _finite(name, v)
+    return tuple(float(v) for v in seq)
+
+
+@dataclass(frozen=True)
+class Schedule:
+    """Piecewise constant: ``values[i]`` from ``times[i]`` [s] on, ``offset`` before ``times[0]``.
+
+    ``times`` strictly increasing, one per value; the last value holds after the last time.
+    """
+
+    times: tuple = (0.0,)
+    values: tuple = (0.0,)
+    offset: float = 0.0
+
+    def __post_init__(self):
+        times = _finite_sequence('times', self.times)
+        values = _finite_sequence('values', self.values)
+        _finite('offset', self.offset)
+        if len(times) != len(values):
+            raise ValueError(f'Schedule needs one value per time; got {len(times)} times and '
+                             f'{len(values)} values.')
+        if any(b <= a for a, b in zip(times, times[1:])):
+            raise ValueError(f'Schedule times must be strictly increasing seconds; got '
+                             f'{list(times)}.')
+        object.__setattr__(self, 'times', times)
+        object.__setattr__(self, 'values', values)
+
+    def __call__(self, t: float) -> float:
+        i = bisect.bisect_right(self.times, t) - 1
+        return float(self.offset if i < 0 else self.values[i])
+
+
+@dataclass(frozen=True)
+class Chirp(_FiniteFields):
+    """Logarithmic swept sine ``f0`` -> ``f1`` [Hz] over ``sweep_time`` [s] from ``start_time``.
+
+    ``offset + amplitude sin(phi(t - start_time))`` during the sweep (``phi`` in the module
+    docstring, from :func:`scipy.signal.chirp`), ``offset`` before and after it.
+    """
+
+    amplitude: float = 0.1
+    f0: float = 0.1
+    f1: float = 10.0
+    sweep_time: float = 60.0
+    start_time: float = 0.0
+    offset: float = 0.0
+
+    def __post_init__(self):
+        super().__post_init__()
+        if self.f0 <= 0 or self.f1 <= 0:
+            raise ValueError(f'Chirp frequencies f0 and f1 must be positive Hz (a logarithmic '
+                             f'sweep); got f0={self.f0}, f1={self.f1}.')
+        if self.sweep_time <= 0:
+            raise ValueError(f'Chirp sweep_time must be positive seconds; got {self.sweep_time}.')
+
+    def frequency(self, t: float) -> float:
+        """Instantaneous frequency [Hz] at ``t`` [s] (NaN outside the sweep)."""
+        tau = t - self.start_time
+        if not 0.0 <= tau <= self.sweep_time:
+            return math.nan
+        return float(self.f0 * (self.f1 / self.f0) ** (tau / self.sweep_time))
+
+    def __call__(self, t: float) -> float:
+        tau = t - self.start_time
+        if not 0.0 <= tau <= self.sweep_time:
+            return float(self.offset)
+        if self.f0 == self.f1:        # scipy's logarithmic formula divides by ln(f1/f0)
+            return float(self.offset + self.amplitude * math.sin(2.0 * math.pi * self.f0 * tau))
+        wave = _scipy_chirp(np.float64(tau), self.f0, self.sweep_time, self.f1,
+                            method='logarithmic', phi=-90.0)
+        return float(self.offset + self.amplitude * wave)
+
+
+SIGNALS = {'constant': Constant, 'step': Step, 'square': Square, 'sine': Sine,
+           'schedule': Schedule, 'chirp': Chirp}
 
 
 def from_dict(spec: dict):

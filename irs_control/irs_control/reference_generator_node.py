@@ -1,7 +1,7 @@
 """``reference_generator`` node: the lateral reference, from a function or the driver console.
 
 The paper's two reference sources: a function in the controller code (``source: function``:
-step, square, sine or constant, see :mod:`.reference`) or the driver console
+step, square, sine, constant, schedule or chirp, see :mod:`.reference`) or the driver console
 (``source: console``: the latest ``console/lateral_position`` value, std_msgs/Float64 [m]).
 
 Publishes ``lateral/reference`` (irs_msgs/LateralReference). With ``use_sim_time`` it publishes
@@ -58,7 +58,12 @@ class ReferenceGeneratorNode(Node):
         self.create_service(Trigger, 'reference/restart', self._on_restart)
 
     def _on_parameter(self, name, value):
-        self.signal = signal_from_params(self.p)    # self.p is kept current by declare_table
+        try:
+            self.signal = signal_from_params(self.p)    # self.p is kept current by declare_table
+        except ValueError as exc:     # e.g. schedule times set, values not yet: keep the old one
+            self.get_logger().warning(f'parameter {name} = {value!r} stored, signal not rebuilt '
+                                      f'(the previous one stays): {exc}')
+            return
         self.get_logger().info(f'parameter {name} = {value!r} applied: signal rebuilt')
 
     def _on_reset(self):

@@ -7,8 +7,46 @@ from irs_common.params import Param
 from .reference import CONSOLE_LIMIT, from_dict
 
 
+_FIELDS = {'constant': ('offset',), 'step': ('amplitude', 'start_time', 'offset'),
+           'square': ('amplitude', 'period', 'offset', 'start_time'),
+           'sine': ('amplitude', 'period', 'offset', 'start_time'),
+           'schedule': ('times', 'values', 'offset'),
+           'chirp': ('amplitude', 'f0', 'f1', 'sweep_time', 'start_time', 'offset')}
+
+
 def _signal_type(value):
     return None if value in _FIELDS else f'expected one of {sorted(_FIELDS)}'
+
+
+def signal_params(unit: str, limit: float, default_type: str = 'step',
+                  amplitude: float = 0.1, start_time: float = 1.0) -> list:
+    """The ``signal.*`` parameters (all writable) of a node that publishes a :mod:`.reference`.
+
+    ``unit`` is the unit of the signal's values (``amplitude``, ``offset``, ``values``),
+    ``limit`` the largest magnitude accepted for each of them. Shared by ``reference_generator``
+    (m) and ``irs_bringup``'s ``excitation`` node (rad or V).
+    """
+    return [
+        Param('signal.type', default_type, f'one of {", ".join(sorted(_FIELDS))}', '-',
+              writable=True, validator=_signal_type),
+        Param('signal.amplitude', amplitude,
+              'amplitude (step height, square/sine/chirp amplitude)', unit, -limit, limit,
+              writable=True),
+        Param('signal.offset', 0.0, 'offset (value before start_time, before the first schedule '
+              'time, after a chirp)', unit, -limit, limit, writable=True),
+        Param('signal.start_time', start_time, 'time the signal starts (not schedule)', 's', 0.0,
+              1e6, writable=True),
+        Param('signal.period', 8.0, 'period of square and sine', 's', 1e-3, 1e6, writable=True),
+        Param('signal.times', [0.0], 'schedule: times the values start, strictly increasing (set '
+              'times and values together)', 's', 0.0, 1e6, writable=True),
+        Param('signal.values', [0.0], 'schedule: one value per time, held until the next time',
+              unit, -limit, limit, writable=True),
+        Param('signal.f0', 0.1, 'chirp: start frequency (logarithmic sweep)', 'Hz', 1e-4, 1e4,
+              writable=True),
+        Param('signal.f1', 10.0, 'chirp: end frequency', 'Hz', 1e-4, 1e4, writable=True),
+        Param('signal.sweep_time', 60.0, 'chirp: sweep duration from start_time', 's', 1e-3, 1e6,
+              writable=True),
+    ]
 
 
 # The signal.* parameters are writable: the node rebuilds the signal at once (same time base).
@@ -16,13 +54,7 @@ PARAMS = [
     Param('source', 'function',
           "'function' (signal below) or 'console' (console/lateral_position)", '-',
           read_only=True),
-    Param('signal.type', 'step', "'constant', 'step', 'square' or 'sine'", '-', writable=True,
-          validator=_signal_type),
-    Param('signal.amplitude', 0.1, 'amplitude (step height, square/sine amplitude)', 'm', -1.0,
-          1.0, writable=True),
-    Param('signal.offset', 0.0, 'offset (value before start_time)', 'm', -1.0, 1.0, writable=True),
-    Param('signal.start_time', 1.0, 'time the signal starts', 's', 0.0, 1e6, writable=True),
-    Param('signal.period', 8.0, 'period of square and sine', 's', 1e-3, 1e6, writable=True),
+    *signal_params('m', 1.0),
     Param(
         'console_limit',
         CONSOLE_LIMIT,
@@ -36,13 +68,11 @@ PARAMS = [
     Param('rate', 1000.0, 'publication rate without sim time', 'Hz', 0.1, 10000.0, read_only=True),
 ]
 
-_FIELDS = {'constant': ('offset',), 'step': ('amplitude', 'start_time', 'offset'),
-           'square': ('amplitude', 'period', 'offset', 'start_time'),
-           'sine': ('amplitude', 'period', 'offset', 'start_time')}
-
-
 def signal_from_params(p: dict):
-    """Reference signal from the flat ``signal.*`` parameters."""
+    """Reference signal from the flat ``signal.*`` parameters.
+
+    Raises ``ValueError`` naming the problem (e.g. a schedule with more times than values).
+    """
     kind = p['signal.type']
     if kind not in _FIELDS:
         raise ValueError(f'signal.type must be one of {sorted(_FIELDS)}, got {kind!r}')

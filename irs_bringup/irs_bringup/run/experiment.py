@@ -48,7 +48,25 @@ NODE_TOPICS = {
         'pub': ['treadmill/drive', 'treadmill/state'],
         'sub': ['pose', 'velocity', 'belt/speed', 'treadmill/reset']},
     ('irs_bringup', 'driver'): {'pub': ['driver/command'], 'sub': []},
+    ('irs_bringup', 'excitation'): {'pub': ['steering/command'], 'sub': []},   # target steering
 }
+
+#: Nodes whose topics depend on a parameter: key -> (parameter, {value: topics}); the value in
+#: ``NODE_TOPICS`` is the one for the parameter's default.
+NODE_TOPICS_BY_PARAMETER = {
+    ('irs_bringup', 'excitation'): ('target', {
+        'steering': {'pub': ['steering/command'], 'sub': []},
+        'drive': {'pub': ['treadmill/drive'], 'sub': []}}),
+}
+
+
+def node_topics(entry) -> dict:
+    """``{'pub': [...], 'sub': [...]}`` of an experiment's node (empty if not known)."""
+    io = NODE_TOPICS.get(entry.key, {'pub': [], 'sub': []})
+    if entry.key in NODE_TOPICS_BY_PARAMETER:
+        name, by_value = NODE_TOPICS_BY_PARAMETER[entry.key]
+        io = by_value.get(node_parameters(entry).get(name), io)
+    return io
 
 
 class ExperimentError(ValueError):
@@ -237,7 +255,7 @@ def expected_endpoints(exp: Experiment) -> dict:
     """``{topic: (publishers, subscribers)}`` the graph must show before the run starts."""
     counts = {}
     for entry in exp.nodes:
-        io = NODE_TOPICS.get(entry.key, {'pub': [], 'sub': []})
+        io = node_topics(entry)
         for kind, idx in (('pub', 0), ('sub', 1)):
             for topic in io[kind]:
                 topic = absolute(entry.remaps.get(topic, topic))

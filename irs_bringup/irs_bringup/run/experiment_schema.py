@@ -271,6 +271,7 @@ PARAMETER_TABLES = {
                                                'regulator_parameter_table', True),
     ('irs_control', 'reference_generator'): ('irs_control.reference_params', 'PARAMS', True),
     ('irs_bringup', 'driver'): ('irs_bringup.driver.speed_profile', 'DRIVER_PARAMS', True),
+    ('irs_bringup', 'excitation'): ('irs_bringup.sysid.excitation_params', 'PARAMS', True),
 }
 
 
