@@ -1,0 +1,159 @@
+"""Benchmark of the sweep tool (issue 14): points/s with 1 and 2 Dask workers, offline steps/s.
+
+    ./irs exec python bench/sweep.py                  # 12 points of the actuator x speed sweep
+    ./irs exec python bench/sweep.py --points 24 --duration 5
+
+Parts (results printed and written to ``bench/results/sweep-<time>.json``):
+
+- ``sweep``: the first ``--points`` points of ``config/sweeps/actuator_speed.yaml`` (with its
+  duration or ``--duration``), run in this process (serial) and on a LocalCluster of 1 and of 2
+  worker processes. The cluster's start-up and the workers' first imports are measured apart
+  (one warm-up point per worker before the clock starts): points/s is the steady rate of
+  ``client.map`` over the points, with the scenario scattered once.
+- ``offline``: steps/s of the offline closed loop (:class:`irs_bringup.paper.closed_loop
+  .ClosedLoop`, every core of the graph, Figure 10 scenario) against the linear plant alone:
+  the identified plant of Eq. 6 stepped by our core (:class:`irs_models.identified
+  .IdentifiedPlant`), by ``scipy.signal.dlsim``, and ``--systems`` of them at once by
+  :class:`irs_models.batch_lti.BatchLti` (system-steps/s), with the largest difference.
+
+Speed is measured here, never asserted in tests; on a shared machine compare ratios within one
+run (the load average before and after is in the JSON).
+"""
+import argparse
+import datetime
+import json
+import os
+from pathlib import Path
+import sys
+import tempfile
+import time
+
+HERE = Path(__file__).resolve().parent
+
+
+def _prep(points: int, duration: float | None):
+    from irs_bringup.sweep.runner import prepare
+    from irs_bringup.sweep.sweep_file import load_sweep
+    sweep, path = load_sweep('actuator_speed')
+    prep = prepare(sweep, path)
+    # every design at several actuator/speed points, not only the first design's corner
+    step = max(len(prep.points) // points, 1)
+    prep.points = prep.points[::step][:points]
+    if duration:
+        prep.duration = duration
+    return prep
+
+
+def sweep_rates(points: int, duration: float | None) -> list:
+    from irs_bringup.sweep.point import run_point
+    from irs_bringup.sweep.runner import make_client, run_sweep
+    prep = _prep(points, duration)
+    rows = []
+    t0 = time.perf_counter()
+    for p in prep.points:
+        run_point(prep.cfg, prep.duration, p, list(prep.sweep.metrics))
+    dt = time.perf_counter() - t0
+    rows.append({'name': 'sweep serial (this process)', 'workers': 0, 'points': len(prep.points),
+                 'seconds': dt, 'points_per_s': len(prep.points) / dt})
+    print(f"{rows[-1]['name']:44s} {rows[-1]['points_per_s']:8.3f} points/s", flush=True)
+    for workers in (1, 2):
+        t0 = time.perf_counter()
+        client = make_client(workers)
+        warm = client.map(run_point, [prep.cfg] * workers, [0.01] * workers,
+                          prep.points[:workers], [['off_belt']] * workers, pure=False)
+        client.gather(warm)
+        start = time.perf_counter() - t0
+        with tempfile.TemporaryDirectory() as d:
+            t0 = time.perf_counter()
+            run_sweep(prep, Path(d), client=client, log=lambda s: None)
+            dt = time.perf_counter() - t0
+        client.close()
+        client.cluster.close() if getattr(client, 'cluster', None) else None
+        rows.append({'name': f'sweep on a LocalCluster, {workers} worker(s)', 'workers': workers,
+                     'points': len(prep.points), 'seconds': dt,
+                     'points_per_s': len(prep.points) / dt, 'startup_s': start})
+        print(f"{rows[-1]['name']:44s} {rows[-1]['points_per_s']:8.3f} points/s "
+              f'(cluster start-up and imports {start:.1f} s)', flush=True)
+    return rows
+
+
+def offline(systems: int) -> list:
+    import numpy as np
+    from scipy import signal
+    from irs_bringup.paper.closed_loop import ClosedLoop
+    from irs_bringup.run.experiment import load_experiment
+    from irs_bringup.run.offline import loop_config_from_experiment
+    from irs_models.batch_lti import BatchLti
+    from irs_models.identified import IdentifiedParams, IdentifiedPlant, identified_matrices
+    exp = load_experiment('figure10_mrc_with_actuator')
+    loop = ClosedLoop(loop_config_from_experiment(exp))
+    n = int(round(exp.duration / 0.001))
+    t0 = time.perf_counter()
+    run = loop.run(exp.duration)
+    t_loop = time.perf_counter() - t0
+    steer = np.nan_to_num(np.asarray(run['steer_achieved'], float))[:n]
+    plant = IdentifiedPlant()
+    t0 = time.perf_counter()
+    ys_core = np.empty(n)
+    for k in range(n):
+        ys_core[k] = plant.y_s
+        plant.step(float(steer[k]), 0.0, 0.001)
+    t_core = time.perf_counter() - t0
+    Ad, Bd = plant.discrete(0.001)
+    t0 = time.perf_counter()
+    _, ys_ref, _ = signal.dlsim((Ad, Bd, plant.C, plant.D, 0.001), steer[:, None])
+    t_ref = time.perf_counter() - t0
+    gains = np.linspace(0.5, 2.0, systems) * IdentifiedParams().resolved_gain()
+    batch = BatchLti.from_continuous(
+        [identified_matrices(IdentifiedParams(gain=g))[:4] for g in gains], 0.001)
+    t0 = time.perf_counter()
+    yb, _ = batch.simulate(steer)
+    t_batch = time.perf_counter() - t0
+    i1 = int(np.argmin(np.abs(gains - IdentifiedParams().resolved_gain())))
+    err_core = float(np.max(np.abs(ys_core - ys_ref[:, 0])))
+    _, y1, _ = signal.dlsim((batch.Ad[i1], batch.Bd[i1], batch.C[i1], batch.D[i1], 0.001),
+                            steer[:, None])
+    err_batch = float(np.max(np.abs(yb[i1, :, 0] - y1[:, 0])))
+    rows = [{'name': 'offline closed loop (all cores, Figure 10)', 'steps_per_s': n / t_loop},
+            {'name': 'identified plant, our core stepped in Python', 'steps_per_s': n / t_core,
+             'max_abs_difference_m': err_core},
+            {'name': 'identified plant, scipy.signal.dlsim', 'steps_per_s': n / t_ref},
+            {'name': f'{systems} identified plants at once, BatchLti (system-steps/s)',
+             'steps_per_s': systems * n / t_batch, 'max_abs_difference_m': err_batch}]
+    for r in rows:
+        print(f"{r['name']:60s} {r['steps_per_s']:12.0f} steps/s", flush=True)
+    print(f'    core vs dlsim: max |y_s difference| = {err_core:.2e} m; BatchLti vs dlsim '
+          f'{err_batch:.2e} m', flush=True)
+    return rows
+
+
+def main(argv=None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__,
+                                 formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap.add_argument('--points', type=int, default=12, help='sweep points per configuration')
+    ap.add_argument('--duration', type=float, help='simulated seconds per point (default: the '
+                    "sweep file's)")
+    ap.add_argument('--systems', type=int, default=100, help='systems stepped at once')
+    ap.add_argument('--only', nargs='+', choices=('sweep', 'offline'),
+                    default=['sweep', 'offline'])
+    ap.add_argument('--out', default=str(HERE / 'results'), help='folder for the JSON file')
+    a = ap.parse_args(argv)
+    res = {'started': datetime.datetime.now().isoformat(timespec='seconds'),
+           'load_before': os.getloadavg(), 'cpus': os.cpu_count()}
+    if 'sweep' in a.only:
+        print('== sweep (actuator_speed)', flush=True)
+        res['sweep'] = sweep_rates(a.points, a.duration)
+    if 'offline' in a.only:
+        print('== offline', flush=True)
+        res['offline'] = offline(a.systems)
+    res['load_after'] = os.getloadavg()
+    out = Path(a.out)
+    out.mkdir(parents=True, exist_ok=True)
+    path = out / f"sweep-{datetime.datetime.now().strftime('%Y%m%d-%H%M%S')}.json"
+    path.write_text(json.dumps(res, indent=1, default=str))
+    print(f'results: {path}')
+    return 0
+
+
+if __name__ == '__main__':
+    sys.exit(main())
