@@ -30,11 +30,22 @@ so ``a_s / delta = K (s^2 + 7.2 s + 11.52) / (s^2 + 28 s + 160)``.  Discretised 
 delta) by ``scipy.signal.cont2discrete`` (the matrix exponential of ``[[A, B], [0, 0]] dt``).
 :func:`identified_plant` gives the same plant (with or without the actuator) as polynomials.
 
-Pose: the identified model has no sideslip state, so the heading is taken kinematically from the
-sensor-point lateral velocity, ``psi = v_s / U`` (small-angle, as the linear model), the yaw rate
-``r = a_s / U``, the body lateral velocity at the c.g. is zero, and ``y_cg = y_s - ds sin(psi)``
-(conventions: ``y_s = y + ds sin psi``).  The model is LTI at the identification speed U; it
-does not rescale with the actual car speed.
+Pose -- heading and yaw rate are NOT physical
+---------------------------------------------
+Eq. 6 is an input-output model (steer -> y_s); it has no yaw or sideslip state.  The pose the rig
+publishes for it (``ground_truth/odom``, the car drawn on the belt) takes the heading
+kinematically from the sensor-point lateral velocity, ``psi = v_s / U`` (small-angle), the yaw
+rate ``r = a_s / U``, zero body lateral velocity at the c.g. and ``y_cg = y_s - ds sin(psi)``
+(conventions: ``y_s = y + ds sin psi``).  This ignores the sideslip ``v`` and the ``ds r`` term
+of ``v_s = v + U psi + ds r``: on a bicycle preset a 5 deg steer doublet gives a heading error of
+about 129 % of the peak heading (issue 12).  So **heading, yaw rate and c.g. position from this
+plant are not physical**; only y_s (and v_s, a_s) are.  A physically consistent heading would need
+a bicycle realisation of G(s) (``num`` and ``den`` of Eq. 5 with some m, I_z, C_f, C_r, l_f, l_r
+at U and ds): for Eq. 6 none exists -- ``n1 / n0 = (l_r + ds) / U`` fixes l_r = 0.42 m, and no
+positive (m, I_z, C_f, C_r, l_f) then matches the poles (closest: 1 % off with l_f = 1.2 m);
+:func:`bicycle_realisation` checks a given plant.  Use ``plant: bicycle`` when heading or yaw
+rate matter.  The model is LTI at the identification speed U; it does not rescale with the
+actual car speed.
 """
 
 from __future__ import annotations
@@ -48,7 +59,8 @@ from .constants import (IDENTIFICATION_SPEED, PAPER_ACTUATOR_POLE, PAPER_PLANT_G
                         PAPER_VEHICLE_POLES, PAPER_ZEROS, SENSOR_DISTANCE)
 from .lateral_plant import ZohSteps
 
-__all__ = ['IdentifiedParams', 'IdentifiedPlant', 'identified_matrices', 'identified_plant']
+__all__ = ['IdentifiedParams', 'IdentifiedPlant', 'identified_matrices', 'identified_plant',
+           'quadratic_roots', 'bicycle_realisation']
 
 
 def identified_plant(include_actuator: bool = True, actuator_pole: float = PAPER_ACTUATOR_POLE,
@@ -89,6 +101,38 @@ def identified_plant(include_actuator: bool = True, actuator_pole: float = PAPER
             np.real(np.poly(np.asarray(poles, dtype=complex))))
 
 
+def _pair(name: str, values) -> tuple:
+    """Two roots [rad/s] as a tuple: both real, or one complex-conjugate pair (else ValueError)."""
+    try:
+        roots = tuple(complex(v) for v in values)
+    except (TypeError, ValueError):
+        raise ValueError(f'{name} must be two roots in rad/s (real, or a complex-conjugate '
+                         f'pair); got {values!r}') from None
+    if len(roots) != 2:
+        raise ValueError(f'{name} must hold exactly two roots in rad/s (real, or a '
+                         f'complex-conjugate pair); got {len(roots)}')
+    if not all(math.isfinite(r.real) and math.isfinite(r.imag) for r in roots):
+        raise ValueError(f'{name} must be finite values in rad/s; got {values!r}')
+    a, b = roots
+    tol = 1e-9 * max(1.0, abs(a), abs(b))
+    if (abs(a.imag) > tol or abs(b.imag) > tol) and abs(a - b.conjugate()) > tol:
+        raise ValueError(f'{name} must be two real roots or a complex-conjugate pair in rad/s; '
+                         f'got {a} and {b}')
+    return roots
+
+
+def quadratic_roots(a1: float, a0: float) -> tuple:
+    """Roots [rad/s] of ``s^2 + a1 s + a0`` (a1 [1/s], a0 [1/s^2]): a real pair (float) or a
+    complex-conjugate pair (complex), the form :class:`IdentifiedParams` takes.
+    """
+    if not (math.isfinite(a1) and math.isfinite(a0)):
+        raise ValueError(f'quadratic coefficients must be finite; got {a1!r}, {a0!r}')
+    r = np.roots([1.0, float(a1), float(a0)])
+    if np.all(np.abs(r.imag) == 0.0):
+        return tuple(sorted(float(x) for x in r.real))
+    return (complex(r[0].real, abs(r[0].imag)), complex(r[0].real, -abs(r[0].imag)))
+
+
 @dataclass
 class IdentifiedParams:
     """Parameters of the identified plant G(s) (Eq. 6 without the actuator).
@@ -98,10 +142,15 @@ class IdentifiedParams:
     gain : float or None
         K [m/s^2 per rad], high-frequency gain of y_s'' / delta.  None -> b0 / 29
         (:data:`~irs_models.constants.PAPER_PLANT_GAIN` / the actuator pole).
-    zeros : tuple of float
-        Zeros of G [rad/s] (negative real), default (-2.4, -4.8).
-    poles : tuple of float
-        Non-origin poles of G [rad/s], default (-8, -20).  Two poles at the origin are implied.
+    zeros : tuple
+        The two zeros of G [rad/s]: two real values (default (-2.4, -4.8), Eq. 6) or one
+        complex-conjugate pair, e.g. ``(-18.8+8.6j, -18.8-8.6j)`` (the design plant that best
+        explains the printed R, S, T; :mod:`irs_control.paper_inverse`).  Only the quadratic
+        ``s^2 + n1 s + n0 = (s - z1)(s - z2)`` enters the model, so any real or conjugate pair
+        works (:func:`quadratic_roots` turns coefficients into this form).
+    poles : tuple
+        The two non-origin poles of G [rad/s], real or a complex-conjugate pair, in the open
+        left half plane (default (-8, -20)).  Two poles at the origin are implied.
     speed : float
         Identification speed U [m/s], used for psi = v_s / U.  Default 1.2.
     ds : float
@@ -120,11 +169,21 @@ class IdentifiedParams:
             float(self.gain) if self.gain is not None else PAPER_PLANT_GAIN / PAPER_ACTUATOR_POLE
         )
 
+    def numerator(self) -> tuple:
+        """``(n1, n0)`` of ``s^2 + n1 s + n0 = (s - z1)(s - z2)`` [1/s, 1/s^2] (real)."""
+        z1, z2 = _pair('zeros', self.zeros)
+        return float(-(z1 + z2).real), float((z1 * z2).real)
+
+    def denominator(self) -> tuple:
+        """``(d1, d0)`` of ``s^2 + d1 s + d0 = (s - p1)(s - p2)`` [1/s, 1/s^2] (real)."""
+        p1, p2 = _pair('poles', self.poles)
+        return float(-(p1 + p2).real), float((p1 * p2).real)
+
     def validate(self) -> None:
-        if len(self.zeros) != 2 or len(self.poles) != 2:
-            raise ValueError('zeros and poles must each hold exactly two real values in rad/s')
-        if not all(math.isfinite(float(v)) for v in (*self.zeros, *self.poles)):
-            raise ValueError('zeros and poles must be finite values in rad/s')
+        _pair('zeros', self.zeros)
+        if not all(p.real < 0.0 for p in _pair('poles', self.poles)):
+            raise ValueError('poles must lie in the open left half plane (negative real parts, '
+                             f'rad/s; the two integrators are implied); got {self.poles!r}')
         if not (math.isfinite(self.resolved_gain()) and self.resolved_gain() > 0.0):
             raise ValueError(
                 f'gain must be a positive finite value in m/s^2/rad, got {self.gain!r}'
@@ -146,10 +205,8 @@ def identified_matrices(params: IdentifiedParams | None = None):
     p = params if params is not None else IdentifiedParams()
     p.validate()
     K = p.resolved_gain()
-    z1, z2 = (-float(z) for z in p.zeros)     # numerator s^2 + n1 s + n0
-    p1, p2 = (-float(q) for q in p.poles)     # denominator s^2 + d1 s + d0
-    n1, n0 = z1 + z2, z1 * z2
-    d1, d0 = p1 + p2, p1 * p2
+    n1, n0 = p.numerator()                    # s^2 + n1 s + n0 (real or complex zeros)
+    d1, d0 = p.denominator()                  # s^2 + d1 s + d0 (real or complex poles)
     # a_s = K [1 + ((n1-d1) s + (n0-d0)) / (s^2 + d1 s + d0)] delta
     Ca = np.array([[0.0, 0.0, K * (n0 - d0), K * (n1 - d1)]])
     Da = np.array([[K]])
@@ -196,7 +253,7 @@ class IdentifiedPlant(ZohSteps):
 
     @property
     def psi(self) -> float:
-        """Kinematic heading psi = v_s / U [rad]."""
+        """Kinematic heading psi = v_s / U [rad] (not physical: no sideslip, no ds r term)."""
         return float(self.x[1]) / self.params.speed
 
     @property
@@ -206,7 +263,7 @@ class IdentifiedPlant(ZohSteps):
 
     @property
     def yaw_rate(self) -> float:
-        """r = a_s / U [rad/s], a_s evaluated with the last held steer input."""
+        """r = a_s / U [rad/s], a_s with the last held steer input (not physical, see module)."""
         a_s = float(self.Ca[0] @ self.x + self.Da[0, 0] * self._delta)
         return a_s / self.params.speed
 
@@ -214,3 +271,63 @@ class IdentifiedPlant(ZohSteps):
     def lateral_velocity(self) -> float:
         """Body-frame lateral velocity at the c.g. [m/s]: 0 (no sideslip state)."""
         return 0.0
+
+
+def bicycle_realisation(params: IdentifiedParams | None = None, tol: float = 1e-6):
+    """Bicycle parameters (Eq. 4-5) with the same steer -> y_s transfer function, or None.
+
+    G(s) = K (s^2 + n1 s + n0) / (s^2 (s^2 + d1 s + d0)) is Eq. 5 of a bicycle at speed U with the
+    sensor ds ahead of the c.g. iff (``W = I_z + m l_f ds``, ``L = l_f + l_r``)::
+
+        K  = C_f W / (m I_z)            n1 / n0 = (l_r + ds) / U            n0 = C_r L / W
+        d1 = (C_f + C_r)/(m U) + (C_f l_f^2 + C_r l_r^2)/(I_z U)
+        d0 = C_f C_r L^2/(m I_z U^2) + (C_r l_r - C_f l_f)/I_z
+
+    With m = 1 kg (m, I_z, C_f, C_r scale together without changing G): l_r from the zeros, C_r
+    and C_f from n0 and K for given (I_z, l_f), and (I_z, l_f) > 0 from (d1, d0) by
+    ``scipy.optimize.least_squares`` in log space from a grid of starts.
+
+    Returns
+    -------
+    dict or None
+        ``mass`` (1 kg), ``yaw_inertia`` [kg m^2], ``lf``, ``lr`` [m], ``c_f``, ``c_r`` [N/rad]
+        when every parameter is positive and (d1, d0) are matched to ``tol`` (relative);
+        None otherwise (complex zeros with l_r + ds <= 0, or no positive solution).
+    """
+    from scipy.optimize import least_squares
+
+    p = params if params is not None else IdentifiedParams()
+    p.validate()
+    K, U, ds = p.resolved_gain(), float(p.speed), float(p.ds)
+    n1, n0 = p.numerator()
+    d1, d0 = p.denominator()
+    if not (n0 > 0.0 and n1 > 0.0):
+        return None
+    lr = U * n1 / n0 - ds
+    if lr <= 0.0:
+        return None
+
+    def unpack(x):
+        iz, lf = np.exp(x)
+        w = iz + lf * ds
+        cr = n0 * w / (lf + lr)
+        cf = K * iz / w
+        return iz, lf, cf, cr
+
+    def residual(x):
+        iz, lf, cf, cr = unpack(x)
+        a1 = (cf + cr) / U + (cf * lf**2 + cr * lr**2) / (iz * U)
+        a0 = cf * cr * (lf + lr)**2 / (iz * U**2) + (cr * lr - cf * lf) / iz
+        return np.array([a1 / d1 - 1.0, a0 / d0 - 1.0])
+
+    best = None
+    for iz0 in (1e-3, 1e-2, 1e-1, 1.0):
+        for lf0 in (0.01, 0.1, 1.0):
+            sol = least_squares(residual, np.log([iz0, lf0]), xtol=1e-15, ftol=1e-15, gtol=1e-15)
+            if best is None or sol.cost < best.cost:
+                best = sol
+    if np.max(np.abs(best.fun)) > tol:
+        return None
+    iz, lf, cf, cr = unpack(best.x)
+    return {'mass': 1.0, 'yaw_inertia': float(iz), 'lf': float(lf), 'lr': float(lr),
+            'c_f': float(cf), 'c_r': float(cr)}
