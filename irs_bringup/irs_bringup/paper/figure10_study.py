@@ -16,6 +16,9 @@ with the actuator non-idealities switched on cumulatively and one at a time, arm
 on/off; (3) a step-size sweep 0.01-0.2 m, all non-idealities on and "linear" (lag only).
 Metrics: :func:`irs_bringup.paper.figure10.run_metrics`.
 
+Seed statistics at 0.02 m and 0.1 m with both anti-windup choices, the two PNGs and the
+numbers of the all-figures command: :func:`reproduce_figures` (:mod:`.figure10_seeds`).
+
 Saturation: the controllers clip their command at ``steer_limit`` (15 deg, with
 anti-windup) in the paper's design, which makes the rig's saturation element redundant. In
 the conditions "without saturation" the controller limit is raised to 0.5 rad (28.6 deg,
@@ -36,9 +39,10 @@ from irs_control.paper_design import identified_plant
 
 from .figure10 import (DEFAULT_CONTROLLERS, DEFAULT_STEP, RUN_NAMES, STEER_LIMIT,
                        model_metrics, run_metrics, simulate_offline)
+from .figure10_seeds import reproduce_figures
 
 __all__ = ['rig_params', 'CONDITIONS', 'STEPS', 'closed_loop_poles', 'dominant',
-           'run_condition', 'main']
+           'run_condition', 'main', 'reproduce_figures']
 
 #: Controller steer limit when the saturation is "off" [rad] (< rig steer_reject 0.5236).
 NO_SAT_LIMIT = 0.5
