@@ -61,6 +61,15 @@ class ActuatorRun:
 
 def load_run(bag) -> ActuatorRun:
     """Read ``/steering/state`` and the experiment metadata of a bag (no rclpy)."""
+    from ..bag.bag_scan import BagError
+
+    try:
+        return _load_run(bag)
+    except BagError as exc:
+        raise ValueError(str(exc)) from None
+
+
+def _load_run(bag) -> ActuatorRun:
     from ..bag.bag_reader import BagReader
 
     rows = {}
