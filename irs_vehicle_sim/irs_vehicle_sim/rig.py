@@ -24,6 +24,12 @@ encoder delay).
 Faults are latched: the first off-belt edge (``'front'``, ``'rear'``, ``'left'``, ``'right'``,
 ``'nonfinite'``) or an arm reach error sets ``fault`` and ``fault_reason``; the simulation keeps
 integrating (the ROS node decides what to do).  Arm angles are NaN while the arm cannot reach.
+
+Heading with ``plant: identified``: Eq. 6 has no yaw or sideslip state, so the heading, yaw rate,
+c.g. position and the arm angles derived from them are NOT physical (``psi = v_s / U``, see
+:mod:`irs_models.identified`; a 5 deg doublet on a bicycle preset puts the heading off by about
+129 % of its peak).  Only the sensor-point displacement y_s is the model's.  Use
+``plant: bicycle`` when heading or yaw rate matter.
 """
 
 from __future__ import annotations
@@ -37,7 +43,7 @@ import numpy as np
 
 from irs_models.arm_kinematics import ArmGeometry, ArmReachError
 from irs_models.constants import SENSOR_DISTANCE
-from irs_models.identified import IdentifiedParams, IdentifiedPlant
+from irs_models.identified import IdentifiedParams, IdentifiedPlant, quadratic_roots
 from irs_models.lateral_plant import BicyclePlant, LateralPlant
 
 from .actuator import ActuatorParams, ActuatorState, SteeringActuator
@@ -246,11 +252,27 @@ class RigConfig:
         for side in ('actuator_front', 'actuator_rear'):
             kw[side] = ActuatorParams(**_section(side, act_def, d.get(side)))
 
-        idd = {'gain': 0.0, 'speed': 1.2, 'ds': -1.0}
+        ipd = IdentifiedParams()
+        idd = {'gain': 0.0, 'speed': 1.2, 'ds': -1.0,
+               'numerator': [round(v, 12) for v in ipd.numerator()],
+               'denominator': [round(v, 12) for v in ipd.denominator()]}
         ids = _section('identified', idd, d.get('identified'))
+        quad = {}
+        for key in ('numerator', 'denominator'):
+            q = ids[key]
+            if not (isinstance(q, (list, tuple)) and len(q) == 2
+                    and all(isinstance(v, (int, float)) and not isinstance(v, bool)
+                            and math.isfinite(v) for v in q)):
+                raise ValueError(f'identified.{key} must be two coefficients [a1, a0] of '
+                                 f's^2 + a1 s + a0 (1/s, 1/s^2); got {q!r}')
+            # Eq. 6's coefficients keep Eq. 6's roots exactly (the stepped matrices to the bit)
+            quad[key] = (getattr(ipd, 'zeros' if key == 'numerator' else 'poles')
+                         if [round(float(v), 12) for v in q] == idd[key]
+                         else quadratic_roots(float(q[0]), float(q[1])))
         kw['identified'] = IdentifiedParams(
             gain=None if ids['gain'] == 0.0 else ids['gain'], speed=ids['speed'],
-            ds=kw.get('ds', base.ds) if ids['ds'] < 0.0 else ids['ds'])
+            ds=kw.get('ds', base.ds) if ids['ds'] < 0.0 else ids['ds'],
+            zeros=quad['numerator'], poles=quad['denominator'])
         kw['bicycle'] = _section('bicycle', _bicycle_defaults(), d.get('bicycle'))
         car_def = asdict(CarParams())
         kw['car'] = CarParams(**_section('car', car_def, d.get('car')))

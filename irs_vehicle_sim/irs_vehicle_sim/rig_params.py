@@ -59,6 +59,10 @@ _IDENT = {
     'gain': ('m/s^2/rad', 0.0, INF, 'K of the identified G(s); 0 = paper reconstruction'),
     'speed': ('m/s', 0.01, 20.0, 'identification speed U (heading = v_s / U)'),
     'ds': ('m', -1.0, 5.0, 'sensor distance of the identified model; negative = use ds'),
+    'numerator': ('1/s, 1/s^2', -1e6, 1e6,
+                  '[n1, n0]: the zeros are the roots of s^2 + n1 s + n0 (real or complex)'),
+    'denominator': ('1/s, 1/s^2', -1e6, 1e6,
+                    '[d1, d0]: the non-origin poles are the roots of s^2 + d1 s + d0 (stable)'),
 }
 _BICYCLE = {
     'preset': ('-', None, None,
@@ -116,7 +120,9 @@ def _section_defaults():
     cfg = RigConfig()
     arm = {**asdict(ArmGeometry()), **asdict(ArmSensorParams())}
     arm.pop('seed')
-    ident = {'gain': 0.0, 'speed': cfg.identified.speed, 'ds': -1.0}
+    ident = {'gain': 0.0, 'speed': cfg.identified.speed, 'ds': -1.0,
+             'numerator': [round(v, 12) for v in cfg.identified.numerator()],
+             'denominator': [round(v, 12) for v in cfg.identified.denominator()]}
     return {
         'actuator_front': (asdict(ActuatorParams()), _ACT),
         'actuator_rear': (asdict(ActuatorParams()), _ACT),
