@@ -19,8 +19,9 @@ sample).
 
 Default scenario (``DEFAULT_*`` below, docs/figure10.md)
 --------------------------------------------------------
-V = 1.2 m/s, ds = 0.33 m, identified plant (Eq. 6), rig.yaml defaults: actuator lag 4.6 Hz,
-17 ms delay, 0.175 deg backlash, 15 deg saturation, 6.98 rad/s rate limit, arm pot noise
+V = 1.2 m/s, ds = 0.33 m, identified plant (Eq. 6), rig.yaml defaults: the servo (7 Hz loop,
+slew limit 1.16 rad/s at the wheel, friction dead zone, linkage; docs/vehicle_sim.md),
+17 ms delay, 0.175 deg backlash, 15 deg saturation, arm pot noise
 and 12-bit ADC quantisation on; treadmill regulator on. Reference: a 0.02 m step at 0.5 s,
 8 s record. Why 0.02 m and not a 0.1 m step (the paper's axis is labelled at 0.1 m but the
 step size is not printed): the MRC-with-actuator design commands about 7.2 rad of steer per
