@@ -102,7 +102,7 @@ class RegulatorParams:
     integral_limit: float = 0.5
     k_v: float = 1.0
     belt_gain: float = 2.38 / 4.5
-    u_max: float = 10.0
+    u_max: float = 12.7      # the belt's drive range: 15 mph needs 12.68 V with Eq. 2
     slew_rate: float = 40.0
     v_top: float = 6.7056
     xdot_cutoff_hz: float = 5.0

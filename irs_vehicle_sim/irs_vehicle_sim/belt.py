@@ -19,9 +19,28 @@ allowing friction to slow the treadmill down"), give the piecewise model::
     J dw/dt = -B w - F                     (drive off, w > 0; stays at 0 once stopped)
 
 i.e. in belt speed ``dV/dt = -(B/J) (V + F/B) + T_m/J``.  The paper fits
-``F/B = 0.270`` and ``B/J = 0.158``, printing "sec^-1" for both.  With ``V`` as state ``B/J``
-is indeed [1/s] but ``F/B`` has the units of the state: we take ``F/B = 0.270 m/s`` (the
-paper's "sec^-1" on F/B is read as a typo; the plotted dependent variable is belt velocity).
+``F/B = 0.270`` and ``B/J = 0.158``, printing "sec^-1" for both.
+
+Units of F/B (the paper's "0.270 sec^-1"): three readings, with the coast-down time from
+1.2 m/s that each implies (``t_stop`` below):
+
+* **F/B = 0.270 m/s** (taken): F/B has the units of the fitted variable, and the paper fitted
+  belt speed: Fig. 5 plots it, Eq. 2 is in m/s per V, and the coast-downs were taken from the
+  same "time-response ... when the motor received step-decrement velocity commands". The
+  "sec^-1" is B/J's unit repeated; the next sentence's "F/J" names the friction torque
+  contributions (F/J and B/J are the coefficients of Eq. 1), not the printed value.
+  Coast-down from 1.2 m/s: 10.7 s.
+* F/J = 0.270 m/s^2 (the name of the next sentence): F/B = 0.270/0.158 = 1.709 m/s, coast-down
+  3.4 s. Needs both the printed name and the printed unit to be wrong.
+* F/B = 0.270 rad/s of the shaft (the printed unit taken literally, Eq. 1 in rotational speed):
+  the belt value is 0.270 rad/s times the roller radius, which the paper does not give; with
+  the assumed 2 in roller 0.0137 m/s, coast-down about 28 s. Consistent in its units, but the
+  number cannot be used without the unknown radius and gearing, and it makes the "sliding
+  friction" the paper discusses 1 % of the viscous term at 1.2 m/s.
+
+The identification (``sysid treadmill``, from belt-speed data as the paper's) gives F/B in m/s
+and recovers whichever value is configured (``belt.f_over_b``: 0.270, 1.709 or 0.0137 select the
+readings); the default is the first.
 
 Coast-down closed form (drive off, ``V0 > 0``)::
 
@@ -40,12 +59,14 @@ faster than friction does.  We therefore use::
 
 with ``a = 4.5 1/s``, ``b = 2.38 m/s^2/V``, ``c = B/J = 0.158 1/s``, ``k = F/B = 0.270 m/s``
 and ``u_d(t) = clip(u(t - T_d), 0, u_max)`` the delayed, clamped drive voltage.  The steady
-state is ``V = (b/a) u = 0.5289 m/s/V * u``; ``u_max = 10 V`` gives 5.289 m/s.  The speed is
-hard-clamped to ``[0, v_top]`` with ``v_top = 15 mph = 6.7056 m/s``.  Since ``a > c`` the two
-branches switch at ``V_sw = (b u + c k)/(a - c)``: above ``V_sw`` the belt coasts, below it
-follows the linear drive.  Each branch is linear with constant input, so every step is
-integrated *exactly* (piecewise exponential with the analytic switching / stopping / clamping
-instants); the belt travel ``position`` is the exact integral of ``V``.
+state is ``V = (b/a) u = 0.5289 m/s/V * u``.  The speed is hard-clamped to ``[0, v_top]`` with
+``v_top = 15 mph = 6.7056 m/s``, the paper's top speed, which Eq. 2 reaches in steady state at
+``v_top a/b = 12.68 V``: the drive range is therefore ``u_max = 12.7 V`` (assumed: the paper
+gives no range; an earlier 10 V default capped the belt at 5.29 m/s = 11.8 mph).  Since
+``a > c`` the two branches switch at ``V_sw = (b u + c k)/(a - c)``: above ``V_sw`` the belt
+coasts, below it follows the linear drive.  Each branch is linear with constant input, so every
+step is integrated *exactly* (piecewise exponential with the analytic switching / stopping /
+clamping instants); the belt travel ``position`` is the exact integral of ``V``.
 
 Transport delay
 ---------------
@@ -93,11 +114,13 @@ class BeltParams:
     b_over_j : float
         ``c = B/J`` [1/s] (paper: 0.158).
     f_over_b : float
-        ``k = F/B`` [m/s] (paper: 0.270, see the module docstring on units).
+        ``k = F/B`` [m/s] (paper: 0.270; the module docstring on its units: 1.709 and 0.0137
+        are the other readings).
     v_top : float
         Hard speed clamp [m/s] (15 mph = 6.7056 m/s).
     u_max : float
-        Drive voltage range upper limit [V]; input is clamped to ``[0, u_max]``.
+        Drive voltage range upper limit [V]; input is clamped to ``[0, u_max]`` (12.7 V: the
+        smallest round value at which Eq. 2 reaches ``v_top`` = 15 mph, 12.68 V; assumed).
     delay : float
         Transport delay of the drive [s] (assumed 0.05 s; the paper gives no value).
     counts_per_rev : int
@@ -117,7 +140,7 @@ class BeltParams:
     b_over_j: float = 0.158
     f_over_b: float = 0.270
     v_top: float = 15.0 * MPH
-    u_max: float = 10.0
+    u_max: float = 12.7
     delay: float = 0.05
     counts_per_rev: int = 4096
     roller_radius: float = 0.0508

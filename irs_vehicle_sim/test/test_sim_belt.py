@@ -88,7 +88,7 @@ def test_max_model_never_faster_than_friction_or_linear():
 
 
 def test_voltage_and_top_speed_clamps():
-    belt = TreadmillBelt(BeltParams(delay=0.0))
+    belt = TreadmillBelt(BeltParams(delay=0.0, u_max=10.0))    # a range that caps it below v_top
     belt.step(50.0, 10.0)
     assert belt.speed == pytest.approx(2.38 / 4.5 * 10.0, rel=1e-9)
     fast = TreadmillBelt(BeltParams(delay=0.0, u_max=20.0))
