@@ -1,6 +1,6 @@
 r"""``sysid vehicle <bag>``: the car's open loop from a closed-loop sweep (paper Sec. 4, Fig. 8-9).
 
-    ./irs run irs_bringup experiment run sysid_vehicle_sweep      # 24 s lock-step, recorded
+    ./irs run irs_bringup experiment run sysid_vehicle_sweep      # 13.5 s lock-step, recorded
     ./irs run irs_bringup experiment run sysid_vehicle_step       # 4 s, a 0.02 m step
     ./irs run irs_bringup sysid vehicle runs/sysid_vehicle_sweep-<t>/bag \
         [--step-bag runs/sysid_vehicle_step-<t>/bag] [--png out/vehicle]

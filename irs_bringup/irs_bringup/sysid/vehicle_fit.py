@@ -48,6 +48,7 @@ from .report import Estimate
 
 __all__ = ['FrequencyResponse', 'closed_loop_frequency_response', 'PlantModel', 'PlantFit',
            'fit_open_loop', 'closed_loop_response', 'configured_vehicle', 'pi_polynomials',
+           'reduced_vehicle_polynomials',
            'response_error', 'vehicle_estimates', 'TOLERANCES']
 
 #: The paper's actuator model in the vehicle fit: "a 4.6 Hz first order lag" (Sec. 4) [Hz].
@@ -286,7 +287,7 @@ class PlantFit:
 
 
 def fit_open_loop(fr: FrequencyResponse, actuator_pole: float, delay: float = 0.0,
-                  weights='coherence') -> PlantFit:
+                  weights='coherence', minimum_phase: bool = True) -> PlantFit:
     """Fit the Eq. 6 structure to ``fr`` (module docstring).
 
     Parameters
@@ -302,6 +303,12 @@ def fit_open_loop(fr: FrequencyResponse, actuator_pole: float, delay: float = 0.
         (1 - gamma^2))`` with ``n`` the band's bins and ``gamma^2`` its coherence (capped at
         0.999) -- the inverse standard deviation of a band's log estimate, up to a constant
         (Bendat & Piersol); None: equal weights.
+    minimum_phase : bool
+        True (default): ``c1, c0, d1, d0 >= 0``, i.e. the zeros and the non-origin poles in the
+        closed left half plane (a quadratic is Hurwitz iff its coefficients are positive) --
+        the Eq. 6 structure and any bicycle model with the sensor ahead of the c.g. Without
+        it a plant with a zero close to a pole (irs_2wd: -6.86 and -7.88) is often fitted as an
+        equivalent, near-cancelling right-half-plane pair.
 
     Raises
     ------
@@ -338,10 +345,15 @@ def fit_open_loop(fr: FrequencyResponse, actuator_pole: float, delay: float = 0.
     levy = _levy_start(w, P, actuator_pole, delay)
     if levy is not None:
         starts.insert(0, levy)
+    lo = np.array([-np.inf, 0.0, 0.0, 0.0, 0.0]) if minimum_phase else -np.inf
     best = None
     for x0 in starts:
+        if minimum_phase:
+            x0 = np.concatenate([x0[:1], np.maximum(x0[1:], 1e-3)])
         try:
-            res = least_squares(residual, x0, method='lm', x_scale='jac', max_nfev=4000)
+            res = least_squares(residual, x0, bounds=(lo, np.inf),
+                                method='trf' if minimum_phase else 'lm', x_scale='jac',
+                                max_nfev=4000)
         except (ValueError, np.linalg.LinAlgError, FloatingPointError):
             continue
         if np.all(np.isfinite(res.fun)) and (best is None or res.cost < best.cost):
@@ -356,6 +368,30 @@ def fit_open_loop(fr: FrequencyResponse, actuator_pole: float, delay: float = 0.
     e = np.log(model.response(w) / P)
     rms = float(np.sqrt(np.mean(np.abs(e) ** 2)))
     return PlantFit(model, cov, rms, int(w.size))
+
+
+def reduced_vehicle_polynomials(model: PlantModel, w_max: float, factor: float = 10.0):
+    """The vehicle ``(B, A)`` without zero/pole pairs far above the identified band.
+
+    When the data cannot tell two of the four roots apart (a zero next to a pole: irs_2wd has
+    -6.86 and -7.88), the least-squares fit parks a zero and a pole far beyond ``w_max``
+    [rad/s], where ``(s - z)/(s - p) ~ z/p``: a lower-order model in disguise with extreme
+    coefficients (an RST design on it is ill-conditioned). Roots with ``|r| > factor w_max``
+    are dropped in zero/pole pairs (the largest first), their low-frequency gain ``z/p`` kept
+    in ``K``. Returns ``(B, A, dropped)``, ``dropped`` a list of ``(zero, pole)`` pairs.
+    """
+    zeros = sorted(model.zeros, key=abs)
+    poles = sorted(model.poles, key=abs)
+    gain = model.gain
+    dropped = []
+    while zeros and poles and abs(zeros[-1]) > factor * w_max and \
+            abs(poles[-1]) > factor * w_max:
+        z, p = zeros.pop(), poles.pop()
+        gain *= float(np.real(z / p))
+        dropped.append((z, p))
+    b = gain * np.real(np.poly(zeros)) if zeros else np.array([gain])
+    a = np.polymul([1.0, 0.0, 0.0], np.real(np.poly(poles)) if poles else [1.0])
+    return b, a, dropped
 
 
 def pi_polynomials(kp: float, ki: float):
