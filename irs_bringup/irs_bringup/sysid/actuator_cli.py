@@ -268,7 +268,7 @@ def plot_steps(res, path: Path) -> None:
         lim = ' (rate limited)' if s.linearity >= STRAIGHT else ''
         ax.plot(tt, np.degrees(run.u[sel] - u0), ':', color=c, lw=1.0)
         ax.plot(tt, np.degrees(run.y[sel] - run.y[k - 1]), '-', color=c, lw=1.6,
-                label=f'{math.degrees(s.size):+.3g} deg step{lim}')
+                label=f'{math.degrees(u0):+.3g} -> {math.degrees(run.u[k]):+.3g} deg{lim}')
     ax.set_xlabel('time since the step of the command [s]')
     ax.set_ylabel('steer angle change [deg]')
     ax.grid(True, alpha=0.3)
