@@ -209,10 +209,18 @@ def run(args) -> int:
                         f'{len(c.coasts)} coast-downs; configured values from the '
                         f"{res['run']['rig_source']})", estimates(res)))
     print(f'residual RMS: steps {1000 * d.rms:.2f} mm/s, coast-downs {1000 * c.rms:.2f} mm/s; '
-          f'DC gain b/a = {d.dc_gain:.4f} m/s/V')
+          f'DC gain b/a = {d.dc_gain:.4f} m/s/V; 15 mph needs {15 * 0.44704 / d.dc_gain:.2f} V')
+    print(f'coast-down from 1.2 m/s to rest: {coast_time(c.b_over_j, c.f_over_b):.1f} s with the '
+          'identified B/J and F/B (docs/treadmill.md: 3.4 s if 0.270 were F/J, 10.7 s for F/B = '
+          '0.270 m/s, about 28 s for 0.270 rad/s of a 2 in roller)')
     if args.png:
         print(f'wrote {plot_figure5(res, args.png)}')
     return 0
+
+
+def coast_time(b_over_j: float, f_over_b: float, v0: float = 1.2) -> float:
+    """Coast-down time to rest from ``v0`` [m/s]: ``(J/B) ln(1 + v0 B/F)`` [s]."""
+    return math.log1p(v0 / f_over_b) / b_over_j
 
 
 def run_experiment(name_or_path, runs_dir: Path) -> Path:
@@ -238,7 +246,8 @@ def reproduce_figures(img_dir: Path, runs_dir: Path) -> dict:
         out[f'treadmill_{key}_ci95'] = e.ci95
         out[f'treadmill_{key}_configured'] = e.configured
     p = res['configured']
-    out['treadmill_coast_time_from_1.2_m_per_s'] = math.log1p(1.2 / p.f_over_b) / p.b_over_j
+    out['treadmill_coast_time_from_1.2_m_per_s'] = coast_time(res['coast'].b_over_j,
+                                                               res['coast'].f_over_b)
     out['treadmill_top_speed_voltage'] = p.v_top / p.dc_gain
     out['treadmill_bag'] = str(bag)
     return out
