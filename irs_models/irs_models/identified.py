@@ -37,8 +37,9 @@ publishes for it (``ground_truth/odom``, the car drawn on the belt) takes the he
 kinematically from the sensor-point lateral velocity, ``psi = v_s / U`` (small-angle), the yaw
 rate ``r = a_s / U``, zero body lateral velocity at the c.g. and ``y_cg = y_s - ds sin(psi)``
 (conventions: ``y_s = y + ds sin psi``).  This ignores the sideslip ``v`` and the ``ds r`` term
-of ``v_s = v + U psi + ds r``: on a bicycle preset a 5 deg steer doublet gives a heading error of
-about 129 % of the peak heading (issue 12).  So **heading, yaw rate and c.g. position from this
+of ``v_s = v + U psi + ds r``: on the ``irs_2wd`` preset a 5 deg steer doublet gives heading errors
+of 33 % (1 s per half) to 460 % (0.1 s per half) of the peak heading (159 % at 0.25 s; issue 12
+reports 129 %).  So **heading, yaw rate and c.g. position from this
 plant are not physical**; only y_s (and v_s, a_s) are.  A physically consistent heading would need
 a bicycle realisation of G(s) (``num`` and ``den`` of Eq. 5 with some m, I_z, C_f, C_r, l_f, l_r
 at U and ds): for Eq. 6 none exists -- ``n1 / n0 = (l_r + ds) / U`` fixes l_r = 0.42 m, and no

@@ -84,3 +84,23 @@ def test_a_bicycle_transfer_function_is_realised_as_that_bicycle():
     assert real['lr'] == pytest.approx(bp.lr, rel=1e-5)
     for key, value in (('yaw_inertia', bp.yaw_inertia), ('c_f', bp.c_f), ('c_r', bp.c_r)):
         assert real[key] * scale == pytest.approx(value, rel=1e-5)
+
+
+@pytest.mark.parametrize('half,low', [(1.0, 0.25), (0.25, 1.2)])
+def test_kinematic_heading_is_not_the_bicycle_heading(half, low):
+    """The documented error of psi = v_s / U (docs/vehicle_sim.md): 5 deg doublet on irs_2wd."""
+    from irs_models import presets
+    from irs_models.lateral_plant import BicyclePlant
+    plant = BicyclePlant(presets.get_preset('irs_2wd').params, 1.2, 0.33)
+    plant.reset()
+    dt, a = 1e-3, math.radians(5.0)
+    ys, psi = [], []
+    for k in range(int((0.5 + 2 * half + 0.5) / dt)):
+        t = k * dt
+        delta = a if 0.5 <= t < 0.5 + half else (-a if 0.5 + half <= t < 0.5 + 2 * half else 0.0)
+        plant.step(delta, 0.0, dt)
+        ys.append(plant.y_s)
+        psi.append(plant.psi)
+    kinematic = np.gradient(np.array(ys), dt) / 1.2
+    rel = np.max(np.abs(kinematic - np.array(psi))) / np.max(np.abs(psi))
+    assert low < rel < 2.0 * low + 1.0      # 33 % at 1 s per half, 159 % at 0.25 s
