@@ -110,18 +110,16 @@ def configured_params(rig: dict):
 def simulate_configured(run: ActuatorRun) -> np.ndarray:
     """The configured actuator core driven by the recorded command: its achieved angle [rad].
 
-    Sample k of ``steering/state`` carries the achieved angle at t_k and the command received
-    for t_k, which acts over [t_k, t_k+1): the core's output after step k is sample k+1.
+    The rig publishes ``steering/state`` stamped t_k after its step to t_k: the achieved angle
+    at t_k and the last command it received, the one that acted over [t_k-1, t_k).  So sample k
+    is the core's output after stepping with sample k's command (equal to the recorded angle
+    to round-off when the graph ran the configured actuator).
     """
     from irs_vehicle_sim.actuator import SteeringActuator
 
     act = SteeringActuator(configured_params(run.rig))
     dt = float(np.median(np.diff(run.t)))
-    out = np.empty_like(run.y)
-    out[0] = act.achieved
-    for k in range(len(run.u) - 1):
-        out[k + 1] = act.step(run.u[k], dt)
-    return out
+    return np.array([act.step(float(c), dt) for c in run.u])
 
 
 def sweep_response(run: ActuatorRun, y=None) -> af.FrequencyResponse:
