@@ -30,6 +30,11 @@ unchanged. Its ``spin_once`` is the loop the recorder already used:
    (``call_timer`` + callback), so a periodic step sees every message that had arrived when it
    woke; then services, clients, guard conditions and waitables.
 
+With ``intra_process=True`` (composition: ``run_nodes`` with several nodes), messages between
+the executor's own nodes are handed over instead of sent through DDS while no subscriber outside
+the process listens (:mod:`irs_common.intra_process`); the handovers are delivered, oldest first,
+at the end of the ``spin_once`` that produced them.
+
 Callbacks must be plain functions (no coroutines) -- all of ours are. Callback groups are
 ignored: one thread runs every callback, so every group is effectively mutually exclusive.
 An exception in a callback propagates out of ``spin_once``, as with rclpy's executors.
@@ -42,7 +47,13 @@ from rclpy.impl.implementation_singleton import rclpy_implementation as _rclpy
 from rclpy.subscription import Subscription
 from rclpy.utilities import timeout_sec_to_nsec
 
+from .intra_process import IntraProcessBus
+
 _MESSAGE_AND_INFO = Subscription.CallbackType.WithMessageInfo
+#: Wall time one ``spin_once`` spends at most on in-process handovers [ns]: a whole lock-step
+#: loop composed in one process is an endless chain of handovers, and timers, services and
+#: SIGINT must still be served. 5 ms: half the slow period; a real-time step's chain is ~0.3 ms.
+HANDOVER_BUDGET_NS = 5_000_000
 
 
 class _Entities:
@@ -85,11 +96,13 @@ class _Entities:
 class LeanExecutor(Executor):
     """Single-threaded executor with a reused wait set and direct callbacks (module docstring)."""
 
-    def __init__(self, *, context=None, slow_period: float = 0.01):
+    def __init__(self, *, context=None, slow_period: float = 0.01, intra_process: bool = False):
         super().__init__(context=context)
         self._entities = None
         self._slow_period_ns = int(slow_period * 1e9)
         self._next_slow_ns = 0
+        self._bus = IntraProcessBus() if intra_process else None
+        self._handover_budget_ns = HANDOVER_BUDGET_NS
 
     def wake(self):
         """Something changed (entity created/destroyed, node added): gather again."""
@@ -119,12 +132,18 @@ class LeanExecutor(Executor):
         if ents is None:
             ents = self._entities = _Entities(self.get_nodes(), (self._guard, self._sigint_gc),
                                               self._context)
+            if self._bus is not None:
+                self._bus.rebuild(self.get_nodes())
         ws = ents.wait_set
         timeout_ns = timeout_sec_to_nsec(timeout_sec)
+        if self._bus is not None and self._bus.queue:
+            timeout_ns = 0          # handovers are waiting: only poll for what else is ready
         now_ns = time.monotonic_ns()
         slow = now_ns >= self._next_slow_ns
         if slow:
             self._next_slow_ns = now_ns + self._slow_period_ns
+            if self._bus is not None:
+                self._bus.refresh()
         else:
             left = self._next_slow_ns - now_ns
             timeout_ns = left if timeout_ns < 0 else min(timeout_ns, left)
@@ -185,6 +204,8 @@ class LeanExecutor(Executor):
                         gc.callback()
             for wt in ready_waitables:
                 _run_coroutine(wt.execute(wt.take_data()))
+            if self._bus is not None:
+                self._bus.deliver(self._handover_budget_ns)
         except InvalidHandle:
             self._entities = None   # a callback destroyed an entity that was ready too
 

@@ -3,7 +3,9 @@
 ``run_node(NodeClass)`` is every IRS executable's ``main``: ``rclpy.init``, build the node, spin it
 on :class:`~irs_common.executor.LeanExecutor` until SIGINT/SIGTERM (exit code 0), clean up.
 ``run_nodes([...])`` does the same for several nodes in one process (composition, see
-``irs_bringup``'s ``container``): they stay separate nodes on topics, sharing one executor.
+``irs_bringup``'s ``container``): they stay separate nodes on topics, sharing one executor, and
+hand messages to each other in-process while nobody outside listens
+(:mod:`irs_common.intra_process`; ``IRS_INTRA_PROCESS=0`` sends everything through DDS).
 
 Start-up failures are one line on stderr and exit code 2, never a traceback: a configuration
 error raised by a node's constructor (``ValueError``), an rclpy parameter exception (wrong type,
@@ -28,6 +30,7 @@ from rclpy.executors import ExternalShutdownException
 from rclpy.impl.implementation_singleton import rclpy_implementation as _rclpy
 
 from .executor import LeanExecutor
+from .intra_process import enabled_by_env as intra_process_enabled
 from .sim_time import guard_clock
 
 #: Exceptions that mean "the command line or the parameters are wrong", reported in one line.
@@ -78,7 +81,8 @@ def run_nodes(factories, args=None) -> int:
             guard_clock(nodes[-1])   # a bad /clock message is dropped, not fatal
         if rt_note:
             nodes[0].get_logger().info(rt_note)
-        executor = LeanExecutor()
+        # Composed nodes hand their messages over in-process (irs_common.intra_process).
+        executor = LeanExecutor(intra_process=len(nodes) > 1 and intra_process_enabled())
         for node in nodes:
             executor.add_node(node)
         _spin(executor)

@@ -1,0 +1,179 @@
+"""Intra-process delivery for nodes composed in one process: a message handed over, not sent.
+
+rclpy (Jazzy) has no intra-process communication: between two nodes of one process a message is
+converted to C, serialised, written to Fast DDS, taken, deserialised and converted back to
+Python -- about 50-70 us of CPU per hop here, most of a composed step's cost (``IRS_PROFILE``
+profile of the composed lock-step Figure 10: ``publish`` and ``take_message`` were the two
+largest entries). rclcpp's answer is intra-process comms; this is the same idea for rclpy,
+confined to :class:`~irs_common.executor.LeanExecutor`.
+
+Rule
+----
+For every publisher of the executor's nodes, the *local* subscriptions are those of the same
+executor on the same resolved topic with the same message class whose QoS DDS would match
+(a reliable subscription does not match a best-effort publisher). A publisher with local
+subscriptions is routed:
+
+* **no subscriber outside the process** (the graph's subscription count on the topic equals the
+  local count): ``publish(msg)`` only queues ``(subscription, msg)`` for each local subscription.
+  Nothing goes to DDS. The executor delivers the queue in FIFO order, in the same ``spin_once``,
+  before it waits again, so the order of callbacks is a function of the messages alone
+  (lock-step stays reproducible to the bit);
+* **a subscriber outside the process** (``ros2 topic echo``, the experiment runner, a recorder in
+  another process): ``publish`` goes to DDS as before, and the local subscriptions receive their
+  copy from DDS too. Each local subscription gets every message exactly once either way.
+
+The outside count is refreshed from the ROS graph on the executor's slow cycle (every 10 ms), so a
+subscriber that joins from outside starts receiving within about 10 ms of its discovery, as any
+late-joining volatile subscriber would. The switch is one way: once a topic has had an outside
+subscriber it stays on DDS, and the queued handovers are delivered before its first DDS message.
+Switching back could let an older message, still in flight through DDS, reach a local
+subscription after a newer handover. Transient-local publishers are never routed (a late local
+subscriber must get the stored sample from DDS).
+
+Contract (all IRS nodes keep it; documented in docs/architecture.md): a subscription callback
+does not modify the message it receives, and a publisher does not modify a message after
+publishing it -- with a handover, publisher and subscribers share the object.
+
+A raw subscription (``raw=True``: the composed recorder) receives ``serialize_message(msg)``
+with ``received_timestamp``/``source_timestamp`` of the handover and no publication sequence
+number (a handover cannot lose a message, so there is no gap to detect).
+
+``IRS_INTRA_PROCESS=0`` in the environment switches the handover off (every message through DDS),
+for comparison.
+"""
+from __future__ import annotations
+
+import os
+import time
+from collections import defaultdict, deque
+
+from rclpy.qos import DurabilityPolicy, ReliabilityPolicy
+from rclpy.serialization import serialize_message
+from rclpy.subscription import Subscription
+
+__all__ = ['IntraProcessBus', 'enabled_by_env']
+
+_WITH_INFO = Subscription.CallbackType.WithMessageInfo
+_DEBUG = os.environ.get('IRS_INTRA_PROCESS_DEBUG', '') not in ('', '0')
+
+
+def enabled_by_env(env=os.environ) -> bool:
+    """False when ``IRS_INTRA_PROCESS`` is ``0``/``false``/``off``; True otherwise."""
+    return env.get('IRS_INTRA_PROCESS', '1').strip().lower() not in ('0', 'false', 'off', 'no')
+
+
+def _matches(pub, sub) -> bool:
+    """Would DDS deliver from ``pub`` to ``sub``? Same class and compatible reliability."""
+    if sub.msg_type is not pub.msg_type:
+        return False
+    return not (sub.qos_profile.reliability == ReliabilityPolicy.RELIABLE
+                and pub.qos_profile.reliability == ReliabilityPolicy.BEST_EFFORT)
+
+
+class _Route:
+    """One routed publisher: its local subscriptions and whether it must also use DDS."""
+
+    __slots__ = ('bus', 'pub', 'node', 'topic', 'targets', 'n_local', 'remote', 'dds_publish')
+
+    def __init__(self, bus, pub, node, topic, subs, n_local):
+        self.bus, self.pub, self.node, self.topic = bus, pub, node, topic
+        self.targets = [(s, s.raw, s._callback_type is _WITH_INFO) for s in subs]
+        self.n_local = n_local
+        self.remote = topic in bus.remote_topics
+        self.dds_publish = type(pub).publish.__get__(pub)
+
+    def publish(self, msg) -> None:
+        if self.remote or not isinstance(msg, self.pub.msg_type):
+            self.dds_publish(msg)   # also raises rclpy's TypeError for a wrong type
+            return
+        queue = self.bus.queue
+        for target in self.targets:
+            queue.append((target, msg))
+
+    def refresh(self) -> bool:
+        """Look up the graph; True when the route has just switched to DDS."""
+        if self.remote:
+            return False
+        count = self.node.count_subscribers(self.topic)
+        if count > self.n_local:
+            if _DEBUG:
+                print(f'[intra_process] {self.topic}: {count} subscriptions, {self.n_local} '
+                      'local: through DDS from now on', flush=True)
+            self.remote = True
+            self.bus.remote_topics.add(self.topic)
+            return True
+        return False
+
+
+class IntraProcessBus:
+    """The routes of one executor's nodes and the queue of handed-over messages."""
+
+    def __init__(self) -> None:
+        self.queue: deque = deque()
+        self.routes: list = []
+        self.remote_topics: set = set()   # topics that had an outside subscriber: DDS for good
+
+    def rebuild(self, nodes) -> None:
+        """Route every publisher of ``nodes`` anew (their entities changed)."""
+        for route in self.routes:
+            route.pub.__dict__.pop('publish', None)
+        self.routes = []
+        subs_by_topic = defaultdict(list)
+        for node in nodes:
+            for sub in node.subscriptions:
+                subs_by_topic[sub.topic_name].append(sub)
+        for node in nodes:
+            for pub in node.publishers:
+                if pub.qos_profile.durability == DurabilityPolicy.TRANSIENT_LOCAL:
+                    continue
+                topic = pub.topic_name
+                subs = [s for s in subs_by_topic.get(topic, ()) if _matches(pub, s)]
+                if not subs:
+                    continue
+                route = _Route(self, pub, node, topic, subs, len(subs_by_topic[topic]))
+                route.refresh()
+                pub.publish = route.publish
+                self.routes.append(route)
+
+    def refresh(self) -> None:
+        """Look up, for every route, whether a subscriber outside the process appeared.
+
+        A route that switches to DDS first has every queued handover delivered: a local
+        subscription must not take a newer message from DDS before an older handover.
+        """
+        switched = False
+        for route in self.routes:
+            switched |= route.refresh()
+        if switched:
+            self.deliver()
+
+    def deliver(self, budget_ns: int | None = None) -> int:
+        """Call the callbacks of the queued handovers, oldest first; callbacks may queue more,
+        and those are delivered too, until the queue is empty or ``budget_ns`` [ns] of wall time
+        has passed (None: no limit). Returns how many were delivered.
+        """
+        queue = self.queue
+        deadline = None if budget_ns is None else time.monotonic_ns() + budget_ns
+        n = 0
+        while queue:
+            (sub, raw, with_info), msg = queue.popleft()
+            n += 1
+            data = serialize_message(msg) if raw else msg
+            if with_info:
+                now = time.time_ns()
+                sub.callback(data, {'source_timestamp': now, 'received_timestamp': now,
+                                    'publication_sequence_number': None,
+                                    'reception_sequence_number': None})
+            else:
+                sub.callback(data)
+            if deadline is not None and time.monotonic_ns() >= deadline:
+                break
+        return n
+
+    def clear(self) -> None:
+        """Unroute every publisher (the executor shuts down)."""
+        for route in self.routes:
+            route.pub.__dict__.pop('publish', None)
+        self.routes = []
+        self.queue.clear()

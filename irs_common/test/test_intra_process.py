@@ -1,0 +1,142 @@
+"""In-process handover between composed nodes (irs_common.intra_process), over real rclpy.
+
+Two nodes share one LeanExecutor with ``intra_process=True``. A second rclpy context in the same
+process plays the subscriber from outside (its own DDS participant, as another process would
+be): the graph counts it, the executor does not own it.
+"""
+import time
+import uuid
+
+import pytest
+import rclpy
+from rclpy.context import Context
+from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
+from rclpy.serialization import deserialize_message
+from std_msgs.msg import Float64, String
+
+from irs_common.executor import LeanExecutor
+from irs_common.intra_process import enabled_by_env
+
+
+@pytest.fixture
+def context():
+    ctx = Context()
+    rclpy.init(context=ctx)
+    yield ctx
+    rclpy.try_shutdown(context=ctx)
+
+
+def _pair(context, qos_pub=10, qos_sub=10, raw=False, topic='ipc_x'):
+    topic = f'{topic}_{uuid.uuid4().hex[:8]}'   # no stale endpoint of another test on it
+    a = rclpy.create_node('ipc_a', context=context)
+    b = rclpy.create_node('ipc_b', context=context)
+    got = []
+    pub = a.create_publisher(Float64, topic, qos_pub)
+    b.create_subscription(Float64, topic, got.append, qos_sub, raw=raw)
+    ex = LeanExecutor(context=context, intra_process=True)
+    ex.add_node(a)
+    ex.add_node(b)
+    ex.spin_once(timeout_sec=0)        # gathers the entities and routes the publisher
+    return ex, pub, got, (a, b, topic)
+
+
+def _spin_until(ex, cond, timeout=10.0):
+    end = time.monotonic() + timeout
+    while not cond() and time.monotonic() < end:
+        ex.spin_once(timeout_sec=0.05)
+    return cond()
+
+
+def test_handover_delivers_every_message_once_in_order_without_dds(context):
+    ex, pub, got, nodes = _pair(context)
+    assert ex._bus.routes and not ex._bus.routes[0].remote
+    for i in range(200):
+        pub.publish(Float64(data=float(i)))
+    assert len(ex._bus.queue) == 200, 'a handover is queued, not sent'
+    assert _spin_until(ex, lambda: len(got) == 200)
+    assert [m.data for m in got] == [float(i) for i in range(200)]
+    # nothing arrives later through DDS: each message went one way only
+    end = time.monotonic() + 0.5
+    while time.monotonic() < end:
+        ex.spin_once(timeout_sec=0.05)
+    assert len(got) == 200
+
+
+def test_outside_subscriber_switches_the_topic_to_dds_for_good(context):
+    ex, pub, got, nodes = _pair(context, qos_pub=100, qos_sub=100)   # DDS keeps the last 100
+    outside_ctx = Context()
+    rclpy.init(context=outside_ctx)
+    try:
+        outside = rclpy.create_node('ipc_outside', context=outside_ctx)
+        seen = []
+        outside_sub = outside.create_subscription(Float64, nodes[2], seen.append, 100)
+        # the executor's slow cycle notices the outside subscriber in the graph
+        assert _spin_until(ex, lambda: ex._bus.routes[0].remote), 'never switched to DDS'
+        assert _spin_until(ex, lambda: pub.get_subscription_count() >= 2)
+        for i in range(50):
+            pub.publish(Float64(data=float(i)))
+        assert not ex._bus.queue, 'a remote route must publish through DDS'
+        end = time.monotonic() + 10.0
+        while (len(got) < 50 or len(seen) < 50) and time.monotonic() < end:
+            ex.spin_once(timeout_sec=0.05)
+            while outside_sub.handle.take_message(Float64, False) is not None:
+                seen.append(1)
+        assert [m.data for m in got] == [float(i) for i in range(50)]
+        assert len(seen) == 50
+        outside.destroy_node()
+        # gone again: the route stays on DDS (no reordering of in-flight messages)
+        for _ in range(30):
+            ex.spin_once(timeout_sec=0.02)
+        assert ex._bus.routes[0].remote
+    finally:
+        rclpy.try_shutdown(context=outside_ctx)
+
+
+def test_raw_subscription_gets_the_serialised_message(context):
+    ex, pub, got, nodes = _pair(context, raw=True)
+    pub.publish(Float64(data=2.5))
+    assert _spin_until(ex, lambda: len(got) == 1)
+    assert isinstance(got[0], bytes)
+    assert deserialize_message(got[0], Float64).data == 2.5
+
+
+def test_raw_subscription_with_info_gets_bytes_and_a_receive_time(context):
+    a = rclpy.create_node('ipc_c', context=context)
+    got = []
+    pub = a.create_publisher(Float64, 'ipc_info', 10)
+    a.create_subscription(Float64, 'ipc_info', lambda data, info: got.append((data, info)), 10,
+                          raw=True)
+    ex = LeanExecutor(context=context, intra_process=True)
+    ex.add_node(a)
+    ex.spin_once(timeout_sec=0)
+    pub.publish(Float64(data=-1.0))
+    assert _spin_until(ex, lambda: len(got) == 1)
+    data, info = got[0]
+    assert deserialize_message(data, Float64).data == -1.0
+    assert info['received_timestamp'] > 0 and info['publication_sequence_number'] is None
+
+
+def test_incompatible_qos_and_transient_local_are_not_routed(context):
+    best_effort = QoSProfile(depth=10, reliability=ReliabilityPolicy.BEST_EFFORT)
+    reliable = QoSProfile(depth=10, reliability=ReliabilityPolicy.RELIABLE)
+    ex, pub, got, nodes = _pair(context, qos_pub=best_effort, qos_sub=reliable)
+    assert ex._bus.routes == [], 'DDS would not match a best-effort writer to a reliable reader'
+    latched = QoSProfile(depth=1, durability=DurabilityPolicy.TRANSIENT_LOCAL)
+    a = nodes[0]
+    a.create_publisher(String, 'ipc_latched', latched)
+    nodes[1].create_subscription(String, 'ipc_latched', lambda m: None, latched)
+    ex.spin_once(timeout_sec=0)
+    assert all(r.topic != '/ipc_latched' for r in ex._bus.routes)
+
+
+def test_wrong_type_still_raises(context):
+    ex, pub, got, nodes = _pair(context)
+    with pytest.raises(TypeError):
+        pub.publish(String(data='x'))
+
+
+def test_env_switch():
+    assert enabled_by_env({})
+    assert enabled_by_env({'IRS_INTRA_PROCESS': '1'})
+    for off in ('0', 'false', 'OFF', 'no'):
+        assert not enabled_by_env({'IRS_INTRA_PROCESS': off})
