@@ -311,7 +311,7 @@ def _numbers(ident: dict, prefix: str = '') -> dict:
     for title, est in reports(ident):
         tag = 'command' if title.startswith('Open loop') else 'achieved'
         for e in est:
-            key = (e.name.replace(' ', '_').replace(',', '').replace("''", '2')
+            key = (e.name.replace(' ', '_').replace(',', '').replace("''", '2').replace(':', '')
                    .replace('(', '').replace(')', '').replace('/', '_').replace('|', ''))
             out[f'{prefix}{tag}_{key}'] = e.value
             if math.isfinite(e.ci95):

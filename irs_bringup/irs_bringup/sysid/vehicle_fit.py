@@ -211,15 +211,28 @@ def _sorted_roots(poly) -> np.ndarray:
 
 
 def _model(theta, a, delay) -> PlantModel:
-    return PlantModel(float(np.exp(theta[0])), (theta[1], theta[2]), (theta[3], theta[4]), a,
+    n = (len(theta) - 1) // 2
+    return PlantModel(float(np.exp(theta[0])), tuple(theta[1:1 + n]), tuple(theta[1 + n:]), a,
                       delay)
 
 
-def _levy_start(w, P, a, delay):
-    """Linear least squares for ``[ln K, c1, c0, d1, d0]`` (module docstring), or None."""
+def _levy_start(w, P, a, delay, order=2):
+    """Linear least squares for ``[ln K, c1, c0, d1, d0]`` (module docstring), or None;
+    ``order`` 1: ``[ln K, c0, d0]`` of ``P_n (s + d0) = K s + K c0``.
+    """
     s = 1j * w
     lag = 1.0 if math.isinf(a) else (s + a) / a
     pn = P * s ** 2 * lag * np.exp(s * delay)
+    if order == 1:
+        wgt = 1.0 / np.abs(pn * s)
+        m = np.column_stack([pn, -s, -np.ones_like(s)]) * wgt[:, None]
+        rhs = -pn * s * wgt
+        sol, *_ = np.linalg.lstsq(np.vstack([m.real, m.imag]),
+                                  np.concatenate([rhs.real, rhs.imag]), rcond=None)
+        d0, b1, b0 = sol
+        if not (np.all(np.isfinite(sol)) and b1 > 0):
+            return None
+        return np.array([np.log(b1), b0 / b1, d0])
     # pn d1 s + pn d0 - b2 s^2 - b1 s - b0 = -pn s^2, weighted by 1/|pn s^2|
     wgt = 1.0 / np.abs(pn * s ** 2)
     m = np.column_stack([pn * s, pn, -s ** 2, -s, -np.ones_like(s)]) * wgt[:, None]
@@ -237,7 +250,8 @@ class PlantFit:
     """Result of :func:`fit_open_loop`.
 
     model : PlantModel
-    covariance : numpy.ndarray   5x5 covariance of ``[ln K, c1, c0, d1, d0]``
+    covariance : numpy.ndarray   covariance of ``[ln K, c1, c0, d1, d0]`` (order 1:
+                                 ``[ln K, c0, d0]``)
     rms_log_error : float        RMS of the unweighted complex log residual ``|ln(P_model /
                                  P_data)|`` over the points [-] (0.1: about 10 % or 6 deg)
     points : int                 number of band points fitted
@@ -252,6 +266,11 @@ class PlantFit:
         m = self.model
         return np.array([np.log(m.gain), *m.num, *m.den])
 
+    @property
+    def order(self) -> int:
+        """Number of zeros (= non-origin poles) of the vehicle: 2 (Eq. 6) or 1."""
+        return len(self.model.num)
+
     def gain_ci95(self) -> float:
         """95 % half-width of K [m s^-2 rad^-1]."""
         return Z95 * self.model.gain * math.sqrt(max(self.covariance[0, 0], 0.0))
@@ -259,17 +278,18 @@ class PlantFit:
     def root_ci95(self, which: str) -> np.ndarray:
         """95 % half-widths of the real and imaginary parts of the zeros or poles.
 
-        ``which`` is ``'zeros'`` or ``'poles'``; returns a (2, 2) array: row i = root i (same
-        order as :attr:`PlantModel.zeros`/``poles``), columns (real, imaginary).
+        ``which`` is ``'zeros'`` or ``'poles'``; returns an (order, 2) array: row i = root i
+        (same order as :attr:`PlantModel.zeros`/``poles``), columns (real, imaginary).
         """
-        idx = (1, 2) if which == 'zeros' else (3, 4)
+        n = self.order
+        idx = tuple(range(1, 1 + n)) if which == 'zeros' else tuple(range(1 + n, 1 + 2 * n))
         theta = self._theta()
 
         def roots(th):
-            return _sorted_roots([1.0, th[idx[0]], th[idx[1]]])
+            return _sorted_roots([1.0, *th[list(idx)]])
 
         base = roots(theta)
-        jac = np.zeros((4, 5))
+        jac = np.zeros((2 * n, 2 * n + 1))
         for k in idx:
             h = 1e-6 * max(1.0, abs(theta[k]))
             tp, tm = theta.copy(), theta.copy()
@@ -283,11 +303,11 @@ class PlantFit:
             jac[:, k] = np.concatenate([d.real, d.imag])
         cov = jac @ self.covariance @ jac.T
         sd = np.sqrt(np.maximum(np.diag(cov), 0.0))
-        return Z95 * np.column_stack([sd[:2], sd[2:]])
+        return Z95 * np.column_stack([sd[:n], sd[n:]])
 
 
 def fit_open_loop(fr: FrequencyResponse, actuator_pole: float, delay: float = 0.0,
-                  weights='coherence', minimum_phase: bool = True) -> PlantFit:
+                  weights='coherence', minimum_phase: bool = True, order: int = 2) -> PlantFit:
     """Fit the Eq. 6 structure to ``fr`` (module docstring).
 
     Parameters
@@ -309,6 +329,10 @@ def fit_open_loop(fr: FrequencyResponse, actuator_pole: float, delay: float = 0.
         the Eq. 6 structure and any bicycle model with the sensor ahead of the c.g. Without
         it a plant with a zero close to a pole (irs_2wd: -6.86 and -7.88) is often fitted as an
         equivalent, near-cancelling right-half-plane pair.
+    order : int
+        2: the Eq. 6 structure (two zeros, two non-origin poles); 1: one of each,
+        ``K (s + c0) / (s^2 (s + d0))`` -- the model when a zero and a pole of the vehicle cancel
+        within what the data can tell (``sysid cycle`` compares both).
 
     Raises
     ------
@@ -322,7 +346,7 @@ def fit_open_loop(fr: FrequencyResponse, actuator_pole: float, delay: float = 0.
         raise ValueError(f'delay must be a non-negative dead time in s, got {delay!r}')
     w, P = fr.w, fr.P
     if w.size < 6:
-        raise ValueError(f'{w.size} frequency points are too few for 5 parameters (need >= 6)')
+        raise ValueError(f'{w.size} frequency points are too few for the fit (need >= 6)')
     if isinstance(weights, str):
         if weights != 'coherence':
             raise ValueError(f"weights must be 'coherence', None or an array, got {weights!r}")
@@ -339,13 +363,18 @@ def fit_open_loop(fr: FrequencyResponse, actuator_pole: float, delay: float = 0.
     # generic starts: zeros and poles spread over the band, K from the low-frequency gain
     wl, wh = w.min(), w.max()
     k0 = float(np.median(np.abs(P) * w ** 2))
-    starts = [np.array([np.log(k0), 3 * wl + 0.3 * wh, 2 * wl * 0.3 * wh, 0.5 * wh,
-                        0.06 * wh * wh]),
-              np.array([np.log(k0), 2.0, 1.0, 4.0, 4.0])]
-    levy = _levy_start(w, P, actuator_pole, delay)
+    if order == 2:
+        starts = [np.array([np.log(k0), 3 * wl + 0.3 * wh, 2 * wl * 0.3 * wh, 0.5 * wh,
+                            0.06 * wh * wh]),
+                  np.array([np.log(k0), 2.0, 1.0, 4.0, 4.0])]
+    elif order == 1:
+        starts = [np.array([np.log(k0), 3 * wl, 0.5 * wh]), np.array([np.log(k0), 2.0, 4.0])]
+    else:
+        raise ValueError(f'order must be 1 or 2, got {order!r}')
+    levy = _levy_start(w, P, actuator_pole, delay, order)
     if levy is not None:
         starts.insert(0, levy)
-    lo = np.array([-np.inf, 0.0, 0.0, 0.0, 0.0]) if minimum_phase else -np.inf
+    lo = np.array([-np.inf] + [0.0] * (2 * order)) if minimum_phase else -np.inf
     best = None
     for x0 in starts:
         if minimum_phase:
@@ -370,15 +399,16 @@ def fit_open_loop(fr: FrequencyResponse, actuator_pole: float, delay: float = 0.
     return PlantFit(model, cov, rms, int(w.size))
 
 
-def reduced_vehicle_polynomials(model: PlantModel, w_max: float, factor: float = 10.0):
-    """The vehicle ``(B, A)`` without zero/pole pairs far above the identified band.
+def reduced_vehicle_polynomials(model: PlantModel, w_max: float, factor: float = 1.0):
+    """The vehicle ``(B, A)`` without the zero/pole pairs above the identified band.
 
     When the data cannot tell two of the four roots apart (a zero next to a pole: irs_2wd has
-    -6.86 and -7.88), the least-squares fit parks a zero and a pole far beyond ``w_max``
-    [rad/s], where ``(s - z)/(s - p) ~ z/p``: a lower-order model in disguise with extreme
-    coefficients (an RST design on it is ill-conditioned). Roots with ``|r| > factor w_max``
-    are dropped in zero/pole pairs (the largest first), their low-frequency gain ``z/p`` kept
-    in ``K``. Returns ``(B, A, dropped)``, ``dropped`` a list of ``(zero, pole)`` pairs.
+    -6.86 and -7.88), the least-squares fit parks a zero and a pole beyond the band's top
+    ``w_max`` [rad/s] (seen: -80.7 and -60.5 with a 38 rad/s band), where the data say nothing
+    but ``(s - z)/(s - p) ~ z/p``; an MRC cancelling such a zero rests on model detail nobody
+    measured (on irs_2wd its loop is unstable). Roots with ``|r| > factor w_max`` are dropped
+    in zero/pole pairs (the largest first), their low-frequency gain ``z/p`` kept in ``K``.
+    Returns ``(B, A, dropped)``, ``dropped`` a list of ``(zero, pole)`` pairs.
     """
     zeros = sorted(model.zeros, key=abs)
     poles = sorted(model.poles, key=abs)
@@ -483,11 +513,15 @@ def _quadratic_estimates(label, coeffs, cov, conf, tol):
 
 
 def _root_estimates(label, ident, ci, conf, rel_tol):
-    """Estimates of two roots: real roots one by one, a complex pair as real and imag part."""
+    """Estimates of the roots: real roots one by one, a complex pair as real and imag part
+    (no configured value when the configured roots are of another number or kind).
+    """
     out = []
+    if conf is not None and len(conf) != len(ident):
+        conf = None
     conf_real = conf is not None and np.all(np.abs(np.imag(conf)) < 1e-9)
     if np.all(np.abs(ident.imag) < 1e-9):
-        for i in range(2):
+        for i in range(len(ident)):
             c = float(conf[i].real) if conf_real else math.nan
             out.append(Estimate(f'{label} {i + 1}', float(ident[i].real), '1/s', ci[i, 0], c,
                                 rel_tol))
@@ -532,12 +566,15 @@ def vehicle_estimates(fit: PlantFit, configured: PlantModel | None = None,
                     configured.gain if configured else math.nan, tol['gain'])]
     out += _root_estimates('zero', m.zeros, fit.root_ci95('zeros'),
                            configured.zeros if configured else None, tol['zeros'])
-    out += _quadratic_estimates('zeros', m.num, fit.covariance[1:3, 1:3],
-                                configured.num if configured else None, tol)
+    same = configured is not None and len(configured.num) == fit.order
+    if fit.order == 2:
+        out += _quadratic_estimates('zeros', m.num, fit.covariance[1:3, 1:3],
+                                    configured.num if same else None, tol)
     out += _root_estimates('pole', m.poles, fit.root_ci95('poles'),
                            configured.poles if configured else None, tol['poles'])
-    out += _quadratic_estimates('poles', m.den, fit.covariance[3:5, 3:5],
-                                configured.den if configured else None, tol)
+    if fit.order == 2:
+        out += _quadratic_estimates('poles', m.den, fit.covariance[3:5, 3:5],
+                                    configured.den if same else None, tol)
     if configured is not None and w is not None:
         out.append(Estimate('max |P/P_configured - 1|', response_error(m, configured, w), '-',
                             configured=0.0, abs_tol=tol['response']))
