@@ -197,11 +197,12 @@ def _coast_data(t, v, u, skip, v_min, decimate):
             continue
         m = (t >= seg.start + skip) & (t < seg.end) & (v > v_min)
         idx = np.flatnonzero(m)
+        gaps = np.flatnonzero(np.diff(idx) > 1)
+        if gaps.size:                     # the first contiguous stretch above v_min
+            idx = idx[:gaps[0] + 1]
         if idx.size < 3 * decimate:
             continue
-        last = idx[0] + np.flatnonzero(np.diff(idx) > 1)[0] + 1 if np.any(np.diff(idx) > 1) \
-            else idx[-1] + 1        # the first contiguous stretch above v_min
-        idx = np.arange(idx[0], last)[::decimate]
+        idx = idx[::decimate]
         out.append((t[idx], v[idx]))
     return out
 
