@@ -145,8 +145,8 @@ class IdentifiedParams:
         (:data:`~irs_models.constants.PAPER_PLANT_GAIN` / the actuator pole).
     zeros : tuple
         The two zeros of G [rad/s]: two real values (default (-2.4, -4.8), Eq. 6) or one
-        complex-conjugate pair, e.g. ``(-18.8+8.6j, -18.8-8.6j)`` (the design plant that best
-        explains the printed R, S, T; :mod:`irs_control.paper_inverse`).  Only the quadratic
+        complex-conjugate pair, e.g. ``(-18.8+8.6j, -18.8-8.6j)`` (the complex-zero candidate
+        for the printed R, S, T; :mod:`irs_control.paper_inverse`).  Only the quadratic
         ``s^2 + n1 s + n0 = (s - z1)(s - z2)`` enters the model, so any real or conjugate pair
         works (:func:`quadratic_roots` turns coefficients into this form).
     poles : tuple
