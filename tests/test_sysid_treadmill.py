@@ -2,9 +2,10 @@
 
 ``sysid_treadmill_short`` (lock-step, composed: rig, excitation on the belt drive, driver; 8.5 s
 simulated; here with F/B = 1.709 m/s, the F/J reading, instead of the default 0.270) records
-the encoder belt speed and the drive; the identification from that bag alone must recover the rig's configured belt (tolerances of irs_bringup.sysid.treadmill_cli) and write
-Figure 5. The bag's drive commands must be the experiment's schedule, stamp by stamp (the
-excitation node as a lock-step input). Bad input to the CLI: one line on stderr, exit code 2.
+the encoder belt speed and the drive; the identification from that bag alone must recover the
+rig's configured belt (tolerances of irs_bringup.sysid.treadmill_cli) and write Figure 5. The
+bag's drive commands must be the experiment's schedule, stamp by stamp (the excitation node as
+a lock-step input). Bad input to the CLI: one line on stderr, exit code 2.
 """
 from pathlib import Path
 
