@@ -1,0 +1,77 @@
+"""``sysid vehicle`` on a sweep recorded through the graph (paper Fig. 8), and its bad input.
+
+One short lock-step run (the sysid_vehicle_sweep graph, composed, with the sweep cut to 6 s of
+0.4-5 Hz to keep the suite short) recorded to MCAP; the identification reads the bag alone. The
+rig runs its defaults: the arm's noise and 12-bit quantisation on, the servo with backlash.
+
+What is held to the stated tolerances (vehicle_fit.TOLERANCES): the vehicle identified from the
+achieved steer (gain, w_n and zeta of the zeros and poles, the frequency response). The paper's
+way (steer command, actuator a 4.6 Hz lag) is printed but not held: the rig's servo is not a
+4.6 Hz lag at these amplitudes (slew limited; docs in vehicle_cli), so it misses the gain.
+"""
+import copy
+import math
+import subprocess
+import sys
+
+import pytest
+
+from irs_bringup.run.experiment import load_experiment
+from irs_bringup.run.experiment_runner import ExperimentRunner
+from irs_bringup.sysid import vehicle_cli
+from irs_bringup.sysid.sysid_cli import main
+
+
+@pytest.fixture(scope='module')
+def sweep_bag(tmp_path_factory):
+    exp = copy.deepcopy(load_experiment('sysid_vehicle_sweep'))
+    exp.node('irs_control', 'reference_generator').params.update(
+        {'signal.f0': 0.4, 'signal.f1': 5.0, 'signal.sweep_time': 6.0})
+    exp.duration = 7.0
+    res = ExperimentRunner(exp, runs_dir=tmp_path_factory.mktemp('runs'), progress=False).run()
+    assert res.completed, res.message
+    return res.bag_dir
+
+
+def test_vehicle_identified_from_the_graph_bag(sweep_bag, tmp_path, capsys):
+    run = vehicle_cli.load_run(sweep_bag)
+    assert run['params']['vehicle_sim']['arm.enable_quantization'] is True
+    ident = vehicle_cli.identify(run)
+    assert ident['band'] == (0.4, 5.0)
+    (paper_title, paper), (title, achieved) = vehicle_cli.reports(ident)
+    assert paper_title.startswith('Open loop') and title.startswith('Vehicle')
+    compared = [e for e in achieved if math.isfinite(e.configured)]
+    assert {'zeros: w_n', 'zeros: zeta', 'poles: w_n', 'poles: zeta',
+            'max |P/P_configured - 1|'} <= {e.name for e in compared}
+    bad = [(e.name, e.value, e.configured) for e in compared if not e.within_tolerance()]
+    assert not bad, bad
+    # the command the README gives: report and Figure 8 from the bag alone
+    assert main(['vehicle', str(sweep_bag), '--png', str(tmp_path / 'veh')]) == 0
+    out = capsys.readouterr().out
+    assert 'Vehicle from the achieved steer' in out and 'configured' in out
+    png = tmp_path / 'veh_bode.png'
+    assert png.stat().st_size > 10_000
+
+
+@pytest.mark.parametrize('argv, words', [
+    (['vehicle', '/nonexistent/bag'], 'no such bag'),
+    (['vehicle', '{bag}', '--coherence', '1.5'], '--coherence'),
+    (['vehicle', '{bag}', '--band', '5', '0.4'], '--band'),
+    (['vehicle', '{bag}', '--lag-hz', '-1'], '--lag-hz'),
+    (['vehicle', '{bag}'], 'sysid vehicle: '),            # an empty directory: not a bag
+    (['cycle', '--plant', 'no_such_car', '--offline'], 'unknown plant'),
+])
+def test_bad_input_one_line_exit_2(argv, words, tmp_path, capsys):
+    (tmp_path / 'bag').mkdir()
+    argv = [a.replace('{bag}', str(tmp_path / 'bag')) for a in argv]
+    assert main(argv) == 2
+    err = capsys.readouterr().err
+    lines = err.strip().splitlines()
+    assert len(lines) == 1 and words in lines[0], err
+
+
+def test_cli_module_exits_2_without_traceback(tmp_path):
+    p = subprocess.run([sys.executable, '-m', 'irs_bringup.sysid.sysid_cli', 'vehicle',
+                        str(tmp_path / 'missing')], capture_output=True, text=True, timeout=120)
+    assert p.returncode == 2 and len(p.stderr.strip().splitlines()) == 1, p.stderr
+    assert 'Traceback' not in p.stderr
