@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import math
 from pathlib import Path
+import textwrap
 
 import numpy as np
 
@@ -80,32 +81,19 @@ def _label(units, name):
     return f'{name} [{units[name]}]' if units.get(name) else name
 
 
-def _edges(v, log):
-    v = np.asarray(v, float)
-    if v.size == 1:
-        return np.array([v[0] * 0.9, v[0] * 1.1]) if log else np.array([v[0] - 0.5, v[0] + 0.5])
-    w = np.log(v) if log else v
-    mid = (w[1:] + w[:-1]) / 2
-    e = np.concatenate([[w[0] - (mid[0] - w[0])], mid, [w[-1] + (w[-1] - mid[-1])]])
-    return np.exp(e) if log else e
-
-
-def _is_log_axis(vals):
-    v = np.asarray(vals, float)
-    return v.size > 2 and np.all(v > 0) and np.allclose(np.diff(np.log(v)),
-                                                        np.log(v[1] / v[0]), rtol=1e-6)
-
-
 def heatmap(rows, plot, units, path: Path, title: str = '', sweep_units=None) -> Path:
     """Write the heat map (or boundary) ``plot`` (a :class:`.sweep_file.PlotModel`) to ``path``.
 
-    ``units``: metric -> unit; ``sweep_units``: axis name -> unit (axis labels).
+    ``units``: metric -> unit; ``sweep_units``: axis name -> unit (axis labels). Cells are
+    evenly spaced, one per axis value (ticks name the values: sweeps are often log-spaced or
+    uneven); the boundary contour is interpolated between cell centres.
     """
-    sweep_units = sweep_units or {}
     import matplotlib
     matplotlib.use('Agg')
     import matplotlib.pyplot as plt
     from matplotlib.colors import LogNorm, Normalize
+    from matplotlib.patches import Rectangle
+    sweep_units = sweep_units or {}
     facets = _axis_order(rows, plot.facet) if plot.facet else [None]
     grids = [grid(rows, plot.x, plot.y, plot.metric, {plot.facet: f} if plot.facet else None)
              for f in facets]
@@ -117,50 +105,51 @@ def heatmap(rows, plot, units, path: Path, title: str = '', sweep_units=None) ->
         norm = LogNorm(vmin=vmin, vmax=max(vmax, vmin * 10))
     else:
         norm = Normalize(vmin=float(finite.min()) if finite.size else 0.0, vmax=vmax)
-    fig, axes = plt.subplots(1, len(facets), figsize=(4.6 * len(facets) + 1.2, 4.4),
+    cmap = plt.get_cmap('viridis').copy()
+    cmap.set_bad('0.85')
+    width = max(4.3 * len(facets) + 1.6, 7.0)
+    fig, axes = plt.subplots(1, len(facets), figsize=(width, 4.8),
                              squeeze=False, sharey=True, constrained_layout=True)
     mesh = None
     for ax, f, (xs, ys, Z) in zip(axes[0], facets, grids):
-        numx = all(isinstance(v, float) for v in xs)
-        numy = all(isinstance(v, float) for v in ys)
-        lx, ly = numx and _is_log_axis(xs), numy and _is_log_axis(ys)
-        X = _edges(xs, lx) if numx else np.arange(len(xs) + 1) - 0.5
-        Y = _edges(ys, ly) if numy else np.arange(len(ys) + 1) - 0.5
+        nx, ny = len(xs), len(ys)
         Zc = np.ma.masked_invalid(np.clip(Z, None, vmax) if plot.vmax is not None else Z)
-        mesh = ax.pcolormesh(X, Y, Zc, norm=norm, cmap='viridis', shading='flat')
-        cx = np.asarray(xs, float) if numx else np.arange(len(xs))
-        cy = np.asarray(ys, float) if numy else np.arange(len(ys))
-        if len(xs) * len(ys) <= 80:
-            for j in range(len(ys)):
-                for i in range(len(xs)):
-                    ax.text(cx[i], cy[j], _fmt(Z[j, i]), ha='center', va='center', fontsize=7,
-                            color='w' if np.isfinite(Z[j, i]) else 'k')
-        if plot.kind == 'boundary' and np.isfinite(Z).sum() >= 4 and len(xs) > 1 and len(ys) > 1:
-            beyond = np.ma.masked_where(~(Z < plot.threshold), np.ones_like(Z))
-            ax.pcolor(X, Y, beyond, hatch='//', alpha=0.0, shading='flat')
-            try:
-                cs = ax.contour(cx, cy, np.nan_to_num(Z, nan=plot.threshold - 1.0),
-                                levels=[plot.threshold], colors='r', linewidths=2)
-                ax.clabel(cs, fmt=f'{plot.metric} = {plot.threshold:g}', fontsize=7)
-            except ValueError:
-                pass
-        if lx:
-            ax.set_xscale('log')
-        if ly:
-            ax.set_yscale('log')
-        if not numx:
-            ax.set_xticks(cx, [str(v) for v in xs])
-        if not numy:
-            ax.set_yticks(cy, [str(v) for v in ys])
+        mesh = ax.pcolormesh(np.arange(nx + 1) - 0.5, np.arange(ny + 1) - 0.5, Zc, norm=norm,
+                             cmap=cmap, shading='flat')
+        if nx * ny <= 100:
+            for j in range(ny):
+                for i in range(nx):
+                    v = Z[j, i]
+                    dark = np.isfinite(v) and np.mean(cmap(norm(min(v, vmax)))[:3]) < 0.5
+                    ax.text(i, j, _fmt(v), ha='center', va='center', fontsize=7,
+                            color='w' if dark else 'k')
+        if plot.kind == 'boundary':
+            for j in range(ny):
+                for i in range(nx):
+                    if Z[j, i] < plot.threshold:
+                        ax.add_patch(Rectangle((i - 0.5, j - 0.5), 1, 1, fill=False,
+                                               hatch='//', edgecolor='r', lw=0))
+            if np.isfinite(Z).sum() >= 4 and nx > 1 and ny > 1:
+                try:
+                    ax.contour(np.arange(nx), np.arange(ny), np.ma.masked_invalid(Z),
+                               levels=[plot.threshold], colors='r', linewidths=2)
+                except ValueError:
+                    pass
+        ax.set_xticks(np.arange(nx), [_fmt(v) if isinstance(v, float) else str(v) for v in xs],
+                      fontsize=8)
+        ax.set_yticks(np.arange(ny), [_fmt(v) if isinstance(v, float) else str(v) for v in ys],
+                      fontsize=8)
         ax.set_xlabel(_label(sweep_units, plot.x))
         if ax is axes[0][0]:
             ax.set_ylabel(_label(sweep_units, plot.y))
         ax.set_title(f'{plot.facet} = {f}' if plot.facet else plot.metric, fontsize=9)
-    label = f'{plot.metric} [{units.get(plot.metric, "")}]' + (' (log)' if plot.log else '')
+    label = f'{plot.metric} [{units.get(plot.metric, "")}]' + (' (log scale)' if plot.log else '')
     fig.colorbar(mesh, ax=axes[0].tolist(), label=label, shrink=0.9)
-    extra = (f'; hatched/red: {plot.metric} < {plot.threshold:g}'
-             if plot.kind == 'boundary' else '')
-    fig.suptitle((title or plot.metric) + extra, fontsize=10)
+    extra = (f'\nred: boundary {plot.metric} = {plot.threshold:g}, hatched: {plot.metric} < '
+             f'{plot.threshold:g}' if plot.kind == 'boundary' else '')
+    text = (title or plot.metric) + extra + '; grey: no result (refused point)'
+    fig.suptitle('\n'.join(textwrap.fill(line, int(width * 15)) for line in text.split('\n')),
+                 fontsize=9)
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
     fig.savefig(path, dpi=110)
