@@ -18,7 +18,9 @@ Sections (each a function below; results go to ``bench/results/<time>.json`` and
 - ``offline``: the offline cores (irs_bringup.paper.closed_loop) in steps/s against a vectorised
   linear reference: the identified plant stepped by our core and by ``scipy.signal.dlsim``;
 - ``replay``: ``bag play`` timing error at 1x and what the recorder keeps of 13 topics x 1 kHz
-  (irs_bringup.bag.bench_replay).
+  (irs_bringup.bag.bench_replay);
+- ``sweep``: bench/sweep.py -- points/s of 12 points of the actuator x speed sweep serially and
+  on 1 and 2 Dask workers, and 100 linear plants stepped at once (BatchLti) against dlsim.
 
 Speed is measured here, never asserted in tests. Timing figures are noisy on a shared 2-core
 machine: compare ratios within one run (the floor is in the same JSON).
@@ -35,7 +37,7 @@ import time
 HERE = Path(__file__).resolve().parent
 sys.path.insert(0, str(HERE))
 
-SECTIONS = ('floor', 'realtime', 'lockstep', 'offline', 'replay')
+SECTIONS = ('floor', 'realtime', 'lockstep', 'offline', 'replay', 'sweep')
 
 
 def _domain(offset: int) -> None:
@@ -228,6 +230,11 @@ def replay(seconds: float) -> list:
     return [{'name': 'replay 1x + recorder, 13 topics x 1 kHz', 'rate': r[0],
              'timing_error_ms': {'mean': r[1][0], 'p99': r[1][1], 'max': r[1][2]},
              'recorded': r[2], 'drops_reported': r[3], 'duration_s': r[4]} for r in rows]
+
+
+def sweep() -> list:
+    import sweep as bench_sweep   # bench/sweep.py: points/s on 1 and 2 Dask workers, BatchLti
+    return bench_sweep.sweep_rates(12, None) + bench_sweep.offline(100)
 
 
 def main(argv=None) -> int:
