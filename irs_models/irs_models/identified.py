@@ -44,7 +44,8 @@ plant are not physical**; only y_s (and v_s, a_s) are.  A physically consistent 
 a bicycle realisation of G(s) (``num`` and ``den`` of Eq. 5 with some m, I_z, C_f, C_r, l_f, l_r
 at U and ds): for Eq. 6 none exists -- ``n1 / n0 = (l_r + ds) / U`` fixes l_r = 0.42 m, and no
 positive (m, I_z, C_f, C_r, l_f) then matches the poles (closest: 1 % off with l_f = 1.2 m);
-:func:`bicycle_realisation` checks a given plant.  Use ``plant: bicycle`` when heading or yaw
+:func:`bicycle_realisation` checks a given plant, and ``heading='bicycle'``
+(:class:`IdentifiedPlant`) uses it when it exists.  Use ``plant: bicycle`` when heading or yaw
 rate matter.  The model is LTI at the identification speed U; it does not rescale with the
 actual car speed.
 """
@@ -156,6 +157,11 @@ class IdentifiedParams:
         Identification speed U [m/s], used for psi = v_s / U.  Default 1.2.
     ds : float
         Sensor distance ahead of the c.g. [m].  Default 0.33.
+    heading : {'kinematic', 'bicycle'}
+        How heading, yaw rate and c.g. lateral velocity are formed. ``'kinematic'`` (default):
+        ``psi = v_s / U``, not physical (module docstring).  ``'bicycle'``: from the bicycle
+        that has this G(s) (:func:`bicycle_realisation`; a fifth state psi), physical; refused
+        with a sentence when no bicycle realisation exists (Eq. 6 has none).
     """
 
     gain: float | None = None
@@ -163,6 +169,7 @@ class IdentifiedParams:
     poles: tuple = (-8.0, -20.0)
     speed: float = IDENTIFICATION_SPEED
     ds: float = SENSOR_DISTANCE
+    heading: str = 'kinematic'
 
     def resolved_gain(self) -> float:
         """K [m/s^2/rad]: ``gain`` or b0 / 29 from the paper."""
@@ -193,6 +200,8 @@ class IdentifiedParams:
             raise ValueError(f'speed must be a positive speed in m/s, got {self.speed!r}')
         if not (math.isfinite(self.ds) and self.ds >= 0.0):
             raise ValueError(f'ds must be a non-negative distance in m, got {self.ds!r}')
+        if self.heading not in ('kinematic', 'bicycle'):
+            raise ValueError(f"heading must be 'kinematic' or 'bicycle', got {self.heading!r}")
 
 
 def identified_matrices(params: IdentifiedParams | None = None):
@@ -227,17 +236,47 @@ class IdentifiedPlant(ZohSteps):
     """Discrete (exact ZOH) identified plant implementing the ``LateralPlant`` interface.
 
     ``step(delta_front, delta_rear, dt)`` ignores ``delta_rear`` (Eq. 6 is front-steer only).
+
+    With ``heading='bicycle'`` the state gains psi (x[4]): for the bicycle of
+    :func:`bicycle_realisation`, ``r / delta = (e1 s + e0) / (s^2 + d1 s + d0)`` with
+    ``e1 = C_f l_f / I_z`` [1/s^2] and ``e0 = C_f C_r L / (m I_z U)`` [1/s^3], so with the
+    realisation's ``z1 = delta / (s^2 + d1 s + d0)``, ``z2 = z1'``: ``r = e1 z2 + e0 z1``,
+    ``psi' = r``, and the c.g. lateral velocity ``v = v_s - U psi - ds r`` (linear,
+    ``v_s = v + U psi + ds r``).  y_s is unchanged (same G(s)).
     """
 
     def __init__(self, params: IdentifiedParams | None = None):
         self.params = params if params is not None else IdentifiedParams()
         self.A, self.B, self.C, self.D, self.Ca, self.Da = identified_matrices(self.params)
-        self.x = np.zeros(4)
+        self.bicycle = None
+        if self.params.heading == 'bicycle':
+            self.bicycle = bicycle_realisation(self.params)
+            if self.bicycle is None:
+                n1, n0 = self.params.numerator()
+                raise ValueError(
+                    "heading 'bicycle': this G(s) is not the transfer function of any bicycle "
+                    f'at U = {self.params.speed} m/s, ds = {self.params.ds} m (zeros give '
+                    f'l_r + ds = U n1/n0 = {self.params.speed * n1 / n0:.3g} m; see '
+                    "irs_models.identified.bicycle_realisation); use heading 'kinematic' "
+                    "or plant 'bicycle'")
+            b = self.bicycle
+            L = b['lf'] + b['lr']
+            self._e1 = b['c_f'] * b['lf'] / b['yaw_inertia']
+            self._e0 = b['c_f'] * b['c_r'] * L / (b['mass'] * b['yaw_inertia']
+                                                  * self.params.speed)
+            A = np.zeros((5, 5))
+            A[:4, :4] = self.A
+            A[4, 2], A[4, 3] = self._e0, self._e1
+            self.A = A
+            self.B = np.vstack([self.B, [[0.0]]])
+            self.C = np.hstack([self.C, [[0.0]]])
+        self.x = np.zeros(self.A.shape[0])
         self._delta = 0.0
 
     def reset(self, y_s: float = 0.0) -> None:
         """Zero state with the sensor point at lateral position ``y_s`` [m], heading 0."""
-        self.x = np.array([float(y_s), 0.0, 0.0, 0.0])
+        self.x = np.zeros(self.A.shape[0])
+        self.x[0] = float(y_s)
         self._delta = 0.0
 
     def step(self, delta_front: float, delta_rear: float = 0.0, dt: float = 1e-3) -> None:
@@ -254,7 +293,11 @@ class IdentifiedPlant(ZohSteps):
 
     @property
     def psi(self) -> float:
-        """Kinematic heading psi = v_s / U [rad] (not physical: no sideslip, no ds r term)."""
+        """Heading [rad]: the bicycle realisation's psi, or the kinematic ``v_s / U`` (not
+        physical: no sideslip, no ds r term).
+        """
+        if self.bicycle is not None:
+            return float(self.x[4])
         return float(self.x[1]) / self.params.speed
 
     @property
@@ -264,13 +307,21 @@ class IdentifiedPlant(ZohSteps):
 
     @property
     def yaw_rate(self) -> float:
-        """r = a_s / U [rad/s], a_s with the last held steer input (not physical, see module)."""
-        a_s = float(self.Ca[0] @ self.x + self.Da[0, 0] * self._delta)
+        """r [rad/s]: the realisation's ``e1 z2 + e0 z1``, or the kinematic ``a_s / U`` with the
+        last held steer input (not physical, see module).
+        """
+        if self.bicycle is not None:
+            return float(self._e1 * self.x[3] + self._e0 * self.x[2])
+        a_s = float(self.Ca[0] @ self.x[:4] + self.Da[0, 0] * self._delta)
         return a_s / self.params.speed
 
     @property
     def lateral_velocity(self) -> float:
-        """Body-frame lateral velocity at the c.g. [m/s]: 0 (no sideslip state)."""
+        """Body-frame lateral velocity at the c.g. [m/s]: ``v_s - U psi - ds r`` for the bicycle
+        realisation, 0 for the kinematic heading (no sideslip state).
+        """
+        if self.bicycle is not None:
+            return float(self.x[1]) - self.params.speed * self.psi - self.params.ds * self.yaw_rate
         return 0.0
 
 

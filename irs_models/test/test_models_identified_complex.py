@@ -104,3 +104,36 @@ def test_kinematic_heading_is_not_the_bicycle_heading(half, low):
     kinematic = np.gradient(np.array(ys), dt) / 1.2
     rel = np.max(np.abs(kinematic - np.array(psi))) / np.max(np.abs(psi))
     assert low < rel < 2.0 * low + 1.0      # 33 % at 1 s per half, 159 % at 0.25 s
+
+
+def test_bicycle_heading_of_a_bicycle_transfer_function_is_that_bicycles():
+    """heading='bicycle': psi, r and v of the realisation equal the bicycle's own (doublet)."""
+    from irs_models import presets
+    from irs_models.lateral_plant import BicyclePlant
+    bp = presets.get_preset('irs_2wd').params
+    U, ds = 1.2, 0.33
+    num, den = tf_coefficients(bp, U, ds)
+    ident = IdentifiedPlant(IdentifiedParams(
+        gain=num[0] / den[0], zeros=tuple(np.roots(num)), poles=tuple(np.roots(den[:3])),
+        speed=U, ds=ds, heading='bicycle'))
+    bike = BicyclePlant(bp, U, ds)
+    ident.reset()
+    bike.reset()
+    a, err, peak = math.radians(5.0), np.zeros(3), np.zeros(3)
+    for k in range(1500):
+        t = k * 1e-3
+        delta = a if 0.5 <= t < 0.75 else (-a if 0.75 <= t < 1.0 else 0.0)
+        ident.step(delta, 0.0, 1e-3)
+        bike.step(delta, 0.0, 1e-3)
+        got = np.array([ident.psi, ident.yaw_rate, ident.lateral_velocity])
+        ref = np.array([bike.psi, bike.yaw_rate, bike.lateral_velocity])
+        err = np.maximum(err, np.abs(got - ref))
+        peak = np.maximum(peak, np.abs(ref))
+    assert np.all(err < 1e-6 * peak)
+
+
+def test_bicycle_heading_is_refused_for_eq6_with_a_sentence():
+    with pytest.raises(ValueError, match="not the transfer function of any bicycle"):
+        IdentifiedPlant(IdentifiedParams(heading='bicycle'))
+    with pytest.raises(ValueError, match='heading'):
+        IdentifiedParams(heading='yaw').validate()

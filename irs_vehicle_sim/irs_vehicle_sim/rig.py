@@ -29,7 +29,8 @@ Heading with ``plant: identified``: Eq. 6 has no yaw or sideslip state, so the h
 c.g. position and the arm angles derived from them are NOT physical (``psi = v_s / U``, see
 :mod:`irs_models.identified`; a 5 deg doublet on the ``irs_2wd`` preset puts the heading off by
 33-460 % of its peak, 1 s to 0.1 s per half).  Only the sensor-point displacement y_s is the
-model's.  Use ``plant: bicycle`` when heading or yaw rate matter.
+model's.  Use ``plant: bicycle`` when heading or yaw rate matter, or ``identified.heading:
+bicycle`` for an identified G(s) that is some bicycle's (refused with a sentence otherwise).
 """
 
 from __future__ import annotations
@@ -255,7 +256,8 @@ class RigConfig:
         ipd = IdentifiedParams()
         idd = {'gain': 0.0, 'speed': 1.2, 'ds': -1.0,
                'numerator': [round(v, 12) for v in ipd.numerator()],
-               'denominator': [round(v, 12) for v in ipd.denominator()]}
+               'denominator': [round(v, 12) for v in ipd.denominator()],
+               'heading': ipd.heading}
         ids = _section('identified', idd, d.get('identified'))
         quad = {}
         for key in ('numerator', 'denominator'):
@@ -272,7 +274,7 @@ class RigConfig:
         kw['identified'] = IdentifiedParams(
             gain=None if ids['gain'] == 0.0 else ids['gain'], speed=ids['speed'],
             ds=kw.get('ds', base.ds) if ids['ds'] < 0.0 else ids['ds'],
-            zeros=quad['numerator'], poles=quad['denominator'])
+            zeros=quad['numerator'], poles=quad['denominator'], heading=ids['heading'])
         kw['bicycle'] = _section('bicycle', _bicycle_defaults(), d.get('bicycle'))
         car_def = asdict(CarParams())
         kw['car'] = CarParams(**_section('car', car_def, d.get('car')))
@@ -312,6 +314,8 @@ class RigConfig:
         self.actuator_front.validate()
         self.actuator_rear.validate()
         self.identified.validate()
+        if self.plant == 'identified' and self.identified.heading == 'bicycle':
+            IdentifiedPlant(self.identified)      # refuses a G(s) no bicycle has, with a sentence
         self.car.validate()
         self.arm_sensor.validate()
         if self.plant == 'bicycle':

@@ -63,6 +63,9 @@ _IDENT = {
                   '[n1, n0]: the zeros are the roots of s^2 + n1 s + n0 (real or complex)'),
     'denominator': ('1/s, 1/s^2', -1e6, 1e6,
                     '[d1, d0]: the non-origin poles are the roots of s^2 + d1 s + d0 (stable)'),
+    'heading': ('-', None, None,
+                "'kinematic' (psi = v_s / U, not physical) or 'bicycle' (psi, r, v of the "
+                'bicycle with this G(s); refused if none, as for Eq. 6)'),
 }
 _BICYCLE = {
     'preset': ('-', None, None,
@@ -122,7 +125,8 @@ def _section_defaults():
     arm.pop('seed')
     ident = {'gain': 0.0, 'speed': cfg.identified.speed, 'ds': -1.0,
              'numerator': [round(v, 12) for v in cfg.identified.numerator()],
-             'denominator': [round(v, 12) for v in cfg.identified.denominator()]}
+             'denominator': [round(v, 12) for v in cfg.identified.denominator()],
+             'heading': cfg.identified.heading}
     return {
         'actuator_front': (asdict(ActuatorParams()), _ACT),
         'actuator_rear': (asdict(ActuatorParams()), _ACT),

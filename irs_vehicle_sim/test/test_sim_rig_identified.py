@@ -32,3 +32,20 @@ def test_complex_quadratics_reach_the_stepped_model():
 def test_bad_quadratics_are_refused(section, match):
     with pytest.raises(ValueError, match=match):
         RigConfig.from_dict({'identified': section})
+
+
+def test_bicycle_heading_for_eq6_is_refused_at_configuration():
+    with pytest.raises(ValueError, match='not the transfer function of any bicycle'):
+        RigConfig.from_dict({'identified': {'heading': 'bicycle'}})
+    with pytest.raises(ValueError, match='heading'):
+        RigConfig.from_dict({'identified': {'heading': 'yaw'}})
+
+
+def test_bicycle_heading_on_the_rig_for_a_bicycle_transfer_function():
+    from irs_models import presets
+    from irs_models.bicycle import tf_coefficients
+    num, den = tf_coefficients(presets.get_preset('irs_2wd').params, 1.2, 0.33)
+    cfg = RigConfig.from_dict({'identified': {
+        'gain': float(num[0] / den[0]), 'numerator': [float(c) for c in num[1:] / num[0]],
+        'denominator': [float(c) for c in den[1:3] / den[0]], 'heading': 'bicycle'}})
+    assert cfg.identified.heading == 'bicycle'
