@@ -20,9 +20,13 @@ printed ``S(0) = 23779`` gives ``b0 = 363.34`` (0.015 % apart; the printed S(0) 
 is the type-2 unit-DC-gain condition). ``PAPER_PLANT_GAIN = 363.394`` (from T, 5 digits).
 Check: the design below reproduces the printed T to 3e-4 relative on every coefficient.
 
-The printed R (Eq. 22) is NOT reproduced
-----------------------------------------
-Cancelling both zeros forces ``(s+2.4)(s+4.8)`` to divide R (Eq. 16), and the printed
+The printed R (Eq. 22) is not reproduced *on Eq. 6's plant*
+-----------------------------------------------------------
+(What follows holds for designs on Eq. 6's poles. Freeing the design plant's poles and zeros
+together, :mod:`irs_control.paper_inverse` finds a plant -- not Eq. 6 -- that explains the printed
+R, S and T together to about 6 %, once S's s^1 coefficient is taken as a misprint; see
+docs/control_design.md.) Cancelling both zeros forces ``(s+2.4)(s+4.8)`` to divide R
+(Eq. 16), and the printed
 ``R = s^4 + 44.9 s^3 + 707.2 s^2 + 3530.8 s + 6364.5`` has roots -19.0 +- 8.32j and
 -3.45 +- 1.70j, so Eq. 22 is inconsistent with Eqs. 16, 18 and 24 for any ``A``,
 ``Ao``, ``b0``. The design that the printed T, Ao, Am and the stated degree rule
