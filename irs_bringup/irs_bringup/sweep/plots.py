@@ -105,8 +105,7 @@ def heatmap(rows, plot, units, path: Path, title: str = '', sweep_units=None) ->
         norm = LogNorm(vmin=vmin, vmax=max(vmax, vmin * 10))
     else:
         norm = Normalize(vmin=float(finite.min()) if finite.size else 0.0, vmax=vmax)
-    cmap = plt.get_cmap('viridis').copy()
-    cmap.set_bad('0.85')
+    cmap = plt.get_cmap('viridis').with_extremes(bad='0.85')   # grey: no result
     width = max(4.3 * len(facets) + 1.6, 7.0)
     fig, axes = plt.subplots(1, len(facets), figsize=(width, 4.8),
                              squeeze=False, sharey=True, constrained_layout=True)

@@ -98,14 +98,15 @@ class _Progress:
 def make_client(workers: int | None = None, scheduler: str | None = None):
     """A Dask client: on ``scheduler`` if given, else a LocalCluster of ``workers`` processes
     (default: every core), one thread each (the closed loop is single-threaded Python).
+
+    The local cluster is the client's own: closing the client closes it (and its workers).
     """
-    from distributed import Client, LocalCluster
+    from distributed import Client
     if scheduler:
         return Client(scheduler)
     n = workers or os.cpu_count() or 1
-    cluster = LocalCluster(n_workers=n, threads_per_worker=1, processes=True,
-                           dashboard_address=':0', silence_logs=40)   # any free port
-    return Client(cluster)
+    return Client(n_workers=n, threads_per_worker=1, processes=True,
+                  dashboard_address=':0', silence_logs=40)   # dashboard on any free port
 
 
 def run_sweep(prep: Prepared, out: Path, *, workers: int | None = None,
