@@ -59,6 +59,9 @@ DEFAULT_PLANTS = ('identified', 'irs_2wd', 'irs_iwt', 'full_size_sedan')
 #: pair that improves the fit by less than that is within the noise of a 12 s sweep).
 ORDER_1_RATIO = 1.25
 ORDER_1_SLACK = 0.005
+#: RMS model-following error [m] above which a run counts as failed (a quarter of the 0.02 m
+#: step; the working designs stay near 1.2 mm).
+FOLLOWING_FAIL = 0.005
 #: Paper's actuator lag in the design [rad/s] (4.6 Hz, Sec. 4).
 DESIGN_ACTUATOR_POLE = 2 * math.pi * vf.PAPER_LAG_HZ
 
@@ -265,6 +268,10 @@ def report(res: dict) -> str:
                  Estimate('following RMS error (measured)', f['rms_y_measured'], 'm')]
     lines.append(format_report(f"[{res['plant']}] design on the identified model, checked on "
                                'the configured plant; model following (Eq. 21)', rows))
+    if f and f['rms_y_s'] > FOLLOWING_FAIL:
+        lines.append(f"[{res['plant']}] model following FAILED on the rig: the loop the check "
+                     f'calls stable has a phase margin of {check.phase_margin:.2g} deg without '
+                     "the rig's 17 ms delay, backlash and slew limit")
     if res['spec'] is not None and not check.stable:
         lines.append(f"[{res['plant']}] the design is UNSTABLE on the configured plant: not run")
     return '\n'.join(lines)
@@ -295,6 +302,11 @@ def plot_cycle(results: list, path) -> Path:
                       'mm)')
         ax.set_ylabel('y_s  [mm]')
         pm = res['check'].phase_margin
+        if f['rms_y_s'] > FOLLOWING_FAIL:
+            ax.set_ylim(-40.0, 40.0)
+            ax.text(0.02, 0.06, f'FAILED on the rig: design phase margin {pm:.2g} deg (without '
+                    'the 17 ms delay); the car drifts off', transform=ax.transAxes, color='C3',
+                    fontsize=9)
         ax.set_title(f"rig plant {name}: identified K = {res['model'].gain:.3g} m/(s^2 rad); "
                      f"paper's MRC max Re {res['paper_check'].max_real:+.2f} 1/s, designed "
                      f'{res["check"].max_real:+.2f} 1/s (PM {pm:.0f} deg)', fontsize=9)
@@ -333,6 +345,8 @@ def run(args) -> int:
 
 def reproduce_figures(img_dir: Path, runs_dir: Path) -> dict:
     """The cycle on :data:`DEFAULT_PLANTS` through the graph; ``figure_cycle.png``."""
+    from .vehicle_cli import fmt_roots
+
     results = [cycle(p, runs_dir) for p in DEFAULT_PLANTS]
     plot_cycle(results, Path(img_dir) / 'figure_cycle.png')
     out = {}
@@ -340,8 +354,8 @@ def reproduce_figures(img_dir: Path, runs_dir: Path) -> dict:
         p = res['plant']
         m = res['model']
         out[f'{p}_K'] = m.gain
-        out[f'{p}_zeros'] = ', '.join(f'{z:.3g}' for z in m.zeros)
-        out[f'{p}_poles'] = ', '.join(f'{z:.3g}' for z in m.poles)
+        out[f'{p}_zeros'] = fmt_roots(m.zeros)
+        out[f'{p}_poles'] = fmt_roots(m.poles)
         out[f'{p}_configured_K'] = res['configured'].gain
         out[f'{p}_paper_mrc_max_re'] = res['paper_check'].max_real
         if res['spec'] is not None:

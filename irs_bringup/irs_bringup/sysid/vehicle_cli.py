@@ -192,6 +192,17 @@ def step_comparison(step_run: dict, model: vf.PlantModel, configured=None) -> di
 
 
 # ------------------------------------------------------------------ figures
+def fmt_roots(roots) -> str:
+    """``'-2.4, -4.8'`` or ``'-9.46+-3.31j'`` (a complex pair once)."""
+    out = []
+    for r in roots:
+        if abs(r.imag) < 1e-9:
+            out.append(f'{r.real:.3g}')
+        elif r.imag > 0:
+            out.append(f'{r.real:.3g}+-{r.imag:.3g}j')
+    return ', '.join(out)
+
+
 def _plt():
     import matplotlib
     matplotlib.use('Agg')
@@ -228,8 +239,7 @@ def plot_bode(ident: dict, path) -> Path:
     ax_m.set_ylabel('|y / u|  [dB re 1 m/rad]')
     ax_p.set_ylabel('phase  [deg]')
     ax_p.set_xlabel('frequency  [rad/s]')
-    z = ', '.join(f'{v:.3g}' for v in m.zeros)
-    p = ', '.join(f'{v:.3g}' for v in m.poles)
+    z, p = fmt_roots(m.zeros), fmt_roots(m.poles)
     ax_m.set_title(f'Figure 8: open loop steer command -> lateral position, from closed-loop '
                    f'data\nfit: K = {m.gain:.3g} m/(s^2 rad), zeros [{z}], poles [0, 0, {p}, '
                    f'-{m.actuator_pole:.3g}], delay {1000 * m.delay:.0f} ms', fontsize=10)
