@@ -171,6 +171,7 @@ def summarise(metrics: dict, traces: dict) -> dict:
         band = BAND * abs(ms[0]['step'])
         nb = noise_band([traces[k] for k in keys], ms[0]['t_step'] + RESIDUAL_DELAY)
         row = {'noise_band': nb, 'settling_band': band, 'seeds': len(keys),
+               't_step': ms[0]['t_step'],
                'measurement_noise_rms': float(np.median([m['measurement_noise_rms']
                                                          for m in ms]))}
         for name, _, _, _, floor in METRICS:
@@ -213,8 +214,9 @@ def plot_step(step: float, summary: dict, traces: dict, path: Path, aw=AW_CHOICE
     import matplotlib.pyplot as plt
 
     colours = {'back_calculation': 'C0', 'clip': 'C3'}
-    fig, axes = plt.subplots(len(RUN_NAMES), 1, sharex=True, figsize=(8.0, 8.2))
-    for ax, d in zip(axes, RUN_NAMES):
+    fig, axes = plt.subplots(len(RUN_NAMES), 2, figsize=(11.5, 8.6),
+                             gridspec_kw={'width_ratios': [2.2, 1]}, squeeze=False)
+    for (ax, zx), d in zip(axes, RUN_NAMES):
         title = []
         first = None
         for a in aw:
@@ -228,24 +230,39 @@ def plot_step(step: float, summary: dict, traces: dict, path: Path, aw=AW_CHOICE
                 first = Y
                 ref = traces[keys[0]]['reference']
                 ym = 1e3 * reference_model_response(t, ref)
-                ax.plot(t, 1e3 * np.where(np.isfinite(ref), ref, np.nan), color='0.6', lw=0.8,
-                        label='reference')
-                ax.plot(t, ym, 'k--', lw=1.1, label='reference model')
+                for axx in (ax, zx):
+                    axx.plot(t, 1e3 * np.where(np.isfinite(ref), ref, np.nan), color='0.6',
+                             lw=0.8, label='reference')
+                    axx.plot(t, ym, 'k--', lw=1.1, label='reference model')
+                row = summary[(d, step, a)]
+                sp, band = 1e3 * step, 1e3 * row['settling_band']
+                for sgn in (-1, 1):
+                    zx.axhline(sp + sgn * band, color='k', ls=':', lw=0.9,
+                               label='$\\pm$2 % settling band' if sgn > 0 else None)
+                t0 = row['t_step'] if 't_step' in row else 0.5
             st = summary[(d, step, a)]['overshoot_percent']
             if same:
                 title.append(f'{a}: identical (no saturation)')
                 continue
             c = colours.get(a, 'C2')
-            ax.fill_between(t, Y.min(axis=0), Y.max(axis=0), color=c, alpha=0.25, lw=0,
-                            label=f'{a}: {len(keys)} seeds, min-max')
-            ax.plot(t, Y[0], color=c, lw=1.1, label=f'{a}: seed 0')
+            for axx in (ax, zx):
+                axx.fill_between(t, Y.min(axis=0), Y.max(axis=0), color=c, alpha=0.3, lw=0,
+                                 label=f'{a}: {len(keys)} seeds, min-max')
+                axx.plot(t, Y[0], color=c, lw=1.0, label=f'{a}: seed 0')
             title.append(f"{a}: overshoot {st['median']:.1f} % "
                          f"[{st['min']:.1f}, {st['max']:.1f}]")
         ax.set_title(f'{RUN_LABELS[d]} -- ' + '; '.join(title), fontsize=8.5)
         ax.set_ylabel('$y_s$ [mm]')
         ax.grid(True, alpha=0.3)
         ax.legend(fontsize=6.5, loc='lower right', ncol=2, framealpha=0.85)
-    axes[-1].set_xlabel('time [s]')
+        zx.set_xlim(t0 + 1.5, t[-1])
+        zx.set_ylim(sp - 2.5 * band, sp + 2.5 * band)
+        nb = 1e3 * summary[(d, step, aw[0])]['noise_band']
+        zx.set_title(f'zoom: seed scatter {nb:.2f} mm, dotted: $\\pm$2 % band '
+                     f'($\\pm${band:.2f} mm)', fontsize=8)
+        zx.grid(True, alpha=0.3)
+    axes[-1, 0].set_xlabel('time [s]')
+    axes[-1, 1].set_xlabel('time [s]')
     n = summary[(RUN_NAMES[0], step, aw[0])]['seeds']
     fig.suptitle(f'Paper Figure 10 on the simulated rig: {1e3 * step:g} mm lateral step, '
                  f'three designs vs the reference model\n(arm-noise seeds 0-{n - 1}; '
