@@ -15,9 +15,11 @@ and ``m V^2`` gives::
     dr'/dtau = [Pi1 Pi3 (delta_f - v' - Pi1 r') + Pi2 Pi4 (v' - Pi2 r')] / Pi5
     dy'/dtau = v' + psi,    dpsi/dtau = r',    y_s' = y' + Pi6 psi
 
-with the Pi-groups (Buckingham: 7 quantities m, I_z, l_f, l_r, C_f, C_r, V in 3 units leave 4
-independent groups, plus the sensor's ``d_s``; the same set as Brennan and Alleyne's
-dimensionless bicycle model for the IRS, named here in their order)::
+with the Pi-groups below (Buckingham: 7 quantities m, I_z, l_f, l_r, C_f, C_r, V in 3 units
+leave 4 independent groups, plus the sensor's ``d_s``; derived here from the equations above.
+The IRS paper itself defines none -- it only says the scale cars' dynamics are "similar enough"
+to the full-size ones of Eqs. 7-10 -- and we recall, without the source at hand, that its
+authors' later dimensionless analysis of the IRS cars used groups of this form)::
 
     Pi1 = l_f / L              Pi2 = l_r / L = 1 - Pi1          (weight distribution)
     Pi3 = C_f L / (m V^2)      Pi4 = C_r L / (m V^2)            (tyre stiffness vs inertia force)

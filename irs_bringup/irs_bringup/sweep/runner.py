@@ -124,8 +124,7 @@ def run_sweep(prep: Prepared, out: Path, *, workers: int | None = None,
     if limit is not None:
         todo = todo[:limit]
     metrics = list(prep.sweep.metrics)
-    progress = _Progress(len(todo), len(prep.points) - len(todo) - (
-        0 if limit is None else max(0, len(prep.points) - len(done) - len(todo))), log)
+    progress = _Progress(len(todo), sum(p['point'] in done for p in prep.points), log)
     buffer, last_flush = [], time.monotonic()
 
     def keep(row):
