@@ -70,3 +70,25 @@ def test_cli_module_exits_2_without_traceback(tmp_path):
                         str(tmp_path / 'missing')], capture_output=True, text=True, timeout=120)
     assert p.returncode == 2 and len(p.stderr.strip().splitlines()) == 1, p.stderr
     assert 'Traceback' not in p.stderr
+
+
+def test_paper_method_holds_with_the_papers_servo():
+    """With the servo configured as the paper's model (a 4.6 Hz lag, the old 6.98 rad/s slew at
+    the wheel, no friction or linkage), the paper's way -- steer command, actuator a 4.6 Hz lag
+    -- recovers Eq. 6 within the tolerances, with the arm's noise and quantisation, the
+    backlash and the delay on (the offline loop of the same cores, the full 12 s sweep).
+    """
+    from irs_bringup.sysid import cycle, vehicle_cli
+
+    exp = copy.deepcopy(load_experiment('sysid_vehicle_sweep'))
+    exp.node('irs_vehicle_sim', 'vehicle_sim').params.update({
+        'actuator_front.lag_hz': 4.6, 'actuator_front.rate_limit': 6.981,
+        'actuator_front.gear_ratio': 1.0, 'actuator_front.enable_friction': False,
+        'actuator_front.enable_linkage_geometry': False})
+    run = cycle._run_experiment(exp, None, offline=True)
+    assert run['params']['vehicle_sim']['arm.enable_noise'] is True
+    (_title, paper), _ = vehicle_cli.reports(vehicle_cli.identify(run))
+    compared = [e for e in paper if e.configured == e.configured]     # not NaN
+    assert len(compared) >= 6
+    bad = [(e.name, e.value, e.configured) for e in compared if not e.within_tolerance()]
+    assert not bad, bad

@@ -51,6 +51,9 @@ __all__ = ['FrequencyResponse', 'closed_loop_frequency_response', 'PlantModel', 
            'reduced_vehicle_polynomials',
            'response_error', 'vehicle_estimates', 'TOLERANCES']
 
+#: Eq. 6's vehicle quadratics [c1, c0] = (s + 2.4)(s + 4.8) and [d1, d0] = (s + 8)(s + 20).
+EQ6_NUMERATOR = (7.2, 11.52)
+EQ6_DENOMINATOR = (28.0, 160.0)
 #: The paper's actuator model in the vehicle fit: "a 4.6 Hz first order lag" (Sec. 4) [Hz].
 PAPER_LAG_HZ = 4.6
 #: Default coherence threshold for a band to enter the fit [-].
@@ -451,15 +454,15 @@ def closed_loop_response(model: PlantModel, R, S, T, t, r, pade_order: int = 6) 
 def configured_vehicle(rig: dict) -> PlantModel:
     """The vehicle plant a rig parameter mapping (flat, as in the bag's metadata) configures.
 
-    ``plant: identified`` gives Eq. 6 (``identified.gain``, 0 = b0/29; the Eq. 6 zeros and
-    poles); ``plant: bicycle`` the bicycle preset ``bicycle.preset`` (or the explicit
-    ``bicycle.*`` fields) at ``bicycle.speed`` and ``ds``. The actuator is the paper's 4.6 Hz
-    lag (:data:`PAPER_LAG_HZ`; the rig's ``actuator_front.lag_hz`` is its servo loop's
-    small-signal bandwidth, not the effective lag of Eq. 6), the dead time
-    ``actuator_front.delay`` (0 if disabled).
+    ``plant: identified`` gives ``identified.gain`` (0 = b0/29) with the quadratics
+    ``identified.numerator`` and ``identified.denominator`` (default Eq. 6's); ``plant:
+    bicycle`` the bicycle preset ``bicycle.preset`` (or the explicit ``bicycle.*`` fields) at
+    ``bicycle.speed`` and ``ds``. The actuator is the paper's 4.6 Hz lag (:data:`PAPER_LAG_HZ`;
+    the rig's ``actuator_front.lag_hz`` is its servo loop's small-signal bandwidth, not the
+    effective lag of Eq. 6), the dead time ``actuator_front.delay`` (0 if disabled).
     """
     from irs_models.bicycle import BicycleParams, transfer_function
-    from irs_models.identified import IdentifiedParams
+    from irs_models.constants import PAPER_ACTUATOR_POLE, PAPER_PLANT_GAIN
 
     lag_hz = PAPER_LAG_HZ
     delay = float(rig.get('actuator_front.delay', 0.017)) \
@@ -468,10 +471,13 @@ def configured_vehicle(rig: dict) -> PlantModel:
     plant = rig.get('plant', 'identified')
     if plant == 'identified':
         g = float(rig.get('identified.gain', 0.0))
-        p = IdentifiedParams(gain=g if g > 0 else None)
-        z, q = p.zeros, p.poles
-        return PlantModel(p.resolved_gain(), (-(z[0] + z[1]), z[0] * z[1]),
-                          (-(q[0] + q[1]), q[0] * q[1]), a, delay)
+        gain = g if g > 0 else PAPER_PLANT_GAIN / PAPER_ACTUATOR_POLE
+        num = [float(c) for c in rig.get('identified.numerator', EQ6_NUMERATOR)]
+        den = [float(c) for c in rig.get('identified.denominator', EQ6_DENOMINATOR)]
+        if len(num) != 2 or len(den) != 2:
+            raise ValueError('identified.numerator and identified.denominator must be two '
+                             f'coefficients [a1, a0] each, got {num!r} and {den!r}')
+        return PlantModel(gain, tuple(num), tuple(den), a, delay)
     if plant != 'bicycle':
         raise ValueError(f"rig plant must be 'identified' or 'bicycle', got {plant!r}")
     name = rig.get('bicycle.preset', 'irs_2wd')
