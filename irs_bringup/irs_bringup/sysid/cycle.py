@@ -232,6 +232,7 @@ def cycle(plant: str, runs_dir: Path, offline: bool = False, source: str = 'achi
     if spec is None:
         log(f'[cycle {plant}] design impossible: {check}')
         return res
+    res['wgc'] = gain_crossover(spec, plant)
     log(f'[cycle {plant}] {spec.summary}')
     log(f'[cycle {plant}] designed MRC: {check.summary()}')
     log(f"[cycle {plant}] the paper's MRC (Eq. 6 design) here: {paper.summary()}")
@@ -250,6 +251,29 @@ def cycle(plant: str, runs_dir: Path, offline: bool = False, source: str = 'achi
 
 
 # ------------------------------------------------------------------ report and figure
+def gain_crossover(spec, check_plant: str) -> float:
+    """Gain crossover frequency [rad/s] of the designed loop on the check plant (with the
+    actuator lag): ``control.stability_margins(P S/R)[4]``.
+    """
+    import control
+    from irs_control.design_check import check_plant_polynomials
+
+    cfg = _controller_defaults()
+    b, a = check_plant_polynomials(check_plant, DESIGN_ACTUATOR_POLE, 0.0, cfg['speed'],
+                                   cfg['ds'])
+    loop = control.tf(b, a) * control.tf(spec.design.S, spec.design.R)
+    return float(control.stability_margins(loop)[4])
+
+
+def delay_phase_margin(res: dict) -> float:
+    """The design's phase margin [deg] less the rig's dead time at the gain crossover,
+    ``PM - w_c T_d`` (the design check leaves the 17 ms transmitter delay out).
+    """
+    conf = res.get('configured')
+    delay = conf.delay if conf is not None else 0.0
+    return res['check'].phase_margin - math.degrees(res['wgc'] * delay)
+
+
 def report(res: dict) -> str:
     """The identified-vs-configured table and the design/following lines of one cycle."""
     lines = [format_report(f"[{res['plant']}] {res['title']}", res['estimates'])]
@@ -260,6 +284,7 @@ def report(res: dict) -> str:
     else:
         rows.append(Estimate('designed MRC: max Re(pole)', check.max_real, '1/s'))
         rows.append(Estimate('designed MRC: phase margin', check.phase_margin, 'deg'))
+        rows.append(Estimate("... with the rig's dead time", delay_phase_margin(res), 'deg'))
     rows.append(Estimate("paper's MRC: max Re(pole)", paper.max_real, '1/s'))
     f = res.get('following')
     if f:
@@ -270,8 +295,8 @@ def report(res: dict) -> str:
                                'the configured plant; model following (Eq. 21)', rows))
     if f and f['rms_y_s'] > FOLLOWING_FAIL:
         lines.append(f"[{res['plant']}] model following FAILED on the rig: the loop the check "
-                     f'calls stable has a phase margin of {check.phase_margin:.2g} deg without '
-                     "the rig's 17 ms delay, backlash and slew limit")
+                     f'calls stable has a phase margin of {check.phase_margin:.2g} deg, '
+                     f"{delay_phase_margin(res):.2g} deg with the rig's dead time")
     if res['spec'] is not None and not check.stable:
         lines.append(f"[{res['plant']}] the design is UNSTABLE on the configured plant: not run")
     return '\n'.join(lines)
@@ -309,7 +334,8 @@ def plot_cycle(results: list, path) -> Path:
                     fontsize=9)
         ax.set_title(f"rig plant {name}: identified K = {res['model'].gain:.3g} m/(s^2 rad); "
                      f"paper's MRC max Re {res['paper_check'].max_real:+.2f} 1/s, designed "
-                     f'{res["check"].max_real:+.2f} 1/s (PM {pm:.0f} deg)', fontsize=9)
+                     f'{res["check"].max_real:+.2f} 1/s (PM {pm:.0f} deg, '
+                     f'{delay_phase_margin(res):.0f} with the delay)', fontsize=9)
         ax.grid(True, alpha=0.3)
         ax.legend(loc='upper right', fontsize=8)
     axes[-1, 0].set_xlabel('time  [s]')
@@ -361,6 +387,7 @@ def reproduce_figures(img_dir: Path, runs_dir: Path) -> dict:
         if res['spec'] is not None:
             out[f'{p}_designed_max_re'] = res['check'].max_real
             out[f'{p}_designed_phase_margin_deg'] = res['check'].phase_margin
+            out[f'{p}_designed_phase_margin_with_delay_deg'] = delay_phase_margin(res)
         f = res.get('following')
         if f:
             out[f'{p}_following_rms_m'] = f['rms_y_s']
