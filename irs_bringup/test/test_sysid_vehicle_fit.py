@@ -96,10 +96,9 @@ def test_noise_and_quantisation_within_stated_tolerances():
     assert not bad, bad
 
 
-def test_wrong_dead_time_is_visible():
+def test_wrong_dead_time_is_visible(clean_run):
     """Fitting without the rig's 17 ms dead time (as the paper's fit had none) is worse."""
-    r, u, y = simulate(EQ6)
-    fr = vf.closed_loop_frequency_response(r, u, y, 1 / DT, (0.2, 6.0))
+    fr = vf.closed_loop_frequency_response(*clean_run, 1 / DT, (0.2, 6.0))
     with_delay = vf.fit_open_loop(fr, A_POLE, DELAY)
     without = vf.fit_open_loop(fr, A_POLE, 0.0)
     assert without.rms_log_error > 3 * with_delay.rms_log_error
