@@ -308,7 +308,7 @@ def plot_cycle(results: list, path) -> Path:
     matplotlib.use('Agg')
     import matplotlib.pyplot as plt
 
-    fig, axes = plt.subplots(len(results), 1, figsize=(9, 3.2 * len(results)), squeeze=False)
+    fig, axes = plt.subplots(len(results), 1, figsize=(9, 3.4 * len(results)), squeeze=False)
     for ax, res in zip(axes[:, 0], results):
         f = res.get('following')
         name = res['plant'] if res['plant'] != 'identified' else 'identified (Eq. 6)'
@@ -329,13 +329,13 @@ def plot_cycle(results: list, path) -> Path:
         pm = res['check'].phase_margin
         if f['rms_y_s'] > FOLLOWING_FAIL:
             ax.set_ylim(-40.0, 40.0)
-            ax.text(0.02, 0.06, f'FAILED on the rig: design phase margin {pm:.2g} deg (without '
-                    'the 17 ms delay); the car drifts off', transform=ax.transAxes, color='C3',
-                    fontsize=9)
-        ax.set_title(f"rig plant {name}: identified K = {res['model'].gain:.3g} m/(s^2 rad); "
-                     f"paper's MRC max Re {res['paper_check'].max_real:+.2f} 1/s, designed "
-                     f'{res["check"].max_real:+.2f} 1/s (PM {pm:.0f} deg, '
-                     f'{delay_phase_margin(res):.0f} with the delay)', fontsize=9)
+            ax.text(0.02, 0.06, f'FAILED on the rig: phase margin {pm:.2g} deg, '
+                    f'{delay_phase_margin(res):.2g} deg with the delay; the car drifts off',
+                    transform=ax.transAxes, color='C3', fontsize=9)
+        ax.set_title(f"rig plant {name} (identified K = {res['model'].gain:.3g} m/(s^2 rad))\n"
+                     f"paper's MRC: max Re(pole) {res['paper_check'].max_real:+.2f} 1/s; "
+                     f'designed: {res["check"].max_real:+.2f} 1/s, phase margin {pm:.0f} deg, '
+                     f'{delay_phase_margin(res):.0f} deg with the 17 ms delay', fontsize=9)
         ax.grid(True, alpha=0.3)
         ax.legend(loc='upper right', fontsize=8)
     axes[-1, 0].set_xlabel('time  [s]')
