@@ -150,7 +150,9 @@ def check_design(B, A, R, S, controller_ss, dt: float, plant: str = '') -> Desig
     P = control.tf(np.asarray(B, float), np.asarray(A, float))
     C = control.tf(np.asarray(S, float), np.asarray(R, float))
     poles = np.asarray(control.poles(control.feedback(P, C)), complex)
-    gm, pm, wcg, wcp = control.stability_margins(P * C)[:4]
+    # python-control returns (gm, pm, sm, wpc, wgc, wms): wpc is the phase crossover (where the
+    # gain margin is read), wgc the gain crossover (where the phase margin is read).
+    gm, pm, _sm, wcg, wcp, _wms = control.stability_margins(P * C)
     Pd = control.c2d(control.ss(P), dt, method='zoh')
     K = control.ss(*controller_ss, dt)
     # u = K y and y = P u: a positive-feedback interconnection (K already carries the minus).

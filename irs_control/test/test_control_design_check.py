@@ -138,3 +138,18 @@ def test_pi_is_stable_on_irs_2wd_and_unknown_plants_are_refused():
     assert chk.stable, chk.summary()
     with pytest.raises(ValueError, match='check_plant'):
         _check('pi', 'no_such_car')
+
+
+def test_crossover_frequencies_are_where_the_margins_are_read():
+    """wcp is the gain crossover (|L| = 1, phase margin), wcg the phase crossover (-180 deg)."""
+    import control
+    import numpy as np
+
+    from irs_control.design_check import check_design
+
+    B, A = [10.0], [1.0, 3.0, 2.0, 0.0]           # L = 10 / (s (s + 1) (s + 2)): both crossings
+    static = (np.zeros((1, 1)), np.zeros((1, 1)), np.zeros((1, 1)), -np.ones((1, 1)))
+    res = check_design(B, A, [1.0], [1.0], static, 1e-3)
+    L = control.tf(B, A)
+    assert abs(abs(control.evalfr(L, 1j * res.wcp)) - 1.0) < 1e-9
+    assert abs(np.degrees(np.angle(control.evalfr(L, 1j * res.wcg))) + 180.0) < 1e-6

@@ -133,7 +133,7 @@ def test_bicycle_heading_of_a_bicycle_transfer_function_is_that_bicycles():
 
 
 def test_bicycle_heading_is_refused_for_eq6_with_a_sentence():
-    with pytest.raises(ValueError, match="not the transfer function of any bicycle"):
+    with pytest.raises(ValueError, match='not the transfer function of any bicycle'):
         IdentifiedPlant(IdentifiedParams(heading='bicycle'))
     with pytest.raises(ValueError, match='heading'):
         IdentifiedParams(heading='yaw').validate()
