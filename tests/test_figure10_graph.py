@@ -97,15 +97,15 @@ def test_figure10_through_the_graph(tmp_path):
         metrics[k] for k in ('mrc_with_actuator', 'mrc_without_actuator', 'pi')
     )
     # MRC with the actuator follows the reference model best ...
-    assert with_act['ise_vs_model'] < without_act['ise_vs_model'] / 5   # README: 5x
-    assert with_act['ise_vs_model'] < pi['ise_vs_model'] / 50           # README: 50x
+    assert with_act['ise_vs_model'] < without_act['ise_vs_model'] / 1.8   # README: 2x
+    assert with_act['ise_vs_model'] < pi['ise_vs_model'] / 25             # README: 30x
     # ... neglecting the actuator is visibly less damped ...
     assert without_act['overshoot_percent'] > 1.5 * with_act['overshoot_percent']
     assert without_act['crossings_2pct'] > with_act['crossings_2pct']
     # ... and the PI cannot reach the fast transient: slower rise, far slower settling.
     assert pi['rise_time'] > with_act['rise_time']
-    # Neither settles into +-2 % within the run (the backlash/noise limit cycle; NaN), so compare
-    # at +-5 %, where both do (offline: 0.88 s and 5.3 s): the PI takes more than twice as long.
+    # The +-2 % settling of a 0.02 m step depends on the arm-noise seed (docs/figure10.md), so
+    # compare at +-5 %, where both settle for every seed: the PI takes more than twice as long.
     mrc5, pi5 = settling(runs['mrc_with_actuator'], 0.05), settling(runs['pi'], 0.05)
     assert np.isfinite(mrc5) and np.isfinite(pi5), (mrc5, pi5)
     assert pi5 > 2 * mrc5, (mrc5, pi5)
