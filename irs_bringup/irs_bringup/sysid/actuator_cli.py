@@ -31,6 +31,7 @@ from pathlib import Path
 import numpy as np
 
 from . import actuator_fit as af
+from .common import run_experiment
 from .report import Estimate, format_report
 
 #: Tolerances of the identification (tests/test_sysid_actuator.py holds them).
@@ -352,18 +353,6 @@ def sweep_experiment(amplitude_deg: float, out_dir: Path, sweep_time: float | No
         sig['signal.f1'] = float(f1)
     tag = f'{amplitude_deg:g}'.replace('.', 'p') + 'deg'
     return experiment_copy('sysid_actuator_sweep', out_dir, tag, sig, duration)
-
-
-def run_experiment(name_or_path, runs_dir: Path) -> Path:
-    """Run one experiment through the graph (lock-step); its bag directory."""
-    from ..run.experiment import load_experiment
-    from ..run.experiment_runner import ExperimentRunner
-
-    res = ExperimentRunner(load_experiment(str(name_or_path)), runs_dir=runs_dir,
-                           progress=False).run()
-    if not res.completed or res.bag_dir is None:
-        raise RuntimeError(f'{name_or_path} did not complete: {res.message}')
-    return Path(res.bag_dir)
 
 
 def reproduce_figures(img_dir: Path, runs_dir: Path) -> dict:

@@ -44,6 +44,7 @@ from pathlib import Path
 import numpy as np
 
 from . import vehicle_fit as vf
+from .common import save_figure
 from .report import Estimate, format_report
 
 __all__ = ['add_arguments', 'run', 'cycle', 'model_following', 'plot_cycle',
@@ -341,12 +342,7 @@ def plot_cycle(results: list, path) -> Path:
     axes[-1, 0].set_xlabel('time  [s]')
     fig.suptitle('Identify - design - run: MRC designed on the identified plant, model following',
                  fontsize=11)
-    fig.tight_layout()
-    path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fig.savefig(path, dpi=100)
-    plt.close(fig)
-    return path
+    return save_figure(fig, path, dpi=100)
 
 
 def run(args) -> int:

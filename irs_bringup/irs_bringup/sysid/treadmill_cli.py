@@ -27,6 +27,7 @@ from pathlib import Path
 
 import numpy as np
 
+from .common import run_experiment, save_figure
 from .report import Estimate, format_report
 from .treadmill_fit import fit_coast, fit_drive, segments, simulate_belt
 
@@ -188,12 +189,7 @@ def plot_figure5(res: dict, path) -> Path:
     ax_s.legend(loc='upper right', fontsize=8)
     fig.suptitle('Figure 5: open-loop treadmill responses, 1-4 V steps up, 0.5 V steps down, '
                  'steady state and coast-downs (dots: data, lines: fit)')
-    fig.tight_layout()
-    path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
-    return path
+    return save_figure(fig, path, dpi=110)
 
 
 def add_arguments(parser) -> None:
@@ -221,18 +217,6 @@ def run(args) -> int:
 def coast_time(b_over_j: float, f_over_b: float, v0: float = 1.2) -> float:
     """Coast-down time to rest from ``v0`` [m/s]: ``(J/B) ln(1 + v0 B/F)`` [s]."""
     return math.log1p(v0 / f_over_b) / b_over_j
-
-
-def run_experiment(name_or_path, runs_dir: Path) -> Path:
-    """Run one experiment through the graph (lock-step); its bag directory."""
-    from ..run.experiment import load_experiment
-    from ..run.experiment_runner import ExperimentRunner
-
-    res = ExperimentRunner(load_experiment(str(name_or_path)), runs_dir=runs_dir,
-                           progress=False).run()
-    if not res.completed or res.bag_dir is None:
-        raise RuntimeError(f'{name_or_path} did not complete: {res.message}')
-    return Path(res.bag_dir)
 
 
 def reproduce_figures(img_dir: Path, runs_dir: Path) -> dict:

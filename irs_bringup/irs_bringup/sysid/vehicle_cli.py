@@ -30,6 +30,7 @@ from pathlib import Path
 import numpy as np
 
 from . import vehicle_fit as vf
+from .common import save_figure
 from .report import Estimate, format_report
 
 __all__ = ['add_arguments', 'run', 'bag_parameters', 'load_run', 'identify', 'plot_bode',
@@ -246,12 +247,7 @@ def plot_bode(ident: dict, path) -> Path:
     for ax in (ax_m, ax_p):
         ax.grid(True, which='both', alpha=0.3)
     ax_m.legend(loc='lower left')
-    fig.tight_layout()
-    path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fig.savefig(path, dpi=100)
-    plt.close(fig)
-    return path
+    return save_figure(fig, path, dpi=100)
 
 
 def plot_step(cmp: dict, path) -> Path:
@@ -274,12 +270,7 @@ def plot_step(cmp: dict, path) -> Path:
                  '(experimental data quantised)')
     ax.grid(True, alpha=0.3)
     ax.legend(loc='lower right')
-    fig.tight_layout()
-    path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fig.savefig(path, dpi=100)
-    plt.close(fig)
-    return path
+    return save_figure(fig, path, dpi=100)
 
 
 # ------------------------------------------------------------------ command
