@@ -32,11 +32,9 @@ messages (< ``chunk_size`` bytes) are lost. ``metadata.yaml`` only exists after 
 
 from __future__ import annotations
 
-import contextlib
 import json
 import os
 import re
-import signal
 import threading
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -442,13 +440,11 @@ class BagWriter:
             if self._closed:
                 return self._summary  # type: ignore[return-value]
             try:
-                with _signals_deferred():
-                    self._flush_chunk_now()
-                    meta = self._metadata()
-                    self._writer.add_metadata(
-                        'rosbag2', {'serialized_metadata': yaml.safe_dump(meta,
-                                                                          sort_keys=False)})
-                    self._writer.finish()
+                self._flush_chunk()
+                meta = self._metadata()
+                self._writer.add_metadata(
+                    'rosbag2', {'serialized_metadata': yaml.safe_dump(meta, sort_keys=False)})
+                self._writer.finish()
                 self._stream.flush()
                 if self._fsync:
                     os.fsync(self._stream.fileno())
@@ -520,10 +516,6 @@ class BagWriter:
         self._topic_hash[topic] = thash
 
     def _flush_chunk(self) -> None:
-        with _signals_deferred():
-            self._flush_chunk_now()
-
-    def _flush_chunk_now(self) -> None:
         if self._pending:
             self._pending.sort(key=lambda m: (m[0], m[1]))
             for lt, _, cid, payload, pt, seq in self._pending:
@@ -574,25 +566,3 @@ class BagWriter:
             chunk_count=self._chunks, late_messages=self._late,
             dropped_total=sum(s.dropped for s in topics.values()), topics=topics,
             closed=closed)
-
-
-_DEFERRED = {signal.SIGINT, signal.SIGTERM}
-
-
-@contextlib.contextmanager
-def _signals_deferred():
-    """Hold SIGINT/SIGTERM back while a chunk and its indexes are written (main thread only).
-
-    A Ctrl-C lands wherever the main thread is; the KeyboardInterrupt it raises there must not
-    cut a chunk from its message indexes (seen once on a loaded machine with the recorder
-    composed: "message index channels ... do not match its messages"). Blocked signals stay
-    pending and are delivered right after, so the stop is delayed by one chunk write (~ms).
-    """
-    if threading.current_thread() is not threading.main_thread():
-        yield
-        return
-    old = signal.pthread_sigmask(signal.SIG_BLOCK, _DEFERRED)
-    try:
-        yield
-    finally:
-        signal.pthread_sigmask(signal.SIG_SETMASK, old)
