@@ -34,9 +34,13 @@ model braking on split mu (0.8 left / 0.3 right) from 1.2 m/s under ABS with the
 the heading differentiated over one 1 ms step.  The differential torque only acts when it asks
 for *less* braking than the ABS allows on the high side, i.e. when the demand exceeds the gap
 between the brake demand and the ABS's torque (about 0.1 N m, a moment of 1 N m), hence the
-high gain; 15-60 rad/s cut the peak yaw rate by 10-30 % only, 300 rad/s by about 55 %.  The
-rear steer is taken as achieved: through the rig's 4.6 Hz servo it acts later, and the gain
-must be re-checked there (the moment demand is applied to the motors at once).
+high gain; 15-60 rad/s cut the peak yaw rate by 10-30 % only, 300 rad/s by about 55 %.  While
+driving (no brake demand, no ABS clipping) the torque path has its own dynamics (the wheel spin
+against the relaxed slip, about 280 rad/s and lightly damped) and a step steer showed it
+unstable above about 60 rad/s on the two-track model, so there its share of the moment is
+scaled by ``w_d / w_r`` with ``w_d = 40 rad/s``.  The rear steer is taken as achieved: through
+the rig's 4.6 Hz servo it acts later, and the gain must be re-checked there (the moment demand
+is applied to the motors at once).
 ``w_v = 3 rad/s``, ``w_vi = 2.25 1/s`` (assumed: the speed loop ``s^2 + w_v s + w_vi``
 critically damped at 1.5 rad/s, slower than the treadmill regulator, which also moves the
 car), steer limit 0.2618 rad (irs_models.constants),
@@ -77,6 +81,9 @@ class ChassisParams:
         The car (default: the ``irs_iwt`` preset).
     yaw_bandwidth, yaw_integral : float
         w_r [rad/s], w_ri [1/s].
+    differential_bandwidth : float
+        w_d [rad/s]: while driving (no brake demand) the differential-torque share of the
+        moment is scaled by ``min(1, w_d / w_r)`` (default 40).
     speed_bandwidth, speed_integral : float
         w_v [rad/s], w_vi [1/s].
     mix : str
@@ -92,6 +99,7 @@ class ChassisParams:
     car: BicycleParams = field(default_factory=_default_car)
     yaw_bandwidth: float = 300.0
     yaw_integral: float = 60.0
+    differential_bandwidth: float = 40.0
     speed_bandwidth: float = 3.0
     speed_integral: float = 2.25
     mix: str = 'both'
@@ -100,8 +108,8 @@ class ChassisParams:
     v_min: float = 0.1
 
     def __post_init__(self):
-        check_numbers(self, ('yaw_bandwidth', 'speed_bandwidth', 'steer_limit', 'torque_limit',
-                             'v_min'), above=0.0)
+        check_numbers(self, ('yaw_bandwidth', 'differential_bandwidth', 'speed_bandwidth',
+                             'steer_limit', 'torque_limit', 'v_min'), above=0.0)
         check_numbers(self, ('yaw_integral', 'speed_integral'), at_least=0.0)
         if self.mix not in MIXES:
             raise ValueError(f'ChassisParams.mix must be one of {list(MIXES)}, got {self.mix!r}.')
@@ -187,7 +195,10 @@ class ChassisController:
         m_z = float(np.clip(c.yaw_inertia * (p.yaw_bandwidth * e) + kz * self.z, -cap, cap))
         share_steer = {'rear_steer': 1.0, 'differential': 0.0, 'both': 0.5}[p.mix]
         rear = float(np.clip(-share_steer * m_z / (c.lr * c.c_r), -p.steer_limit, p.steer_limit))
-        d_t = (1.0 - share_steer) * m_z * c.wheel_radius / (2.0 * c.track)
+        # driving, the torque path is slower (module docstring): its moment is scaled by w_d / w_r
+        scale = 1.0 if brake > 0.0 else min(1.0, p.differential_bandwidth / p.yaw_bandwidth)
+        m_d = (1.0 - share_steer) * m_z * scale
+        d_t = m_d * c.wheel_radius / (2.0 * c.track)
         if brake > 0.0:
             self.q = 0.0
             base = -min(float(brake), p.torque_limit)
