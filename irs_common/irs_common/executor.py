@@ -102,6 +102,7 @@ class LeanExecutor(Executor):
         self._slow_period_ns = int(slow_period * 1e9)
         self._next_slow_ns = 0
         self._bus = IntraProcessBus() if intra_process else None
+        self._stop_requested = False
         self._handover_budget_ns = HANDOVER_BUDGET_NS
 
     def wake(self):
@@ -118,9 +119,20 @@ class LeanExecutor(Executor):
         super().remove_node(node)
 
     def spin(self):
-        """Execute callbacks until the context is shut down or the executor is."""
-        while self._context.ok() and not self._is_shutdown:
+        """Execute callbacks until the context is shut down, the executor is, or a stop was
+        requested (:meth:`request_stop`).
+        """
+        while self._context.ok() and not self._is_shutdown and not self._stop_requested:
             self.spin_once()
+
+    def request_stop(self):
+        """Make :meth:`spin` return after the ``spin_once`` in progress (safe to call from a
+        signal handler: it sets a flag and triggers the executor's guard condition).
+        """
+        self._stop_requested = True
+        guard = self._guard
+        if guard is not None:
+            guard.trigger()
 
     def spin_once(self, timeout_sec=None):
         """Wait up to ``timeout_sec`` (None: forever) and run everything that is ready."""
