@@ -129,8 +129,10 @@ def test_a_repeated_step_is_answered_again_without_stepping_the_controller(ros, 
     launch(NodeSpec('irs_control', 'lateral_controller', params={'stale_timeout': 10.0}))
     link = ControllerLink(ros)
     answers = []
-    ros.node.create_subscription(SteeringCommand, 'steering/command', answers.append, qos.COMMAND)
-    assert ros.spin_until(lambda: ros.node.count_publishers('steering/command') >= 1, 10.0)
+    answer_sub = ros.node.create_subscription(SteeringCommand, 'steering/command',
+                                              answers.append, qos.COMMAND)
+    # matched both ways before the first send: a measurement sent earlier may be lost
+    assert ros.wait_for_matched([link.meas, answer_sub], timeout=30.0)
     for k, y in enumerate((0.01, 0.02, 0.02, 0.03)):
         stamp = (k if k < 2 else k - 1) * 1_000_000      # stamps 0, 1, 1 (repeat), 2 ms
         n = len(answers)
