@@ -156,9 +156,11 @@ class LeanExecutor(Executor):
             self._next_slow_ns = now_ns + self._slow_period_ns
             if self._bus is not None:
                 self._bus.refresh()
-        else:
-            left = self._next_slow_ns - now_ns
-            timeout_ns = left if timeout_ns < 0 else min(timeout_ns, left)
+        # Never wait longer than the slow period: the slow entities must get their turn, and a
+        # signal's stop flag (node_main) is only seen when the wait returns -- a Python signal
+        # handler cannot run while the main thread is inside rcl_wait.
+        left = self._next_slow_ns - now_ns
+        timeout_ns = left if timeout_ns < 0 else min(timeout_ns, left)
         try:
             ws.clear_entities()
             for h in ents.sub_handles:
