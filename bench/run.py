@@ -178,7 +178,11 @@ def lockstep() -> list:
     return rows
 
 
-def offline() -> list:
+def offline_timings() -> dict:
+    """The offline Figure 10 closed loop, then the identified plant alone on its achieved steer:
+    our core stepped in Python against ``scipy.signal.dlsim``. Returns the steps, the times [s],
+    the steer and the largest |y_s| difference [m] (also used by ``bench/sweep.py``).
+    """
     import numpy as np
     from scipy import signal
     from irs_bringup.paper.closed_loop import ClosedLoop
@@ -203,7 +207,13 @@ def offline() -> list:
     t0 = time.perf_counter()
     _, ys_ref, _ = signal.dlsim((Ad, Bd, plant.C, plant.D, 0.001), steer[:, None])
     t_ref = time.perf_counter() - t0
-    err = float(np.max(np.abs(ys_core - ys_ref[:, 0])))
+    return {'n': n, 'steer': steer, 't_loop': t_loop, 't_core': t_core, 't_ref': t_ref,
+            'err': float(np.max(np.abs(ys_core - ys_ref[:, 0])))}
+
+
+def offline() -> list:
+    o = offline_timings()
+    n, t_loop, t_core, t_ref, err = o['n'], o['t_loop'], o['t_core'], o['t_ref'], o['err']
     rows = [{'name': 'offline closed loop (all cores, Figure 10)', 'steps_per_s': n / t_loop},
             {'name': 'identified plant, our core stepped in Python', 'steps_per_s': n / t_core},
             {'name': 'identified plant, scipy.signal.dlsim (vectorised reference)',

@@ -79,29 +79,11 @@ def sweep_rates(points: int, duration: float | None) -> list:
 def offline(systems: int) -> list:
     import numpy as np
     from scipy import signal
-    from irs_bringup.paper.closed_loop import ClosedLoop
-    from irs_bringup.run.experiment import load_experiment
-    from irs_bringup.run.offline import loop_config_from_experiment
     from irs_models.batch_lti import BatchLti
-    from irs_models.identified import IdentifiedParams, IdentifiedPlant, identified_matrices
-    exp = load_experiment('figure10_mrc_with_actuator')
-    loop = ClosedLoop(loop_config_from_experiment(exp))
-    n = int(round(exp.duration / 0.001))
-    t0 = time.perf_counter()
-    run = loop.run(exp.duration)
-    t_loop = time.perf_counter() - t0
-    steer = np.nan_to_num(np.asarray(run['steer_achieved'], float))[:n]
-    plant = IdentifiedPlant()
-    t0 = time.perf_counter()
-    ys_core = np.empty(n)
-    for k in range(n):
-        ys_core[k] = plant.y_s
-        plant.step(float(steer[k]), 0.0, 0.001)
-    t_core = time.perf_counter() - t0
-    Ad, Bd = plant.discrete(0.001)
-    t0 = time.perf_counter()
-    _, ys_ref, _ = signal.dlsim((Ad, Bd, plant.C, plant.D, 0.001), steer[:, None])
-    t_ref = time.perf_counter() - t0
+    from irs_models.identified import IdentifiedParams, identified_matrices
+    from run import offline_timings     # bench/run.py: the loop and the core against dlsim
+    o = offline_timings()
+    n, steer, t_loop, t_core, t_ref = o['n'], o['steer'], o['t_loop'], o['t_core'], o['t_ref']
     gains = np.linspace(0.5, 2.0, systems) * IdentifiedParams().resolved_gain()
     batch = BatchLti.from_continuous(
         [identified_matrices(IdentifiedParams(gain=g))[:4] for g in gains], 0.001)
@@ -109,7 +91,7 @@ def offline(systems: int) -> list:
     yb, _ = batch.simulate(steer)
     t_batch = time.perf_counter() - t0
     i1 = int(np.argmin(np.abs(gains - IdentifiedParams().resolved_gain())))
-    err_core = float(np.max(np.abs(ys_core - ys_ref[:, 0])))
+    err_core = o['err']
     _, y1, _ = signal.dlsim((batch.Ad[i1], batch.Bd[i1], batch.C[i1], batch.D[i1], 0.001),
                             steer[:, None])
     err_batch = float(np.max(np.abs(yb[i1, :, 0] - y1[:, 0])))

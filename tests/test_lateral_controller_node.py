@@ -7,7 +7,6 @@ For the saturation test the test process plays the rig: it steps the offline rig
 import math
 import os
 import subprocess
-import time
 
 import numpy as np
 import pytest
@@ -179,10 +178,7 @@ def test_unstable_design_on_the_check_plant_is_refused_in_one_line(ros, launch):
     proc = launch(NodeSpec('irs_control', 'lateral_controller',
                            params={'check_plant': 'irs_2wd', 'allow_unstable_design': True}))
     # The node joins the graph before its constructor has checked the design: wait for the log.
-    deadline = time.monotonic() + 60.0
-    while 'running anyway' not in proc.output() and proc.poll() is None \
-            and time.monotonic() < deadline:
-        time.sleep(0.1)
+    ros.spin_until(lambda: 'running anyway' in proc.output() or proc.poll() is not None, 60.0)
     assert 'running anyway' in proc.output(), proc.output()[-2000:]
     assert ros.wait_for_nodes(['lateral_controller'], timeout=30.0), proc.tail()
     assert proc.poll() is None, proc.tail()
