@@ -262,13 +262,19 @@ def main(argv=None) -> int:
         fn = globals()[section]
         args = {'floor': (floor_s,), 'realtime': (rt_s,), 'replay': (replay_s,)}.get(section, ())
         results[section] = fn(*args)
+    write_results(results, a.out)
+    return 0
+
+
+def write_results(results: dict, out_dir, prefix: str = '') -> Path:
+    """Add the load average, write ``<out_dir>/<prefix><time>.json``, print its path."""
     results['load_after'] = os.getloadavg()
-    out = Path(a.out)
+    out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
-    path = out / f"{datetime.datetime.now().strftime('%Y%m%d-%H%M%S')}.json"
+    path = out / f"{prefix}{datetime.datetime.now().strftime('%Y%m%d-%H%M%S')}.json"
     path.write_text(json.dumps(results, indent=1, default=str))
     print(f'results: {path}')
-    return 0
+    return path
 
 
 if __name__ == '__main__':

@@ -21,7 +21,6 @@ run (the load average before and after is in the JSON).
 """
 import argparse
 import datetime
-import json
 import os
 from pathlib import Path
 import sys
@@ -127,12 +126,8 @@ def main(argv=None) -> int:
     if 'offline' in a.only:
         print('== offline', flush=True)
         res['offline'] = offline(a.systems)
-    res['load_after'] = os.getloadavg()
-    out = Path(a.out)
-    out.mkdir(parents=True, exist_ok=True)
-    path = out / f"sweep-{datetime.datetime.now().strftime('%Y%m%d-%H%M%S')}.json"
-    path.write_text(json.dumps(res, indent=1, default=str))
-    print(f'results: {path}')
+    from run import write_results       # bench/run.py
+    write_results(res, a.out, prefix='sweep-')
     return 0
 
 
