@@ -25,6 +25,15 @@ Faults are latched: the first off-belt edge (``'front'``, ``'rear'``, ``'left'``
 ``'nonfinite'``) or an arm reach error sets ``fault`` and ``fault_reason``; the simulation keeps
 integrating (the ROS node decides what to do).  Arm angles are NaN while the arm cannot reach.
 
+Torque car (``plant: two_track``, :mod:`.rig_torque_car`): steps 2-3 are one RK4 step of the
+two-track model with the achieved steer at ``t_k``, the wheel torques and locked flags of
+``RigInputs`` (sanitised: non-finite -> 0 N m with a reason, clipped to
+``two_track.torque_limit``) and the belt's mean speed and acceleration over the step (the belt
+is stepped first); the driver's speed command is ignored (the speed comes from the wheel
+torques). The outputs then carry the encoder counts and velocities and the tyres' ground truth
+(``RigOutputs.encoder_counts``, ``encoder_velocity``, ``tyre``; empty / None for the other
+plants, whose steps are unchanged to the bit).
+
 Heading with ``plant: identified``: Eq. 6 has no yaw or sideslip state, so the heading, yaw rate,
 c.g. position and the arm angles derived from them are NOT physical (``psi = v_s / U``, see
 :mod:`irs_models.identified`; a 5 deg doublet on the ``irs_2wd`` preset puts the heading off by
@@ -48,16 +57,22 @@ from irs_models.identified import IdentifiedParams, IdentifiedPlant, quadratic_r
 from irs_models.lateral_plant import BicyclePlant, LateralPlant
 
 from .actuator import ActuatorParams, ActuatorState, SteeringActuator
-from .car_on_belt import CarParams, CarOnBelt, wheel_speeds
+from .car_on_belt import CarParams, CarOnBelt, off_belt_edge, wheel_speeds
 from .arm_sensor import ArmSensorParams, ArmSensor
 from .belt import BeltParams, TreadmillBelt
+from .rig_torque_car import (NOT_LOCKED, ZERO_TORQUE, TorqueCarPlant, TyreTruth,
+                             check_torque_limit, encoder_defaults, make_encoder_params,
+                             make_surface, make_two_track_params, sanitize_wheel_inputs,
+                             surface_defaults, two_track_defaults)
 
-__all__ = ['RigInputs', 'RigOutputs', 'RigConfig', 'RigSimulation', 'simulate',
-           'sanitize_steer', 'sanitize_voltage', 'sanitize_speed', 'unflatten']
+__all__ = ['RigInputs', 'RigOutputs', 'RigConfig', 'RigSimulation', 'simulate', 'PLANTS',
+           'TyreTruth', 'sanitize_steer', 'sanitize_voltage', 'sanitize_speed', 'unflatten']
 
 #: Steer commands beyond this magnitude are rejected as garbage (30 deg) [rad]; commands between
 #: the actuator limit (15 deg) and this value are accepted and saturated by the actuator.
 DEFAULT_STEER_REJECT_RAD = math.radians(30.0)
+#: Plants the rig can step.
+PLANTS = ('identified', 'bicycle', 'two_track')
 
 
 # ----------------------------------------------------------------------------- sanitising
@@ -105,12 +120,16 @@ def sanitize_speed(value: float, u_max: float, fallback: float):
 # ----------------------------------------------------------------------------- data
 @dataclass
 class RigInputs:
-    """Inputs held over one step: steer commands [rad], drive voltage [V], speed command [m/s]."""
+    """Inputs held over one step: steer commands [rad], drive voltage [V], speed command [m/s];
+    torque car only: wheel torques [N m] and locked flags (FL, FR, RL, RR).
+    """
 
     front_steer: float = 0.0
     rear_steer: float = 0.0
     drive_voltage: float = 0.0
     speed_cmd: float = 0.0
+    wheel_torque: tuple = ZERO_TORQUE
+    wheel_locked: tuple = NOT_LOCKED
 
 
 @dataclass
@@ -138,6 +157,9 @@ class RigOutputs:
     fault_reason: str            # latched first reason, '' if none
     input_warnings: tuple = ()   # reasons from sanitising the inputs of the last step
     applied_inputs: Optional[RigInputs] = None  # sanitised inputs of the last step
+    encoder_counts: tuple = ()   # two_track: wheel encoder counts [FL, FR, RL, RR]; else ()
+    encoder_velocity: tuple = ()  # two_track: encoder velocities [rad/s]; else ()
+    tyre: Optional[TyreTruth] = None  # two_track: tyre ground truth; else None
 
 
 def unflatten(d: dict) -> dict:
@@ -231,6 +253,9 @@ class RigConfig:
     arm_geometry: ArmGeometry = field(default_factory=ArmGeometry)
     arm_sensor: ArmSensorParams = field(default_factory=ArmSensorParams)
     belt: BeltParams = field(default_factory=BeltParams)
+    two_track: dict = field(default_factory=two_track_defaults)
+    surface: dict = field(default_factory=surface_defaults)
+    encoders: dict = field(default_factory=encoder_defaults)
 
     _SCALARS = ('dt', 'seed', 'plant', 'ds', 'steer_reject', 'speed_cmd_max', 'x0', 'y0', 'u0',
                 'belt_speed0')
@@ -242,7 +267,7 @@ class RigConfig:
         base = cls()
         scal = {k: getattr(base, k) for k in cls._SCALARS}
         sections = ('actuator_front', 'actuator_rear', 'identified', 'bicycle', 'car', 'arm',
-                    'belt')
+                    'belt', 'two_track', 'surface', 'encoders')
         unknown = set(d) - set(scal) - set(sections)
         if unknown:
             raise ValueError(f'unknown parameter(s) {sorted(unknown)}; expected some of '
@@ -287,6 +312,9 @@ class RigConfig:
                                            seed=kw.get('seed', base.seed))
         belt_def = asdict(BeltParams())
         kw['belt'] = BeltParams(**_section('belt', belt_def, d.get('belt')))
+        kw['two_track'] = _section('two_track', two_track_defaults(), d.get('two_track'))
+        kw['surface'] = _section('surface', surface_defaults(), d.get('surface'))
+        kw['encoders'] = _section('encoders', encoder_defaults(), d.get('encoders'))
         cfg = cls(**kw)
         cfg.validate()
         return cfg
@@ -295,8 +323,8 @@ class RigConfig:
         """Raise ``ValueError`` for non-physical values."""
         if not (math.isfinite(self.dt) and 0.0 < self.dt <= 0.05):
             raise ValueError(f'dt must be a step in (0, 0.05] s, got {self.dt!r}')
-        if self.plant not in ('identified', 'bicycle'):
-            raise ValueError(f"plant must be 'identified' or 'bicycle', got {self.plant!r}")
+        if self.plant not in PLANTS:
+            raise ValueError(f"plant must be one of {', '.join(PLANTS)}, got {self.plant!r}")
         if not (self.steer_reject > 0.0):
             raise ValueError(
                 f'steer_reject must be a positive angle in rad, got {self.steer_reject!r}'
@@ -320,6 +348,16 @@ class RigConfig:
         self.arm_sensor.validate()
         if self.plant == 'bicycle':
             self.make_bicycle_params()
+        if self.plant == 'two_track':
+            self.make_torque_car()
+
+    def make_torque_car(self) -> TorqueCarPlant:
+        """The torque car of the ``two_track``, ``surface`` and ``encoders`` groups (each bad
+        value refused with one sentence naming it).
+        """
+        return TorqueCarPlant(make_two_track_params(self.two_track),
+                              make_surface(self.surface), make_encoder_params(self.encoders),
+                              check_torque_limit(self.two_track['torque_limit']), self.ds)
 
     def make_bicycle_params(self):
         """``BicycleParams`` from the ``bicycle`` section (a named preset if given)."""
@@ -348,10 +386,14 @@ class RigSimulation:
         c = self.config
         self.act_front = SteeringActuator(copy.deepcopy(c.actuator_front))
         self.act_rear = SteeringActuator(copy.deepcopy(c.actuator_rear))
+        self.torque_car: TorqueCarPlant | None = None
         if c.plant == 'identified':
-            self.plant: LateralPlant = IdentifiedPlant(c.identified)
-        else:
+            self.plant: LateralPlant | None = IdentifiedPlant(c.identified)
+        elif c.plant == 'bicycle':
             self.plant = BicyclePlant(c.make_bicycle_params(), c.bicycle['speed'], c.ds)
+        else:
+            self.plant = None
+            self.torque_car = c.make_torque_car()
         self.car = CarOnBelt(c.car, c.x0, c.u0)
         self.arm = ArmSensor(c.arm_geometry, c.arm_sensor)
         self.belt = TreadmillBelt(c.belt)
@@ -362,7 +404,10 @@ class RigSimulation:
         c = self.config
         self.act_front.reset(0.0)
         self.act_rear.reset(0.0)
-        self.plant.reset(c.y0)
+        if self.torque_car is not None:
+            self.torque_car.reset(c.x0, c.y0, c.u0, 0.0, c.dt)
+        else:
+            self.plant.reset(c.y0)
         self.car.reset(c.x0, c.u0)
         self.arm.reset()
         self.belt.reset(c.belt_speed0)
@@ -379,7 +424,8 @@ class RigSimulation:
         at t = 0, which a running graph cannot follow). Afterwards:
 
         * the car is at its configured start (``x0``, ``y0``, heading 0, zero lateral and yaw
-          velocities, forward speed ``u0``; the remembered speed command is ``u0``);
+          velocities, forward speed ``u0``; the remembered speed command is ``u0``; the torque
+          car's wheels rolling at ``u0 / R``, its encoders counting on);
         * both steering actuators are at 0 rad with empty delay lines;
         * the latched fault (off-belt edge or arm reach) is cleared; it re-latches on the
           outputs formed here if the start pose itself is off the belt;
@@ -400,7 +446,10 @@ class RigSimulation:
             self.belt.reset(float(belt_speed))   # validates the speed before anything changes
         self.act_front.reset(0.0)
         self.act_rear.reset(0.0)
-        self.plant.reset(c.y0)
+        if self.torque_car is not None:
+            self.torque_car.restart(c.x0, c.y0, c.u0, self.time)
+        else:
+            self.plant.reset(c.y0)
         self.car.reset(c.x0, c.u0)
         self._speed_cmd = c.u0
         self._fault_reason = ''
@@ -431,6 +480,8 @@ class RigSimulation:
             if r is not None:
                 warn.append(f'{tag}: {r}')
         self._speed_cmd = uc
+        if self.torque_car is not None:
+            return self._step_torque_car(inputs, RigInputs(df, dr, vb, uc), warn)
         applied = RigInputs(df, dr, vb, uc)
 
         psi_k = self.plant.psi
@@ -449,10 +500,44 @@ class RigSimulation:
         self._outputs = self._make_outputs(tuple(warn), applied)
         return self._outputs
 
+    def _step_torque_car(self, inputs: RigInputs, applied: RigInputs, warn: list) -> RigOutputs:
+        """Step ``t_k -> t_{k+1}`` of the torque car (module docstring); ``applied`` holds the
+        sanitised steer, voltage and speed command, ``warn`` their reasons.
+        """
+        dt = self.config.dt
+        tc = self.torque_car
+        tq, lk, reasons = sanitize_wheel_inputs(inputs.wheel_torque, inputs.wheel_locked,
+                                                tc.torque_limit)
+        warn.extend(f'wheel_torque: {r}' for r in reasons)
+        applied = replace(applied, wheel_torque=tq, wheel_locked=lk)
+        s_prev, v_prev = self.belt.position, self.belt.speed
+        self.belt.step(applied.drive_voltage, dt)
+        belt_speed = (self.belt.position - s_prev) / dt
+        belt_accel = (self.belt.speed - v_prev) / dt
+        tc.step(tq, lk, self.act_front.achieved, self.act_rear.achieved, belt_speed, belt_accel,
+                dt)
+        self.act_front.step(applied.front_steer, dt)
+        self.act_rear.step(applied.rear_steer, dt)
+        self.k += 1
+        self._outputs = self._make_outputs(tuple(warn), applied)
+        return self._outputs
+
     def _make_outputs(self, warnings: tuple, applied) -> RigOutputs:
-        pl = self.plant
-        x, y, psi = self.car.x, pl.y_cg, pl.psi
-        edge = self.car.edge(y)
+        extra = {}
+        if self.torque_car is not None:
+            tc = self.torque_car
+            x, y, psi, u, v, r, y_s = tc.pose
+            truth = tc.truth()
+            ws = truth.omega
+            counts, velocity = tc.encoder_readings()
+            extra = dict(encoder_counts=counts, encoder_velocity=velocity, tyre=truth)
+        else:
+            pl = self.plant
+            x, y, psi = self.car.x, pl.y_cg, pl.psi
+            u, v, r, y_s = self.car.u, pl.lateral_velocity, pl.yaw_rate, pl.y_s
+            ws = tuple(float(w) for w in wheel_speeds(
+                u, v, r, self.act_front.achieved, self.act_rear.achieved, self.config.car))
+        edge = off_belt_edge(x, y, self.config.car)
         arm_fault = False
         try:
             ang = tuple(float(a) for a in self.arm.measure(x, y, psi))
@@ -464,16 +549,14 @@ class RigSimulation:
                 self._fault_reason = f'off_belt:{edge}'
             elif arm_fault:
                 self._fault_reason = 'arm_reach'
-        ws = wheel_speeds(self.car.u, pl.lateral_velocity, pl.yaw_rate,
-                          self.act_front.achieved, self.act_rear.achieved, self.config.car)
         return RigOutputs(
             time=self.time, arm_angles=ang, belt_speed_measured=self.belt.measured_speed,
             belt_speed=self.belt.speed, actuator_front=replace(self.act_front.state),
-            actuator_rear=replace(self.act_rear.state), x=x, y=y, psi=psi, u=self.car.u,
-            v=pl.lateral_velocity, yaw_rate=pl.yaw_rate, y_s=pl.y_s,
-            wheel_speeds=tuple(float(w) for w in ws), off_belt=bool(edge), off_belt_edge=edge,
+            actuator_rear=replace(self.act_rear.state), x=x, y=y, psi=psi, u=u, v=v,
+            yaw_rate=r, y_s=y_s, wheel_speeds=ws, off_belt=bool(edge), off_belt_edge=edge,
             arm_fault=arm_fault, fault=bool(self._fault_reason),
-            fault_reason=self._fault_reason, input_warnings=warnings, applied_inputs=applied)
+            fault_reason=self._fault_reason, input_warnings=warnings, applied_inputs=applied,
+            **extra)
 
 
 _SCALAR_OUT = ('time', 'belt_speed_measured', 'belt_speed', 'x', 'y', 'psi', 'u', 'v',
@@ -494,7 +577,11 @@ def simulate(config: RigConfig | dict | None, input_fn: Callable[[RigOutputs], R
         belt_speed_measured``, ``arm_angles`` (N+1, 3), ``wheel_speeds`` (N+1, 4),
         ``steer_front``/``steer_rear`` achieved, ``servo_front``/``servo_rear``, ``fault``),
         and the sanitised inputs ``front_steer_cmd, rear_steer_cmd, drive_voltage, speed_cmd`` of
-        length N (row k applied during step k).
+        length N (row k applied during step k). With ``plant: two_track`` also
+        ``encoder_counts`` (N+1, 4) int64, ``encoder_velocity`` (N+1, 4) [rad/s], the tyre truth
+        ``slip, slip_angle, fx, fy, fz, mu`` (N+1, 4), ``x_belt`` (N+1,) [m] (``wheel_speeds``
+        are the true spins), and the sanitised ``wheel_torque`` (N, 4) [N m] and
+        ``wheel_locked`` (N, 4) bool.
     """
     if not isinstance(config, RigConfig):
         config = RigConfig.from_dict(config)
@@ -521,4 +608,20 @@ def simulate(config: RigConfig | dict | None, input_fn: Callable[[RigOutputs], R
     res['rear_steer_cmd'] = np.array([i.rear_steer for i in ins], dtype=float)
     res['drive_voltage'] = np.array([i.drive_voltage for i in ins], dtype=float)
     res['speed_cmd'] = np.array([i.speed_cmd for i in ins], dtype=float)
+    if config.plant == 'two_track':
+        res.update(_torque_car_series(outs, ins))
+    return res
+
+
+def _torque_car_series(outs: list, ins: list) -> dict:
+    """The torque car's extra series of :func:`simulate`."""
+    res = {'encoder_counts': np.array([o.encoder_counts for o in outs],
+                                      dtype=np.int64).reshape(-1, 4),
+           'encoder_velocity': np.array([o.encoder_velocity for o in outs],
+                                        dtype=float).reshape(-1, 4),
+           'x_belt': np.array([o.tyre.x_belt for o in outs], dtype=float),
+           'wheel_torque': np.array([i.wheel_torque for i in ins], dtype=float).reshape(-1, 4),
+           'wheel_locked': np.array([i.wheel_locked for i in ins], dtype=bool).reshape(-1, 4)}
+    for key in ('slip', 'slip_angle', 'fx', 'fy', 'fz', 'mu'):
+        res[key] = np.array([getattr(o.tyre, key) for o in outs], dtype=float).reshape(-1, 4)
     return res

@@ -15,7 +15,9 @@ from .actuator import ActuatorParams
 from .arm_sensor import ArmSensorParams
 from .belt import BeltParams
 from .car_on_belt import CarParams
-from .rig import RigConfig, _bicycle_defaults
+from .rig import PLANTS, RigConfig, _bicycle_defaults
+from .rig_torque_car import encoder_defaults, surface_defaults, two_track_defaults
+from .surface import SURFACE_KINDS
 
 INF = math.inf
 
@@ -24,7 +26,8 @@ _RIG = {
     'dt': ('s', 1e-5, 0.05, 'fixed simulation step (1 kHz default)'),
     'seed': ('1', 0, 2**31 - 1, 'seed of the arm-sensor noise generator'),
     'plant': ('-', None, None,
-              "lateral plant: 'identified' (paper Eq. 6) or 'bicycle' (physical preset)"),
+              "plant: 'identified' (paper Eq. 6), 'bicycle' (physical preset) or 'two_track' "
+              '(the torque car: wheel torques in, encoders out; the driver speed is ignored)'),
     'ds': ('m', 0.0, 5.0, 'sensor point ahead of the c.g. (paper: 0.33 m)'),
     'steer_reject': ('rad', 0.0, math.pi, '|steer command| above this is rejected and 0 rad used'),
     'speed_cmd_max': ('m/s', 0.0, 20.0, 'driver speed commands outside [0, this] are rejected'),
@@ -117,6 +120,50 @@ _BELT = {
     'window_samples': ('1', 1, 100000, 'samples in the encoder speed-estimate window'),
     'delay_samples': ('1', 0, 100000, 'samples of encoder speed-estimate delay'),
 }
+_TWO_TRACK = {
+    'mass': ('kg', 0.0, INF, 'torque car mass (irs_iwt preset: 2.86)'),
+    'yaw_inertia': ('kg m^2', 0.0, INF, 'yaw inertia about the c.g. (irs_iwt: 0.07113)'),
+    'lf': ('m', 0.0, 1.0, 'c.g. to front axle (irs_iwt: 0.15)'),
+    'lr': ('m', 0.0, 1.0, 'c.g. to rear axle (irs_iwt: 0.15)'),
+    'track': ('m', 0.0, 1.0, 'track width (irs_iwt: 0.17)'),
+    'wheel_radius': ('m', 0.0, 1.0, 'effective rolling radius (irs_iwt: 0.033)'),
+    'c_f': ('N/rad', 0.0, INF, 'front axle cornering stiffness at the static load (irs_iwt)'),
+    'c_r': ('N/rad', 0.0, INF, 'rear axle cornering stiffness at the static load (irs_iwt)'),
+    'cg_height': ('m', 0.0, 1.0, 'c.g. height for the load transfer (assumed 0.04)'),
+    'wheel_inertia': ('kg m^2', 0.0, INF,
+                      'spin inertia of wheel, tyre and hub-motor rotor (assumed 5e-5)'),
+    'rolling_resistance': ('1', 0.0, 1.0, 'rolling resistance coefficient f_r (assumed 0.02)'),
+    'rr_speed': ('m/s', 0.0, INF, 'speed over which rolling resistance builds up (tanh)'),
+    'c_kappa': ('1', 0.0, INF, 'tyre longitudinal slip stiffness per unit load (assumed 10)'),
+    'shape_c': ('1', 1.0, 2.0, 'tyre magic-formula shape C (1.41: sliding/peak 0.80)'),
+    'shape_e': ('1', -INF, 1.0, 'tyre magic-formula curvature E (< 1)'),
+    'relaxation_length': ('m', 0.0, 1.0, 'tyre longitudinal relaxation length sigma'),
+    'v_low': ('m/s', 0.0, INF, 'slip regularisation speed near standstill'),
+    'torque_limit': ('N m', 0.0, INF,
+                     'motor torque limit per wheel; commands are clipped to +-this'),
+}
+_SURFACE = {
+    'kind': ('-', None, None, "surface friction map: 'uniform', 'patch', 'split' or 'step'"),
+    'mu': ('1', 0.0, 2.0, 'friction coefficient (uniform; outside the patch; before the step)'),
+    'mu_patch': ('1', 0.0, 2.0, 'friction on the patch x_start <= x <= x_end (patch)'),
+    'x_start': ('m', -INF, INF, 'patch start along the treadmill x (patch)'),
+    'x_end': ('m', -INF, INF, 'patch end along the treadmill x, > x_start (patch)'),
+    'mu_left': ('1', 0.0, 2.0, 'friction for y >= 0 (split)'),
+    'mu_right': ('1', 0.0, 2.0, 'friction for y < 0 (split)'),
+    'mu_after': ('1', 0.0, 2.0, 'friction from t_step on (step)'),
+    't_step': ('s', 0.0, INF, 'time of the friction step (step)'),
+}
+_ENCODERS = {
+    'counts_per_rev': ('count/rev', 1, 2**31 - 1,
+                       'torque car wheel encoder counts per revolution (quadrature x4)'),
+    'window': ('1', 1, 100000, 'samples in the wheel encoder velocity window'),
+}
+
+
+def _one_of(choices, what):
+    def check(value):
+        return None if value in choices else f'{what} must be one of {list(choices)}'
+    return check
 
 
 def _section_defaults():
@@ -135,6 +182,9 @@ def _section_defaults():
         'car': (asdict(CarParams()), _CAR),
         'arm': (arm, _ARM),
         'belt': (asdict(BeltParams()), _BELT),
+        'two_track': (two_track_defaults(), _TWO_TRACK),
+        'surface': (surface_defaults(), _SURFACE),
+        'encoders': (encoder_defaults(), _ENCODERS),
     }
 
 
@@ -147,4 +197,7 @@ def rig_parameter_table() -> list:
         for key, value in values.items():
             defaults[f'{section}.{key}'] = value
         meta.update({f'{section}.{key}': m for key, m in section_meta.items()})
-    return table_from_defaults(defaults, meta, read_only=('dt',))
+    return table_from_defaults(
+        defaults, meta, read_only=('dt',),
+        validators={'plant': _one_of(PLANTS, 'plant'),
+                    'surface.kind': _one_of(tuple(SURFACE_KINDS), 'surface.kind')})
