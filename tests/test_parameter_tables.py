@@ -13,6 +13,7 @@ CONFIGS = {'vehicle_sim': 'irs_vehicle_sim/config/rig.yaml',
            'treadmill_regulator': 'irs_treadmill/config/treadmill.yaml',
            'lateral_controller': 'irs_control/config/lateral_controller.yaml',
            'reference_generator': 'irs_control/config/reference_generator.yaml',
+           'chassis_controller': 'irs_control/config/chassis_controller.yaml',
            'driver': 'irs_bringup/config/driver.yaml'}
 
 
@@ -53,6 +54,7 @@ NODE_CLASSES = {
     'treadmill_regulator': 'irs_treadmill.treadmill_regulator_node:TreadmillRegulatorNode',
     'lateral_controller': 'irs_control.lateral_controller_node:LateralControllerNode',
     'reference_generator': 'irs_control.reference_generator_node:ReferenceGeneratorNode',
+    'chassis_controller': 'irs_control.chassis_controller_node:ChassisControllerNode',
     'driver': 'irs_bringup.driver.driver_node:DriverNode',
     'excitation': 'irs_bringup.sysid.excitation_node:ExcitationNode',
     'recorder': 'irs_bringup.bag.recorder_node:Recorder',

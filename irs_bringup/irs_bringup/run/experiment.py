@@ -44,6 +44,9 @@ NODE_TOPICS = {
         'pub': ['steering/command', 'lateral/status'],
         'sub': ['lateral_position', 'lateral/reference']},
     ('irs_control', 'reference_generator'): {'pub': ['lateral/reference'], 'sub': []},
+    ('irs_control', 'chassis_controller'): {
+        'pub': ['wheels/torque_command', 'steering/command', 'chassis/status'],
+        'sub': ['wheels/encoders', 'pose', 'velocity', 'belt/speed']},
     ('irs_treadmill', 'treadmill_regulator'): {
         'pub': ['treadmill/drive', 'treadmill/state'],
         'sub': ['pose', 'velocity', 'belt/speed', 'treadmill/reset']},

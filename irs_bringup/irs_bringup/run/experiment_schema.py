@@ -270,6 +270,7 @@ PARAMETER_TABLES = {
     ('irs_treadmill', 'treadmill_regulator'): ('irs_treadmill.regulator_params',
                                                'regulator_parameter_table', True),
     ('irs_control', 'reference_generator'): ('irs_control.reference_params', 'PARAMS', True),
+    ('irs_control', 'chassis_controller'): ('irs_control.chassis_params', 'PARAMS', True),
     ('irs_bringup', 'driver'): ('irs_bringup.driver.speed_profile', 'DRIVER_PARAMS', True),
     ('irs_bringup', 'excitation'): ('irs_bringup.sysid.excitation_params', 'PARAMS', True),
 }

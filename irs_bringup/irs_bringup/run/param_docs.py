@@ -11,6 +11,7 @@ def node_tables():
     """``[(package, node, table)]`` for every node (imports the node modules, so needs ROS)."""
     from irs_bringup.driver.speed_profile import DRIVER_PARAMS as DRIVER
     from irs_bringup.sysid.excitation_params import PARAMS as EXCITATION
+    from irs_control.chassis_params import PARAMS as CHASSIS
     from irs_control.lateral_controller_node import PARAMS as CONTROLLER
     from irs_control.reference_params import PARAMS as REFERENCE
     from irs_sensing.estimator_params import estimator_parameter_table
@@ -22,6 +23,7 @@ def node_tables():
             ('irs_treadmill', 'treadmill_regulator', regulator_parameter_table()),
             ('irs_control', 'lateral_controller', CONTROLLER),
             ('irs_control', 'reference_generator', REFERENCE),
+            ('irs_control', 'chassis_controller', CHASSIS),
             ('irs_bringup', 'driver', DRIVER),
             ('irs_bringup', 'excitation', EXCITATION)]
 

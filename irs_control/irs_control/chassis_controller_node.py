@@ -1,0 +1,225 @@
+"""``chassis_controller`` node: ABS and integrated chassis control of the torque car (issue 13).
+
+A thin wrapper of :class:`~irs_control.torque_car_control.TorqueCarController` (speed estimate
+from the arm, the driver's brake and steer schedule, :class:`ChassisController`,
+:class:`AbsController`; equations there). Subscribes the measurements only: ``wheels/encoders``
+(irs_msgs/WheelEncoders, 1 kHz), ``pose`` (PoseStamped, treadmill frame), ``velocity``
+(TwistStamped, ``angular.z`` = yaw rate [rad/s]) and ``belt/speed`` (irs_msgs/BeltSpeed).
+Publishes, one answer per encoder sample and stamped with it: ``wheels/torque_command``
+(irs_msgs/WheelTorqueCommand: torques [N m] FL, FR, RL, RR, + drives; ``locked`` flags) and
+``steering/command`` (front = the driver's step steer, rear = the chassis controller's);
+``chassis/status`` (diagnostic_msgs/DiagnosticArray: mode, braking, v_hat, slips, r_ref,
+reason) every ``status_decimation`` steps and when the reason or braking changes.
+
+Pairing: with ``input_sync`` (lock-step) an encoder sample t_k is answered once the pose,
+velocity and belt speed stamped t_k have arrived (:class:`~irs_common.stamp_sync.StampSync`), so
+a run does not depend on DDS delivery order; otherwise (real time) each encoder sample is
+answered with the newest pose, velocity and belt speed. Time is the time since the first
+answered sample (sim time in lock-step).
+
+Bad input: non-finite encoder speeds, a NaN pose (a rejected arm reading), a non-finite belt
+speed or yaw rate (with yaw control) -> zero torques, no wheel locked, zero steer, the reason on
+``chassis/status`` and a throttled warning; the next valid sample runs again. No encoder sample
+for ``stale_timeout`` -> the same zero command, stamped now (STALE). Stamps follow
+:mod:`irs_common.stamp_gate` (future -> dropped; older -> dropped; a repeat -> the same answer
+again; more than 1 s back or ``/clock`` jumping back -> everything restarts). Published values
+are always finite.
+"""
+import time
+
+from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
+from geometry_msgs.msg import PoseStamped, TwistStamped
+from rclpy.node import Node
+
+from irs_common import qos
+from irs_common.answer_cache import AnswerCache
+from irs_common.input_checks import ThrottledWarner
+from irs_common.node_main import run_node
+from irs_common.orientation import yaw_from_quaternion
+from irs_common.params import declare_table
+from irs_common.stamp_gate import FUTURE, OK, OLD, REPEAT, RESET, StampGate
+from irs_common.stamp_sync import StampSync
+from irs_common.stamps import to_ns
+from irs_common.time_jump import on_time_jump_back
+from irs_msgs.msg import BeltSpeed, SteeringCommand, WheelEncoders, WheelTorqueCommand
+
+from .chassis_params import LIVE, PARAMS
+from .torque_car_control import TorqueCarConfig, TorqueCarController
+
+WHEELS = ('FL', 'FR', 'RL', 'RR')
+STALE = 'stale_encoders'
+
+
+class ChassisControllerNode(Node):
+    """Encoders, pose, velocity and belt speed in; wheel torques and steer out."""
+
+    def __init__(self, **node_options):
+        super().__init__('chassis_controller', **node_options)
+        self.p = declare_table(self, PARAMS, on_change=self._on_parameter)
+        self.core = TorqueCarController(TorqueCarConfig.from_params(self.p))
+        self.gate = StampGate(int(round(self.p['future_tolerance'] * 1e9)))
+        self.sync = StampSync(('enc', 'pose', 'vel', 'belt')) if self.p['input_sync'] else None
+        self.latest = {'pose': None, 'vel': None, 'belt': None}   # real time: the newest
+        self.answer = AnswerCache()   # what was published for the last stamp (re-sent on a repeat)
+        self.last_enc_time = None
+        self.reason = None            # of the last published step
+        self.braking = None
+        self.steps = 0
+        self.dropped = 0
+        # rclpy's throttled logging costs ~1 ms per call: per-step warnings are throttled first
+        self.warner = ThrottledWarner(self.get_logger().warning, 1.0)
+        # COMMAND: every command answers one step (lock-step waits for it): reliable, none lost
+        self.pub_torque = self.create_publisher(WheelTorqueCommand, 'wheels/torque_command',
+                                                qos.COMMAND)
+        self.pub_steer = self.create_publisher(SteeringCommand, 'steering/command', qos.COMMAND)
+        # SENSOR, not the latched STATUS role: a 100 Hz telemetry stream the recorder must keep
+        # whole (slips, v_hat for the plots), as lateral/status
+        self.pub_status = self.create_publisher(DiagnosticArray, 'chassis/status', qos.SENSOR)
+        # SENSOR: the 1 kHz measurement streams, reliable (lock-step must not lose a sample)
+        self.create_subscription(WheelEncoders, 'wheels/encoders',
+                                 lambda m: self._on_input('enc', m), qos.SENSOR)
+        self.create_subscription(PoseStamped, 'pose', lambda m: self._on_input('pose', m),
+                                 qos.SENSOR)
+        self.create_subscription(TwistStamped, 'velocity', lambda m: self._on_input('vel', m),
+                                 qos.SENSOR)
+        self.create_subscription(BeltSpeed, 'belt/speed', lambda m: self._on_input('belt', m),
+                                 qos.SENSOR)
+        self.stale_timer = self.create_timer(max(self.p['stale_timeout'] / 2.0, 0.001),
+                                             self._check_stale)
+        self.jump_handle = on_time_jump_back(self, lambda _delta: self._reset_time_state())
+
+    # ------------------------------------------------------------------ parameters, time
+    def _on_parameter(self, name, value):
+        if name == 'stale_timeout':
+            self.destroy_timer(self.stale_timer)
+            self.stale_timer = self.create_timer(max(value / 2.0, 0.001), self._check_stale)
+        elif name in LIVE:
+            setattr(self.core.config, LIVE[name], value)
+        self.get_logger().info(f'parameter {name} = {value!r} applied')
+
+    def _reset_time_state(self):
+        """Time went back: forget stamps, time origin, speed estimate and integrals."""
+        self.gate.clear()
+        self.core.reset()
+        self.answer.clear()
+        self.last_enc_time = None
+        self.latest = {'pose': None, 'vel': None, 'belt': None}
+
+    def _drop(self, what, verdict, stamp_ns, now_ns):
+        self.dropped += 1
+        self.warner.warn(f'{what}-{verdict}',
+                         f'{what}: {self.gate.reason(verdict, stamp_ns, now_ns)}',
+                         time.monotonic())
+
+    # ------------------------------------------------------------------ inputs
+    def _on_input(self, name, msg):
+        stamp_ns = to_ns(msg.header.stamp)
+        now_ns = self.get_clock().now().nanoseconds
+        gate = self.gate
+        if stamp_ns - now_ns > gate.future_tolerance_ns:
+            self._drop(name, FUTURE, stamp_ns, now_ns)
+            return
+        if self.sync is not None:
+            last = gate.last_ns      # only stamps that can still make a step enter the pairing
+            if last is not None and last - gate.reset_after_ns < stamp_ns < last:
+                self._drop(name, OLD, stamp_ns, now_ns)
+                return
+            for step_ns, vals in self.sync.add(name, stamp_ns, msg):
+                self._step(step_ns, vals, now_ns)
+        elif name == 'enc':
+            if None not in self.latest.values():
+                self._step(stamp_ns, {'enc': msg, **self.latest}, now_ns)
+            else:
+                self.warner.warn('waiting', 'encoder sample before pose, velocity and belt speed:'
+                                 ' not answered', time.monotonic())
+        else:
+            self.latest[name] = msg
+            if name != 'vel' and None not in (self.latest['pose'], self.latest['belt']):
+                self._pose(self.latest['pose'], self.latest['belt'])
+
+    def _pose(self, pose, belt):
+        q = pose.pose.orientation
+        self.core.update_pose(to_ns(pose.header.stamp), pose.pose.position.x,
+                              yaw_from_quaternion(q.x, q.y, q.z, q.w), belt.speed)
+
+    def _step(self, stamp_ns, vals, now_ns):
+        verdict = self.gate.check(stamp_ns, now_ns)
+        if verdict != OK:
+            if verdict == REPEAT:
+                self.answer.repeat()    # a repeated step: repeat the answer
+                return
+            if verdict != RESET:
+                self._drop('step', verdict, stamp_ns, now_ns)
+                return
+            self.warner.warn('reset', f'encoders {self.gate.reason(verdict, stamp_ns, now_ns)}',
+                             time.monotonic())
+            last_ns = self.gate.last_ns
+            self._reset_time_state()
+            self.gate.last_ns = last_ns
+        if self.sync is not None:
+            self._pose(vals['pose'], vals['belt'])
+        enc = vals['enc']
+        out = self.core.step(stamp_ns, enc.velocity, vals['vel'].twist.angular.z)
+        if out.ok:
+            self.last_enc_time = self.get_clock().now()
+        else:
+            self.warner.warn(out.reason, f'bad input ({out.reason}): zero torque, zero steer',
+                             time.monotonic())
+        self._publish(enc.header.stamp, out.torques, out.locked, out.front_steer, out.rear_steer,
+                      out)
+
+    # ------------------------------------------------------------------ outputs
+    def _publish(self, stamp, torques, locked, front, rear, out, reason=None):
+        reason = reason or out.reason
+        cmd = WheelTorqueCommand()
+        cmd.header.stamp = stamp
+        cmd.torque = [float(v) for v in torques]
+        cmd.torque_limit = float(self.p['torque_limit'])
+        cmd.locked = [bool(v) for v in locked]
+        steer = SteeringCommand()
+        steer.header.stamp = stamp
+        steer.front_angle, steer.rear_angle = float(front), float(rear)
+        self.answer.start()
+        self.answer.publish(self.pub_torque, cmd)
+        self.answer.publish(self.pub_steer, steer)
+        every = self.p['status_decimation']
+        self.steps += 1
+        braking = out is not None and out.braking
+        if reason != self.reason or braking != self.braking or (
+                every and self.steps % every == 1 % every):
+            self.reason, self.braking = reason, braking
+            self.answer.publish(self.pub_status, self._status(stamp, out, reason))
+
+    def _status(self, stamp, out, reason):
+        st = DiagnosticStatus(name='chassis_controller', hardware_id='torque_car')
+        ok = reason in ('ok', 'low_speed')
+        st.level = DiagnosticStatus.OK if ok else DiagnosticStatus.WARN
+        st.message = reason
+        c = self.core.config
+        values = {'brake_mode': c.brake_mode, 'yaw_control': c.yaw_control,
+                  'braking': str(bool(out is not None and out.braking)).lower()}
+        if out is not None:
+            values.update({'t': out.t, 'v_hat': out.v_hat, 'r_ref': out.r_ref,
+                           'front_steer': out.front_steer, 'rear_steer': out.rear_steer})
+            values.update({f'slip_{w}': float(s) for w, s in zip(WHEELS, out.slips)})
+            values.update({f'torque_{w}': float(v) for w, v in zip(WHEELS, out.torques)})
+        st.values = [KeyValue(key=k, value=f'{v:.9g}' if isinstance(v, float) else v)
+                     for k, v in values.items()]
+        array = DiagnosticArray(status=[st])
+        array.header.stamp = stamp
+        return array
+
+    def _check_stale(self):
+        if self.last_enc_time is None or self.reason == STALE:
+            return
+        now = self.get_clock().now()
+        age = (now - self.last_enc_time).nanoseconds * 1e-9
+        if age > self.p['stale_timeout']:
+            self.core.reset_controllers()
+            self.warner.warn('stale', f'wheel encoders stale ({age:.3f} s old): zero torque, '
+                             'zero steer', time.monotonic())
+            self._publish(now.to_msg(), (0.0,) * 4, (False,) * 4, 0.0, 0.0, None, reason=STALE)
+
+
+def main(args=None):
+    return run_node(ChassisControllerNode, args)

@@ -1,0 +1,74 @@
+"""Parameter table of the ``chassis_controller`` node (the torque car, issue 13).
+
+Defaults are the cores' (:mod:`.abs_control`, :mod:`.chassis_control`,
+:mod:`.torque_car_control`). Writable at run time are the driver's inputs the core reads at
+every step (speed target, brake and steer schedules) and the stale timeout; everything that
+builds the controllers is read-only.
+"""
+from irs_common.params import Param
+
+from .abs_control import AbsParams
+from .chassis_control import ChassisParams
+from .torque_car_control import BRAKE_MODES, YAW_CONTROLS
+
+_A, _C = AbsParams(), ChassisParams()
+
+
+def _one_of(name, choices):
+    def check(value):
+        if value not in choices:
+            return f'{name} must be one of {list(choices)}, got {value!r}'
+        return None
+    return check
+
+
+PARAMS = [
+    Param('dt', 0.001, 'control period = encoder sample period', 's', 1e-5, 1.0),
+    Param('input_sync', True,
+          'lock-step: answer an encoder sample only once the pose, velocity and belt speed of '
+          'the same stamp have arrived; false (real time): the newest of each', '-'),
+    Param('speed.target', 0.0, 'speed over the belt to hold; 0 = the measured belt speed (the '
+          'car stays put on the treadmill); applied at the next step', 'm/s', 0.0, 5.0,
+          writable=True),
+    Param('speed.window', 10, 'samples of the arm-speed estimate (x differentiated + belt '
+          'speed)', 'samples', 1, 1000),
+    Param('speed.bandwidth', _C.speed_bandwidth, 'speed loop gain w_v', 'rad/s', 1e-6, 1e4),
+    Param('speed.integral', _C.speed_integral, 'speed loop integral gain w_vi', '1/s', 0.0, 1e4),
+    Param('brake.start_time', -1.0, 'brake from this time since the run started; < 0 = never; '
+          'applied at the next step', 's', -1e9, 1e9, writable=True),
+    Param('brake.torque', 0.3, 'brake demand per wheel (a magnitude; clipped to torque_limit); '
+          'applied at the next step', 'N m', 1e-6, 10.0, writable=True),
+    Param('brake.mode', 'abs', "'abs' (slip control), 'locked' (friction brakes lock every "
+          "wheel: the baseline) or 'open' (the demand, no ABS); applied at the next step", '-',
+          writable=True, validator=_one_of('brake.mode', BRAKE_MODES)),
+    Param('yaw_control', 'off', "yaw-rate control: 'off', 'rear_steer', 'differential' "
+          "(left/right torque) or 'both'", '-', validator=_one_of('yaw_control', YAW_CONTROLS)),
+    Param('yaw.bandwidth', _C.yaw_bandwidth, 'yaw-rate loop gain w_r', 'rad/s', 1e-6, 1e5),
+    Param('yaw.integral', _C.yaw_integral, 'yaw-rate loop integral gain w_ri', '1/s', 0.0, 1e5),
+    Param('yaw.differential_bandwidth', _C.differential_bandwidth,
+          'w_d: while driving, the differential-torque share is scaled by w_d / w_r', 'rad/s',
+          1e-6, 1e5),
+    Param('steer.amplitude', 0.0, "the driver's front step steer (0 = straight); applied at the "
+          'next step', 'rad', -0.2618, 0.2618, writable=True),
+    Param('steer.start_time', 0.0, 'time since the run started of the front step steer; '
+          'applied at the next step', 's', 0.0, 1e9, writable=True),
+    Param('abs.slip_target', _A.slip_target, 'ABS slip target lambda* while braking', '1',
+          -0.99, -0.001),
+    Param('abs.bandwidth', _A.bandwidth, 'ABS slip loop pole w_c', 'rad/s', 1e-6, 1e5),
+    Param('abs.integral_gain', _A.integral_gain, 'ABS integral gain K_i', 'N m/s', 0.0, 1e5),
+    Param('abs.v_min', _A.v_min, 'speed below which ABS and the yaw reference stop', 'm/s', 1e-3,
+          10.0),
+    Param('torque_limit', _A.torque_limit, 'wheel torque limit (the hub motors)', 'N m', 1e-6,
+          10.0),
+    Param('stale_timeout', 0.05, 'encoder age after which zero torque and zero steer are '
+          'commanded (applied at once)', 's', 0.001, 10.0, writable=True),
+    Param('future_tolerance', 0.5, 'inputs stamped further ahead of the node clock are dropped',
+          's', 0.0, 3600.0),
+    Param('status_decimation', 10, 'publish chassis/status every this many steps (and on a '
+          'change of reason or braking); 0 = on changes only', '1', 0, 1_000_000),
+]
+
+#: run-time changes the node hands to the core: parameter -> TorqueCarConfig attribute
+LIVE = {'speed.target': 'speed_target', 'brake.start_time': 'brake_start_time',
+        'brake.torque': 'brake_torque', 'brake.mode': 'brake_mode',
+        'steer.amplitude': 'steer_amplitude', 'steer.start_time': 'steer_start_time'}

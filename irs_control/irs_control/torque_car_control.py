@@ -1,0 +1,238 @@
+"""The torque car's controller as one step: speed estimate, driver, chassis controller, ABS.
+
+ROS-free; the ``chassis_controller`` node wraps it and the offline composition
+(``irs_bringup/paper/chassis_loop.py``) steps the same object, so the graph and the offline run
+give the same commands. Per measurement step ``t_k`` (encoder sample ``omega_i`` [rad/s], arm
+pose ``x`` [m], ``psi`` [rad], yaw rate ``r`` [rad/s], belt speed ``V_b`` [m/s]; measurements
+only, never ground truth)::
+
+    t       = t_k - t_0                           (time since the first step, [s])
+    v_hat   = ArmSpeedEstimator(x, psi, V_b)      (((x_k - x_{k-W}) / (W dt) + V_b) / cos psi)
+    delta_f = A  if t >= t_steer else 0           (the driver's front step steer [rad])
+    braking = t_brake >= 0 and t >= t_brake
+    v_tgt   = speed.target, or V_b if it is 0     (drive at belt speed: stay put on the belt)
+    (T_req, delta_r) = ChassisController(v_tgt, v_hat, r, delta_f, dt, brake = b if braking)
+    T       = AbsController(T_req, omega, v_hat, dt)      (brake.mode 'abs')
+              T_req                                       ('open': the request, no ABS)
+              0 with every wheel locked while braking     ('locked': the friction brake)
+
+``yaw_control``: ``'off'`` runs the chassis controller with ``r = r_ref`` (its yaw error and
+integral stay 0: no yaw moment, speed control only); ``'rear_steer'``, ``'differential'``,
+``'both'`` are the chassis controller's mixes.
+
+Bad input: a non-finite or missing encoder speed, a non-finite pose or belt speed (the arm
+estimator publishes NaN for a rejected reading) or, with yaw control on, a non-finite yaw rate
+-> all torques 0, no wheel locked, both steers 0 (the car coasts straight), the ABS and chassis
+integrals reset, and ``reason`` names the input; the next valid step runs again (from rest of the
+integrals). Every output is finite.
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from .abs_control import AbsController, AbsParams, ArmSpeedEstimator, wheel_slips
+from .chassis_control import MIXES, ChassisController, ChassisParams
+
+__all__ = ['BRAKE_MODES', 'YAW_CONTROLS', 'TorqueCarConfig', 'TorqueCarController',
+           'TorqueCarOutput']
+
+BRAKE_MODES = ('abs', 'locked', 'open')
+YAW_CONTROLS = ('off',) + MIXES
+
+
+@dataclass
+class TorqueCarConfig:
+    """What the driver does and how the car is controlled (the node's parameters).
+
+    Attributes
+    ----------
+    dt : float
+        Control period = encoder sample period [s].
+    speed_target : float
+        Speed over the belt to hold [m/s]; 0 = the measured belt speed.
+    brake_start_time : float
+        Brake from this time since the first step [s]; < 0 = never.
+    brake_torque : float
+        Brake demand per wheel [N m] (> 0, a magnitude).
+    brake_mode : str
+        ``'abs'``, ``'locked'`` or ``'open'``.
+    yaw_control : str
+        ``'off'``, ``'rear_steer'``, ``'differential'`` or ``'both'``.
+    steer_amplitude, steer_start_time : float
+        The driver's front step steer [rad] from ``steer_start_time`` [s] (0 = straight).
+    speed_window : int
+        Samples of the arm-speed estimate's difference.
+    abs : AbsParams
+    chassis : ChassisParams (its ``mix`` is set from ``yaw_control``)
+    """
+
+    dt: float = 0.001
+    speed_target: float = 0.0
+    brake_start_time: float = -1.0
+    brake_torque: float = 0.3
+    brake_mode: str = 'abs'
+    yaw_control: str = 'off'
+    steer_amplitude: float = 0.0
+    steer_start_time: float = 0.0
+    speed_window: int = 10
+    abs: AbsParams = field(default_factory=AbsParams)
+    chassis: ChassisParams = field(default_factory=ChassisParams)
+
+    def __post_init__(self):
+        if self.brake_mode not in BRAKE_MODES:
+            raise ValueError(f'brake.mode must be one of {list(BRAKE_MODES)}, got '
+                             f'{self.brake_mode!r}.')
+        if self.yaw_control not in YAW_CONTROLS:
+            raise ValueError(f'yaw_control must be one of {list(YAW_CONTROLS)}, got '
+                             f'{self.yaw_control!r}.')
+        for name in ('dt', 'speed_target', 'brake_start_time', 'brake_torque', 'steer_amplitude',
+                     'steer_start_time'):
+            v = getattr(self, name)
+            if not isinstance(v, (int, float)) or isinstance(v, bool) or not math.isfinite(v):
+                raise ValueError(f'{name} must be a finite number, got {v!r}.')
+        if self.dt <= 0.0 or self.brake_torque <= 0.0 or self.speed_target < 0.0:
+            raise ValueError(f'dt and brake torque must be > 0 and speed.target >= 0, got '
+                             f'{self.dt!r}, {self.brake_torque!r}, {self.speed_target!r}.')
+        if self.yaw_control != 'off':
+            self.chassis.mix = self.yaw_control
+
+    @classmethod
+    def from_params(cls, p: dict) -> 'TorqueCarConfig':
+        """From the node's flat parameter dict (``chassis_params.PARAMS`` names)."""
+        abs_params = AbsParams(slip_target=p['abs.slip_target'], bandwidth=p['abs.bandwidth'],
+                               integral_gain=p['abs.integral_gain'], v_min=p['abs.v_min'],
+                               torque_limit=p['torque_limit'])
+        chassis = ChassisParams(yaw_bandwidth=p['yaw.bandwidth'],
+                                yaw_integral=p['yaw.integral'],
+                                differential_bandwidth=p['yaw.differential_bandwidth'],
+                                speed_bandwidth=p['speed.bandwidth'],
+                                speed_integral=p['speed.integral'],
+                                torque_limit=p['torque_limit'], v_min=p['abs.v_min'])
+        return cls(dt=p['dt'], speed_target=p['speed.target'],
+                   brake_start_time=p['brake.start_time'], brake_torque=p['brake.torque'],
+                   brake_mode=p['brake.mode'], yaw_control=p['yaw_control'],
+                   steer_amplitude=p['steer.amplitude'], steer_start_time=p['steer.start_time'],
+                   speed_window=p['speed.window'], abs=abs_params, chassis=chassis)
+
+
+@dataclass
+class TorqueCarOutput:
+    """One step's commands and what they were made from.
+
+    ``torques`` [N m] FL, FR, RL, RR; ``locked`` 4 bools; ``front_steer``, ``rear_steer`` [rad];
+    ``v_hat`` [m/s]; ``slips`` [-] measured (0 when not computed); ``r_ref`` [rad/s];
+    ``braking``; ``t`` [s] since the first step; ``reason`` ``'ok'``, ``'low_speed'`` (ABS off
+    below v_min) or the bad input (then every command is 0).
+    """
+
+    torques: np.ndarray
+    locked: tuple
+    front_steer: float
+    rear_steer: float
+    v_hat: float
+    slips: np.ndarray
+    r_ref: float
+    braking: bool
+    t: float
+    reason: str
+
+    @property
+    def ok(self) -> bool:
+        return self.reason in ('ok', 'low_speed')
+
+
+def _finite(*xs) -> bool:
+    return all(math.isfinite(x) for x in xs)
+
+
+class TorqueCarController:
+    """Speed estimate + driver + chassis controller + ABS (module docstring)."""
+
+    def __init__(self, config: TorqueCarConfig | None = None):
+        self.config = config if config is not None else TorqueCarConfig()
+        self.estimator = ArmSpeedEstimator(self.config.speed_window)
+        self.abs = AbsController(self.config.abs)
+        self.chassis = ChassisController(self.config.chassis)
+        self.reset()
+
+    def reset(self) -> None:
+        """Start again: time origin, speed estimate and integrals forgotten."""
+        self.t0_ns = None
+        self.last_pose_ns = None
+        self.pose_ok = False
+        self.belt_speed = math.nan
+        self.estimator.reset()
+        self.reset_controllers()
+
+    def reset_controllers(self) -> None:
+        """ABS and chassis integrals to zero (after bad input); time and estimate kept."""
+        self.abs.reset()
+        self.chassis.reset()
+
+    def update_pose(self, stamp_ns: int, x: float, psi: float, belt_speed: float) -> None:
+        """A new arm pose ``x`` [m], ``psi`` [rad] and belt speed [m/s] at ``stamp_ns``.
+
+        The speed estimator's step is the stamp difference (the configured ``dt`` for the first
+        pose); a pose stamped at or before the last one is not differentiated again.
+        """
+        x, psi, belt_speed = float(x), float(psi), float(belt_speed)
+        self.pose_ok = _finite(x, psi, belt_speed)
+        self.belt_speed = belt_speed
+        if self.last_pose_ns is not None and stamp_ns <= self.last_pose_ns:
+            return
+        dt = self.config.dt if self.last_pose_ns is None else (stamp_ns - self.last_pose_ns) * 1e-9
+        if self.pose_ok:
+            self.estimator.step(x, psi, belt_speed, dt)
+            self.last_pose_ns = stamp_ns
+
+    def _problem(self, omega, yaw_rate) -> str | None:
+        if omega.shape != (4,) or not bool(np.all(np.isfinite(omega))):
+            return 'nonfinite_encoders'
+        if not self.pose_ok:
+            return 'invalid_pose_or_belt_speed'
+        if self.config.yaw_control != 'off' and not math.isfinite(yaw_rate):
+            return 'nonfinite_yaw_rate'
+        return None
+
+    def step(self, stamp_ns: int, omega, yaw_rate: float) -> TorqueCarOutput:
+        """The commands for the encoder sample ``omega`` [rad/s] at ``stamp_ns`` (module
+        docstring); call :meth:`update_pose` with this step's pose first.
+        """
+        c = self.config
+        if self.t0_ns is None:
+            self.t0_ns = int(stamp_ns)
+        t = (int(stamp_ns) - self.t0_ns) * 1e-9
+        braking = c.brake_start_time >= 0.0 and t >= c.brake_start_time
+        try:
+            omega = np.asarray(omega, dtype=float).reshape(-1)
+            yaw_rate = float(yaw_rate)
+        except (TypeError, ValueError):
+            omega, yaw_rate = np.full(4, math.nan), math.nan
+        problem = self._problem(omega, yaw_rate)
+        if problem is not None:
+            self.reset_controllers()
+            return TorqueCarOutput(np.zeros(4), (False,) * 4, 0.0, 0.0, self.estimator.estimate,
+                                   np.zeros(4), 0.0, braking, t, problem)
+        delta_f = c.steer_amplitude if t >= c.steer_start_time else 0.0
+        v_hat = self.estimator.estimate
+        v_target = c.speed_target if c.speed_target > 0.0 else self.belt_speed
+        if c.yaw_control == 'off':
+            yaw_rate = self.chassis.yaw_rate_reference(delta_f, v_hat)   # no yaw error
+        ch = self.chassis.step(v_target, v_hat, yaw_rate, delta_f, c.dt,
+                               brake=c.brake_torque if braking else 0.0)
+        reason = ch.reason
+        locked = (False,) * 4
+        if c.brake_mode == 'abs':
+            a = self.abs.step(ch.torques, omega, v_hat, c.dt)
+            torques, reason = a.torques, a.reason
+        elif braking and c.brake_mode == 'locked':
+            torques, locked = np.zeros(4), (True,) * 4
+        else:
+            torques = ch.torques
+        slips = wheel_slips(omega, v_hat, c.abs.wheel_radius, c.abs.v_min)
+        return TorqueCarOutput(np.asarray(torques, float), locked, float(delta_f),
+                               float(ch.rear_steer), float(v_hat), slips, float(ch.r_ref),
+                               braking, t, reason)
