@@ -226,7 +226,9 @@ class TorqueCarPlant:
             if lk:
                 w0[i] = 0.0
         self.car.step(torque, delta_f, delta_r, dt, belt_speed, belt_accel, locked)
-        self.encoders.step(0.5 * (w0 + self.car.omega), dt)
+        w1 = self.car.omega
+        if np.all(np.isfinite(w1)):      # a diverged state (off-belt 'nonfinite') holds them
+            self.encoders.step(0.5 * (w0 + w1), dt)
 
     @property
     def pose(self) -> tuple:

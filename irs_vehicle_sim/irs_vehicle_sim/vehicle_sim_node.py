@@ -28,6 +28,14 @@ Commands that are NaN, inf or out of range are replaced by the safe value (steer
 driver speed held) with a throttled warning; the counts are on ``rig/status``. In real time a
 steering or drive command older than ``command_timeout`` is stale and the safe value is used too.
 
+The torque car (``plant: two_track``, docs/torque_car.md): the rig also subscribes
+``wheels/torque_command`` (irs_msgs/WheelTorqueCommand, the lock-step input ``wheels``) and
+publishes ``wheels/encoders`` (irs_msgs/WheelEncoders) every step and the tyres' ground truth
+``rig/tyre_truth`` (irs_msgs/TyreState) every ``ground_truth_decimation`` steps; the driver's
+speed command is ignored. A non-finite wheel torque is replaced by 0 N m (that wheel coasts), a
+stale one (real time, ``command_timeout``) or none yet by 0 N m on every wheel and no wheel
+locked, each with a throttled warning. The other plants have none of these topics.
+
 Stamps of commands (irs_common.stamp_gate): one stamped more than ``future_tolerance`` s ahead of
 the rig's time (lock-step: the current step; real time: the node clock) is dropped and counted as
 rejected (it is not applied and does not refresh the stale timer). In lock-step a command for an
@@ -65,17 +73,22 @@ from irs_common.stamp_gate import FUTURE, OLD, StampGate
 from irs_common.stamp_sync import StampSync
 from irs_common.stamps import from_ns, to_ns
 from irs_msgs.msg import (BeltSpeed, DriverCommand, RigStatus, SteeringActuatorState,
-                          SteeringCommand, TreadmillDriveCommand)
+                          SteeringCommand, TreadmillDriveCommand, TyreState, WheelEncoders,
+                          WheelTorqueCommand)
 
 from .rig import RigConfig, RigInputs, RigSimulation
 from .rig_params import rig_parameter_table
+from .rig_torque_car import NOT_LOCKED, ZERO_TORQUE
 
 #: lock-step input name -> (topic, message type)
 INPUTS = {
     'steering': ('steering/command', SteeringCommand),
     'drive': ('treadmill/drive', TreadmillDriveCommand),
     'driver': ('driver/command', DriverCommand),
+    'wheels': ('wheels/torque_command', WheelTorqueCommand),    # plant two_track only
 }
+#: Safe value of an input whose commands are stale (real time).
+SAFE = {'steering': (0.0, 0.0), 'drive': 0.0, 'wheels': (ZERO_TORQUE, NOT_LOCKED)}
 
 NODE_PARAMS = [
     Param(
@@ -90,7 +103,8 @@ NODE_PARAMS = [
         'lockstep_inputs',
         ['steering'],
         'inputs whose command for step k must arrive before '
-        "step k+1 in lockstep mode: any of 'steering', 'drive', 'driver'",
+        "step k+1 in lockstep mode: any of 'steering', 'drive', 'driver', 'wheels' "
+        '(wheels: plant two_track only)',
         '-',
         read_only=True,
     ),
@@ -107,8 +121,9 @@ NODE_PARAMS = [
     Param(
         'command_timeout',
         0.1,
-        'real time: a steering or drive command older than this is stale '
-        'and the safe value is used (steer 0 rad, drive 0 V); the driver speed is held',
+        'real time: a steering, drive or wheel torque command older than this is stale '
+        'and the safe value is used (steer 0 rad, drive 0 V, torques 0 N m); the driver speed '
+        'is held',
         's',
         0.001,
         3600.0,
@@ -137,7 +152,8 @@ NODE_PARAMS = [
         'start_inputs',
         ['steering', 'drive'],
         "real time with autostart: inputs ('steering', "
-        "'drive', 'driver') that must have delivered a command before the car is released; "
+        "'drive', 'driver', 'wheels') that must have delivered a command before the car is "
+        "released; "
         "[''] = none",
         '-',
         read_only=True,
@@ -199,17 +215,14 @@ class VehicleSimNode(Node):
                 f"clock_mode must be 'realtime' or 'lockstep', got {self.p['clock_mode']!r}"
             )
         self.lockstep = self.p['clock_mode'] == 'lockstep'
+        self.torque_car = self.config.plant == 'two_track'
+        # the wheel torque input exists only for the torque car (no extra topic on the others)
+        self.inputs = {n: v for n, v in INPUTS.items() if n != 'wheels' or self.torque_car}
         required = [n for n in self.p['lockstep_inputs'] if n]
-        unknown = set(required) - set(INPUTS)
-        if unknown:
-            raise ValueError(f'lockstep_inputs: unknown input(s) {sorted(unknown)}; '
-                             f'expected some of {sorted(INPUTS)}')
+        self._check_input_names('lockstep_inputs', required)
         self.required = tuple(required) if self.lockstep else ()
         self.start_inputs = tuple(n for n in self.p['start_inputs'] if n)
-        unknown = set(self.start_inputs) - set(INPUTS)
-        if unknown:
-            raise ValueError(f'start_inputs: unknown input(s) {sorted(unknown)}; '
-                             f'expected some of {sorted(INPUTS)}')
+        self._check_input_names('start_inputs', self.start_inputs)
         self.status_every = max(1, int(round(self.p['status_period'] / self.config.dt)))
         self.sim = RigSimulation(self.config)
         self.dt_ns = int(round(self.config.dt * 1e9))
@@ -218,14 +231,14 @@ class VehicleSimNode(Node):
 
         # Latest accepted command of every input (used for inputs that are not lock-step inputs).
         self.latest = {'steering': (0.0, 0.0), 'drive': self.p['default_drive_voltage'],
-                       'driver': self.config.u0}
-        self.rejected = {'steering': 0, 'drive': 0, 'driver': 0}
+                       'driver': self.config.u0, 'wheels': SAFE['wheels']}
+        self.rejected = {'steering': 0, 'drive': 0, 'driver': 0, 'wheels': 0}
         self.received_at = {}          # input name -> time.monotonic() of its latest command
         self.stale_inputs = set()
         self.sync = StampSync(self.required) if self.required else None
         self.resends = 0
         tolerance_ns = int(round(self.p['future_tolerance'] * 1e9))
-        self.gates = {name: StampGate(tolerance_ns) for name in INPUTS}   # real time
+        self.gates = {name: StampGate(tolerance_ns) for name in self.inputs}   # real time
         self.resets = 0
 
         # rclpy's throttled logging costs ~1 ms per call: per-step warnings are throttled first.
@@ -243,6 +256,12 @@ class VehicleSimNode(Node):
         )
         self.pub_wheels = (self.create_publisher(JointState, 'wheel_speeds', qos.SENSOR)
                            if self.p['publish_wheel_speeds'] else None)
+        # torque car: the encoders are a 1 kHz sensor stream like the arm (SENSOR: best effort,
+        # keep last; lock-step resends a missed step), the tyre truth a decimated ground truth
+        self.pub_encoders = (self.create_publisher(WheelEncoders, 'wheels/encoders', qos.SENSOR)
+                             if self.torque_car else None)
+        self.pub_tyre = (self.create_publisher(TyreState, 'rig/tyre_truth', qos.SENSOR)
+                         if self.torque_car else None)
         self.pub_status = self.create_publisher(RigStatus, 'rig/status', qos.STATUS)
         self.pub_timing = (None if self.lockstep else
                            self.create_publisher(DiagnosticArray, 'rig/timing', qos.STATUS))
@@ -251,7 +270,7 @@ class VehicleSimNode(Node):
         self.last_steer_stamp = -1       # real time: stamp of the newest steering command
         self.subs = {name: self.create_subscription(
             mtype, topic, lambda msg, n=name: self._on_command(n, msg), qos.COMMAND)
-            for name, (topic, mtype) in INPUTS.items()}
+            for name, (topic, mtype) in self.inputs.items()}
 
         self.last_fault = None
         self.run_complete = False
@@ -271,6 +290,14 @@ class VehicleSimNode(Node):
             f"rig up: {self.p['clock_mode']}, dt = {self.config.dt} s, plant = {self.config.plant}"
             + (f', lock-step inputs {list(self.required)}' if self.lockstep else ''))
 
+
+    def _check_input_names(self, what, names):
+        unknown = set(names) - set(self.inputs)
+        if unknown:
+            extra = ('' if self.torque_car or 'wheels' not in unknown
+                     else " ('wheels' needs plant: two_track)")
+            raise ValueError(f'{what}: unknown input(s) {sorted(unknown)}; expected some of '
+                             f'{sorted(self.inputs)}{extra}')
 
     # rclpy fixes a logging call site's severity at its first call (a later call with another
     # severity raises ValueError): warners that log at other severities than warning call rclpy
@@ -331,6 +358,8 @@ class VehicleSimNode(Node):
                 'belt/speed': self.pub_belt, 'steering/state': self.pub_act,
                 'ground_truth/odom': self.pub_odom, 'ground_truth/sensor_point': self.pub_point,
                 'rig/status': self.pub_status}
+        if self.torque_car:
+            pubs.update({'wheels/encoders': self.pub_encoders, 'rig/tyre_truth': self.pub_tyre})
         waits = {}
         for item in filter(None, self.p['start_subscribers'].split(',')):
             topic, _, count = item.partition('=')
@@ -376,6 +405,8 @@ class VehicleSimNode(Node):
             return (msg.front_angle, msg.rear_angle)
         if name == 'drive':
             return msg.voltage
+        if name == 'wheels':
+            return (tuple(float(t) for t in msg.torque), tuple(bool(b) for b in msg.locked))
         return msg.speed
 
     def _on_command(self, name, msg):
@@ -429,7 +460,13 @@ class VehicleSimNode(Node):
         if self.lockstep:
             return latest
         now = time.monotonic()
-        for name, safe in (('steering', (0.0, 0.0)), ('drive', 0.0)):
+        if self.torque_car and 'wheels' not in self.received_at and self.started:
+            self.warner.warn('wheels-missing', 'no wheel torque command yet: using 0 N m on '
+                             'every wheel (the car coasts)', now)
+        for name in ('steering', 'drive', 'wheels'):
+            if name not in self.inputs:
+                continue
+            safe = SAFE[name]
             seen = self.received_at.get(name)
             stale = seen is not None and now - seen > self.p['command_timeout']
             if stale:
@@ -449,8 +486,9 @@ class VehicleSimNode(Node):
     def _inputs(self, values: dict) -> RigInputs:
         merged = {**self._fresh_latest(), **values}
         front, rear = merged['steering']
+        torque, locked = merged['wheels']
         return RigInputs(front_steer=front, rear_steer=rear, drive_voltage=merged['drive'],
-                         speed_cmd=merged['driver'])
+                         speed_cmd=merged['driver'], wheel_torque=torque, wheel_locked=locked)
 
     def _done(self) -> bool:
         return self.p['max_steps'] > 0 and self.sim.k >= self.p['max_steps']
@@ -458,7 +496,8 @@ class VehicleSimNode(Node):
     def _step(self, values: dict):
         out = self.sim.step(self._inputs(values))
         for reason in out.input_warnings:
-            kind = 'steering' if 'steer' in reason else 'drive' if 'drive' in reason else 'driver'
+            kind = ('wheels' if reason.startswith('wheel_torque') else 'steering'
+                    if 'steer' in reason else 'drive' if 'drive' in reason else 'driver')
             self.rejected[kind] += 1
             self.warner.warn(kind, f'rejected command: {reason}', time.monotonic())
         self._publish_outputs()
@@ -554,6 +593,12 @@ class VehicleSimNode(Node):
         every = self.p['ground_truth_decimation']
         if every and k % every == 0:
             self._publish_ground_truth(stamp, frame, out)
+            if self.pub_tyre is not None:
+                self.pub_tyre.publish(tyre_state_msg(stamp, frame, out.tyre))
+        if self.pub_encoders is not None:
+            self.pub_encoders.publish(wheel_encoders_msg(
+                stamp, out, self.config.encoders['counts_per_rev'],
+                self.config.encoders['window']))
 
         if self.pub_wheels is not None:
             ws = JointState()
@@ -610,6 +655,29 @@ class VehicleSimNode(Node):
         st.step = self.sim.k
         st.run_complete = self.run_complete
         self.pub_status.publish(st)
+
+
+def wheel_encoders_msg(stamp, out, counts_per_rev: int, window: int) -> WheelEncoders:
+    """irs_msgs/WheelEncoders of the rig outputs ``out`` (torque car)."""
+    msg = WheelEncoders()
+    msg.header.stamp = stamp
+    msg.counts = [int(c) for c in out.encoder_counts]
+    msg.velocity = [float(v) for v in out.encoder_velocity]
+    msg.counts_per_rev = int(counts_per_rev)
+    msg.window = int(window)
+    return msg
+
+
+def tyre_state_msg(stamp, frame: str, truth) -> TyreState:
+    """irs_msgs/TyreState of the rig's tyre ground truth ``truth`` (a ``TyreTruth``)."""
+    msg = TyreState()
+    msg.header.stamp = stamp
+    msg.header.frame_id = frame
+    for key in ('slip', 'slip_angle', 'fx', 'fy', 'fz', 'mu', 'omega'):
+        setattr(msg, key, [float(v) for v in getattr(truth, key)])
+    msg.x_belt = float(truth.x_belt)
+    msg.u = float(truth.u)
+    return msg
 
 
 def main(args=None):

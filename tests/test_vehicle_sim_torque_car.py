@@ -1,0 +1,118 @@
+"""The vehicle_sim node with ``plant: two_track`` (the torque car) on its topics, in lock-step.
+
+The test plays the chassis controller: it answers every ``wheels/encoders`` sample t_k with a
+``WheelTorqueCommand`` and a ``SteeringCommand`` stamped t_k, and compares what the rig
+publishes with the offline core (:func:`irs_vehicle_sim.rig.simulate`) fed the same commands.
+"""
+import math
+
+import numpy as np
+
+from irs_common import qos
+from irs_common.stamps import to_ns
+from irs_msgs.msg import SteeringCommand, TyreState, WheelEncoders, WheelTorqueCommand
+from irs_vehicle_sim.rig import RigConfig, RigInputs, simulate
+from std_srvs.srv import Trigger
+
+from lockstep_harness import offline_rig_params, rig_spec
+
+V_HOLD = 1.2 / (2.38 / 4.5)      # [V] holds the belt at 1.2 m/s (Eq. 2 DC gain)
+T_BRAKE = 0.2                    # [s]
+BRAKE = -0.08                    # [N m] per wheel: below locking on mu 0.8 (0.19 N m)
+NAN_SPAN = (0.1, 0.15)           # [s] FL torque NaN in this window
+
+
+def torque_car_params(**extra):
+    return dict(plant='two_track', lockstep_inputs=['steering', 'wheels'],
+                default_drive_voltage=V_HOLD, **extra)
+
+
+def command(t):
+    """(torques [N m], locked): hold speed against rolling resistance, NaN on FL for a while,
+    then brake every wheel.
+    """
+    tq = [0.014] * 4 if t < T_BRAKE else [BRAKE] * 4
+    if NAN_SPAN[0] <= t < NAN_SPAN[1]:
+        tq[0] = math.nan
+    return tq, [False] * 4
+
+
+def run_torque_lockstep(ros, command_fn, duration, timeout=300.0):
+    """Answer every encoder sample until ``duration`` s; ``{'enc': {stamp: msg}, 'tyre': ...}``."""
+    node = ros.node
+    rec = {'enc': {}, 'tyre': {}}
+    pub_t = node.create_publisher(WheelTorqueCommand, 'wheels/torque_command', qos.COMMAND)
+    pub_s = node.create_publisher(SteeringCommand, 'steering/command', qos.COMMAND)
+    end_ns = int(round(duration * 1e9))
+
+    def on_encoders(msg):
+        stamp = to_ns(msg.header.stamp)
+        if stamp in rec['enc']:
+            return                      # a resend of a step already answered
+        rec['enc'][stamp] = msg
+        if stamp < end_ns:
+            tq, locked = command_fn(stamp * 1e-9)
+            cmd = WheelTorqueCommand()
+            cmd.header.stamp = msg.header.stamp
+            cmd.torque = [float(v) for v in tq]
+            cmd.locked = [bool(b) for b in locked]
+            cmd.torque_limit = 0.3
+            pub_t.publish(cmd)
+            steer = SteeringCommand()
+            steer.header.stamp = msg.header.stamp
+            pub_s.publish(steer)
+
+    subs = [node.create_subscription(WheelEncoders, 'wheels/encoders', on_encoders, qos.SENSOR),
+            node.create_subscription(TyreState, 'rig/tyre_truth',
+                                     lambda m: rec['tyre'].setdefault(to_ns(m.header.stamp), m),
+                                     qos.SENSOR)]
+    assert ros.wait_for_matched([pub_t, pub_s, *subs], timeout=30.0), 'rig topics did not match'
+    client = node.create_client(Trigger, 'rig/start')
+    assert ros.spin_until(client.service_is_ready, 30.0), 'rig/start not available'
+    future = client.call_async(Trigger.Request())
+    assert ros.spin_until(future.done, 30.0) and future.result().success
+    n = int(round(duration * 1000)) + 1
+    done = ros.spin_until(lambda: all(len(v) >= n for v in rec.values()), timeout)
+    assert done, f'lock-step run incomplete: {[len(v) for v in rec.values()]} of {n} samples'
+    return rec
+
+
+def test_torque_car_topics_match_the_offline_core_brake_and_refuse_nan(ros, launch):
+    params = torque_car_params()
+    proc = launch(rig_spec(**params))
+    duration = 0.4
+    rec = run_torque_lockstep(ros, command, duration)
+
+    # the offline core with the same commands, NaN replaced by the 0 N m the rig must use
+    def offline(out):
+        tq, locked = command(out.time)
+        return RigInputs(drive_voltage=V_HOLD, speed_cmd=1.2, wheel_locked=tuple(locked),
+                         wheel_torque=tuple(0.0 if math.isnan(v) else v for v in tq))
+    cfg = RigConfig.from_dict(offline_rig_params(**params))
+    off = simulate(cfg, offline, duration)
+    stamps = sorted(rec['enc'])[:len(off['time'])]
+    assert stamps == [int(round(t * 1e9)) for t in off['time']]
+    counts = np.array([rec['enc'][s].counts for s in stamps])
+    vel = np.array([rec['enc'][s].velocity for s in stamps])
+    np.testing.assert_array_equal(counts, off['encoder_counts'])
+    np.testing.assert_array_equal(vel, off['encoder_velocity'])
+    tyre = [rec['tyre'][s] for s in stamps]
+    np.testing.assert_array_equal([m.x_belt for m in tyre], off['x_belt'])
+    np.testing.assert_array_equal(np.array([m.omega for m in tyre]), off['wheel_speeds'])
+    assert rec['enc'][stamps[0]].counts_per_rev == 2048 and rec['enc'][stamps[0]].window == 5
+
+    # NaN on FL: that wheel had no torque (it slows against rolling resistance, the others do
+    # not), and the rig said so in its log
+    k0, k1 = (int(round(t * 1000)) for t in NAN_SPAN)
+    omega = np.array([m.omega for m in tyre])
+    assert omega[k1, 0] < omega[k0, 0] and omega[k1, 0] < omega[k1, 1] - 0.1
+    assert 'wheel torque FL nan is not finite; using 0 N m' in proc.output()
+
+    # braking: the wheels and the encoders slow down, the distance over the belt grows slower
+    kb = int(round(T_BRAKE * 1000))
+    assert np.all(vel[-1] < vel[kb] - 3.0), (vel[kb], vel[-1])
+    x_belt = np.array([m.x_belt for m in tyre])
+    rate_before = (x_belt[kb] - x_belt[kb - 100]) / 0.1
+    rate_after = (x_belt[-1] - x_belt[-101]) / 0.1
+    assert rate_after < rate_before - 0.05, (rate_before, rate_after)
+    assert all(math.isfinite(v) for m in tyre for v in m.fx)
