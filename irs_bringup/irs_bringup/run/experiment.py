@@ -57,6 +57,9 @@ NODE_TOPICS = {
 #: Nodes whose topics depend on a parameter: key -> (parameter, {value: topics}); the value in
 #: ``NODE_TOPICS`` is the one for the parameter's default.
 NODE_TOPICS_BY_PARAMETER = {
+    RIG_KEY: ('plant', {'two_track': {       # the torque car's rig (docs/torque_car.md)
+        'pub': NODE_TOPICS[RIG_KEY]['pub'] + ['wheels/encoders', 'rig/tyre_truth'],
+        'sub': NODE_TOPICS[RIG_KEY]['sub'] + ['wheels/torque_command']}}),
     ('irs_bringup', 'excitation'): ('target', {
         'steering': {'pub': ['steering/command'], 'sub': []},
         'drive': {'pub': ['treadmill/drive'], 'sub': []}}),
@@ -239,7 +242,7 @@ def clock_overrides(exp: Experiment, entry: NodeEntry, dt: float) -> dict:
     """Parameters the runner adds for the experiment's clock mode."""
     if entry.key == RIG_KEY:
         if exp.clock == 'lockstep':
-            rig_topics = {absolute(t) for t in NODE_TOPICS[RIG_KEY]['pub']}
+            rig_topics = {absolute(t) for t in node_topics(entry)['pub']}
             waits = ','.join(f'{t}={subs}' for t, (_pubs, subs) in expected_endpoints(exp).items()
                              if t in rig_topics)
             return {'clock_mode': 'lockstep', 'autostart': False, 'start_subscribers': waits,
