@@ -160,10 +160,13 @@ _ENCODERS = {
 }
 
 
-def _one_of(choices, what):
-    def check(value):
-        return None if value in choices else f'{what} must be one of {list(choices)}'
-    return check
+def _check_plant(value):
+    return None if value in PLANTS else f'plant must be one of {list(PLANTS)}'
+
+
+def _check_surface_kind(value):
+    return (None if value in SURFACE_KINDS
+            else f'surface.kind must be one of {sorted(SURFACE_KINDS)}')
 
 
 def _section_defaults():
@@ -199,5 +202,4 @@ def rig_parameter_table() -> list:
         meta.update({f'{section}.{key}': m for key, m in section_meta.items()})
     return table_from_defaults(
         defaults, meta, read_only=('dt',),
-        validators={'plant': _one_of(PLANTS, 'plant'),
-                    'surface.kind': _one_of(tuple(SURFACE_KINDS), 'surface.kind')})
+        validators={'plant': _check_plant, 'surface.kind': _check_surface_kind})
