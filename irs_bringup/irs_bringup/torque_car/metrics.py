@@ -66,8 +66,8 @@ def run_kind(name: str) -> dict:
     parts = name.split('_')
     if name.startswith('torque_braking_') and len(parts) >= 4:
         return {'kind': 'braking', 'mode': parts[2], 'surface': '_'.join(parts[3:])}
-    if name.startswith('torque_step_steer_') and len(parts) >= 5:
-        return {'kind': 'step_steer', 'mode': '_'.join(parts[4:]), 'surface': 'high'}
+    if name.startswith('torque_step_steer_') and len(parts) >= 4:
+        return {'kind': 'step_steer', 'mode': '_'.join(parts[3:]), 'surface': 'high'}
     return {'kind': 'unknown', 'mode': '', 'surface': ''}
 
 

@@ -57,7 +57,7 @@ def plot_braking(surface: str, runs: dict, path, slip_target: float = -0.10) -> 
     fig, axes = plt.subplots(2, 2, figsize=(13, 8.5), sharex=True)
     (ax_w, ax_s), (ax_d, ax_x) = axes
     ax_b = ax_x.twinx()
-    t_max = _window(runs)
+    t_max, d_max = _window(runs), 0.01
     for mode, (run, m) in runs.items():
         ls, tb, name = STYLE.get(mode, '-'), m['t_brake'], LABEL.get(mode, mode)
         tyre = run.series['tyre']
@@ -74,6 +74,7 @@ def plot_braking(surface: str, runs: dict, path, slip_target: float = -0.10) -> 
         label = (f'{name}: {m["stopping_distance"]:.3f} m in {m["stopping_time"]:.3f} s'
                  if m['stopped'] else f'{name}: no stop')
         ax_d.plot(tt, dist, ls, color='k', label=label)
+        d_max = max(d_max, float(np.max(dist[tt <= t_max])))
         if m['stopped']:
             ax_d.plot([m['stopping_time']], [m['stopping_distance']], 'o', color='k', ms=5)
         if run.has('odom'):
@@ -98,6 +99,7 @@ def plot_braking(surface: str, runs: dict, path, slip_target: float = -0.10) -> 
     ax_x.set(title='(d) car position on the treadmill and belt speed',
              ylabel='car x on the treadmill [m]', xlabel='time since the brake start [s]')
     ax_b.set_ylabel('measured belt speed [m/s]')
+    ax_d.set_ylim(-0.15 * d_max, 1.1 * d_max)
     for ax in axes.flat:
         ax.grid(True, alpha=0.3)
         ax.set_xlim(-0.1, t_max)
@@ -144,7 +146,8 @@ def plot_step_steer(runs: dict, path) -> Path:
     t_end = 0.0
     for i, (mode, (run, m)) in enumerate(runs.items()):
         s = step_steer_series(run)
-        t0, name, ls = s['t0'], LABEL.get(mode, mode), STYLE.get(mode, '-')
+        name = 'chassis controller' if mode == 'chassis' else LABEL.get(mode, mode)
+        t0, ls = s['t0'], STYLE.get(mode, '-')
         t_end = max(t_end, float(s['t'][-1] - t0))
         ax_r.plot(s['t'] - t0, s['r'], ls, color=colours[i],
                   label=f'{name}: 90 % in {m["rise_time_90"]:.3f} s, overshoot '
