@@ -256,8 +256,9 @@ class VehicleSimNode(Node):
         )
         self.pub_wheels = (self.create_publisher(JointState, 'wheel_speeds', qos.SENSOR)
                            if self.p['publish_wheel_speeds'] else None)
-        # torque car: the encoders are a 1 kHz sensor stream like the arm (SENSOR: best effort,
-        # keep last; lock-step resends a missed step), the tyre truth a decimated ground truth
+        # torque car: the encoders are the controller's 1 kHz measurement, as the arm angles
+        # (SENSOR: reliable, keep last 100: a lock-step controller must see every sample), the
+        # tyre truth a decimated ground truth for the recorder, as ground_truth/odom
         self.pub_encoders = (self.create_publisher(WheelEncoders, 'wheels/encoders', qos.SENSOR)
                              if self.torque_car else None)
         self.pub_tyre = (self.create_publisher(TyreState, 'rig/tyre_truth', qos.SENSOR)
