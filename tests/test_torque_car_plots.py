@@ -69,6 +69,18 @@ def braking_series(u0=1.2, a=3.0, tb=0.5, after=0.6, slips=(-0.05, -0.1, -0.15, 
     }
 
 
+def with_status(series, offset=0.01, every=10):
+    """``series`` plus a ``chassis/status`` every ``every`` steps reporting the true slips +
+    ``offset`` (and v_hat = u, braking after the brake start).
+    """
+    tyre, cmd = series['tyre'], series['cmd']
+    k = slice(None, None, every)
+    braking = ((cmd['torque'] < 0).any(axis=1) | (cmd['locked'] > 0).any(axis=1))[k]
+    series['status'] = {'t': tyre['t'][k], 'v_hat': tyre['u'][k],
+                        'braking': braking.astype(float), 'slip': tyre['slip'][k] + offset}
+    return series
+
+
 def step_steer_series(amplitude=0.03, t0=0.5, duration=3.0, tau=0.05, zeta=None, wn=20.0,
                       d_torque=0.05, rear=0.01):
     """Series of a step steer at 1.2 m/s: yaw rate first order (``tau``) or second order."""
@@ -138,6 +150,14 @@ def _message(key, row):
         m = BeltSpeed(speed=row['speed'])
     elif key == 'steer':
         m = SteeringCommand(front_angle=row['front'], rear_angle=row['rear'])
+    elif key == 'status':
+        from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
+        values = {'brake_mode': 'abs', 'braking': 'true' if row['braking'] else 'false',
+                  'v_hat': f'{row["v_hat"]:.17g}'}
+        values.update({f'slip_{w}': f'{v:.17g}' for w, v in zip(tm.WHEELS, row['slip'])})
+        m = DiagnosticArray(status=[DiagnosticStatus(
+            name='chassis_controller', values=[KeyValue(key=a, value=b)
+                                               for a, b in values.items()])])
     else:
         m = SteeringActuatorState(front_achieved=row['front'], rear_achieved=row['rear'])
     return m
@@ -211,8 +231,17 @@ def test_braking_metrics_of_a_constant_deceleration():
     assert m['wheel_locked'] == [False, False, False, True]
     assert m['locked_time'][3] == pytest.approx(0.1, abs=2 * DT)
     assert m['locked_time'][:3] == [0.0, 0.0, 0.0]
+    assert m['slip_est_source'] == 'recomputed'
     assert m['x_min'] == pytest.approx(-exp['drift_back'], abs=1e-9)
     assert m['belt_end_margin'] == pytest.approx(BELT_HALF_LENGTH - exp['drift_back'], abs=1e-9)
+
+
+def test_estimated_slips_from_the_controller_status():
+    slips = (-0.05, -0.1, -0.15, -0.2)
+    m = tm.braking_metrics(as_run('torque_braking_abs_low', with_status(
+        braking_series(slips=slips), offset=0.01)))
+    assert m['slip_est_source'] == 'chassis/status'
+    assert m['slip_est_mean'] == pytest.approx([s + 0.01 for s in slips], abs=1e-12)
 
 
 def test_brake_start_from_the_locked_flags_and_a_run_that_never_stops():
@@ -289,7 +318,7 @@ def test_run_kind_from_the_names():
 
 # ----------------------------------------------------------------- bags, CLI, figures
 def test_bag_round_trip_gives_the_series(tmp_path):
-    s = braking_series(after=0.3)
+    s = with_status(braking_series(after=0.3))
     write_bag(tmp_path / 'bag', 'torque_braking_abs_low', s, {'sim': {'two_track.wheel_radius':
                                                                       R}})
     run = load_run(tmp_path / 'bag')

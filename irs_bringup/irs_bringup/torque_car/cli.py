@@ -78,7 +78,9 @@ def _figures(braking: dict, steer: dict, out: Path) -> list:
         runs = {k['mode']: (r, m) for r, m, k in braking.values()
                 if k['surface'] == surface and k['mode'] != 'chassis'}
         if runs:
-            figures.append(plot_braking(surface, runs, out / f'torque_braking_{surface}.png'))
+            target = next(iter(runs.values()))[0].param('abs.slip_target', -0.10)
+            figures.append(plot_braking(surface, runs, out / f'torque_braking_{surface}.png',
+                                        slip_target=float(target)))
     split = {k['mode']: (r, m) for r, m, k in braking.values()
              if k['surface'] == 'split' and r.has('odom')}
     if split:

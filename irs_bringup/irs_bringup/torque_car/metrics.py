@@ -12,9 +12,11 @@ Braking (``braking_metrics``), all from the rig's ground truth unless said other
 * slip per wheel (``slip``, kappa of ``rig/tyre_truth``): mean and min over the braking
   samples with ``u > v_min`` (0.1 m/s, where the ABS works; below it slip is meaningless);
 * estimated slip per wheel, as the controller sees it: ``lambda_i = (omega_enc,i R - v_hat) /
-  max(v_hat, v_min)`` with the encoder speeds and ``v_hat`` = the arm-speed estimate
-  (:class:`irs_control.abs_control.ArmSpeedEstimator` over ``pose`` and ``belt/speed``), mean
-  over the same samples; NaN without ``/pose`` or ``/wheels/encoders``;
+  max(v_hat, v_min)`` with the encoder speeds and ``v_hat`` = the arm-speed estimate, mean
+  over the braking samples with ``u > v_min``: the slips the controller reports on
+  ``chassis/status`` (``slip_est_source = 'chassis/status'``), else recomputed here from
+  ``/wheels/encoders``, ``/pose`` and ``/belt/speed`` with
+  :class:`irs_control.abs_control.ArmSpeedEstimator` (``'recomputed'``); NaN without them;
 * a wheel locked: ``|omega_i| R < lock_speed`` (0.01 m/s) while ``u > v_min`` after ``t_b``;
   the time it spent so [s];
 * peak ``|r|`` [rad/s] after ``t_b`` and the heading ``psi`` [rad] at the stop and at the end
@@ -124,6 +126,20 @@ def estimated_slips(run, t) -> np.ndarray:
     return np.array([wheel_slips(o, float(vk), R, V_MIN) for o, vk in zip(omega, v)])
 
 
+def _estimated_slip_means(run, tb: float, t_end: float) -> dict:
+    tyre = run.series['tyre']
+    if run.has('status') and np.isfinite(run.series['status']['slip']).any():
+        st, source = run.series['status'], 'chassis/status'
+        u = np.interp(st['t'], tyre['t'], tyre['u'])
+        est = st['slip'][(st['t'] >= tb) & (st['t'] <= t_end) & (u > V_MIN)]
+    else:
+        w = (tyre['t'] >= tb) & (tyre['t'] <= t_end) & (tyre['u'] > V_MIN)
+        est, source = estimated_slips(run, tyre['t'][w]), 'recomputed'
+    ok = est.size and np.isfinite(est).any(axis=0).all()
+    return {'slip_est_mean': np.nanmean(est, axis=0).tolist() if ok else [_NAN] * 4,
+            'slip_est_source': source if ok else 'none'}
+
+
 def _at(t, ts, xs) -> float:
     return float(np.interp(t, ts, xs)) if math.isfinite(t) and len(ts) else _NAN
 
@@ -150,9 +166,7 @@ def braking_metrics(run) -> dict:
     slip = tyre['slip'][window]
     out['slip_mean'] = slip.mean(axis=0).tolist() if slip.size else [_NAN] * 4
     out['slip_min'] = slip.min(axis=0).tolist() if slip.size else [_NAN] * 4
-    est = estimated_slips(run, t[window])
-    out['slip_est_mean'] = (np.nanmean(est, axis=0).tolist()
-                            if est.size and np.isfinite(est).any() else [_NAN] * 4)
+    out.update(_estimated_slip_means(run, tb, t_end))
     after = (t >= tb) & (u > V_MIN)
     rim = np.abs(tyre['omega']) * wheel_radius(run)
     locked = (rim < LOCK_SPEED) & after[:, None]

@@ -18,6 +18,9 @@ velocity   /velocity                   r [rad/s]  (the arm's yaw rate)
 belt       /belt/speed                 speed [m/s]  (the belt encoder)
 steer      /steering/command           front, rear [rad]
 act        /steering/state             front, rear [rad]  (achieved)
+status     /chassis/status             v_hat [m/s], braking, slip  (the controller's view;
+                                       DiagnosticArray key/values ``v_hat``, ``braking``,
+                                       ``slip_FL`` ...; NaN where absent)
 =========  ==========================  ============================================
 
 A topic missing from the bag is missing from ``series``. Messages whose stamp repeats (a
@@ -42,6 +45,20 @@ def _q(o) -> float:
     return yaw_from_quaternion(o.x, o.y, o.z, o.w)
 
 
+def _kv(msg, key: str) -> float:
+    """The value of ``key`` in the first status of a DiagnosticArray as a float (NaN if
+    absent or not a number; ``true``/``false`` as 1/0).
+    """
+    for kv in (msg.status[0].values if msg.status else []):
+        if kv.key == key:
+            v = {'true': '1', 'false': '0'}.get(kv.value, kv.value)
+            try:
+                return float(v)
+            except ValueError:
+                return float('nan')
+    return float('nan')
+
+
 #: key -> (topic, {field: getter(msg)})
 TOPICS = {
     'tyre': ('/rig/tyre_truth', {
@@ -62,6 +79,9 @@ TOPICS = {
                                     'rear': lambda m: m.rear_angle}),
     'act': ('/steering/state', {'front': lambda m: m.front_achieved,
                                 'rear': lambda m: m.rear_achieved}),
+    'status': ('/chassis/status', {
+        'v_hat': lambda m: _kv(m, 'v_hat'), 'braking': lambda m: _kv(m, 'braking'),
+        'slip': lambda m: [_kv(m, f'slip_{w}') for w in ('FL', 'FR', 'RL', 'RR')]}),
 }
 
 
