@@ -36,6 +36,8 @@ PARAMS = [
     Param('speed.integral', _C.speed_integral, 'speed loop integral gain w_vi', '1/s', 0.0, 1e4),
     Param('brake.start_time', -1.0, 'brake from this time since the run started; < 0 = never; '
           'applied at the next step', 's', -1e9, 1e9, writable=True),
+    Param('brake.duration', 0.0, 'release the brake after this long (a braking event); <= 0 = '
+          'hold to the end (a stop); applied at the next step', 's', -1e9, 1e9, writable=True),
     Param('brake.torque', 0.3, 'brake demand per wheel (a magnitude; clipped to torque_limit); '
           'applied at the next step', 'N m', 1e-6, 10.0, writable=True),
     Param('brake.mode', 'abs', "'abs' (slip control), 'locked' (friction brakes lock every "
@@ -70,5 +72,6 @@ PARAMS = [
 
 #: run-time changes the node hands to the core: parameter -> TorqueCarConfig attribute
 LIVE = {'speed.target': 'speed_target', 'brake.start_time': 'brake_start_time',
+        'brake.duration': 'brake_duration',
         'brake.torque': 'brake_torque', 'brake.mode': 'brake_mode',
         'steer.amplitude': 'steer_amplitude', 'steer.start_time': 'steer_start_time'}

@@ -9,12 +9,15 @@ only, never ground truth)::
     t       = t_k - t_0                           (time since the first step, [s])
     v_hat   = ArmSpeedEstimator(x, psi, V_b)      (((x_k - x_{k-W}) / (W dt) + V_b) / cos psi)
     delta_f = A  if t >= t_steer else 0           (the driver's front step steer [rad])
-    braking = t_brake >= 0 and t >= t_brake
+    braking = t_brake >= 0 and t >= t_brake and (d_brake <= 0 or t < t_brake + d_brake)
     v_tgt   = speed.target, or V_b if it is 0     (drive at belt speed: stay put on the belt)
     (T_req, delta_r) = ChassisController(v_tgt, v_hat, r, delta_f, dt, brake = b if braking)
     T       = AbsController(T_req, omega, v_hat, dt)      (brake.mode 'abs')
               T_req                                       ('open': the request, no ABS)
               0 with every wheel locked while braking     ('locked': the friction brake)
+              0 with every wheel locked once braking and v_hat <= v_min (any mode: a motor's
+              brake torque on a stopped wheel would drive it backwards; the friction brake
+              holds the stopped car, as real ABS hands over to locked wheels at walking pace)
 
 ``yaw_control``: ``'off'`` runs the chassis controller with ``r = r_ref`` (its yaw error and
 integral stay 0: no yaw moment, speed control only); ``'rear_steer'``, ``'differential'``,
@@ -55,6 +58,8 @@ class TorqueCarConfig:
         Speed over the belt to hold [m/s]; 0 = the measured belt speed.
     brake_start_time : float
         Brake from this time since the first step [s]; < 0 = never.
+    brake_duration : float
+        Release the brake after this long [s]; <= 0 = hold to the end (a stop).
     brake_torque : float
         Brake demand per wheel [N m] (> 0, a magnitude).
     brake_mode : str
@@ -72,6 +77,7 @@ class TorqueCarConfig:
     dt: float = 0.001
     speed_target: float = 0.0
     brake_start_time: float = -1.0
+    brake_duration: float = 0.0
     brake_torque: float = 0.3
     brake_mode: str = 'abs'
     yaw_control: str = 'off'
@@ -88,8 +94,8 @@ class TorqueCarConfig:
         if self.yaw_control not in YAW_CONTROLS:
             raise ValueError(f'yaw_control must be one of {list(YAW_CONTROLS)}, got '
                              f'{self.yaw_control!r}.')
-        for name in ('dt', 'speed_target', 'brake_start_time', 'brake_torque', 'steer_amplitude',
-                     'steer_start_time'):
+        for name in ('dt', 'speed_target', 'brake_start_time', 'brake_duration', 'brake_torque',
+                     'steer_amplitude', 'steer_start_time'):
             v = getattr(self, name)
             if not isinstance(v, (int, float)) or isinstance(v, bool) or not math.isfinite(v):
                 raise ValueError(f'{name} must be a finite number, got {v!r}.')
@@ -112,7 +118,8 @@ class TorqueCarConfig:
                                 speed_integral=p['speed.integral'],
                                 torque_limit=p['torque_limit'], v_min=p['abs.v_min'])
         return cls(dt=p['dt'], speed_target=p['speed.target'],
-                   brake_start_time=p['brake.start_time'], brake_torque=p['brake.torque'],
+                   brake_start_time=p['brake.start_time'],
+                   brake_duration=p['brake.duration'], brake_torque=p['brake.torque'],
                    brake_mode=p['brake.mode'], yaw_control=p['yaw_control'],
                    steer_amplitude=p['steer.amplitude'], steer_start_time=p['steer.start_time'],
                    speed_window=p['speed.window'], abs=abs_params, chassis=chassis)
@@ -205,7 +212,8 @@ class TorqueCarController:
         if self.t0_ns is None:
             self.t0_ns = int(stamp_ns)
         t = (int(stamp_ns) - self.t0_ns) * 1e-9
-        braking = c.brake_start_time >= 0.0 and t >= c.brake_start_time
+        braking = c.brake_start_time >= 0.0 and t >= c.brake_start_time and (
+            c.brake_duration <= 0.0 or t < c.brake_start_time + c.brake_duration)
         try:
             omega = np.asarray(omega, dtype=float).reshape(-1)
             yaw_rate = float(yaw_rate)
@@ -225,11 +233,12 @@ class TorqueCarController:
                                brake=c.brake_torque if braking else 0.0)
         reason = ch.reason
         locked = (False,) * 4
-        if c.brake_mode == 'abs':
+        if braking and (c.brake_mode == 'locked' or v_hat <= c.abs.v_min):
+            torques, locked = np.zeros(4), (True,) * 4     # the friction brakes hold the wheels
+            reason = 'ok' if c.brake_mode == 'locked' else 'low_speed'
+        elif c.brake_mode == 'abs':
             a = self.abs.step(ch.torques, omega, v_hat, c.dt)
             torques, reason = a.torques, a.reason
-        elif braking and c.brake_mode == 'locked':
-            torques, locked = np.zeros(4), (True,) * 4
         else:
             torques = ch.torques
         slips = wheel_slips(omega, v_hat, c.abs.wheel_radius, c.abs.v_min)
