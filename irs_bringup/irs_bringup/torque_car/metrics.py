@@ -12,11 +12,13 @@ Braking (``braking_metrics``), all from the rig's ground truth unless said other
 * slip per wheel (``slip``, kappa of ``rig/tyre_truth``): mean and min over the braking
   samples with ``u > v_min`` (0.1 m/s, where the ABS works; below it slip is meaningless);
 * estimated slip per wheel, as the controller sees it: ``lambda_i = (omega_enc,i R - v_hat) /
-  max(v_hat, v_min)`` with the encoder speeds and ``v_hat`` = the arm-speed estimate, mean
-  over the braking samples with ``u > v_min``: the slips the controller reports on
-  ``chassis/status`` (``slip_est_source = 'chassis/status'``), else recomputed here from
-  ``/wheels/encoders``, ``/pose`` and ``/belt/speed`` with
-  :class:`irs_control.abs_control.ArmSpeedEstimator` (``'recomputed'``); NaN without them;
+  max(v_hat, v_min)`` with the encoder speeds and ``v_hat`` = the arm-speed estimate, the
+  *median* over the braking samples with ``u > v_min`` (the encoder's 0.61 rad/s step is
+  0.02 m/s of rim speed, 20 % slip at 0.1 m/s, so single samples near the stop are wild and a
+  mean follows them): the slips the controller reports on ``chassis/status``
+  (``slip_est_source = 'chassis/status'``), else recomputed here from ``/wheels/encoders``,
+  ``/pose`` and ``/belt/speed`` with :class:`irs_control.abs_control.ArmSpeedEstimator`
+  (``'recomputed'``); NaN without them;
 * a wheel locked: ``|omega_i| R < lock_speed`` (0.01 m/s) while ``u > v_min`` after ``t_b``;
   the time it spent so [s];
 * peak ``|r|`` [rad/s] after ``t_b`` and the heading ``psi`` [rad] at the stop and at the end
@@ -136,7 +138,7 @@ def _estimated_slip_means(run, tb: float, t_end: float) -> dict:
         w = (tyre['t'] >= tb) & (tyre['t'] <= t_end) & (tyre['u'] > V_MIN)
         est, source = estimated_slips(run, tyre['t'][w]), 'recomputed'
     ok = est.size and np.isfinite(est).any(axis=0).all()
-    return {'slip_est_mean': np.nanmean(est, axis=0).tolist() if ok else [_NAN] * 4,
+    return {'slip_est_median': np.nanmedian(est, axis=0).tolist() if ok else [_NAN] * 4,
             'slip_est_source': source if ok else 'none'}
 
 
