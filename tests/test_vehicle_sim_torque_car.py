@@ -12,6 +12,7 @@ from irs_common import qos
 from irs_common.stamps import to_ns
 from irs_msgs.msg import SteeringCommand, TyreState, WheelEncoders, WheelTorqueCommand
 from irs_vehicle_sim.rig import RigConfig, RigInputs, simulate
+from irs_bringup.run.processes import NodeSpec
 from std_srvs.srv import Trigger
 
 from lockstep_harness import offline_rig_params, rig_spec
@@ -116,3 +117,42 @@ def test_torque_car_topics_match_the_offline_core_brake_and_refuse_nan(ros, laun
     rate_after = (x_belt[-1] - x_belt[-101]) / 0.1
     assert rate_after < rate_before - 0.05, (rate_before, rate_after)
     assert all(math.isfinite(v) for m in tyre for v in m.fx)
+
+
+def test_realtime_missing_nan_and_stale_torque_commands_coast(ros, launch):
+    """Real time: before any command, a NaN wheel and after ``command_timeout`` without
+    commands the wheels get 0 N m (the tyres carry only rolling resistance), each reported.
+    """
+    proc = launch(NodeSpec('irs_vehicle_sim', 'vehicle_sim', params=torque_car_params(
+        clock_mode='realtime', command_timeout=0.2, start_inputs=[''],
+        ground_truth_decimation=5)))
+    node = ros.node
+    truth = []
+    pub = node.create_publisher(WheelTorqueCommand, 'wheels/torque_command', qos.COMMAND)
+    sub = node.create_subscription(TyreState, 'rig/tyre_truth', truth.append, qos.SENSOR)
+    assert ros.wait_for_matched([pub, sub], timeout=30.0)
+    assert ros.spin_until(lambda: 'no wheel torque command yet' in proc.output(), 10.0)
+
+    def send(torque):
+        cmd = WheelTorqueCommand()
+        cmd.header.stamp = node.get_clock().now().to_msg()
+        cmd.torque = torque
+        pub.publish(cmd)
+
+    def braking(fx):         # -0.1 N m / 0.033 m = -3 N; coasting: rolling resistance only
+        return [f < -1.5 for f in fx]
+
+    def keep_sending(torque, predicate, timeout=10.0):
+        def step():
+            send(torque)
+            ros.executor.spin_once(timeout_sec=0.005)
+            return bool(truth) and predicate(truth[-1])
+        return ros.spin_until(step, timeout)
+
+    assert truth and not any(braking(truth[-1].fx))
+    assert keep_sending([math.nan, -0.1, -0.1, -0.1],
+                        lambda m: braking(m.fx) == [False, True, True, True]), truth[-1].fx
+    assert 'wheel torque FL nan is not finite; using 0 N m' in proc.output()
+    n = len(truth)
+    assert ros.spin_until(lambda: len(truth) > n and not any(braking(truth[-1].fx)), 5.0)
+    assert ros.spin_until(lambda: 'wheels command stale' in proc.output(), 5.0)
