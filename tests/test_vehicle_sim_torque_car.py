@@ -6,6 +6,8 @@ publishes with the offline core (:func:`irs_vehicle_sim.rig.simulate`) fed the s
 """
 import math
 
+from builtin_interfaces.msg import Time
+from hypothesis import HealthCheck, Phase, given, settings, strategies as st
 import numpy as np
 
 from irs_common import qos
@@ -156,3 +158,46 @@ def test_realtime_missing_nan_and_stale_torque_commands_coast(ros, launch):
     n = len(truth)
     assert ros.spin_until(lambda: len(truth) > n and not any(braking(truth[-1].fx)), 5.0)
     assert ros.spin_until(lambda: 'wheels command stale' in proc.output(), 5.0)
+
+
+FUZZ = settings(max_examples=10, deadline=None, database=None, derandomize=True,
+                phases=[Phase.explicit, Phase.generate], suppress_health_check=list(HealthCheck))
+SPECIAL = [math.nan, math.inf, -math.inf, 1e308, -1e308, 0.0, -0.0, 5e-324, 0.3, -0.3]
+FLOATS = st.one_of(st.sampled_from(SPECIAL), st.floats(allow_nan=True, allow_infinity=True))
+
+
+def test_fuzz_torque_commands_keep_the_rig_alive_and_its_outputs_finite(ros, launch):
+    """Any torque values, locked flags and stamps (a day ahead, zero, negative): the rig keeps
+    publishing, and its encoders and tyre truth stay finite.
+    """
+    proc = launch(NodeSpec('irs_vehicle_sim', 'vehicle_sim', params=torque_car_params(
+        clock_mode='realtime', dt=0.005, start_inputs=[''], command_timeout=1.0)))
+    node = ros.node
+    enc, truth = [], []
+    pub = node.create_publisher(WheelTorqueCommand, 'wheels/torque_command', qos.COMMAND)
+    subs = [node.create_subscription(WheelEncoders, 'wheels/encoders', enc.append, qos.SENSOR),
+            node.create_subscription(TyreState, 'rig/tyre_truth', truth.append, qos.SENSOR)]
+    assert ros.wait_for_matched([pub, *subs], timeout=30.0)
+    day = 86_400 * 10**9
+
+    @FUZZ
+    @given(torque=st.lists(FLOATS, min_size=4, max_size=4),
+           locked=st.lists(st.booleans(), min_size=4, max_size=4),
+           stamp=st.sampled_from([0, 1, day, -day]))
+    def example(torque, locked, stamp):
+        now = node.get_clock().now().nanoseconds
+        ns = now + stamp if stamp != 1 else now
+        cmd = WheelTorqueCommand()
+        cmd.header.stamp = Time(sec=ns // 10**9, nanosec=ns % 10**9)
+        cmd.torque, cmd.locked = torque, locked
+        pub.publish(cmd)
+        n = len(enc)
+        assert ros.spin_until(lambda: len(enc) > n + 2, 10.0), proc.tail(20)
+        assert proc.poll() is None, proc.tail(30)
+
+    example()
+    for m in enc:
+        assert all(math.isfinite(v) for v in m.velocity), m
+    for m in truth:
+        assert all(math.isfinite(v) for f in ('fx', 'fy', 'fz', 'omega', 'slip')
+                   for v in getattr(m, f)) and math.isfinite(m.x_belt), m
