@@ -5,10 +5,12 @@ The test plays the chassis controller: it answers every ``wheels/encoders`` samp
 publishes with the offline core (:func:`irs_vehicle_sim.rig.simulate`) fed the same commands.
 """
 import math
+import subprocess
 
 from builtin_interfaces.msg import Time
 from hypothesis import HealthCheck, Phase, given, settings, strategies as st
 import numpy as np
+import pytest
 
 from irs_common import qos
 from irs_common.stamps import to_ns
@@ -201,3 +203,23 @@ def test_fuzz_torque_commands_keep_the_rig_alive_and_its_outputs_finite(ros, lau
     for m in truth:
         assert all(math.isfinite(v) for f in ('fx', 'fy', 'fz', 'omega', 'slip')
                    for v in getattr(m, f)) and math.isfinite(m.x_belt), m
+
+
+@pytest.mark.parametrize('args, line', [
+    (['plant:=two_track', 'surface.mu:=0.0'],
+     'surface.mu must be a friction coefficient in (0, 2], got 0.0.'),
+    (['plant:=two_track', 'two_track.torque_limit:=0.0'],
+     'two_track.torque_limit must be a finite torque > 0 N m, got 0.0.'),
+    (['clock_mode:=lockstep', 'lockstep_inputs:=[wheels]'],
+     "('wheels' needs plant: two_track)"),
+])
+def test_bad_torque_car_parameters_stop_the_node_with_one_line(args, line):
+    from irs_bringup.run.executables import resolve_executable
+    cmd = [resolve_executable('irs_vehicle_sim', 'vehicle_sim'), '--ros-args']
+    for a in args:
+        cmd += ['-p', a]
+    res = subprocess.run(cmd, capture_output=True, text=True, timeout=60)
+    assert res.returncode == 2, res.stdout + res.stderr
+    errors = [x for x in res.stderr.splitlines() if 'FATAL' in x]
+    assert len(errors) == 1 and line in errors[0], res.stderr
+    assert 'Traceback' not in res.stderr
