@@ -82,12 +82,17 @@ def with_status(series, offset=0.01, every=10):
 
 
 def step_steer_series(amplitude=0.03, t0=0.5, duration=3.0, tau=0.05, zeta=None, wn=20.0,
-                      d_torque=0.05, rear=0.01):
-    """Series of a step steer at 1.2 m/s: yaw rate first order (``tau``) or second order."""
+                      d_torque=0.05, rear=0.01, u_slope=0.0):
+    """Series of a step steer from 1.2 m/s (slowing at ``u_slope`` [m/s^2]): yaw rate = the
+    bicycle reference at the speed of the instant times a first-order (``tau``) or a
+    second-order (``zeta``, ``wn``) step response.
+    """
     from irs_control.chassis_control import ChassisController
     t = np.arange(0.0, duration + DT / 2, DT)
     s = np.maximum(t - t0, 0.0)
-    r_ss = ChassisController().yaw_rate_reference(amplitude, 1.2)
+    u = 1.2 - u_slope * t
+    ctl = ChassisController()
+    r_ss = np.array([ctl.yaw_rate_reference(amplitude, v) for v in u])
     if zeta is None:
         g = 1.0 - np.exp(-s / tau)
     else:
@@ -100,13 +105,13 @@ def step_steer_series(amplitude=0.03, t0=0.5, duration=3.0, tau=0.05, zeta=None,
     return {
         'tyre': {'t': t, 'slip': np.zeros((t.size, 4)), 'omega': np.full((t.size, 4), 1.2 / R),
                  'mu': np.full((t.size, 4), 0.8), 'fx': np.zeros((t.size, 4)),
-                 'x_belt': 1.2 * t, 'u': np.full(t.size, 1.2)},
+                 'x_belt': 1.2 * t - u_slope * t**2 / 2, 'u': u},
         'cmd': {'t': t, 'torque': torque, 'locked': np.zeros((t.size, 4))},
         'odom': {'t': t, 'x': z, 'y': z, 'yaw': np.cumsum(r) * DT, 'r': r},
-        'belt': {'t': t, 'speed': np.full(t.size, 1.2)},
+        'belt': {'t': t, 'speed': u},
         'steer': {'t': t, 'front': amplitude * on, 'rear': rear * on},
         'act': {'t': t, 'front': amplitude * on, 'rear': rear * on},
-    }, r_ss
+    }, (r_ss[0] if u_slope == 0.0 else r_ss)
 
 
 def as_run(name, series, params=None):
@@ -287,13 +292,27 @@ def test_step_steer_first_order():
     m = tm.step_steer_metrics(as_run('torque_step_steer_open', s))
     assert m['t_steer'] == pytest.approx(0.5, abs=1e-9)
     assert m['amplitude'] == pytest.approx(0.03)
-    assert m['r_ref_steady'] == pytest.approx(r_ss, rel=1e-3)
+    assert m['r_ref0'] == pytest.approx(r_ss, rel=1e-3)
+    assert m['r_ref_end'] == pytest.approx(r_ss, rel=1e-3)
     assert m['rise_time_90'] == pytest.approx(tau * math.log(10), abs=1.5 * DT)
     assert m['overshoot_percent'] == pytest.approx(0.0, abs=1e-9)
     assert m['ise'] == pytest.approx(r_ss**2 * tau / 2, rel=1e-2)
     assert abs(m['steady_state_error']) < 1e-3 * abs(r_ss)
     assert m['peak_differential_torque'] == pytest.approx(0.05)
     assert m['peak_rear_steer'] == pytest.approx(0.01)
+
+
+def test_step_steer_against_a_reference_that_follows_the_speed():
+    """The car slows (0.2 m/s^2) and the reference with it: a response that stays below the
+    reference of each instant has no overshoot, and reaches 90 % of it after tau ln 10.
+    """
+    s, r_ref = step_steer_series(tau=0.05, u_slope=0.2, duration=2.0)
+    m = tm.step_steer_metrics(as_run('torque_step_steer_open', s))
+    assert m['overshoot_percent'] == pytest.approx(0.0, abs=0.1)
+    assert m['rise_time_90'] == pytest.approx(0.05 * math.log(10), abs=2 * DT)
+    assert m['r_ref0'] == pytest.approx(r_ref[500], rel=2e-3)
+    assert m['r_ref_end'] == pytest.approx(np.mean(r_ref[-301:]), rel=2e-3)
+    assert m['r_ref_end'] < 0.8 * m['r_ref0']
 
 
 @pytest.mark.parametrize('zeta', [0.3, 0.5, 0.7])
@@ -309,7 +328,7 @@ def test_yaw_reference_is_linear_in_steer_and_negative_steer_works():
     assert ref[1] == pytest.approx(2 * ref[0]) and ref[2] == pytest.approx(-3 * ref[0])
     s, r_ss = step_steer_series(amplitude=-0.03)
     m = tm.step_steer_metrics(as_run('torque_step_steer_open', s))
-    assert m['r_ref_steady'] == pytest.approx(r_ss) and r_ss < 0
+    assert m['r_ref0'] == pytest.approx(r_ss) and r_ss < 0
     assert m['rise_time_90'] == pytest.approx(0.05 * math.log(10), abs=1.5 * DT)
 
 

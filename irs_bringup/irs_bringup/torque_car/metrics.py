@@ -37,10 +37,13 @@ yaw_rate_reference`, the chassis controller's own reference); on ``ground_truth/
 rate ``r`` over ``[t_0, end]``:
 
 * ISE ``int (r - r_ref)^2 dt`` [rad^2/s] (trapezoidal);
-* steady reference ``r_ss`` = mean ``r_ref`` over the last 20 % of the window; overshoot
-  ``100 max(0, max(sign(r_ss) (r - r_ss))) / |r_ss|`` [%]; 90 % rise time = the first time
-  after ``t_0`` with ``sign(r_ss) r >= 0.9 |r_ss|`` minus ``t_0`` [s]; steady-state error
-  = mean ``r - r_ref`` over the last 20 % [rad/s];
+* the reference follows the car's speed, which changes during the run (the speed loop and the
+  treadmill regulator), so the step response is taken against the reference of the same
+  instant: ``r_ref0`` = the reference just after the step; overshoot
+  ``100 max(0, max(sign(r_ref0) (r - r_ref))) / |r_ref0|`` [%]; 90 % rise time = the first
+  time after ``t_0`` with ``sign(r_ref0) r >= 0.9 |r_ref(t)|`` minus ``t_0`` [s]; steady-state
+  error = mean ``r - r_ref`` over the last 20 % of the window [rad/s], and ``r_ref_end`` the
+  mean reference there;
 * the largest rear steer command [rad] and differential torque
   ``dT = (T_FR + T_RR - T_FL - T_RL) / 4`` [N m] (the per-wheel share, + = more drive right).
 """
@@ -264,12 +267,13 @@ def step_steer_metrics(run) -> dict:
     e = r - ref
     ise = float(np.sum(0.5 * (e[1:] ** 2 + e[:-1] ** 2) * np.diff(t)))
     tail = t >= t[0] + 0.8 * (t[-1] - t[0])
-    r_ss = float(np.mean(ref[tail]))
-    sign = math.copysign(1.0, r_ss)
-    reached = np.flatnonzero(sign * r >= 0.9 * abs(r_ss))
-    out = {'t_steer': s['t0'], 'amplitude': s['amplitude'], 'r_ref_steady': r_ss,
-           'ise': ise, 'overshoot_percent': 100.0 * max(0.0, float(np.max(sign * (r - r_ss))))
-           / abs(r_ss) if r_ss else _NAN,
+    r0 = float(ref[0])
+    sign = math.copysign(1.0, r0)
+    reached = np.flatnonzero(sign * r >= 0.9 * np.abs(ref))
+    out = {'t_steer': s['t0'], 'amplitude': s['amplitude'], 'r_ref0': r0,
+           'r_ref_end': float(np.mean(ref[tail])), 'ise': ise,
+           'overshoot_percent': 100.0 * max(0.0, float(np.max(sign * e))) / abs(r0)
+           if r0 else _NAN,
            'rise_time_90': float(t[reached[0]] - s['t0']) if reached.size else _NAN,
            'steady_state_error': float(np.mean(e[tail]))}
     out['peak_rear_steer'] = (float(np.max(np.abs(run.series['steer']['rear'])))

@@ -39,12 +39,13 @@ def braking_table(rows: dict) -> str:
 
 def step_steer_table(rows: dict) -> str:
     """``rows``: run name -> step-steer metrics; one Markdown table."""
-    lines = ['| run | steer [rad] | r_ref [rad/s] | 90 % rise [s] | overshoot [%] | '
+    lines = ['| run | steer [rad] | r_ref at step / end [rad/s] | 90 % rise [s] | overshoot [%] | '
              'ISE [rad^2/s] | steady error [rad/s] | peak rear steer [rad] | peak dT [N m] |',
              '|---|---|---|---|---|---|---|---|---|']
     for name, m in rows.items():
         lines.append(' | '.join([
-            f'| {name}', _f(m['amplitude'], '{:.3f}'), _f(m['r_ref_steady'], '{:.4f}'),
+            f'| {name}', _f(m['amplitude'], '{:.3f}'),
+            _wheels((m['r_ref0'], m['r_ref_end']), '{:.4f}'),
             _f(m['rise_time_90'], '{:.3f}'), _f(m['overshoot_percent'], '{:.1f}'),
             _f(m['ise'], '{:.2e}'), _f(m['steady_state_error'], '{:.1e}'),
             _f(m['peak_rear_steer'], '{:.4f}'), _f(m['peak_differential_torque'], '{:.4f}')])
