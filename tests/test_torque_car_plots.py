@@ -209,7 +209,7 @@ def expected_braking(u0=1.2, a=3.0, tb=0.5, after=0.6, belt_decel=0.5, r_peak=0.
             'peak_yaw_rate': r_peak,
             'heading_at_stop': r_peak * yaw_period / np.pi
             * (1 - np.cos(np.pi * min(ts, yaw_period) / yaw_period)),
-            'drift_back': -min(x_rel(tau) for tau in taus),
+            'drift_back': -min(x_rel(tau) for tau in taus), 'drift_at_stop': -x_rel(ts),
             'belt_speed_brake': 1.2, 'belt_speed_min': 1.2 - belt_decel * ts,
             'x_brake': x_at_b}
 

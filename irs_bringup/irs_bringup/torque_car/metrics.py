@@ -19,13 +19,15 @@ Braking (``braking_metrics``), all from the rig's ground truth unless said other
   (``slip_est_source = 'chassis/status'``), else recomputed here from ``/wheels/encoders``,
   ``/pose`` and ``/belt/speed`` with :class:`irs_control.abs_control.ArmSpeedEstimator`
   (``'recomputed'``); NaN without them;
-* a wheel locked: ``|omega_i| R < lock_speed`` (0.01 m/s) while ``u > v_min`` after ``t_b``;
-  the time it spent so [s];
+* a wheel locked: ``|omega_i| R < lock_speed`` (0.01 m/s) while ``u > v_min`` between ``t_b``
+  and the stop (after it the friction brakes hold the wheels while the car rocks on its
+  tyres); the time it spent so [s];
 * peak ``|r|`` [rad/s] after ``t_b`` and the heading ``psi`` [rad] at the stop and at the end
   (``ground_truth/odom``);
 * the car's ``x`` on the treadmill [m] (``ground_truth/odom``): at ``t_b``, its minimum after
-  ``t_b``, the drift back ``x(t_b) - min x``, and the smallest distance to a belt end over the
-  run, ``L/2 - max |x|`` (L/2 = ``BELT_HALF_LENGTH``);
+  ``t_b``, the drift back at the stop ``x(t_b) - x(t_s)`` (about ``V_b (t_s - t_b)`` minus the
+  stopping distance) and by the end of the run ``x(t_b) - min x``, and the smallest distance
+  to a belt end over the run, ``L/2 - max |x|`` (L/2 = ``BELT_HALF_LENGTH``);
 * the measured belt speed (``belt/speed``) at ``t_b``, its minimum between ``t_b`` and ``t_s``
   and at ``t_s`` [m/s].
 
@@ -172,7 +174,7 @@ def braking_metrics(run) -> dict:
     out['slip_mean'] = slip.mean(axis=0).tolist() if slip.size else [_NAN] * 4
     out['slip_min'] = slip.min(axis=0).tolist() if slip.size else [_NAN] * 4
     out.update(_estimated_slip_means(run, tb, t_end))
-    after = (t >= tb) & (u > V_MIN)
+    after = (t >= tb) & (t <= t_end) & (u > V_MIN)
     rim = np.abs(tyre['omega']) * wheel_radius(run)
     locked = (rim < LOCK_SPEED) & after[:, None]
     dt = np.diff(t, append=t[-1])
@@ -185,7 +187,7 @@ def braking_metrics(run) -> dict:
 
 def _odom_metrics(run, tb: float, ts: float) -> dict:
     keys = ('peak_yaw_rate', 'heading_at_stop', 'heading_final', 'x_brake', 'x_min',
-            'drift_back', 'belt_end_margin')
+            'drift_at_stop', 'drift_back', 'belt_end_margin')
     if not run.has('odom'):
         return dict.fromkeys(keys, _NAN)
     o = run.series['odom']
@@ -194,7 +196,8 @@ def _odom_metrics(run, tb: float, ts: float) -> dict:
     x_b = _at(tb, o['t'], o['x'])
     return {'peak_yaw_rate': float(np.max(np.abs(o['r'][after]))) if after.any() else _NAN,
             'heading_at_stop': _at(ts, o['t'], o['yaw']), 'heading_final': float(o['yaw'][-1]),
-            'x_brake': x_b, 'x_min': x_min, 'drift_back': x_b - x_min,
+            'x_brake': x_b, 'x_min': x_min, 'drift_at_stop': x_b - _at(ts, o['t'], o['x']),
+            'drift_back': x_b - x_min,
             'belt_end_margin': BELT_HALF_LENGTH - float(np.max(np.abs(o['x'])))}
 
 

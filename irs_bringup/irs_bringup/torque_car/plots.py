@@ -109,7 +109,8 @@ def plot_braking(surface: str, runs: dict, path, slip_target: float = -0.10) -> 
     h1, l1 = ax_x.get_legend_handles_labels()
     h2, l2 = ax_b.get_legend_handles_labels()
     ax_x.legend(h1 + h2, l1 + l2, fontsize=7, loc='lower left')
-    fig.suptitle(f'Torque car braking from 1.2 m/s on {SURFACE.get(surface, surface)}: '
+    u_b = np.mean([m['u_brake'] for _, m in runs.values()])
+    fig.suptitle(f'Torque car braking from {u_b:.2f} m/s on {SURFACE.get(surface, surface)}: '
                  + ' vs '.join(LABEL.get(k, k) for k in runs))
     return save_figure(fig, path, dpi=100)
 
@@ -134,7 +135,8 @@ def plot_split_yaw(runs: dict, path) -> Path:
         ax.set_xlim(-0.1, _window(runs))
         ax.grid(True, alpha=0.3)
         ax.legend(fontsize=8)
-    fig.suptitle('Split-mu braking (0.8 left / 0.3 right) from 1.2 m/s: yaw of the car')
+    u_b = np.mean([m['u_brake'] for _, m in runs.values()])
+    fig.suptitle(f'Split-mu braking (0.8 left / 0.3 right) from {u_b:.2f} m/s: yaw of the car')
     return save_figure(fig, path, dpi=100)
 
 
@@ -176,5 +178,6 @@ def plot_step_steer(runs: dict, path) -> Path:
         ax.grid(True, alpha=0.3)
         ax.legend(fontsize=8)
         ax.set_xlim(-0.1, t_end)
-    fig.suptitle('Torque car step steer at 1.2 m/s: with and without the chassis controller')
+    fig.suptitle('Torque car step steer (driver front step; car at belt speed, 1.2 m/s at the '
+                 'start): with and without the chassis controller')
     return save_figure(fig, path, dpi=100)

@@ -23,7 +23,7 @@ def braking_table(rows: dict) -> str:
     head = ('| run | u at brake [m/s] | stop [m] | stop [s] | mean decel [m/s^2] | '
             'slip mean FL/FR/RL/RR (truth) | slip min | slip median (controller) | '
             'wheel locked [s] | peak yaw rate [rad/s] | heading at stop [rad] | '
-            'drift back [m] | to belt end [m] | belt speed min [m/s] |')
+            'drift back at stop / by the end [m] | to belt end [m] | belt speed min [m/s] |')
     lines = [head, '|' + '---|' * (head.count('|') - 1)]
     for name, m in rows.items():
         lines.append(' | '.join([
@@ -32,7 +32,8 @@ def braking_table(rows: dict) -> str:
             _wheels(m['slip_mean'], '{:.3f}'), _wheels(m['slip_min'], '{:.2f}'),
             _wheels(m['slip_est_median'], '{:.3f}'), _wheels(m['locked_time'], '{:.3f}'),
             _f(m['peak_yaw_rate'], '{:.3f}'), _f(m['heading_at_stop'], '{:.3f}'),
-            _f(m['drift_back'], '{:.3f}'), _f(m['belt_end_margin'], '{:.2f}'),
+            _wheels((m['drift_at_stop'], m['drift_back']), '{:.3f}'),
+            _f(m['belt_end_margin'], '{:.2f}'),
             _f(m['belt_speed_min'], '{:.3f}')]) + ' |')
     return '\n'.join(lines)
 
