@@ -17,7 +17,8 @@ only, never ground truth)::
               0 with every wheel locked while braking     ('locked': the friction brake)
               0 with every wheel locked once braking and v_hat <= v_min (any mode: a motor's
               brake torque on a stopped wheel would drive it backwards; the friction brake
-              holds the stopped car, as real ABS hands over to locked wheels at walking pace)
+              holds the stopped car, as real ABS hands over to locked wheels at walking pace),
+              latched until the brake is released
 
 ``yaw_control``: ``'off'`` runs the chassis controller with ``r = r_ref`` (its yaw error and
 integral stay 0: no yaw moment, speed control only); ``'rear_steer'``, ``'differential'``,
@@ -172,6 +173,7 @@ class TorqueCarController:
         self.pose_ok = False
         self.belt_speed = math.nan
         self.estimator.reset()
+        self.holding = False
         self.reset_controllers()
 
     def reset_controllers(self) -> None:
@@ -233,7 +235,9 @@ class TorqueCarController:
                                brake=c.brake_torque if braking else 0.0)
         reason = ch.reason
         locked = (False,) * 4
-        if braking and (c.brake_mode == 'locked' or v_hat <= c.abs.v_min):
+        # the hold latches for the braking event (v_hat hovers about v_min as the car stops)
+        self.holding = braking and (self.holding or v_hat <= c.abs.v_min)
+        if braking and (c.brake_mode == 'locked' or self.holding):
             torques, locked = np.zeros(4), (True,) * 4     # the friction brakes hold the wheels
             reason = 'ok' if c.brake_mode == 'locked' else 'low_speed'
         elif c.brake_mode == 'abs':
