@@ -33,7 +33,8 @@ unchanged. Its ``spin_once`` is the loop the recorder already used:
 With ``intra_process=True`` (composition: ``run_nodes`` with several nodes), messages between
 the executor's own nodes are handed over instead of sent through DDS while no subscriber outside
 the process listens (:mod:`irs_common.intra_process`); the handovers are delivered, oldest first,
-at the end of the ``spin_once`` that produced them.
+at the end of the ``spin_once`` that produced them, the recorder's copies last, in slices of
+``BACKGROUND_SLICE_NS`` while the loop is idle.
 
 Callbacks must be plain functions (no coroutines) -- all of ours are. Callback groups are
 ignored: one thread runs every callback, so every group is effectively mutually exclusive.
@@ -54,6 +55,12 @@ _MESSAGE_AND_INFO = Subscription.CallbackType.WithMessageInfo
 #: loop composed in one process is an endless chain of handovers, and timers, services and
 #: SIGINT must still be served. 5 ms: half the slow period; a real-time step's chain is ~0.3 ms.
 HANDOVER_BUDGET_NS = 5_000_000
+
+#: Wall time one ``spin_once`` spends at most on the background lane of the handovers (the
+#: composed recorder's copies, :mod:`irs_common.intra_process`) once the control chain is done
+#: [ns]. The executor then polls (a zero-timeout wait) and takes another slice, so a timer tick
+#: that falls due waits at most one slice: 0.2 ms, a fifth of a 1 kHz period.
+BACKGROUND_SLICE_NS = 200_000
 
 
 class _Entities:
@@ -124,6 +131,8 @@ class LeanExecutor(Executor):
         """
         while self._context.ok() and not self._is_shutdown and not self._stop_requested:
             self.spin_once()
+        if self._bus is not None and not self._is_shutdown:
+            self._bus.deliver_background()   # the recorder's last copies reach the bag
 
     def request_stop(self):
         """Make :meth:`spin` return after the ``spin_once`` in progress (safe to call from a
@@ -148,7 +157,7 @@ class LeanExecutor(Executor):
                 self._bus.rebuild(self.get_nodes())
         ws = ents.wait_set
         timeout_ns = timeout_sec_to_nsec(timeout_sec)
-        if self._bus is not None and self._bus.queue:
+        if self._bus is not None and (self._bus.queue or self._bus.background):
             timeout_ns = 0          # handovers are waiting: only poll for what else is ready
         now_ns = time.monotonic_ns()
         slow = now_ns >= self._next_slow_ns
@@ -219,7 +228,7 @@ class LeanExecutor(Executor):
             for wt in ready_waitables:
                 _run_coroutine(wt.execute(wt.take_data()))
             if self._bus is not None:
-                self._bus.deliver(self._handover_budget_ns)
+                self._bus.deliver(self._handover_budget_ns, BACKGROUND_SLICE_NS)
         except InvalidHandle:
             self._entities = None   # a callback destroyed an entity that was ready too
 
