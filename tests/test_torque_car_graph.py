@@ -11,7 +11,11 @@ process) once per module; the tests read the bags:
 - on split mu the car stays on the belt with ABS and yaw control, and turns less than with
   locked wheels or ABS alone;
 - through every braking event the treadmill regulator keeps the car on the belt (no off-belt
-  fault, c.g. inside the belt's safety margins) and cuts the drive as the car falls back;
+  fault, c.g. inside the belt's safety margins) and cuts the drive as the car falls back; after
+  a brake pulse (``torque_brake_event_abs_low``) it brings the car forward again. (A car braked
+  to a stop is carried off the belt about 1.1 s after the stop, whatever the regulator does: the
+  belt cannot be braked, it coasts down in about 10 s (docs/treadmill.md); the stop experiments
+  end 1.0 s after the start);
 - a front step steer with yaw control tracks the bicycle yaw-rate reference better (ISE) than
   without.
 """
@@ -27,6 +31,7 @@ from irs_control.chassis_control import ChassisController
 BRAKING = [f'torque_braking_{mode}_{mu}' for mu in ('high', 'low', 'split')
            for mode in ('locked', 'abs')] + ['torque_braking_chassis_split']
 STEER = ['torque_step_steer_open', 'torque_step_steer_chassis']
+EVENT = 'torque_brake_event_abs_low'     # a 0.2 s ABS brake pulse, then belt speed again
 T_BRAKE = 0.3            # [s] brake.start_time of the braking experiments
 T_STEER = 0.2            # [s] steer.start_time of the step-steer experiments
 STOPPED = 0.02           # [m/s] the car counts as stopped over the belt below this
@@ -36,10 +41,10 @@ END_MARGIN, EDGE_MARGIN = 0.15, 0.10                   # [m] the regulator's saf
 
 @pytest.fixture(scope='module')
 def runs(tmp_path_factory):
-    """``{name: (RunResult, Run)}`` of the nine experiments, each run once through the graph."""
+    """``{name: (RunResult, Run)}`` of the ten experiments, each run once through the graph."""
     out = {}
     runs_dir = tmp_path_factory.mktemp('torque_runs')
-    for name in BRAKING + STEER:
+    for name in BRAKING + STEER + [EVENT]:
         result = run_experiment(name, runs_dir=runs_dir, plots=False)
         out[name] = (result, load_run(result.bag_dir))
     return out
@@ -166,3 +171,21 @@ def test_step_steer_with_yaw_control_tracks_the_reference_better(runs):
           f'(reference {ref:.4f} rad/s)')
     assert ref > 0.05
     assert ise_chassis < 0.5 * ise_open
+
+
+def test_after_a_brake_pulse_the_regulator_brings_the_car_forward_again(runs):
+    result, run = runs[EVENT]
+    assert result.completed, result.message
+    odom, tyre, belt = run.series['odom'], run.series['tyre'], run.series['belt']
+    i0 = _at(odom, T_BRAKE)
+    assert tyre['u'][i0:].min() < 0.8, 'the pulse must be a real braking event'
+    assert np.max(np.abs(odom['x'])) < BELT_HALF_LENGTH - END_MARGIN
+    i_min = int(np.argmin(odom['x']))
+    x_min, x_end = odom['x'][i_min], odom['x'][-1]
+    print(f'brake pulse: speed down to {tyre["u"][i0:].min():.3f} m/s, car back to x = '
+          f'{x_min:.3f} m at {odom["t"][i_min]:.2f} s, {x_end:.3f} m at the end; belt '
+          f'{belt["speed"][0]:.3f} -> {belt["speed"][-1]:.3f} m/s')
+    assert odom['t'][i_min] > T_BRAKE
+    assert x_end > x_min + 0.05, 'the regulator must bring the car forward again'
+    assert belt['speed'][-1] < belt['speed'][0] - 0.1
+    assert abs(tyre['u'][-1] - belt['speed'][-1]) < 0.05, 'the car drives at belt speed again'
