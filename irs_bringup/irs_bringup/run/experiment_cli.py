@@ -63,10 +63,19 @@ def run_experiment(name, runs_dir='runs', plots=True, log=print, rt_priority=0):
 
 
 def offline_run(name):
-    """The experiment's closed loop without ROS: arrays as ClosedLoop.run returns them."""
+    """The experiment's closed loop without ROS: arrays as ClosedLoop.run returns them (the
+    torque car's, with a chassis_controller: as ChassisLoop.run returns them).
+    """
     from .offline import loop_config_from_experiment
     from ..paper.closed_loop import ClosedLoop
     exp = load_experiment(name)
+    if exp.node('irs_control', 'chassis_controller') is not None:   # the torque car (issue 13)
+        from ..paper.chassis_loop import ChassisLoop, chassis_loop_config
+        try:
+            return ChassisLoop(chassis_loop_config(exp)).run(exp.duration)
+        except (ValueError, TypeError, KeyError) as exc:
+            raise ExperimentError(f'{exp.path}: nodes: the offline torque-car loop refuses a '
+                                  f'parameter: {" ".join(str(exc).split())}') from None
     try:
         loop = ClosedLoop(loop_config_from_experiment(exp))
     except (ValueError, TypeError, KeyError) as exc:
@@ -135,7 +144,9 @@ def main(argv=None) -> int:
         if args.cmd == 'run':
             if args.offline:
                 res = offline_run(args.experiment)
-                print(f'offline: {len(res["time"])} samples, final y_s = {res["y_s"][-1]:.6f} m')
+                last = (f'final y_s = {res["y_s"][-1]:.6f} m' if 'y_s' in res else
+                        f'final x_belt = {res["x_belt"][-1]:.6f} m, u = {res["u"][-1]:.6f} m/s')
+                print(f'offline: {len(res["time"])} samples, {last}')
                 return 0
             if not 0 <= args.rt_priority <= 99:
                 parser.error('--rt-priority must be 0..99')
