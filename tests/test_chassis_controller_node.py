@@ -10,6 +10,7 @@ The test process plays the rig and the arm estimator: it publishes ``wheels/enco
 import math
 import os
 import subprocess
+import time
 
 import pytest
 from ament_index_python.packages import get_package_prefix
@@ -196,3 +197,40 @@ def test_lockstep_one_answer_per_encoder_stamp_only_when_its_set_is_complete(ros
     assert ros.spin_until(lambda: len(link.torques) > n, 20.0)
     assert to_ns(link.torques[-1].header.stamp) == 12 * MS
     assert list(link.torques[-1].torque) == list(link.torques[n - 1].torque)
+
+
+def test_real_time_answers_each_encoder_sample_with_the_newest_pose_and_goes_stale(ros, launch):
+    start(launch, input_sync=False, stale_timeout=0.2, **{'steer.amplitude': 0.05})
+    link = ChassisLink(ros)
+    now = lambda: ros.node.get_clock().now().nanoseconds  # noqa: E731
+    # an encoder sample before any pose, velocity and belt speed is not answered
+    stamp = now()
+    link.send(stamp, [ROLLING] * 4, order=('enc',))
+    assert not ros.spin_until(lambda: link.answer(stamp) is not None, 1.0)
+    # the measurements once, then encoder samples at their own (newer) stamps; the first ones
+    # may overtake the measurements (other topics): sent until one is answered
+    link.send(now(), [ROLLING] * 4, order=('pose', 'vel', 'belt'))
+    stamps = [now()]
+    deadline = time.monotonic() + 20.0
+    while True:
+        link.send(stamps[-1], [ROLLING] * 4, order=('enc',))
+        if ros.spin_until(lambda: link.answer(stamps[-1]) is not None, 0.5):
+            break
+        assert time.monotonic() < deadline, 'no encoder sample answered'
+        stamps.append(now())
+    for _ in range(5):
+        stamps.append(now())
+        cmd = link.step(stamps[-1], [ROLLING] * 4, order=('enc',))
+        assert not any(cmd.locked)
+    assert link.steer(stamps[-1]).front_angle == 0.05
+    # silence: within the timeout a zero command (stamped now) and the reason STALE
+    n = len(link.torques)
+    assert ros.spin_until(lambda: link.last_status()[0] == 'stale_encoders', 5.0)
+    assert ros.spin_until(lambda: len(link.torques) > n, 5.0)
+    assert list(link.torques[-1].torque) == [0.0] * 4
+    assert to_ns(link.torques[-1].header.stamp) > stamps[-1]
+    assert (link.steers[-1].front_angle, link.steers[-1].rear_angle) == (0.0, 0.0)
+    # the next sample runs again
+    stamp = now()
+    link.step(stamp, [ROLLING] * 4, order=('enc',))
+    assert link.steer(stamp).front_angle == 0.05
