@@ -168,13 +168,13 @@ def _message(key, row):
     return m
 
 
-def write_bag(path, name, series, params=None):
+def write_bag(path, name, series, params=None, chunk_size=1024 * 1024):
     """A rosbag2 MCAP bag of ``series`` with the experiment runner's metadata record."""
     from rclpy.serialization import serialize_message
 
     from irs_bringup.bag.bag_writer import BagWriter
 
-    with BagWriter(path) as w:
+    with BagWriter(path, chunk_size=chunk_size) as w:
         w.add_metadata('irs_experiment', {
             'experiment_yaml': f'name: {name}\nclock: lockstep\n',
             'node_parameters': json.dumps(params or {})})
@@ -425,6 +425,22 @@ def test_bad_bags_give_one_line(tmp_path, capsys):
     write_bag(tmp_path / 'nobrake', 'torque_braking_abs_high', s)
     assert 'never brake' in _one_line_error(capsys, [str(tmp_path / 'nobrake')])
     assert 'no runs given' in _one_line_error(capsys, [])
+
+
+def test_an_unfinished_bag_is_read_with_one_warning(tmp_path, capsys):
+    """A bag cut short (a killed recorder): its complete chunks are analysed, one warning."""
+    bag = write_bag(tmp_path / 'bag', 'torque_braking_abs_low', braking_series(),
+                    chunk_size=64 * 1024)
+    mcap = next(bag.glob('*.mcap'))
+    data = mcap.read_bytes()
+    mcap.write_bytes(data[:int(0.8 * len(data))])
+    rc = cli_main([str(bag), '--metrics', str(tmp_path / 'm.json'), '--out', str(tmp_path)])
+    err = capsys.readouterr().err.strip().splitlines()
+    assert rc == 0, err
+    assert len(err) == 1 and err[0].startswith('torque_car: warning: '), err
+    m = json.loads((tmp_path / 'm.json').read_text())['braking']['torque_braking_abs_low']
+    assert m['stopping_distance'] == pytest.approx(expected_braking()['stopping_distance'],
+                                                   rel=1e-3)
 
 
 def test_installed_executable_gives_one_line(tmp_path):

@@ -55,6 +55,8 @@ def analyse(paths, out_dir=None, warn=print) -> dict:
     braking, steer, bags = {}, {}, {}
     for path in paths:
         run = load_run(path)
+        if run.warnings:
+            warn(f'{PROG}: warning: ' + '; '.join(run.warnings))
         kind = run_kind(run.name)
         if kind['kind'] == 'braking':
             braking[run.name] = (run, braking_metrics(run), kind)

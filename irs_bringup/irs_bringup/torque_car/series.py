@@ -87,12 +87,15 @@ TOPICS = {
 
 @dataclass
 class Run:
-    """One run: experiment ``name``, its bag ``path``, node ``params`` and ``series``."""
+    """One run: experiment ``name``, its bag ``path``, node ``params``, ``series`` and the
+    reader's ``warnings`` (e.g. only a prefix of an unfinished bag was readable).
+    """
 
     name: str
     path: Path
     params: dict = field(default_factory=dict)
     series: dict = field(default_factory=dict)
+    warnings: list = field(default_factory=list)
 
     def param(self, key: str, default=None):
         """The first node parameter called ``key`` (e.g. ``'brake.torque'``), else ``default``."""
@@ -161,6 +164,7 @@ def load_run(path) -> Run:
     try:
         with BagReader(bag, allow_partial=True) as reader:
             name, params = _metadata(reader)
+            warnings = list(reader.warnings)
             present = [t for t in by_topic if t in reader.topics]
             if not any(t in present for t in ('/rig/tyre_truth', '/wheels/torque_command')):
                 raise ValueError(f'{path}: no /rig/tyre_truth or /wheels/torque_command '
@@ -182,4 +186,4 @@ def load_run(path) -> Run:
         for i, fname in enumerate(TOPICS[key][1]):
             data[fname] = np.array([by_stamp[s][i] for s in stamps], dtype=float)
         series[key] = data
-    return Run(name or _name_from_path(Path(bag)), Path(bag), params, series)
+    return Run(name or _name_from_path(Path(bag)), Path(bag), params, series, warnings)
