@@ -427,6 +427,17 @@ def test_bad_bags_give_one_line(tmp_path, capsys):
     assert 'no runs given' in _one_line_error(capsys, [])
 
 
+def test_run_with_an_unknown_experiment_names_it(tmp_path, capsys):
+    """--run: an experiment that cannot run is one line naming it, then no runs: exit 2."""
+    rc = cli_main(['--run', '--experiments', 'no_such_torque_experiment', '--runs-dir',
+                   str(tmp_path), '--metrics', str(tmp_path / 'm.json')])
+    err = capsys.readouterr().err.strip().splitlines()
+    assert rc == 2
+    assert len(err) == 2 and 'no_such_torque_experiment' in err[0], err
+    assert err[1] == 'torque_car: no runs given (paths or --run)'
+    assert not (tmp_path / 'm.json').exists()
+
+
 def test_an_unfinished_bag_is_read_with_one_warning(tmp_path, capsys):
     """A bag cut short (a killed recorder): its complete chunks are analysed, one warning."""
     bag = write_bag(tmp_path / 'bag', 'torque_braking_abs_low', braking_series(),
