@@ -15,7 +15,7 @@ process) once per module; the tests read the bags:
   a brake pulse (``torque_brake_event_abs_low``) it brings the car forward again. (A car braked
   to a stop is carried off the belt about 1.1 s after the stop, whatever the regulator does: the
   belt cannot be braked, it coasts down in about 10 s (docs/treadmill.md); the stop experiments
-  end 1.0 s after the start);
+  end 0.8 s after the start);
 - a front step steer with yaw control tracks the bicycle yaw-rate reference better (ISE) than
   without.
 """
@@ -32,7 +32,7 @@ BRAKING = [f'torque_braking_{mode}_{mu}' for mu in ('high', 'low', 'split')
            for mode in ('locked', 'abs')] + ['torque_braking_chassis_split']
 STEER = ['torque_step_steer_open', 'torque_step_steer_chassis']
 EVENT = 'torque_brake_event_abs_low'     # a 0.2 s ABS brake pulse, then belt speed again
-T_BRAKE = 0.3            # [s] brake.start_time of the braking experiments
+T_BRAKE = 0.05           # [s] brake.start_time of the braking experiments
 T_STEER = 0.2            # [s] steer.start_time of the step-steer experiments
 STOPPED = 0.02           # [m/s] the car counts as stopped over the belt below this
 BELT_HALF_LENGTH, BELT_HALF_WIDTH = 1.2192, 0.6096     # [m]
