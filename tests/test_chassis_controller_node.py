@@ -234,3 +234,62 @@ def test_real_time_answers_each_encoder_sample_with_the_newest_pose_and_goes_sta
     stamp = now()
     link.step(stamp, [ROLLING] * 4, order=('enc',))
     assert link.steer(stamp).front_angle == 0.05
+
+
+def test_fuzz_every_input_commands_stay_finite_and_the_node_keeps_answering(ros, launch):
+    """hypothesis draws one bad field per example (NaN, +-inf, +-1e308, ...) in one input of a
+    set whose stamp it draws too (now, zero, a day ahead, the largest time, 0.3 s and 5 s back,
+    negative), the other three inputs good; after each a good set stamped now must be answered,
+    and every command ever published must be finite and within the limits (as
+    tests/test_bad_input_fuzz.py does for the other nodes).
+    """
+    from hypothesis import given, strategies as st
+    from test_bad_input_fuzz import FLOATS, SETTINGS, STAMPS, STEER_LIMIT, stamp_msg, stamp_of
+
+    proc = launch(NodeSpec('irs_control', 'chassis_controller',
+                           params={'input_sync': True, 'yaw_control': 'differential',
+                                   'brake.start_time': 0.0, 'stale_timeout': 10.0}))
+    link = ChassisLink(ros)
+    now = lambda: ros.node.get_clock().now().nanoseconds  # noqa: E731
+
+    def probe():
+        stamp = now()
+        return link.step(stamp, [ROLLING] * 4)
+
+    probe()
+
+    @SETTINGS
+    @given(which=st.sampled_from(['enc', 'pose', 'vel', 'belt']), value=FLOATS,
+           wheel=st.integers(0, 3), stamp=STAMPS)
+    def example(which, value, wheel, stamp):
+        msgs = {'enc': WheelEncoders(), 'pose': PoseStamped(), 'vel': TwistStamped(),
+                'belt': BeltSpeed()}
+        for m in msgs.values():
+            m.header.stamp = stamp_msg(stamp_of(stamp, now()))
+        msgs['enc'].velocity = [ROLLING] * 4
+        msgs['pose'].pose.position.x = 0.3
+        msgs['pose'].pose.orientation.w = 1.0
+        msgs['belt'].speed = V
+        msg = msgs[which]
+        if which == 'enc':
+            omega = [ROLLING] * 4
+            omega[wheel] = value
+            msg.velocity = omega
+        elif which == 'pose':
+            msg.pose.position.x = value
+            msg.pose.orientation.w = 1.0
+        elif which == 'vel':
+            msg.twist.angular.z = value
+        else:
+            msg.speed = value
+        for name, m in msgs.items():
+            getattr(link, name).publish(m)
+        probe()
+        assert proc.poll() is None, proc.tail(30)
+
+    example()
+    for cmd in link.torques:
+        assert all(math.isfinite(t) and abs(t) <= 0.3 for t in cmd.torque), cmd
+    for s in link.steers:
+        assert math.isfinite(s.front_angle) and math.isfinite(s.rear_angle), s
+        assert abs(s.rear_angle) <= STEER_LIMIT + 1e-12
