@@ -22,15 +22,17 @@ Equations (Rajamani, Vehicle Dynamics and Control, 2nd ed. 2012, secs. 2.3 and 1
     wheel i contact velocity (body)  (u - r py_i, v + r px_i); wheel frame, rotated by -delta_i:
         V_cx = (u - r py_i) cos(d_i) + (v + r px_i) sin(d_i)
         V_cy = -(u - r py_i) sin(d_i) + (v + r px_i) cos(d_i)
-    tyre (wheel frame)  (F_xw, F_yw) = tyre_forces(kappa_i, V_cy / max(|V_cx|, v_low), F_z,i,
+    tyre (wheel frame)  (F_xw, F_yw) = tyre_forces(kappa_F,i, V_cy / max(|V_cx|, v_low), F_z,i,
                                                    mu_i)
+        kappa_F,i = kappa_i + (k_d(V_cx) / C_k) (omega_i R - V_cx)   (low-speed damping, tyre.py)
     body forces         F_x,i = F_xw cos(d_i) - F_yw sin(d_i)
                         F_y,i = F_xw sin(d_i) + F_yw cos(d_i)
     m (du/dt - v r) = sum F_x,i + m a_b cos(psi)       (belt frame accelerates at -a_b along x)
     m (dv/dt + u r) = sum F_y,i - m a_b sin(psi)
     I_z dr/dt       = sum (px_i F_y,i - py_i F_x,i)
     J domega_i/dt   = T_i - R F_xw,i - f_r F_z,i R tanh(omega_i R / v_rr)     (0 if locked)
-    sigma dkappa_i/dt = (omega_i R - V_cx) - max(|V_cx|, v_low) kappa_i
+    sigma_eff,i dkappa_i/dt = (omega_i R - V_cx) - max(|V_cx|, v_low) kappa_i
+        sigma_eff,i = max(sigma_min, sigma f(p_i) / p_i)   (shorter when saturated, tyre.py)
     dpsi/dt = r,  dx/dt = u cos(psi) - v sin(psi) - V_b,  dy/dt = u sin(psi) + v cos(psi)
     dx_belt/dt = u cos(psi) - v sin(psi)
 
@@ -50,7 +52,12 @@ and frictions held over the step (zero-order hold, docs/conventions.md).  RK4 be
 explicit, fixed-step and bit-deterministic, and its error at 1 kHz is far below the model's
 uncertainty: the fastest mode (wheel spin against the relaxed slip, ~sqrt(R^2 F_z C_k /
 (J sigma)) = 280 rad/s with the defaults, and 175 1/s for the regularised lateral slip at
-standstill) has ``|lambda dt| < 0.3``, well inside RK4's stability region (2.8); ``solve_ivp``
+standstill) has ``|lambda dt| < 0.3``, well inside RK4's stability region (2.8); below
+``V_low,d`` = 0.3 m/s the low-speed damping adds ``R^2 k_d F_z / J`` = 1500 1/s to a free
+wheel's spin at rest (with rolling resistance: eigenvalue -1720 1/s at 7 N, -2220 at the 9 N a
+hard-braked front wheel carries; RK4's limit -2785 1/s is reached at 11.3 N per wheel, so a
+heavier car or a larger ``k_d`` needs a smaller step) and the saturated relaxation length at
+most 150 1/s to the slip (tyre.py); ``solve_ivp``
 per step would add adaptive-step machinery and Python overhead for nothing.
 
 Parameters: mass, yaw inertia, axle distances, track, wheel radius and the axle cornering
@@ -71,7 +78,8 @@ import numpy as np
 from irs_common.field_checks import check_numbers
 
 from .surface import SurfaceSpec
-from .tyre import TyreParams, lateral_slip, slip_rate, tyre_forces
+from .tyre import (TyreParams, damped_slip, lateral_slip, relaxation_length, slip_rate,
+                   tyre_forces)
 
 __all__ = ['TwoTrackParams', 'TwoTrack', 'TwoTrackOutputs', 'WHEELS', 'N_STATES']
 
@@ -306,7 +314,7 @@ class TwoTrack:
                      for px, py in zip(self._px, self._py))
 
     def _wheel_forces(self, s, delta_f, delta_r, fz, mu):
-        """Per wheel ``(F_xw, F_yw, V_cx, V_cy, delta)`` for state ``s``."""
+        """Per wheel ``(F_xw, F_yw, V_cx, V_cy, delta, sigma_eff)`` for state ``s``."""
         p = self.params
         u, v, r = s[0], s[1], s[2]
         out = []
@@ -318,9 +326,11 @@ class TwoTrack:
             vcx = vx * cd + vy * sd
             vcy = -vx * sd + vy * cd
             sy = lateral_slip(vcx, vcy, p.tyre)
-            fxw, fyw = tyre_forces(s[11 + i], sy, fz[i], mu[i], p.tyre,
-                                   c_alpha=self._ca[0] if i < 2 else self._ca[1])
-            out.append((fxw, fyw, vcx, vcy, d))
+            ca = self._ca[0] if i < 2 else self._ca[1]
+            kap = damped_slip(s[11 + i], s[7 + i] * p.wheel_radius, vcx, p.tyre)
+            fxw, fyw = tyre_forces(kap, sy, fz[i], mu[i], p.tyre, c_alpha=ca)
+            sig = relaxation_length(kap, sy, vcx, mu[i], p.tyre, c_alpha=ca)
+            out.append((fxw, fyw, vcx, vcy, d, sig))
         return out
 
     def derivatives(self, s, torques, delta_f, delta_r, belt_speed, belt_accel, locked, fz, mu):
@@ -332,7 +342,7 @@ class TwoTrack:
         R = p.wheel_radius
         sfx = sfy = mz = 0.0
         ds = np.empty(N_STATES)
-        for i, (fxw, fyw, vcx, _vcy, d) in enumerate(
+        for i, (fxw, fyw, vcx, _vcy, d, sig) in enumerate(
                 self._wheel_forces(s, delta_f, delta_r, fz, mu)):
             cd, sd = math.cos(d), math.sin(d)
             fx = fxw * cd - fyw * sd
@@ -346,7 +356,7 @@ class TwoTrack:
             else:
                 t_rr = p.rolling_resistance * fz[i] * R * math.tanh(w * R / p.rr_speed)
                 ds[7 + i] = (torques[i] - R * fxw - t_rr) / p.wheel_inertia
-            ds[11 + i] = slip_rate(s[11 + i], w * R, vcx, p.tyre)
+            ds[11 + i] = slip_rate(s[11 + i], w * R, vcx, p.tyre, sigma=sig)
         cp, sp = math.cos(psi), math.sin(psi)
         ds[0] = sfx / p.mass + belt_accel * cp + v * r
         ds[1] = sfy / p.mass - belt_accel * sp - u * r

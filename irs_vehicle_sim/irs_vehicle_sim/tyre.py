@@ -22,34 +22,71 @@ a millisecond for a 1:10 wheel), and ``max(|V_cx|, v_low)`` is the low-speed reg
 standstill (``V_cx = omega = 0``) both slips are 0 and finite, and ``kappa`` relaxes with the
 time constant ``sigma / v_low``.
 
-Forces (combined slip on the normalised slip vector; Pacejka 2012 sec. 4.3.2, the "similarity"
-combination with one magic-formula shape for the magnitude)::
+Low speed and standstill
+------------------------
+Near standstill the relaxed slip is a spring: ``sigma kappa`` is the carcass' longitudinal
+deflection and ``F_x = C_k F_z kappa`` its force, a stiffness ``C_k F_z / sigma`` per wheel
+(14,000 N/m for the whole car, ``omega_n = sqrt(C_k g / sigma)`` = 70 rad/s) damped only by
+``v_low / sigma`` = 5 1/s (damping ratio 0.04).  And a locked wheel that slid to a stop arrives
+with ``kappa`` near -1: a virtual deflection 15 times the one its sliding force can hold, which
+a ``sigma / v_low`` = 0.2 s relaxation releases at the full sliding force.  Together they made a
+stopped car rock over the belt as a sliding limit cycle (+-0.1 to 0.4 m/s, 0.2-0.4 s period).
+The damping alone (change 1) does not end it: with it the car still swung at 0.12-0.23 m/s
+0.2 s after a locked-wheel stop (mu 0.3, 0.8, split), because the slip of -1 keeps the force
+saturated, where a damper on the slip speed adds little.  Two changes:
 
-    phi   = (C_k kappa, -C_a s_y)               linear force per unit load [-]
-    p     = |phi| / mu                          (mu: surface friction of this wheel)
-    f(p)  = sin(C atan(B p - E (B p - atan(B p)))),  B = 1 / C  (so f'(0) = 1)
-    F     = F_z mu f(p) phi / |phi|             [N], wheel frame (F_x, F_y)
+1. **Low-speed damping** (Pacejka, Tyre and Vehicle Dynamics, 3rd ed. 2012, sec. 7.2.2, the
+   damping ``k_Vlow`` of the transient slip model used in MF-Tyre/MF-Swift): the slip that
+   enters the force formula is::
 
-so at small slip ``F_x = C_k F_z kappa`` and ``F_y = -C_a F_z s_y`` (cornering stiffness
-``C_a F_z`` [N/rad], independent of mu as in the magic formula with ``BCD`` fixed), the largest
-``|F|`` is ``mu F_z`` (peak, ``f = 1``) and a fully sliding tyre keeps ``mu F_z sin(C pi / 2)``
-(the sliding friction).  The force always opposes the slip vector, so a locked wheel
-(``kappa = -1``) sliding sideways has its force along the sliding velocity, and braking hard
-takes away cornering force (friction circle).
+       kappa_F = kappa + (k_Vlow / C_Fk) (omega R - V_cx),
+       k_Vlow  = 0.5 k_Vlow0 (1 + cos(pi |V_cx| / V_low,d))   for |V_cx| < V_low,d, else 0
 
-Parameters (1:10 rubber tyre on the belt)
------------------------------------------
-``C_k = 10`` per unit slip: assumed, because Pacejka (2012, table of sec. 4.3) gives
-longitudinal slip stiffness of car tyres of about 15-20 times the load and a small, soft 1:10
-rubber tyre is softer; ``C_a`` is NOT chosen here: the two-track model sets it per axle so that
-the axle's cornering stiffness at the static load equals the ``irs_iwt`` preset's ``c_f``, ``c_r``
-(the car must be the same car as the bicycle model).  ``C = 1.41``: sliding/peak ratio
-``sin(1.41 pi / 2) = 0.80``, assumed, because rubber on a rubber/fabric treadmill belt loses about
-20 % from peak to sliding (Pacejka's passenger-car ``C_x = 1.65`` gives 0.52, too low for a
-hard 1:10 compound).  ``E = 0``: the plain shape, no data to fit a curvature.  ``sigma =
-0.02 m``: Pacejka gives relaxation lengths of the order of the tyre radius for car tyres; 0.6
-of the 0.033 m radius, assumed.  ``v_low = 0.1 m/s``: assumed, a twelfth of the 1.2 m/s belt
-speed; below it the slips are regularised.
+   i.e. a viscous force ``k_Vlow (omega R - V_cx)`` [N] on the slip speed, faded in smoothly
+   below ``V_low,d`` and exactly zero at driving speed (the bicycle limit at 1.2 m/s and the
+   sliding friction are untouched).  Here ``k_Vlow0 = k_d F_z`` with ``k_d`` per unit load
+   [s/m], so ``k_Vlow / C_Fk = k_d / C_k`` does not depend on the load.  The form (the slip
+   correction and the cosine fade) was checked against a public MATLAB implementation of a
+   four-wheel MF model (``kappa_corr = kappa + kVlow Vsx / C_Fk``, ``kVlow = 0.5 kVlow0 (1 +
+   cos(pi |u| / Vlow))`` with ``kVlow0 = 770 N s/m, Vlow = 4 m/s`` for a passenger car), not
+   against the book's text itself, which was not available here.
+   **Choice of k_d**: a held car at rest is a mass on the four slip springs; per unit mass,
+   with the regularised relaxation, ``u'' + (g k_d + v_low/sigma) u' + (C_k g / sigma +
+   g k_d v_low / sigma) u = 0``.  Damping ratio 0.7 needs ``g k_d + 5 = 1.4 sqrt(4905 +
+   5 g k_d)``, ``k_d = 10.0 s/m`` (``k_Vlow0`` = 70 N s/m per wheel at 7 N: the same
+   ``k_Vlow0 / F_z`` order as the passenger car's 770 N s/m at 4 kN, x 30 for the 1:10 car's
+   faster spring).  ``V_low,d = 0.3 m/s``: assumed, a quarter of the belt speed, because the
+   car rebounds from a locked-wheel stop at up to 0.2 m/s, which a 0.1 m/s fade would miss.
+   With a free wheel the damper adds ``R^2 k_Vlow0 / J`` = 1500 1/s to its spin mode:
+   ``|lambda dt|`` = 1.7 at 1 kHz with rolling resistance, inside RK4's stability limit 2.78
+   up to 11.3 N per wheel (two_track.py); this bounds ``k_d`` from above.
+
+2. **Relaxation length shrinking with saturation, near standstill**: the carcass deflection
+   cannot exceed what the contact patch holds, ``F / C_x`` with the carcass stiffness
+   ``C_x = C_k F_z / sigma`` (Pacejka 2012 sec. 7.2: ``sigma = C_Fk / C_x``).  With the secant
+   stiffness of the force formula, ``F / kappa = C_k F_z f(p) / p``, a saturated tyre's
+   relaxation length is ``sigma_sat = max(sigma_min, sigma f(p) / p)``; it is faded in with
+   the same weight ``w = 0.5 (1 + cos(pi |V_cx| / V_low,d))`` as the damping::
+
+       sigma_eff = sigma - w (sigma - sigma_sat)       (= sigma for |V_cx| >= V_low,d)
+
+   so the slip a locked wheel carries into the stop (about -1) is released in milliseconds
+   instead of ``sigma / v_low`` = 0.2 s.  That the relaxation length falls with slip is
+   measured (Higuchi and Pacejka, "The relaxation length concept at large wheel slip and
+   camber", Vehicle System Dynamics 27 suppl., 1997); the secant form is this module's
+   choice (the tangent is 0 at the peak and negative past it), not a formula checked against
+   the book, and it is applied only below ``V_low,d`` so that the model at driving speed
+   (the bicycle limit, ABS at 1.2 m/s) is the one before, to the bit.  ``sigma_min = 2 mm``:
+   assumed, of the order of half a 1:10 tyre's contact length; it bounds the slip state's
+   rate ``max(|V_cx|, v_low) / sigma_eff`` to 150 1/s below 0.3 m/s (``|lambda dt|`` = 0.15).
+   At zero slip ``sigma_eff = sigma`` with zero derivative (``f(p)/p`` is even in the slip).
+
+   Measured (irs_vehicle_sim/test/test_sim_two_track.py): a car braked on locked wheels from
+   1.2 m/s is at rest over the belt (``|u| < 0.01 m/s``, no further sign change above
+   1 mm/s) within 0.2 s of the stop on mu 0.3, 0.8 and split 0.8/0.3; before, it rocked at
+   +-0.1 to 0.4 m/s for seconds.  What is left: on mu 0.8 the car still rebounds backwards
+   by up to 0.28 m/s for about 0.1 s after the stop (the slip state's lag behind the sliding
+   contact; the carcass spring alone would give about ``F / sqrt(K m)`` = 0.1 m/s).
 """
 
 from __future__ import annotations
@@ -60,7 +97,7 @@ from dataclasses import dataclass
 from irs_common.field_checks import check_numbers
 
 __all__ = ['TyreParams', 'magic_shape', 'tyre_forces', 'lateral_slip', 'slip_rate',
-           'sliding_ratio']
+           'sliding_ratio', 'low_speed_damping', 'damped_slip', 'relaxation_length']
 
 
 @dataclass
@@ -82,6 +119,14 @@ class TyreParams:
         Longitudinal relaxation length sigma [m] (default 0.02).
     v_low : float
         Low-speed regularisation speed [m/s] (default 0.1).
+    low_speed_damping : float
+        Low-speed damping per unit load ``k_d = k_Vlow0 / F_z`` [s/m] (default 10: damping
+        ratio 0.7 of a held car at rest; 0 switches it off).
+    v_low_damping : float
+        Speed ``V_low,d`` below which the low-speed damping fades in [m/s] (default 0.3).
+    relaxation_length_min : float
+        Shortest relaxation length ``sigma_min`` of a saturated tyre [m] (default 0.002;
+        ``>= relaxation_length`` keeps sigma constant, the model before).
     """
 
     c_kappa: float = 10.0
@@ -90,9 +135,14 @@ class TyreParams:
     shape_e: float = 0.0
     relaxation_length: float = 0.02
     v_low: float = 0.1
+    low_speed_damping: float = 10.0
+    v_low_damping: float = 0.3
+    relaxation_length_min: float = 0.002
 
     def __post_init__(self):
-        check_numbers(self, ('c_kappa', 'c_alpha', 'relaxation_length', 'v_low'), above=0.0)
+        check_numbers(self, ('c_kappa', 'c_alpha', 'relaxation_length', 'v_low', 'v_low_damping',
+                             'relaxation_length_min'), above=0.0)
+        check_numbers(self, ('low_speed_damping',), at_least=0.0)
         check_numbers(self, ('shape_c', 'shape_e'))
         if not 1.0 < self.shape_c < 2.0:
             raise ValueError(f'TyreParams.shape_c must be in (1, 2) so the force has a peak and '
@@ -133,12 +183,60 @@ def lateral_slip(v_cx: float, v_cy: float, params: TyreParams) -> float:
     return v_cy / max(abs(v_cx), params.v_low)
 
 
-def slip_rate(kappa: float, omega_r: float, v_cx: float, params: TyreParams) -> float:
+def slip_rate(kappa: float, omega_r: float, v_cx: float, params: TyreParams,
+              sigma: float | None = None) -> float:
     """``dkappa/dt = ((omega R - V_cx) - max(|V_cx|, v_low) kappa) / sigma`` [1/s].
 
-    ``omega_r`` is the wheel's circumferential speed ``omega R`` [m/s].
+    ``omega_r`` is the wheel's circumferential speed ``omega R`` [m/s]; ``sigma`` [m] defaults
+    to ``params.relaxation_length`` (pass :func:`relaxation_length` for the saturating one).
     """
-    return ((omega_r - v_cx) - max(abs(v_cx), params.v_low) * kappa) / params.relaxation_length
+    if sigma is None:
+        sigma = params.relaxation_length
+    return ((omega_r - v_cx) - max(abs(v_cx), params.v_low) * kappa) / sigma
+
+
+def low_speed_damping(v_cx: float, params: TyreParams) -> float:
+    """Faded damping per unit load ``0.5 k_d (1 + cos(pi |V_cx| / V_low,d))`` [s/m], 0 for
+    ``|V_cx| >= V_low,d`` (module docstring, Pacejka 2012 sec. 7.2.2).
+    """
+    return params.low_speed_damping * _fade(v_cx, params)
+
+
+def damped_slip(kappa: float, omega_r: float, v_cx: float, params: TyreParams) -> float:
+    """Slip for the force formula ``kappa + (k_d(V_cx) / C_k) (omega R - V_cx)`` [-]: the
+    relaxed slip plus the low-speed damping (equal to ``kappa`` for ``|V_cx| >= V_low,d``).
+    """
+    k = low_speed_damping(v_cx, params)
+    if k == 0.0:
+        return kappa
+    return kappa + k * (omega_r - v_cx) / params.c_kappa
+
+
+def _fade(v_cx: float, params: TyreParams) -> float:
+    """``0.5 (1 + cos(pi |V_cx| / V_low,d))`` for ``|V_cx| < V_low,d``, else 0 [-]."""
+    v = abs(v_cx)
+    if v >= params.v_low_damping:
+        return 0.0
+    return 0.5 * (1.0 + math.cos(math.pi * v / params.v_low_damping))
+
+
+def relaxation_length(kappa: float, s_y: float, v_cx: float, mu: float, params: TyreParams,
+                      c_alpha: float | None = None) -> float:
+    """Relaxation length [m] ``sigma - w (sigma - sigma_sat)``, ``w`` the low-speed fade,
+    ``sigma_sat = max(sigma_min, sigma f(p) / p)`` the saturated tyre's, ``p = |(C_k kappa,
+    -C_a s_y)| / mu`` (module docstring); ``sigma`` for ``|V_cx| >= V_low,d`` or zero slip.
+    """
+    sigma = params.relaxation_length
+    w = _fade(v_cx, params)
+    if w == 0.0:
+        return sigma
+    ca = params.c_alpha if c_alpha is None else c_alpha
+    p = math.hypot(params.c_kappa * kappa, ca * s_y) / mu if mu > 0.0 else math.inf
+    if p < 1e-9:
+        return sigma
+    ratio = magic_shape(p, params) / p if math.isfinite(p) else 0.0
+    sat = min(sigma, max(params.relaxation_length_min, sigma * ratio))
+    return sigma - w * (sigma - sat)
 
 
 def tyre_forces(kappa: float, s_y: float, fz: float, mu: float, params: TyreParams,

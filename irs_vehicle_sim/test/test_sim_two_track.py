@@ -127,3 +127,115 @@ def test_small_slip_transfer_function_is_the_bicycle_model(axle, col):
     # without that coupling (a tyre with almost no longitudinal stiffness) it is the bicycle
     soft = TwoTrack(TwoTrackParams(tyre=TyreParams(c_kappa=1e-4)))
     assert _max_rel_error(soft, axle, col)[2].max() < 1e-4
+
+
+def _hold_to_a_stop(surface, n=1500, hold_below=None, torque=0.0):
+    """Brake from 1.2 m/s to a stop and hold: locked flags from the start, or (``hold_below``)
+    the motor torque ``torque`` [N m] (below the locking torque ``mu F_z R``, as under ABS) until
+    ``u < hold_below`` [m/s] and then the friction brakes (the locked flags), as the chassis
+    controller's latched hold does.  Returns the car, times [s] and the series u [m/s],
+    r [rad/s], x_belt [m].
+    """
+    car = TwoTrack(surface=surface, u0=VB)
+    held = hold_below is None
+    out = []
+    for k in range(n):
+        if not held and car.u < hold_below:
+            held = True
+        car.step([0.0 if held else torque] * 4, 0.0, 0.0, DT, belt_speed=VB,
+                 locked=[held] * 4)
+        out.append(((k + 1) * DT, car.u, car.r, car.x_belt))
+    t, u, r, xb = np.array(out).T
+    return car, t, u, r, xb
+
+
+def _sign_changes(x, floor):
+    """Sign changes of ``x`` counting only samples with ``|x| > floor``."""
+    s = np.sign(x[np.abs(x) > floor])
+    return int(np.count_nonzero(s[1:] != s[:-1]))
+
+
+SPLIT = SurfaceSpec.from_dict({'kind': 'split', 'mu_left': 0.8, 'mu_right': 0.3})
+
+
+@pytest.mark.parametrize('surface, hold_below, torque', [
+    (SurfaceSpec(mu=0.3), None, 0.0), (SurfaceSpec(mu=0.8), None, 0.0),
+    (SurfaceSpec(mu=0.8), 0.1, -0.12),      # locking torque 0.8 x 7 N x 0.033 m = 0.185 N m
+    (SPLIT, None, 0.0), (SPLIT, 0.1, -0.05)])  # 0.3 side: 0.069 N m
+def test_a_held_car_comes_to_rest_over_the_belt_and_stays(surface, hold_below, torque):
+    """Low-speed damping and the saturating relaxation length (tyre.py): no limit cycle at
+    standstill.  Before them the stopped car rocked at +-0.1..0.4 m/s with a 0.2-0.4 s period
+    (a 0.04-damped slip spring released at the sliding force).
+    """
+    car, t, u, r, xb = _hold_to_a_stop(surface, hold_below=hold_below, torque=torque)
+    i_stop = int(np.argmax(u < 0.02))
+    assert 0 < i_stop < len(u) - 800, 'the car must stop well before the end'
+    late = slice(i_stop + 200, None)               # 0.2 s after the stop
+    assert np.abs(u[late]).max() < 0.01
+    assert _sign_changes(u[late], 1e-3) == 0       # floor 1 mm/s: the 0.7-damped tail rings below
+    assert np.abs(car.v) < 1e-3
+    # no yaw limit cycle either (split mu turns the car while it brakes, then it must rest)
+    assert np.abs(r[late]).max() < 0.05 and _sign_changes(r[late], 1e-3) == 0
+    assert np.abs(r[-100:]).max() < 1e-3
+    # at rest over the belt: the stopping distance no longer changes
+    assert np.ptp(xb[late]) < 2e-3
+    assert np.all(np.isfinite(car.state))
+
+
+def test_a_held_car_stays_at_rest_while_the_belt_decelerates():
+    """Belt slowing at 0.5 m/s^2 (< mu g): static friction of the held wheels carries the car
+    with the belt, so it stays at rest over the belt (the slip spring takes the 1.43 N).
+    """
+    car, *_ = _hold_to_a_stop(SurfaceSpec(mu=0.8))
+    x_belt0 = car.x_belt
+    us = []
+    for _ in range(1000):
+        car.step([0.0] * 4, 0.0, 0.0, DT, belt_speed=VB, belt_accel=-0.5, locked=[True] * 4)
+        us.append(car.u)
+    us = np.array(us)
+    assert np.abs(us[200:]).max() < 0.01
+    assert _sign_changes(us[200:], 1e-3) == 0
+    assert abs(car.x_belt - x_belt0) < 2e-3       # creeps less than 2 mm over the belt in 1 s
+    # the held tyres carry the belt frame's inertial force m a_b (1.43 N)
+    assert car.outputs.fx.sum() == pytest.approx(car.params.mass * 0.5, rel=0.05)
+
+
+def test_low_speed_damping_is_zero_at_driving_speed():
+    """The damping fades out below V_low,d and the relaxation length is sigma at small slip,
+    so at 1.2 m/s the model with them is the model without them to the bit.
+    """
+    p_off = TwoTrackParams(tyre=TyreParams(low_speed_damping=0.0, relaxation_length_min=1.0))
+    a, b = TwoTrack(u0=VB), TwoTrack(p_off, u0=VB)
+    for k in range(300):
+        for c in (a, b):
+            c.step([0.01, 0.01, 0.01, 0.01], 0.03, 0.0, DT, belt_speed=VB)
+    assert np.array_equal(a.state, b.state)
+
+
+def test_standstill_slip_spring_is_damped_to_the_chosen_ratio():
+    """Linearised at rest with the wheels held, the car on its four slip springs (u and the
+    kappa_i) has damping ratio 0.04 without the low-speed damping and about 0.7 with it
+    (tyre.py: k_d = 10 s/m chosen for 0.7).
+    """
+    def zeta(tyre):
+        car = TwoTrack(TwoTrackParams(tyre=tyre))
+        fz, mu = car.loads((0.0, 0.0)), (0.8,) * 4
+        idx = [0, 11, 12, 13, 14]
+        h = 1e-7
+
+        def f(x):
+            return car.derivatives(x, [0.0] * 4, 0.0, 0.0, 0.0, 0.0, (True,) * 4, fz, mu)[0]
+        A = np.column_stack([(f(h * e) - f(-h * e)) / (2 * h) for e in np.eye(N_STATES)])
+        lam = np.linalg.eigvals(A[np.ix_(idx, idx)])
+        osc = lam[np.abs(lam.imag) > 1e-6]
+        if len(osc) == 0:
+            return 1.0, np.abs(lam).max()
+        return float(-osc[0].real / abs(osc[0])), float(abs(osc[0]))
+    z_off, w_off = zeta(TyreParams(low_speed_damping=0.0))
+    z_on, w_on = zeta(TyreParams())
+    p = TwoTrackParams()
+    assert w_off == pytest.approx(math.sqrt(p.tyre.c_kappa * 9.81 / p.tyre.relaxation_length),
+                                  rel=0.01)     # 70 rad/s
+    assert z_off == pytest.approx(p.tyre.v_low / p.tyre.relaxation_length / (2 * w_off),
+                                  rel=0.01)     # 0.036
+    assert 0.65 < z_on < 0.75
