@@ -139,6 +139,11 @@ _TWO_TRACK = {
     'shape_e': ('1', -INF, 1.0, 'tyre magic-formula curvature E (< 1)'),
     'relaxation_length': ('m', 0.0, 1.0, 'tyre longitudinal relaxation length sigma'),
     'v_low': ('m/s', 0.0, INF, 'slip regularisation speed near standstill'),
+    'low_speed_damping': ('s/m', 0.0, INF,
+                          'tyre low-speed slip damping per unit load k_Vlow0/F_z (0 = off)'),
+    'v_low_damping': ('m/s', 0.0, INF, 'speed below which the low-speed damping fades in'),
+    'relaxation_length_min': ('m', 0.0, 1.0,
+                              'shortest relaxation length of a saturated tyre near standstill'),
     'torque_limit': ('N m', 0.0, INF,
                      'motor torque limit per wheel; commands are clipped to +-this'),
 }
