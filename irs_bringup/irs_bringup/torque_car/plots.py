@@ -178,6 +178,8 @@ def plot_step_steer(runs: dict, path) -> Path:
         ax.grid(True, alpha=0.3)
         ax.legend(fontsize=8)
         ax.set_xlim(-0.1, t_end)
-    fig.suptitle('Torque car step steer (driver front step; car at belt speed, 1.2 m/s at the '
-                 'start): with and without the chassis controller')
+    u0 = np.mean([float(np.interp(m['t_steer'], r.series['tyre']['t'], r.series['tyre']['u']))
+                  for r, m in runs.values() if r.has('tyre')] or [np.nan])
+    fig.suptitle(f'Torque car: driver front step steer at {u0:.2f} m/s, with and without the '
+                 'chassis controller')
     return save_figure(fig, path, dpi=100)
