@@ -53,10 +53,11 @@ saturated, where a damper on the slip speed adds little.  Two changes:
    **Choice of k_d**: a held car at rest is a mass on the four slip springs; per unit mass,
    with the regularised relaxation, ``u'' + (g k_d + v_low/sigma) u' + (C_k g / sigma +
    g k_d v_low / sigma) u = 0``.  Damping ratio 0.7 needs ``g k_d + 5 = 1.4 sqrt(4905 +
-   5 g k_d)``, ``k_d = 10.0 s/m`` (``k_Vlow0`` = 70 N s/m per wheel at 7 N: the same
-   ``k_Vlow0 / F_z`` order as the passenger car's 770 N s/m at 4 kN, x 30 for the 1:10 car's
-   faster spring).  ``V_low,d = 0.3 m/s``: assumed, a quarter of the belt speed, because the
-   car rebounds from a locked-wheel stop at up to 0.2 m/s, which a 0.1 m/s fade would miss.
+   5 g k_d)``, ``k_d = 10.0 s/m`` (``k_Vlow0`` = 70 N s/m per wheel at 7 N; the
+   passenger-car value above, 770 N s/m at about 4 kN, is 0.19 s/m per unit load: a light
+   damping, not one chosen for a damping ratio).  ``V_low,d = 0.3 m/s``: assumed, a quarter
+   of the belt speed, because the car rebounds from a locked-wheel stop at up to 0.2 m/s,
+   which a 0.1 m/s fade would miss.
    With a free wheel the damper adds ``R^2 k_Vlow0 / J`` = 1500 1/s to its spin mode:
    ``|lambda dt|`` = 1.7 at 1 kHz with rolling resistance, inside RK4's stability limit 2.78
    up to 11.3 N per wheel (two_track.py); this bounds ``k_d`` from above.
