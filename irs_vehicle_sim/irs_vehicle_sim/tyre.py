@@ -85,7 +85,7 @@ saturated, where a damper on the slip speed adds little.  Two changes:
    Measured (irs_vehicle_sim/test/test_sim_two_track.py): a car braked on locked wheels from
    1.2 m/s is at rest over the belt (``|u| < 0.01 m/s``, no further sign change above
    1 mm/s) within 0.2 s of the stop on mu 0.3, 0.8 and split 0.8/0.3; before, it rocked at
-   +-0.1 to 0.4 m/s for seconds.  What is left: on mu 0.8 the car still rebounds backwards
+   +-0.1 to 0.4 m/s for 1.3-1.6 s.  What is left: on mu 0.8 the car still rebounds backwards
    by up to 0.28 m/s for about 0.1 s after the stop (the slip state's lag behind the sliding
    contact; the carcass spring alone would give about ``F / sqrt(K m)`` = 0.1 m/s).
 """
