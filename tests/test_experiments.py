@@ -422,3 +422,32 @@ def test_schema_the_installed_command_prints_one_line_and_exits_2(tmp_path):
         assert res.returncode == 2, res.stderr
         assert res.stderr.startswith(f'experiment: {path}: {key}: ') and what in res.stderr
         assert res.stderr.count('\n') == 1 and 'Traceback' not in res.stderr
+
+
+def test_surface_section_becomes_the_rigs_surface_parameters(tmp_path):
+    """The torque car's road in a ``surface:`` section: the rig gets it as ``surface.*``;
+    the installed torque-car experiments use it.
+    """
+    doc = _doc(surface={'kind': 'split', 'mu_left': 0.8, 'mu_right': 0.3},
+               **{VS + 'params': {'plant': 'two_track'}})
+    rig = load_experiment(str(_write(tmp_path, doc))).node('irs_vehicle_sim', 'vehicle_sim')
+    assert rig.params == {'plant': 'two_track', 'surface.kind': 'split',
+                          'surface.mu_left': 0.8, 'surface.mu_right': 0.3}
+    low = load_experiment('torque_braking_abs_low').node('irs_vehicle_sim', 'vehicle_sim')
+    assert low.params['surface.kind'] == 'uniform' and low.params['surface.mu'] == 0.3
+
+
+@pytest.mark.parametrize('surface, rig_params, what', [
+    ({'kind': 'wet'}, {'plant': 'two_track'}, 'surface kind must be one of'),
+    ({'kind': 'split', 'mu': 0.3}, {'plant': 'two_track'}, "reads only ['mu_left', 'mu_right']"),
+    ({'kind': 'uniform', 'mu': 0.0}, {'plant': 'two_track'}, 'mu'),
+    ({'kind': 'uniform', 'mu': 0.3}, {}, 'only the torque car has tyres'),
+    ({'kind': 'uniform', 'mu': 0.3}, {'plant': 'two_track', 'surface.mu': 0.8},
+     'given here and as nodes.vehicle_sim.params'),
+])
+def test_surface_section_refused_in_one_line(tmp_path, surface, rig_params, what):
+    path = _write(tmp_path, _doc(surface=surface, **{VS + 'params': rig_params}))
+    with pytest.raises(ExperimentError) as info:
+        load_experiment(str(path))
+    msg = str(info.value)
+    assert msg.startswith(f'{path}: surface') and what in msg and '\n' not in msg, msg

@@ -17,6 +17,11 @@ An experiment file (YAML, see ``config/experiments/``)::
     record:
       topics: [arm/joint_states, ...]     # what the recorder writes to the bag ([] = no bag)
       process: loop                       # optional: the recorder composed with that group
+    surface: {kind: split, mu_left: 0.8, mu_right: 0.3}   # optional, torque car only: the road
+
+The ``surface:`` section (irs_vehicle_sim.surface.SurfaceSpec: ``uniform`` mu, a ``patch`` in x,
+``split`` left/right, a ``step`` in time) becomes the rig's ``surface.*`` parameters; it needs
+``plant: two_track`` in the rig's ``params`` and no ``surface.*`` parameter there as well.
 
 Clock handling is the runner's job: for ``lockstep`` it sets ``clock_mode: lockstep``,
 ``autostart: false`` and ``max_steps`` on the rig and ``use_sim_time: true`` on every other node;
@@ -184,12 +189,38 @@ def load_experiment(name_or_path: str) -> Experiment:
         raise ExperimentError(one_line(path, problems))
     nodes = [NodeEntry(n, e.package, e.executable, list(e.params_files), dict(e.params),
                        dict(e.remaps), e.process) for n, e in model.nodes.items()]
+    problems = _apply_surface(model.surface, nodes)
+    if problems:
+        raise ExperimentError(one_line(path, problems))
     exp = Experiment(name, model.description, model.clock, float(model.duration), nodes,
                      list(model.record.topics), path, text, model.record.process)
     problems = _parameter_problems(exp) or _duration_problems(exp)
     if problems:
         raise ExperimentError(one_line(path, problems))
     return exp
+
+
+def _apply_surface(surface, nodes) -> list:
+    """Give the ``surface:`` section to the rig as its ``surface.<key>`` parameters.
+
+    The section (already checked by ``SurfaceSpec``) needs the torque car: a ``vehicle_sim``
+    node whose ``params`` set ``plant: two_track`` and no ``surface.*`` parameter of their own
+    (one place only). Returns ``[(key path, message)]`` of what is wrong.
+    """
+    if surface is None:
+        return []
+    rigs = [n for n in nodes if (n.package, n.executable) == RIG_KEY]
+    if not rigs:
+        return [('surface', 'needs a vehicle_sim node (irs_vehicle_sim) to drive on it')]
+    rig = rigs[0]
+    if rig.params.get('plant') != 'two_track':
+        return [('surface', f'only the torque car has tyres: set nodes.{rig.name}.params.plant: '
+                            f"two_track (got {rig.params.get('plant', 'the default')!r})")]
+    twice = sorted(k for k in rig.params if k.startswith('surface.'))
+    if twice:
+        return [('surface', f'given here and as nodes.{rig.name}.params {twice}: keep one')]
+    rig.params.update({f'surface.{k}': v for k, v in surface.items()})
+    return []
 
 
 def _parameter_problems(exp: Experiment) -> list:

@@ -119,6 +119,20 @@ class ExperimentModel(_Strict):
     duration: float = Field(gt=0.0, allow_inf_nan=False)   # strict: true is not 1 s
     nodes: dict[str, NodeModel] = Field(min_length=1)      # at least one node
     record: RecordModel = RecordModel()
+    surface: dict[str, Any] | None = None                   # the torque car's road (see below)
+
+    @field_validator('surface')
+    @classmethod
+    def _surface(cls, value):
+        """The ``surface:`` section: a :class:`irs_vehicle_sim.surface.SurfaceSpec` mapping
+        (``{kind: split, mu_left: 0.8, mu_right: 0.3}``), checked here, given to the rig as its
+        ``surface.*`` parameters by :func:`irs_bringup.run.experiment.load_experiment`.
+        """
+        if value is None:
+            return value
+        from irs_vehicle_sim.surface import SurfaceSpec
+        SurfaceSpec.from_dict(value)           # ValueError: one sentence naming what is wrong
+        return value
 
     @field_validator('name')
     @classmethod
