@@ -8,7 +8,7 @@ from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
 
 TYPES = ['SteeringCommand', 'SteeringActuatorState', 'TreadmillDriveCommand', 'TreadmillState',
          'BeltSpeed', 'DriverCommand', 'LateralReference', 'LateralControllerStatus',
-         'SensingStatus', 'RigStatus']
+         'SensingStatus', 'RigStatus', 'WheelTorqueCommand', 'WheelEncoders', 'TyreState']
 QOS = QoSProfile(depth=10, reliability=ReliabilityPolicy.RELIABLE,
                  durability=DurabilityPolicy.VOLATILE)
 
@@ -31,6 +31,14 @@ def filled(mtype, seed):
             setattr(msg, field, k % 200 + 1)
         elif ftype == 'int64':
             setattr(msg, field, -k)
+        elif ftype == 'uint32':
+            setattr(msg, field, k % 1000 + 1)
+        elif ftype == 'double[4]':                 # the torque car's per-wheel arrays
+            setattr(msg, field, [k + 0.25 * w for w in range(1, 5)])
+        elif ftype == 'int64[4]':
+            setattr(msg, field, [-k * w for w in range(1, 5)])
+        elif ftype == 'boolean[4]':
+            setattr(msg, field, [True, False, True, k % 2 == 0])
         else:
             raise AssertionError(
                 f'test does not know how to fill {ftype} ({mtype.__name__}.{field})'
