@@ -63,6 +63,20 @@ class StampGate:
         self.last_ns = stamp_ns
         return OK
 
+    def admit(self, stamp_ns: int, now_ns, pairing: bool = True):
+        """Whether an input message stamped ``stamp_ns`` may join a stamp pairing of steps
+        (:mod:`irs_common.stamp_sync`): ``FUTURE`` or, with ``pairing``, ``OLD`` (older than
+        the last step taken, yet not a time reset: it can never make a step, and the pairing's
+        pending sets must not grow without bound) to drop; ``None`` to admit. Stores nothing:
+        the gate classifies the steps, with :meth:`check`, not their inputs.
+        """
+        if now_ns is not None and stamp_ns - now_ns > self.future_tolerance_ns:
+            return FUTURE
+        last = self.last_ns
+        if pairing and last is not None and last - self.reset_after_ns < stamp_ns < last:
+            return OLD
+        return None
+
     def clear(self) -> None:
         """Forget the last stamp (time reset from elsewhere, e.g. ``/clock`` jumping back)."""
         self.last_ns = None

@@ -37,7 +37,7 @@ from irs_common.input_checks import ThrottledWarner
 from irs_common.node_main import run_node
 from irs_common.orientation import yaw_from_quaternion
 from irs_common.params import declare_table
-from irs_common.stamp_gate import FUTURE, OK, OLD, REPEAT, RESET, StampGate
+from irs_common.stamp_gate import OK, REPEAT, RESET, StampGate
 from irs_common.stamp_sync import StampSync
 from irs_common.stamps import to_ns
 from irs_common.time_jump import on_time_jump_back
@@ -115,15 +115,11 @@ class ChassisControllerNode(Node):
     def _on_input(self, name, msg):
         stamp_ns = to_ns(msg.header.stamp)
         now_ns = self.get_clock().now().nanoseconds
-        gate = self.gate
-        if stamp_ns - now_ns > gate.future_tolerance_ns:
-            self._drop(name, FUTURE, stamp_ns, now_ns)
+        verdict = self.gate.admit(stamp_ns, now_ns, pairing=self.sync is not None)
+        if verdict is not None:
+            self._drop(name, verdict, stamp_ns, now_ns)
             return
         if self.sync is not None:
-            last = gate.last_ns      # only stamps that can still make a step enter the pairing
-            if last is not None and last - gate.reset_after_ns < stamp_ns < last:
-                self._drop(name, OLD, stamp_ns, now_ns)
-                return
             for step_ns, vals in self.sync.add(name, stamp_ns, msg):
                 self._step(step_ns, vals, now_ns)
         elif name == 'enc':
