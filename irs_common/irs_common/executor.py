@@ -19,12 +19,21 @@ unchanged. Its ``spin_once`` is the loop the recorder already used:
 1. the entity lists of all nodes are gathered only when they change (a node created or
    destroyed an entity: rclpy triggers the executor's guard condition then);
 2. one ``_rclpy.WaitSet`` (sized once per gather) is cleared, refilled and waited on. The
-   1 kHz entities (subscriptions, timers, guard conditions) go in every time; the slow ones
-   (services -- every node has six parameter services --, clients and the QoS event handlers
-   of every publisher and subscription) only every ``slow_period`` s (default 10 ms), and the
-   wait is capped so that they are never left out longer. Five nodes have about 40 services
-   and 70 event handlers: adding them on every wait cost more than all the messages of a step;
-   a service call now waits at most ``slow_period`` longer;
+   1 kHz entities (subscriptions, timers, guard conditions) go in every time. Three slow
+   chores take turns, at most one per ``spin_once`` (the most overdue), and the wait is capped
+   so that none is left out longer than its period:
+
+   - services (every node has six parameter services) and clients, every ``slow_period`` s
+     (default 10 ms): a service call waits at most that much longer;
+   - the QoS event handlers of every publisher and subscription (incompatible QoS, lost
+     messages, matching), every ``event_period`` s (default 0.5 s);
+   - the graph lookup of the in-process routes (:mod:`irs_common.intra_process`), every
+     ``graph_period`` s (default 0.1 s).
+
+   Five nodes and the composed recorder have about 45 services and 200 event handlers. Adding
+   them on every wait cost more than all the messages of a step. Adding them all, and asking
+   the graph about 15 routes, in one ``spin_once`` every 10 ms cost 0.5 ms there, and 65 % of
+   the composed real-time loop's overruns (``bench/``, third round of issue 9);
 3. every ready subscription is drained: ``take_message`` until nothing is left, each message
    handed straight to its callback (no ``Task``); then ready timers are called
    (``call_timer`` + callback), so a periodic step sees every message that had arrived when it
@@ -103,11 +112,14 @@ class _Entities:
 class LeanExecutor(Executor):
     """Single-threaded executor with a reused wait set and direct callbacks (module docstring)."""
 
-    def __init__(self, *, context=None, slow_period: float = 0.01, intra_process: bool = False):
+    def __init__(self, *, context=None, slow_period: float = 0.01, event_period: float = 0.5,
+                 graph_period: float = 0.1, intra_process: bool = False):
         super().__init__(context=context)
         self._entities = None
         self._slow_period_ns = int(slow_period * 1e9)
-        self._next_slow_ns = 0
+        self._event_period_ns = int(event_period * 1e9)
+        self._graph_period_ns = int(graph_period * 1e9)
+        self._next_slow_ns = self._next_event_ns = self._next_graph_ns = 0
         self._bus = IntraProcessBus() if intra_process else None
         self._stop_requested = False
         self._handover_budget_ns = HANDOVER_BUDGET_NS
@@ -160,15 +172,29 @@ class LeanExecutor(Executor):
         if self._bus is not None and (self._bus.queue or self._bus.background):
             timeout_ns = 0          # handovers are waiting: only poll for what else is ready
         now_ns = time.monotonic_ns()
-        slow = now_ns >= self._next_slow_ns
-        if slow:
-            self._next_slow_ns = now_ns + self._slow_period_ns
-            if self._bus is not None:
+        # At most one slow chore per spin_once (module docstring), the most overdue: services
+        # and clients, or the QoS event handlers, or the graph lookup of the in-process routes.
+        slow = events = False
+        late_slow = now_ns - self._next_slow_ns
+        late_events = now_ns - self._next_event_ns
+        late_graph = now_ns - self._next_graph_ns if self._bus is not None else -1
+        if max(late_slow, late_events, late_graph) >= 0:
+            if late_slow >= late_events and late_slow >= late_graph:
+                slow = True
+                self._next_slow_ns = now_ns + self._slow_period_ns
+            elif late_events >= late_graph:
+                events = True
+                self._next_event_ns = now_ns + self._event_period_ns
+            else:
+                self._next_graph_ns = now_ns + self._graph_period_ns
                 self._bus.refresh()
         # Never wait longer than the slow period: the slow entities must get their turn, and a
         # signal's stop flag (node_main) is only seen when the wait returns -- a Python signal
         # handler cannot run while the main thread is inside rcl_wait.
-        left = self._next_slow_ns - now_ns
+        due_ns = min(self._next_slow_ns, self._next_event_ns)
+        if self._bus is not None:
+            due_ns = min(due_ns, self._next_graph_ns)
+        left = max(due_ns - now_ns, 0)   # never negative: rcl_wait takes that as "forever"
         timeout_ns = left if timeout_ns < 0 else min(timeout_ns, left)
         try:
             ws.clear_entities()
@@ -183,6 +209,7 @@ class LeanExecutor(Executor):
                     ws.add_service(s.handle)
                 for c in ents.clients:
                     ws.add_client(c.handle)
+            elif events:
                 for wt in ents.waitables:
                     wt.add_to_wait_set(ws)
         except InvalidHandle:
@@ -198,7 +225,7 @@ class LeanExecutor(Executor):
         ready_srvs = ws.get_ready_entities('service')
         ready_clis = ws.get_ready_entities('client')
         ready_gcs = ws.get_ready_entities('guard_condition')
-        ready_waitables = [wt for wt in ents.waitables if wt.is_ready(ws)] if slow else ()
+        ready_waitables = [wt for wt in ents.waitables if wt.is_ready(ws)] if events else ()
         try:
             # Messages before timers: a periodic step (the real-time rig's tick) then acts on
             # every command that had arrived by the time it woke, not on the previous ones.
