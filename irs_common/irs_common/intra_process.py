@@ -25,8 +25,9 @@ subscriptions is routed:
 
 The outside count is refreshed from the ROS graph by the executor every ``graph_period``
 (0.1 s), so a subscriber that joins from outside starts receiving within about 0.1 s of its
-discovery, as any late-joining volatile subscriber would. The switch is one way: once a topic has had an outside
-subscriber it stays on DDS, and the queued handovers are delivered before its first DDS message.
+discovery, as any late-joining volatile subscriber would. The switch is one way: once a topic
+has had an outside subscriber it stays on DDS, and the queued handovers are delivered before its
+first DDS message.
 Switching back could let an older message, still in flight through DDS, reach a local
 subscription after a newer handover. Transient-local publishers are never routed (a late local
 subscriber must get the stored sample from DDS).
