@@ -540,7 +540,7 @@ class RigSimulation:
         edge = off_belt_edge(x, y, self.config.car)
         arm_fault = False
         try:
-            ang = tuple(float(a) for a in self.arm.measure(x, y, psi))
+            ang = self.arm.measure_tuple(x, y, psi)
         except ArmReachError:
             ang = (math.nan, math.nan, math.nan)
             arm_fault = True

@@ -95,3 +95,43 @@ def test_pots_resolve_ten_times_finer_than_the_encoders_paper_sec_3_2():
     th = s.measure(*POSE)
     np.testing.assert_allclose(th / POT_STEP, np.round(th / POT_STEP), atol=1e-6)
     assert np.all(np.abs(th - np.array(s.true_angles(*POSE))) <= POT_STEP / 2 + 1e-15)
+
+
+def _reference_measure(sensor, rng, x, y, psi):
+    """The earlier numpy implementation: three normal(0, sigma) draws per call, np.round."""
+    th = np.array(sensor.true_angles(x, y, psi), dtype=float)
+    p = sensor.params
+    if p.enable_noise and p.noise_std > 0.0:
+        th = th + rng.normal(0.0, p.noise_std, size=3)
+    if p.enable_quantization:
+        q = p.step_size
+        th = q * np.round(th / q)
+    return th
+
+
+@pytest.mark.parametrize('params', [ArmSensorParams(), ArmSensorParams(seed=5, lsb=0.0),
+                                    ArmSensorParams(enable_noise=False),
+                                    ArmSensorParams(enable_quantization=False, seed=2),
+                                    ArmSensorParams(noise_std=0.02, lsb=0.01, seed=9)])
+def test_readings_equal_the_numpy_reference_to_the_bit(params):
+    """Block-drawn noise and scalar rounding give the very bits of the per-call numpy version,
+    across a noise block boundary and a reset, including the sign of a zero reading.
+    """
+    s = ArmSensor(params=params)
+    ref_rng = np.random.default_rng(params.seed)
+    poses = np.random.default_rng(11).uniform([-0.8, -0.5, -0.6], [0.8, 0.5, 0.6], (2500, 3))
+    for i, pose in enumerate(poses):
+        if i == 1800:
+            s.reset()
+            ref_rng = np.random.default_rng(params.seed)
+        ours = s.measure(*pose)
+        ref = _reference_measure(s, ref_rng, *pose)
+        assert ours.view(np.int64).tolist() == ref.view(np.int64).tolist(), i
+    assert 2500 * 3 > ArmSensor.NOISE_BLOCK    # the run crossed a block boundary
+
+
+def test_a_reading_rounded_to_zero_keeps_its_sign():
+    from irs_vehicle_sim.arm_sensor import _on_grid
+    assert math.copysign(1.0, _on_grid(-0.3e-4, 1e-3)) == -1.0
+    assert math.copysign(1.0, _on_grid(0.3e-4, 1e-3)) == 1.0
+    assert _on_grid(2.5e-3, 1e-3) == 1e-3 * np.round(2.5)   # half to even, as numpy
