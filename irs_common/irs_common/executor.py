@@ -33,7 +33,7 @@ unchanged. Its ``spin_once`` is the loop the recorder already used:
    Five nodes and the composed recorder have about 45 services and 200 event handlers. Adding
    them on every wait cost more than all the messages of a step. Adding them all, and asking
    the graph about 15 routes, in one ``spin_once`` every 10 ms cost 0.5 ms there, and 65 % of
-   the composed real-time loop's overruns (``bench/``, third round of issue 9);
+   the composed real-time loop's overruns (measured in the fourth round of issue 9);
 3. every ready subscription is drained: ``take_message`` until nothing is left, each message
    handed straight to its callback (no ``Task``); then ready timers are called
    (``call_timer`` + callback), so a periodic step sees every message that had arrived when it
