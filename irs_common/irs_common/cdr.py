@@ -40,6 +40,7 @@ from __future__ import annotations
 import array
 import importlib
 import struct
+import sys
 
 __all__ = ['cdr_serializer', 'CDR_LE_HEADER']
 
@@ -198,7 +199,8 @@ class _Generator:
             # Fast CDR aligns the elements only when there are some.
             lines.append('    if len(v):')
             lines.append(f'        b += bytes(-(len(b) - 4) % {item})')
-            lines.append(f"        if getattr(v, 'itemsize', 0) == {item} and "
+            native = 'True' if sys.byteorder == 'little' else 'False'   # tobytes(): native order
+            lines.append(f"        if {native} and getattr(v, 'itemsize', 0) == {item} and "
                          f"getattr(v, 'typecode', getattr(getattr(v, 'dtype', None), 'char', "
                          f"None)) == {code!r}:")
             lines.append('            b += v.tobytes()')
