@@ -146,8 +146,13 @@ def record_lockstep(ros, launch, bag, max_steps, topics, responder=None, extra_n
         f'recorder not ready: {status.last}\n{rec.tail()}\n{rig.tail()}'
     responder.enable()
     last = max_steps * DT_NS
+    # The counts include step 0's re-sent copies, so they can be reached before the last step:
+    # the run is complete once the rig has published step max_steps (its /clock comes first,
+    # the outputs in the same callback; the recorder's final drain on stop takes what is still
+    # in flight) and the recorder has at least one message per step on every topic.
     done = ros.spin_until(
-        lambda: (all(status.count(t) >= max_steps + 1 for t in rig_topics)
+        lambda: (responder.clock_ns >= last
+                 and all(status.count(t) >= max_steps + 1 for t in rig_topics)
                  and (CMD_TOPIC not in topics or status.count(CMD_TOPIC) >= max_steps + 1)
                  and all(status.count(t) >= n for t, n in extra_topics_ready)),
         90.0)
