@@ -5,26 +5,16 @@ ten times a second. Once every explicitly named topic is recorded the recorder s
 ``SETTLED_EVERY``-th tick, and it counts one topic's publishers per tick, round robin. With a
 pattern (``'*'``) it keeps scanning on every tick: a new topic can appear at any time.
 """
-import time
 import uuid
 
-import pytest
 import rclpy
-from rclpy.context import Context
 from std_msgs.msg import Float64
 
 from irs_bringup.bag.recorder_node import ComposableRecorder
 
 
-@pytest.fixture
-def context():
-    ctx = Context()
-    rclpy.init(context=ctx)
-    yield ctx
-    rclpy.try_shutdown(context=ctx)
-
-
-def _recorder(context, tmp_path, topics, names):
+def _recorder(ros, tmp_path, topics, names):
+    context = ros.node.context
     pub_node = rclpy.create_node(f'ticks_pub_{uuid.uuid4().hex[:6]}', context=context)
     for name in names:
         pub_node.create_publisher(Float64, name, 10)
@@ -35,20 +25,17 @@ def _recorder(context, tmp_path, topics, names):
     return rec, pub_node
 
 
-def _tick_until_recorded(rec, names, limit=200):
-    for _ in range(limit):
-        rec._discover()
-        if all(n in rec.recorded for n in names):
-            return True
-        time.sleep(0.02)          # discovery of the publishers by the graph
-    return False
+def _tick_until_recorded(ros, rec, names):
+    """Discovery ticks while the watcher spins, until every topic is recorded (10 s at most)."""
+    return ros.spin_until(lambda: (rec._discover(), all(n in rec.recorded for n in names))[1],
+                          10.0)
 
 
-def test_settled_recorder_scans_every_tenth_tick_and_counts_round_robin(context, tmp_path):
+def test_settled_recorder_scans_every_tenth_tick_and_counts_round_robin(ros, tmp_path):
     names = [f'/ticks_{uuid.uuid4().hex[:6]}_{i}' for i in range(3)]
-    rec, pub_node = _recorder(context, tmp_path, names, names)
+    rec, pub_node = _recorder(ros, tmp_path, names, names)
     try:
-        assert _tick_until_recorded(rec, names), 'the three topics were never recorded'
+        assert _tick_until_recorded(ros, rec, names), 'the three topics were never recorded'
         scans, counted = [], []
         rec.discover = lambda: scans.append(1) or False
         rec.update_publisher_counts = lambda recs=None: counted.extend(r.topic for r in recs)
@@ -62,11 +49,11 @@ def test_settled_recorder_scans_every_tenth_tick_and_counts_round_robin(context,
         pub_node.destroy_node()
 
 
-def test_a_pattern_keeps_scanning_on_every_tick(context, tmp_path):
+def test_a_pattern_keeps_scanning_on_every_tick(ros, tmp_path):
     names = [f'/ticks_{uuid.uuid4().hex[:6]}']
-    rec, pub_node = _recorder(context, tmp_path, ['/ticks_*'], names)
+    rec, pub_node = _recorder(ros, tmp_path, ['/ticks_*'], names)
     try:
-        assert _tick_until_recorded(rec, names)
+        assert _tick_until_recorded(ros, rec, names)
         scans = []
         rec.discover = lambda: scans.append(1) or False
         for _ in range(12):
@@ -77,18 +64,16 @@ def test_a_pattern_keeps_scanning_on_every_tick(context, tmp_path):
         pub_node.destroy_node()
 
 
-def test_the_real_count_still_notices_a_second_publisher(context, tmp_path):
+def test_the_real_count_still_notices_a_second_publisher(ros, tmp_path):
     names = [f'/ticks_{uuid.uuid4().hex[:6]}']
-    rec, pub_node = _recorder(context, tmp_path, names, names)
-    other = rclpy.create_node('ticks_second_pub', context=context)
+    rec, pub_node = _recorder(ros, tmp_path, names, names)
+    other = rclpy.create_node('ticks_second_pub', context=ros.node.context)
     try:
-        assert _tick_until_recorded(rec, names)
+        assert _tick_until_recorded(ros, rec, names)
         other.create_publisher(Float64, names[0], 10)
-        end = time.monotonic() + 10.0
-        while rec.recorded[names[0]].single_pub and time.monotonic() < end:
-            rec._discover()
-            time.sleep(0.02)
-        assert not rec.recorded[names[0]].single_pub, 'two publishers, loss detection must stop'
+        assert ros.spin_until(
+            lambda: (rec._discover(), not rec.recorded[names[0]].single_pub)[1], 10.0), \
+            'two publishers, loss detection must stop'
     finally:
         rec.destroy_node()
         pub_node.destroy_node()

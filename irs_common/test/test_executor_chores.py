@@ -9,22 +9,12 @@ services every ``slow_period``, the event handlers every ``event_period`` and th
 import time
 import uuid
 
-import pytest
 import rclpy
-from rclpy.context import Context
 from rclpy.event_handler import SubscriptionEventCallbacks
 from rclpy.qos import QoSProfile, ReliabilityPolicy
 from std_msgs.msg import Float64
 
 from irs_common.executor import LeanExecutor
-
-
-@pytest.fixture
-def context():
-    ctx = Context()
-    rclpy.init(context=ctx)
-    yield ctx
-    rclpy.try_shutdown(context=ctx)
 
 
 def _composed_pair(context, **periods):

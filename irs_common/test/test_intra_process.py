@@ -18,14 +18,6 @@ from irs_common.executor import LeanExecutor
 from irs_common.intra_process import enabled_by_env
 
 
-@pytest.fixture
-def context():
-    ctx = Context()
-    rclpy.init(context=ctx)
-    yield ctx
-    rclpy.try_shutdown(context=ctx)
-
-
 def _pair(context, qos_pub=10, qos_sub=10, raw=False, topic='ipc_x'):
     topic = f'{topic}_{uuid.uuid4().hex[:8]}'   # no stale endpoint of another test on it
     a = rclpy.create_node('ipc_a', context=context)
