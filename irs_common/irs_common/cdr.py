@@ -37,7 +37,6 @@ are no longer than rclpy's own (which may end in extra padding).
 """
 from __future__ import annotations
 
-import array
 import importlib
 import struct
 import sys
@@ -111,7 +110,7 @@ class _Generator:
     """Writes the Python source of the serialisers (module docstring)."""
 
     def __init__(self):
-        self.consts: dict = {'_array': array.array, '_pack': struct.pack, '_U32': _U32}
+        self.consts: dict = {'_pack': struct.pack, '_U32': _U32}
         self.n = 0
         self.functions: dict = {}   # class -> name of its appending function
 
