@@ -11,6 +11,7 @@ import os
 import time
 
 import numpy as np
+import pytest
 
 from geometry_msgs.msg import PointStamped
 from irs_common import qos
@@ -42,6 +43,7 @@ README_ORDER = [
 ]
 
 
+@pytest.mark.exclusive   # five processes at 1 kHz in real time: no other test beside it
 def test_realtime_graph_started_by_hand_keeps_the_car_and_follows_a_step(ros, launch):
     node = ros.node
     status, points = [], []

@@ -3,6 +3,7 @@
 commands:
   experiment list                        installed experiment files
   experiment run <name|file.yaml>        run one through the ROS graph, record, plot
+  experiment run <name> --composed       the same with every node in one process
   experiment run <name> --offline        the same cores without ROS (closed_loop.py)
   experiment figure10 [--offline]        the three Figure 10 runs and their report
   experiment demo                        = figure10 through the graph (the README's demo)
@@ -13,6 +14,8 @@ import sys
 
 from .experiment import ExperimentError, experiments_dir, load_experiment
 
+COMPOSED_HELP = ('every node and the recorder in one process (one executor, messages handed over '
+                 'in-process; the same lock-step bag, several times faster)')
 FIGURE10 = {'mrc_with_actuator': 'figure10_mrc_with_actuator',
             'mrc_without_actuator': 'figure10_mrc_without_actuator',
             'pi': 'figure10_pi'}
@@ -50,10 +53,14 @@ def _post_process(result, log=print):
     return written
 
 
-def run_experiment(name, runs_dir='runs', plots=True, log=print, rt_priority=0):
-    """Run one experiment through the graph; returns the RunResult."""
+def run_experiment(name, runs_dir='runs', plots=True, log=print, rt_priority=0, composed=False):
+    """Run one experiment through the graph; returns the RunResult. ``composed``: every node
+    and the recorder in one process (:meth:`~.experiment.Experiment.composed`).
+    """
     from .experiment_runner import ExperimentRunner
     exp = load_experiment(name)
+    if composed:
+        exp = exp.composed()
     result = ExperimentRunner(exp, runs_dir=runs_dir, log=log, rt_priority=rt_priority).run()
     log(f'[experiment] {exp.name}: {result.message}; simulated {result.sim_time:.3f} s in '
         f'{result.wall_time:.1f} s wall; run directory {result.run_dir}')
@@ -86,7 +93,7 @@ def offline_run(name):
     return loop.run(exp.duration)
 
 
-def figure10(out_dir, offline=False, runs_dir='runs', log=print) -> int:
+def figure10(out_dir, offline=False, runs_dir='runs', log=print, composed=False) -> int:
     from ..paper.figure10 import write_report
     from ..paper.run_series import lateral_run
     runs = {}
@@ -94,7 +101,7 @@ def figure10(out_dir, offline=False, runs_dir='runs', log=print) -> int:
         if offline:
             runs[key] = offline_run(name)
             continue
-        result = run_experiment(name, runs_dir=runs_dir, log=log)
+        result = run_experiment(name, runs_dir=runs_dir, log=log, composed=composed)
         if not result.completed:
             log(f'[figure10] {name} did not complete: {result.message}')
             return 1
@@ -124,17 +131,21 @@ def main(argv=None) -> int:
     )
     p_run.add_argument('--no-plots', action='store_true', help='skip plots and the .rrd')
     p_run.add_argument('--offline', action='store_true', help='simulate the cores without ROS')
+    p_run.add_argument('--composed', action='store_true', help=COMPOSED_HELP)
     p_run.add_argument('--rt-priority', type=int, default=0, metavar='N',
                        help='run every node process with SCHED_FIFO priority N (1-99; needs root '
                        'or CAP_SYS_NICE; 0 = normal scheduling)')
     for cmd in ('figure10', 'demo'):
         p = sub.add_parser(cmd, help='the three Figure 10 runs and their report')
         p.add_argument('--offline', action='store_true', help='simulate the cores without ROS')
+        p.add_argument('--composed', action='store_true', help=COMPOSED_HELP)
         p.add_argument('--runs-dir', default='runs')
         p.add_argument(
             '--out', default=None, help='report directory (default: <runs-dir>/figure10)'
         )
     args = parser.parse_args(argv)
+    if getattr(args, 'offline', False) and getattr(args, 'composed', False):
+        parser.error('--composed runs the graph, --offline runs the cores without it: pick one')
     try:
         if args.cmd == 'list':
             for path in sorted(experiments_dir().glob('*.yaml')):
@@ -151,10 +162,10 @@ def main(argv=None) -> int:
             if not 0 <= args.rt_priority <= 99:
                 parser.error('--rt-priority must be 0..99')
             result = run_experiment(args.experiment, args.runs_dir, plots=not args.no_plots,
-                                    rt_priority=args.rt_priority)
+                                    rt_priority=args.rt_priority, composed=args.composed)
             return 0 if result.completed else 1
         out = args.out or str(Path(args.runs_dir) / 'figure10')
-        return figure10(out, offline=args.offline, runs_dir=args.runs_dir)
+        return figure10(out, offline=args.offline, runs_dir=args.runs_dir, composed=args.composed)
     except ExperimentError as exc:
         print(f'experiment: {exc}', file=sys.stderr)
         return 2

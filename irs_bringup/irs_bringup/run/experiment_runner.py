@@ -86,6 +86,7 @@ def experiment_metadata(exp: Experiment) -> dict:
     params = {n.name: node_parameters(n) for n in exp.nodes}
     return {'experiment_name': exp.name, 'experiment_file': str(exp.path or ''),
             'experiment_yaml': exp.text, 'node_parameters': json.dumps(params, default=str),
+            'processes': json.dumps(exp.processes()),
             'python': platform.python_version(), 'numpy': numpy.__version__,
             'scipy': scipy.__version__, 'ros_distro': os.environ.get('ROS_DISTRO', 'jazzy'),
             'rmw': os.environ.get('RMW_IMPLEMENTATION', ''), 'git_commit': _git_commit(),

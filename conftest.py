@@ -1,0 +1,49 @@
+"""Test-run plumbing shared by every test directory: the machine lock of parallel runs.
+
+``make test`` runs the suite on two pytest-xdist workers. Most tests wait on processes, DDS
+discovery and simulated runs more than they compute, so two at a time halve the wall time. A
+few measure the graph in real time at 1 kHz and would measure the other worker's load instead:
+they carry ``@pytest.mark.exclusive`` and run alone. Every other test holds a shared lock for its
+whole run protocol (set-up, call, tear-down, so a module fixture's graph run counts too), an
+exclusive test holds it exclusively; a turnstile lock taken first keeps a waiting exclusive test
+from being overtaken by the next shared ones (readers-writer lock with writer preference, on
+``flock``; the locks go with the process, also a killed one). Without xdist nothing is locked.
+"""
+from contextlib import contextmanager
+import fcntl
+import os
+from pathlib import Path
+import tempfile
+
+import pytest
+
+
+def pytest_configure(config):
+    config.addinivalue_line(
+        'markers', 'exclusive: measures the machine in real time; no other test runs beside it')
+
+
+@contextmanager
+def machine_lock(run_id: str, exclusive: bool, lock_dir: str | None = None):
+    """Hold this test run's machine lock, shared or exclusive, for the ``with`` body."""
+    base = Path(lock_dir or tempfile.gettempdir()) / f'irs_test_machine_{run_id}'
+    with open(f'{base}.turnstile', 'a') as gate, open(f'{base}.lock', 'a') as lock:
+        fcntl.flock(gate, fcntl.LOCK_EX)
+        try:
+            fcntl.flock(lock, fcntl.LOCK_EX if exclusive else fcntl.LOCK_SH)
+        finally:
+            fcntl.flock(gate, fcntl.LOCK_UN)
+        try:
+            yield
+        finally:
+            fcntl.flock(lock, fcntl.LOCK_UN)
+
+
+@pytest.hookimpl(hookwrapper=True)
+def pytest_runtest_protocol(item, nextitem):
+    run_id = os.environ.get('PYTEST_XDIST_TESTRUNUID')
+    if run_id is None:
+        yield
+        return
+    with machine_lock(run_id, item.get_closest_marker('exclusive') is not None):
+        yield
