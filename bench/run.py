@@ -77,10 +77,12 @@ def _bag_figures(bag_dir) -> dict:
     return {'topics': topics, 'dropped_total': int(custom.get('irs.dropped_messages', 0) or 0)}
 
 
-def _run_experiment(path_or_name, rt_priority=0, duration=None, runs_dir=None):
+def _run_experiment(path_or_name, rt_priority=0, duration=None, runs_dir=None, composed=False):
     from irs_bringup.run.experiment import load_experiment
     from irs_bringup.run.experiment_runner import ExperimentRunner
     exp = load_experiment(path_or_name)
+    if composed:
+        exp = exp.composed()
     if duration is not None:
         exp.duration = float(duration)
     runner = ExperimentRunner(exp, runs_dir=runs_dir or tempfile.mkdtemp(prefix='irs_bench_'),
@@ -113,20 +115,6 @@ def realtime(seconds: float) -> list:
     return rows
 
 
-def _composed_copy(name: str) -> Path:
-    """The installed experiment with every node in one ``process: loop``."""
-    import yaml
-    from irs_bringup.run.experiment import find_experiment
-    doc = yaml.safe_load(find_experiment(name).read_text())
-    doc['name'] = doc['name'] + '_composed'
-    for entry in doc['nodes'].values():
-        entry['process'] = 'loop'
-    doc['record']['process'] = 'loop'
-    path = Path(tempfile.mkdtemp(prefix='irs_bench_')) / f"{doc['name']}.yaml"
-    path.write_text(yaml.safe_dump(doc, sort_keys=False))
-    return path
-
-
 def _message_class(type_name: str):
     """``'pkg/msg/Type'`` -> the message class."""
     import importlib
@@ -156,10 +144,9 @@ def _messages(bag_dir) -> dict:
 
 def lockstep() -> list:
     rows, bags = [], {}
-    for label, exp in (('process per node', 'figure10_mrc_with_actuator'),
-                       ('composed (recorder too)', _composed_copy('figure10_mrc_with_actuator'))):
+    for label, composed in (('process per node', False), ('composed (recorder too)', True)):
         _domain(30 + len(rows))
-        r = _run_experiment(exp)
+        r = _run_experiment('figure10_mrc_with_actuator', composed=composed)
         steps = r.sim_time / 0.001
         row = {'name': f'lock-step Figure 10, {label}', 'completed': r.completed,
                'sim_time_s': r.sim_time, 'running_time_s': r.running_time,

@@ -6,10 +6,10 @@ graph record the same messages, every field bit for bit, on every topic. Receive
 nature; a lock-step resend records identical duplicates, so distinct messages per topic are
 compared.
 """
-import yaml
+import json
 
 from irs_bringup.bag.bag_reader import BagReader
-from irs_bringup.run.experiment import find_experiment, load_experiment
+from irs_bringup.run.experiment import load_experiment
 from irs_bringup.run.experiment_runner import ExperimentRunner
 
 
@@ -35,23 +35,18 @@ def _payloads(bag_dir) -> dict:
     return out
 
 
-def _experiment_file(tmp_path, composed: bool):
-    doc = yaml.safe_load(find_experiment('figure10_mrc_with_actuator').read_text())
-    doc['name'] = 'deployment_' + ('composed' if composed else 'processes')
-    doc['duration'] = 1.0                     # [s] the step at 0.5 s and half a second after
-    if composed:   # the recorder too: it records in-process (irs_bringup's ComposableRecorder)
-        for entry in doc['nodes'].values():
-            entry['process'] = 'loop'
-        doc['record']['process'] = 'loop'
-    path = tmp_path / f"{doc['name']}.yaml"
-    path.write_text(yaml.safe_dump(doc, sort_keys=False))
-    return load_experiment(str(path))
+def _experiment(composed: bool):
+    exp = load_experiment('figure10_mrc_with_actuator')
+    exp.name = 'deployment_' + ('composed' if composed else 'processes')
+    exp.duration = 1.0                        # [s] the step at 0.5 s and half a second after
+    # composed: the recorder too, in-process (irs_bringup's ComposableRecorder)
+    return exp.composed('loop') if composed else exp
 
 
 def test_composed_and_process_per_node_record_identical_bags(tmp_path):
     bags = {}
     for composed in (False, True):
-        exp = _experiment_file(tmp_path, composed)
+        exp = _experiment(composed)
         result = ExperimentRunner(exp, runs_dir=tmp_path / 'runs', progress=False).run()
         assert result.completed, result.message
         if composed:   # one container for the five nodes and the recorder
@@ -60,6 +55,10 @@ def test_composed_and_process_per_node_record_identical_bags(tmp_path):
             assert len(result.exit_codes) == 6, result.exit_codes
         assert all(code == 0 for code in result.exit_codes.values()), result.exit_codes
         bags[composed] = _payloads(result.bag_dir)
+        with BagReader(result.bag_dir) as reader:   # the deployment is in the bag's metadata
+            processes = json.loads(dict(reader.metadata_records())['irs_experiment']['processes'])
+        assert processes == {name: ('loop' if composed else None)
+                             for name in [*(n.name for n in exp.nodes), 'recorder']}
     separate, composed = bags[False], bags[True]
     assert set(separate) == set(composed) == {'/' + t.lstrip('/') for t in exp.record_topics}
     for topic in separate:

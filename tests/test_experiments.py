@@ -338,6 +338,32 @@ def test_schema_the_valid_document_loads_with_its_values(tmp_path):
     assert 'process' in ExperimentModel.model_fields['nodes'].annotation.__args__[1].model_fields
 
 
+def test_composed_puts_every_node_and_the_recorder_in_one_process_and_leaves_the_file_alone(
+        tmp_path):
+    exp = load_experiment(str(_write(tmp_path, _doc(**{VS + 'process': 'rig_group'}))))
+    assert exp.processes() == {'vehicle_sim': 'rig_group', 'treadmill_regulator': None,
+                               'recorder': None}
+    together = exp.composed()
+    assert together.processes() == {'vehicle_sim': 'graph', 'treadmill_regulator': 'graph',
+                                    'recorder': 'graph'}
+    assert exp.composed('loop').record_process == 'loop'
+    # the loaded experiment is untouched, the rest of the copy is the same
+    assert exp.processes()['vehicle_sim'] == 'rig_group' and exp.record_process is None
+    assert [(n.name, n.params) for n in together.nodes] == [(n.name, n.params) for n in exp.nodes]
+    assert (together.name, together.duration, together.record_topics) == (
+        exp.name, exp.duration, exp.record_topics)
+    # without recording there is no recorder to place
+    quiet = load_experiment(str(_write(tmp_path, _doc(record=None))))
+    assert 'recorder' not in quiet.composed().processes()
+
+
+def test_composed_and_offline_exclude_each_other(capsys):
+    with pytest.raises(SystemExit) as info:
+        experiment_main(['run', 'figure10_pi', '--offline', '--composed'])
+    assert info.value.code == 2
+    assert 'pick one' in capsys.readouterr().err
+
+
 @pytest.mark.parametrize('case', sorted(BAD_FILES))
 def test_schema_bad_file_is_one_line_naming_file_key_and_problem(tmp_path, case):
     doc, key, what = BAD_FILES[case]
