@@ -63,6 +63,29 @@ class StampGate:
         self.last_ns = stamp_ns
         return OK
 
+    def take_step(self, stamp_ns: int, now_ns, answer, drop, reset) -> bool:
+        """The lock-step rule of a node that answers each step: whether to compute this one.
+
+        ``OK`` -> ``True``. ``REPEAT`` -> ``answer.repeat()`` (the answer cache,
+        :mod:`irs_common.answer_cache`, publishes the answer already given), ``False``.
+        ``FUTURE``/``OLD`` -> ``drop(verdict, stamp_ns, now_ns)`` (count, warn), ``False``.
+        ``RESET`` -> ``reset(verdict, stamp_ns, now_ns)`` (the node resets its time state, which
+        may clear this gate: the new stamp is kept all the same), ``True``.
+        """
+        verdict = self.check(stamp_ns, now_ns)
+        if verdict == OK:
+            return True
+        if verdict == REPEAT:
+            answer.repeat()
+            return False
+        if verdict != RESET:
+            drop(verdict, stamp_ns, now_ns)
+            return False
+        last = self.last_ns
+        reset(verdict, stamp_ns, now_ns)
+        self.last_ns = last
+        return True
+
     def admit(self, stamp_ns: int, now_ns, pairing: bool = True):
         """Whether an input message stamped ``stamp_ns`` may join a stamp pairing of steps
         (:mod:`irs_common.stamp_sync`): ``FUTURE`` or, with ``pairing``, ``OLD`` (older than

@@ -1,7 +1,7 @@
 """StampGate.admit: which input stamps may join a stamp pairing (irs_common.stamp_gate)."""
 from hypothesis import given, strategies as st
 
-from irs_common.stamp_gate import FUTURE, OLD, OK, StampGate
+from irs_common.stamp_gate import FUTURE, OK, OLD, RESET, StampGate
 
 MS = 1_000_000
 
@@ -29,3 +29,56 @@ def test_admit_stores_nothing_and_agrees_with_check(last, stamp, now):
     verdict = gate.admit(stamp, now)
     assert gate.last_ns == last
     assert verdict == {FUTURE: FUTURE, OLD: OLD}.get(gate.check(stamp, now))
+
+
+class _Node:
+    """What take_step calls: the answer cache's repeat, the node's drop and time reset (which,
+    like every node's, clears the gate).
+    """
+
+    def __init__(self, gate):
+        self.gate, self.calls = gate, []
+
+    def repeat(self):
+        self.calls.append('repeat')
+
+    def drop(self, verdict, stamp_ns, now_ns):
+        self.calls.append(('drop', verdict, stamp_ns, now_ns))
+
+    def reset(self, verdict, stamp_ns, now_ns):
+        self.calls.append(('reset', verdict, stamp_ns))
+        self.gate.clear()
+
+
+def test_take_step_answers_a_repeat_drops_future_and_old_and_resets_keeping_the_new_stamp():
+    gate = StampGate(future_tolerance_ns=100 * MS)
+    node = _Node(gate)
+
+    def take(stamp, now):
+        return gate.take_step(stamp, now, node, node.drop, node.reset)
+
+    assert take(500 * MS, 500 * MS) and node.calls == []                  # a step: compute it
+    assert not take(500 * MS, 500 * MS) and node.calls == ['repeat']      # the same step again
+    assert not take(900 * MS, 500 * MS)                                   # beyond the tolerance
+    assert node.calls[-1] == ('drop', FUTURE, 900 * MS, 500 * MS)
+    assert not take(400 * MS, 500 * MS) and node.calls[-1] == ('drop', OLD, 400 * MS, 500 * MS)
+    assert gate.last_ns == 500 * MS                                       # neither was stored
+    assert take(600 * MS, 600 * MS) and len(node.calls) == 3
+    assert take(3000 * MS, 3000 * MS)
+    assert take(100 * MS, 3000 * MS)                                      # 2.9 s back: reset
+    assert node.calls[-1] == ('reset', 'reset', 100 * MS)
+    assert gate.last_ns == 100 * MS, 'the reset cleared the gate, the new stamp stays'
+    assert not take(100 * MS, 3000 * MS) and node.calls[-1] == 'repeat'   # now a repeat of it
+
+
+@given(last=st.none() | st.integers(0, 10**12), stamp=st.integers(0, 10**12),
+       now=st.none() | st.integers(0, 10**12))
+def test_take_step_agrees_with_check(last, stamp, now):
+    """take_step computes exactly the steps check calls OK or RESET, and stores what check does."""
+    a, b = StampGate(), StampGate()
+    a.last_ns = b.last_ns = last
+    node = _Node(a)
+    verdict = b.check(stamp, now)
+    assert a.take_step(stamp, now, node, node.drop, node.reset) == (verdict in (OK, RESET))
+    assert a.last_ns == b.last_ns
+    assert len(node.calls) == (verdict != OK)

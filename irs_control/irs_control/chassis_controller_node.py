@@ -37,7 +37,7 @@ from irs_common.input_checks import ThrottledWarner
 from irs_common.node_main import run_node
 from irs_common.orientation import yaw_from_quaternion
 from irs_common.params import declare_table
-from irs_common.stamp_gate import OK, REPEAT, RESET, StampGate
+from irs_common.stamp_gate import StampGate
 from irs_common.stamp_sync import StampSync
 from irs_common.stamps import to_ns
 from irs_common.time_jump import on_time_jump_back
@@ -111,6 +111,14 @@ class ChassisControllerNode(Node):
                          f'{what}: {self.gate.reason(verdict, stamp_ns, now_ns)}',
                          time.monotonic())
 
+    def _drop_step(self, verdict, stamp_ns, now_ns):
+        self._drop('step', verdict, stamp_ns, now_ns)
+
+    def _time_reset(self, verdict, stamp_ns, now_ns):
+        self.warner.warn('reset', f'encoders {self.gate.reason(verdict, stamp_ns, now_ns)}',
+                         time.monotonic())
+        self._reset_time_state()
+
     # ------------------------------------------------------------------ inputs
     def _on_input(self, name, msg):
         stamp_ns = to_ns(msg.header.stamp)
@@ -139,19 +147,9 @@ class ChassisControllerNode(Node):
                               yaw_from_quaternion(q.x, q.y, q.z, q.w), belt.speed)
 
     def _step(self, stamp_ns, vals, now_ns):
-        verdict = self.gate.check(stamp_ns, now_ns)
-        if verdict != OK:
-            if verdict == REPEAT:
-                self.answer.repeat()    # a repeated step: repeat the answer
-                return
-            if verdict != RESET:
-                self._drop('step', verdict, stamp_ns, now_ns)
-                return
-            self.warner.warn('reset', f'encoders {self.gate.reason(verdict, stamp_ns, now_ns)}',
-                             time.monotonic())
-            last_ns = self.gate.last_ns
-            self._reset_time_state()
-            self.gate.last_ns = last_ns
+        if not self.gate.take_step(stamp_ns, now_ns, self.answer, self._drop_step,
+                                   self._time_reset):
+            return
         if self.sync is not None:
             self._pose(vals['pose'], vals['belt'])
         enc = vals['enc']

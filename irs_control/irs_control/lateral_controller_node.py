@@ -237,6 +237,14 @@ class LateralControllerNode(Node):
         self.warner.warn(f'{what}-{verdict}', f'{what}: {gate.reason(verdict, stamp_ns, now_ns)}',
                          time.monotonic())
 
+    def _drop_measurement(self, verdict, stamp_ns, now_ns):
+        self._drop('measurement', self.gate, verdict, stamp_ns, now_ns)
+
+    def _time_reset(self, verdict, stamp_ns, now_ns):
+        self.warner.warn('reset', f'measurement {self.gate.reason(verdict, stamp_ns, now_ns)}',
+                         time.monotonic())
+        self._reset_time_state()
+
     def _presync(self, what, stamp_ns) -> bool:
         """Reference sync: only stamps that can still pair with a step enter the pairing."""
         now_ns = self.get_clock().now().nanoseconds
@@ -277,19 +285,9 @@ class LateralControllerNode(Node):
     def _control_step(self, msg, reference):
         stamp_ns = to_ns(msg.header.stamp)
         now = self.get_clock().now()
-        verdict = self.gate.check(stamp_ns, now.nanoseconds)
-        if verdict != OK:
-            if verdict == REPEAT:
-                self.answer.repeat()    # a repeated step: repeat the answer
-                return
-            if verdict != RESET:
-                self._drop('measurement', self.gate, verdict, stamp_ns, now.nanoseconds)
-                return
-            self.warner.warn('reset', f'measurement {self.gate.reason(verdict, stamp_ns, None)}',
-                             time.monotonic())
-            last_ns = self.gate.last_ns
-            self._reset_time_state()
-            self.gate.last_ns = last_ns
+        if not self.gate.take_step(stamp_ns, now.nanoseconds, self.answer,
+                                   self._drop_measurement, self._time_reset):
+            return
         y = msg.point.y
         if self.state != LateralControllerStatus.STATE_RUNNING:
             self.controller.reset()  # restart from rest after a stale/invalid period

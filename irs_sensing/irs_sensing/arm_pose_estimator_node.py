@@ -42,7 +42,7 @@ from irs_common.node_main import run_node
 from irs_common.orientation import quaternion_from_yaw
 from irs_common.input_checks import ThrottledWarner
 from irs_common.params import declare_table, unflatten
-from irs_common.stamp_gate import OK, REPEAT, RESET, StampGate
+from irs_common.stamp_gate import StampGate
 from irs_common.stamps import to_ns, to_sec
 from irs_common.time_jump import on_time_jump_back
 from irs_msgs.msg import SensingStatus
@@ -122,24 +122,25 @@ class ArmPoseEstimatorNode(Node):
             return self.calibration.to_angles(tuple(msg.position))
         return tuple(msg.position)
 
+    def _drop(self, verdict, stamp_ns, now_ns):
+        """A reading from the future or out of order: dropped, not answered."""
+        self.dropped += 1
+        self.warner.warn(verdict, f'arm reading {self.gate.reason(verdict, stamp_ns, now_ns)}',
+                         time.monotonic())
+
+    def _time_reset(self, verdict, stamp_ns, now_ns):
+        """Time went back: the estimator starts afresh from this reading."""
+        self.warner.warn(verdict, f'arm reading {self.gate.reason(verdict, stamp_ns, now_ns)}',
+                         time.monotonic())
+        self.time_resets += 1
+        self.estimator.reset()
+
     def _on_joints(self, msg):
         stamp_ns = to_ns(msg.header.stamp)
         now_ns = self.get_clock().now().nanoseconds
-        verdict = self.gate.check(stamp_ns, now_ns)
-        if verdict != OK:
-            if verdict == REPEAT:    # the rig repeated a step: repeat our answer
-                self.answer.repeat()
-                return
-            if verdict != RESET:     # future or out of order: dropped, not answered
-                self.dropped += 1
-                self.warner.warn(verdict,
-                                 f'arm reading {self.gate.reason(verdict, stamp_ns, now_ns)}',
-                                 time.monotonic())
-                return
-            self.warner.warn(verdict, f'arm reading {self.gate.reason(verdict, stamp_ns, now_ns)}',
-                             time.monotonic())
-            self.time_resets += 1
-            self.estimator.reset()
+        # a repeated step is answered again by the answer cache (StampGate.take_step)
+        if not self.gate.take_step(stamp_ns, now_ns, self.answer, self._drop, self._time_reset):
+            return
         self.answer.start()
         stamp = to_sec(msg.header.stamp)
         try:

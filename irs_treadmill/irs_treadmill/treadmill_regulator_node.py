@@ -47,7 +47,7 @@ from irs_common.input_checks import ThrottledWarner
 from irs_common.node_main import run_node
 from irs_common.orientation import yaw_from_quaternion
 from irs_common.params import declare_table, unflatten
-from irs_common.stamp_gate import FUTURE, OK, REPEAT, RESET, StampGate
+from irs_common.stamp_gate import FUTURE, StampGate
 from irs_common.stamp_sync import StampSync
 from irs_common.stamps import to_ns
 from irs_common.time_jump import on_time_jump_back
@@ -147,6 +147,14 @@ class TreadmillRegulatorNode(Node):
                          f'{what}: {self.gate.reason(verdict, stamp_ns, now_ns)}',
                          time.monotonic())
 
+    def _drop_step(self, verdict, stamp_ns, now_ns):
+        self._drop('step', verdict, stamp_ns, now_ns)
+
+    def _time_reset(self, verdict, stamp_ns, now_ns):
+        self.warner.warn('reset', f'pose {self.gate.reason(verdict, stamp_ns, now_ns)}',
+                         time.monotonic())
+        self._reset_time_state()
+
     def _add(self, name, msg):
         stamp_ns = to_ns(msg.header.stamp)
         now_ns = self.get_clock().now().nanoseconds
@@ -158,19 +166,9 @@ class TreadmillRegulatorNode(Node):
             self._step(stamp_ns, vals, now_ns)
 
     def _step(self, stamp_ns, vals, now_ns):
-        verdict = self.gate.check(stamp_ns, now_ns)
-        if verdict != OK:
-            if verdict == REPEAT:
-                self.answer.repeat()    # a repeated step: repeat the answer
-                return
-            if verdict != RESET:
-                self._drop('step', verdict, stamp_ns, now_ns)
-                return
-            self.warner.warn('reset', f'pose {self.gate.reason(verdict, stamp_ns, now_ns)}',
-                             time.monotonic())
-            last_ns = self.gate.last_ns
-            self._reset_time_state()
-            self.gate.last_ns = last_ns
+        if not self.gate.take_step(stamp_ns, now_ns, self.answer, self._drop_step,
+                                   self._time_reset):
+            return
         pose = vals['pose']
         x, y = pose.pose.position.x, pose.pose.position.y
         if 'belt' in vals:
