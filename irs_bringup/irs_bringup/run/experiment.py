@@ -127,7 +127,7 @@ class Experiment:
         """A copy with every node, and the recorder, in the one process group ``process``.
 
         One ``container`` process runs the whole graph on one executor, with the in-process
-        handover between its nodes: 3-6x faster in lock-step on this 2-core machine than one
+        handover between its nodes: 5-7x faster in lock-step on this 2-core machine than one
         process per node (README, measured figures). The nodes stay separate ROS nodes on
         topics; only the file's ``process:`` choices are replaced.
         """
