@@ -341,3 +341,53 @@ def test_an_output_it_cannot_create_is_one_line_at_start_up(tmp_path):
     lines = [ln for ln in res.stderr.splitlines() if ln.strip()]
     assert len(lines) == 1 and 'cannot create the bag directory' in lines[0], res.stderr
     assert 'Traceback' not in res.stderr + res.stdout
+
+
+def test_a_frozen_recorder_loses_nothing_the_publishers_history_still_holds(ros, launch,
+                                                                            tmp_path):
+    """A recorder starved of CPU (here frozen with SIGSTOP) catches up without loss as long as
+    the publishers still hold what it missed: the IRS publisher profile keeps
+    ``PUBLISHER_HISTORY`` samples (5 s at 1 kHz) and the recorder subscribes as deep. 3000
+    messages (3 s of a 1 kHz stream) published while it is frozen are all in the bag, and no
+    loss is reported. With the old 100-deep publisher profile this test fails: the writer can
+    no longer repair what the frozen recorder missed.
+    """
+    from std_msgs.msg import Int64
+
+    from irs_bringup.bag.bag_reader import BagReader
+    from irs_common import qos
+
+    assert qos.PUBLISHER_HISTORY >= 3000
+    bag = tmp_path / 'frozen'
+    status = StatusWatcher(ros)
+    rec = launch(recorder_spec(bag, ['/stream'], flush_period=0.2))
+    pub = ros.node.create_publisher(Int64, '/stream', qos.SENSOR_PUB)
+    sent = 0
+
+    def publish(n):
+        nonlocal sent
+        for _ in range(n):
+            pub.publish(Int64(data=sent))
+            sent += 1
+
+    while not ros.spin_until(lambda: status.count('/stream') >= 1, 0.2):
+        assert sent < 500 and rec.poll() is None, rec.tail()
+        publish(1)
+    first_kept = sent - 1
+    os.killpg(rec.pid, signal.SIGSTOP)
+    try:
+        publish(3000)
+    finally:
+        os.killpg(rec.pid, signal.SIGCONT)
+    publish(20)
+    total = sent
+    assert ros.spin_until(
+        lambda: status.last is not None and status.count('/stream')
+        + status.last['dropped'].get('/stream', 0) >= total - first_kept, 60.0), status.last
+    assert rec.stop(timeout=15.0) == 0, rec.tail()
+    with BagReader(bag) as r:
+        values = [m.data for _, m in r.decoded(['/stream'])]
+        dropped = r.bag_metadata['custom_data'].get('irs.dropped_messages')
+    assert values == list(range(values[0], total)), (len(values), values[:3], values[-3:])
+    assert values[0] <= first_kept
+    assert dropped == '0', dropped

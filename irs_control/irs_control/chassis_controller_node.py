@@ -70,11 +70,12 @@ class ChassisControllerNode(Node):
         self.warner = ThrottledWarner(self.get_logger().warning, 1.0)
         # COMMAND: every command answers one step (lock-step waits for it): reliable, none lost
         self.pub_torque = self.create_publisher(WheelTorqueCommand, 'wheels/torque_command',
-                                                qos.COMMAND)
-        self.pub_steer = self.create_publisher(SteeringCommand, 'steering/command', qos.COMMAND)
+                                                qos.COMMAND_PUB)
+        self.pub_steer = self.create_publisher(SteeringCommand, 'steering/command',
+                                               qos.COMMAND_PUB)
         # SENSOR, not the latched STATUS role: a 100 Hz telemetry stream the recorder must keep
         # whole (slips, v_hat for the plots), as lateral/status
-        self.pub_status = self.create_publisher(DiagnosticArray, 'chassis/status', qos.SENSOR)
+        self.pub_status = self.create_publisher(DiagnosticArray, 'chassis/status', qos.SENSOR_PUB)
         # SENSOR: the 1 kHz measurement streams, reliable (lock-step must not lose a sample)
         self.create_subscription(WheelEncoders, 'wheels/encoders',
                                  lambda m: self._on_input('enc', m), qos.SENSOR)

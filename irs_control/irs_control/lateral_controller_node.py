@@ -198,9 +198,9 @@ class LateralControllerNode(Node):
         # rclpy's throttled logging inspects the caller's source on every call (~1 ms): at 1 kHz
         # that alone overloads the loop, so per-step warnings are throttled before rclpy.
         self.warner = ThrottledWarner(self.get_logger().warning, 1.0)
-        self.pub_cmd = self.create_publisher(SteeringCommand, 'steering/command', qos.COMMAND)
+        self.pub_cmd = self.create_publisher(SteeringCommand, 'steering/command', qos.COMMAND_PUB)
         self.pub_status = self.create_publisher(
-            LateralControllerStatus, 'lateral/status', qos.SENSOR
+            LateralControllerStatus, 'lateral/status', qos.SENSOR_PUB
         )
         self.create_subscription(
             PointStamped, 'lateral_position', self._on_measurement, qos.SENSOR

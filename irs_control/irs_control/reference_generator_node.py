@@ -50,7 +50,7 @@ class ReferenceGeneratorNode(Node):
         self.console_refused = 0
         self.time_resets = 0
         self.warner = ThrottledWarner(self.get_logger().warning, 1.0)
-        self.pub = self.create_publisher(LateralReference, 'lateral/reference', qos.COMMAND)
+        self.pub = self.create_publisher(LateralReference, 'lateral/reference', qos.COMMAND_PUB)
         if self.p['source'] == 'console':
             self.create_subscription(Float64, 'console/lateral_position', self._on_console,
                                      qos.COMMAND)

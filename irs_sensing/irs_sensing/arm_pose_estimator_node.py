@@ -85,9 +85,9 @@ class ArmPoseEstimatorNode(Node):
         # rclpy's throttled logging costs ~1 ms per call: per-step warnings are throttled first.
         self.warner = ThrottledWarner(self.get_logger().warning, 1.0)
         self.info_warner = ThrottledWarner(self._log_info, 1.0)
-        self.pub_pose = self.create_publisher(PoseStamped, 'pose', qos.SENSOR)
-        self.pub_twist = self.create_publisher(TwistStamped, 'velocity', qos.SENSOR)
-        self.pub_point = self.create_publisher(PointStamped, 'lateral_position', qos.SENSOR)
+        self.pub_pose = self.create_publisher(PoseStamped, 'pose', qos.SENSOR_PUB)
+        self.pub_twist = self.create_publisher(TwistStamped, 'velocity', qos.SENSOR_PUB)
+        self.pub_point = self.create_publisher(PointStamped, 'lateral_position', qos.SENSOR_PUB)
         self.pub_status = self.create_publisher(SensingStatus, 'sensing/status', qos.STATUS)
         self.create_subscription(JointState, 'arm/joint_states', self._on_joints, qos.SENSOR)
         self.stale_timer = self.create_timer(

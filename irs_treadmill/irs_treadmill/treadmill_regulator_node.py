@@ -87,9 +87,9 @@ class TreadmillRegulatorNode(Node):
         self.fault_warner = ThrottledWarner(self._log_error, 1.0)
         self.info_warner = ThrottledWarner(self._log_info, 1.0)
         self.pub_drive = self.create_publisher(
-            TreadmillDriveCommand, 'treadmill/drive', qos.COMMAND
+            TreadmillDriveCommand, 'treadmill/drive', qos.COMMAND_PUB
         )
-        self.pub_state = self.create_publisher(TreadmillState, 'treadmill/state', qos.SENSOR)
+        self.pub_state = self.create_publisher(TreadmillState, 'treadmill/state', qos.SENSOR_PUB)
         self.create_subscription(PoseStamped, 'pose', lambda m: self._add('pose', m), qos.SENSOR)
         if self.p['use_velocity_input']:
             self.create_subscription(TwistStamped, 'velocity', lambda m: self._add('velocity', m),

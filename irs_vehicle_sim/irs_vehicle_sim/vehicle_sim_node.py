@@ -247,21 +247,23 @@ class VehicleSimNode(Node):
         self.pub_clock = (
             self.create_publisher(Clock, '/clock', qos.CLOCK) if self.lockstep else None
         )
-        self.pub_arm = self.create_publisher(JointState, 'arm/joint_states', qos.SENSOR)
-        self.pub_belt = self.create_publisher(BeltSpeed, 'belt/speed', qos.SENSOR)
-        self.pub_act = self.create_publisher(SteeringActuatorState, 'steering/state', qos.SENSOR)
-        self.pub_odom = self.create_publisher(Odometry, 'ground_truth/odom', qos.SENSOR)
+        self.pub_arm = self.create_publisher(JointState, 'arm/joint_states', qos.SENSOR_PUB)
+        self.pub_belt = self.create_publisher(BeltSpeed, 'belt/speed', qos.SENSOR_PUB)
+        self.pub_act = self.create_publisher(SteeringActuatorState, 'steering/state',
+                                             qos.SENSOR_PUB)
+        self.pub_odom = self.create_publisher(Odometry, 'ground_truth/odom', qos.SENSOR_PUB)
         self.pub_point = self.create_publisher(
-            PointStamped, 'ground_truth/sensor_point', qos.SENSOR
+            PointStamped, 'ground_truth/sensor_point', qos.SENSOR_PUB
         )
-        self.pub_wheels = (self.create_publisher(JointState, 'wheel_speeds', qos.SENSOR)
+        self.pub_wheels = (self.create_publisher(JointState, 'wheel_speeds', qos.SENSOR_PUB)
                            if self.p['publish_wheel_speeds'] else None)
         # torque car: the encoders are the controller's 1 kHz measurement, as the arm angles
         # (SENSOR: reliable, keep last 100: a lock-step controller must see every sample), the
         # tyre truth a decimated ground truth for the recorder, as ground_truth/odom
-        self.pub_encoders = (self.create_publisher(WheelEncoders, 'wheels/encoders', qos.SENSOR)
+        self.pub_encoders = (self.create_publisher(WheelEncoders, 'wheels/encoders',
+                                                   qos.SENSOR_PUB)
                              if self.torque_car else None)
-        self.pub_tyre = (self.create_publisher(TyreState, 'rig/tyre_truth', qos.SENSOR)
+        self.pub_tyre = (self.create_publisher(TyreState, 'rig/tyre_truth', qos.SENSOR_PUB)
                          if self.torque_car else None)
         self.pub_status = self.create_publisher(RigStatus, 'rig/status', qos.STATUS)
         self.pub_timing = (None if self.lockstep else

@@ -103,7 +103,7 @@ NODE_PARAMS = [
           'a killed recorder can lose)', 's', 0.01, 3600.0, read_only=True),
     Param('discovery_period', 0.1, 'how often the graph is checked for topics to subscribe',
           's', 0.01, 60.0, read_only=True),
-    Param('qos_depth', 1000, 'KEEP_LAST depth of each recording subscription', '1', 1, 100000,
+    Param('qos_depth', 5000, 'KEEP_LAST depth of each recording subscription', '1', 1, 100000,
           read_only=True),
     Param('status_period', 1.0, "period of the 'recorder/status' JSON message (counts, drops; "
           '0 = off)', 's', 0.0, 3600.0, read_only=True),

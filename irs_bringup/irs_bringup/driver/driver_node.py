@@ -30,7 +30,7 @@ class DriverNode(Node):
         self.p = declare_table(self, PARAMS)
         self.profile = SpeedProfile(self.p['profile.times'], self.p['profile.speeds'],
                                     self.p['profile.interpolation'])
-        self.pub = self.create_publisher(DriverCommand, 'driver/command', qos.COMMAND)
+        self.pub = self.create_publisher(DriverCommand, 'driver/command', qos.COMMAND_PUB)
         self.time_resets = 0
         self.ticker = create_ticker(self, self.p['rate'], self._publish, on_reset=self._on_reset)
 

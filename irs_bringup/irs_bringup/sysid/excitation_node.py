@@ -47,10 +47,10 @@ class ExcitationNode(Node):
         self.warner = ThrottledWarner(self.get_logger().warning, 1.0)
         topic = TARGETS[self.p['target']][0]
         if self.p['target'] == 'drive':
-            self.pub = self.create_publisher(TreadmillDriveCommand, topic, qos.COMMAND)
+            self.pub = self.create_publisher(TreadmillDriveCommand, topic, qos.COMMAND_PUB)
             self._message = self._drive
         else:
-            self.pub = self.create_publisher(SteeringCommand, topic, qos.COMMAND)
+            self.pub = self.create_publisher(SteeringCommand, topic, qos.COMMAND_PUB)
             self._message = self._steering
         self.ticker = create_ticker(self, self.p['rate'], self._publish)
         self.create_service(Trigger, 'excitation/restart', self._on_restart)
