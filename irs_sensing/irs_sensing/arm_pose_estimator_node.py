@@ -167,14 +167,16 @@ class ArmPoseEstimatorNode(Node):
             self._status(msg.header.stamp, SensingStatus.OK, '', 0.0)
 
     def _publish(self, stamp, x, y, psi, x_s, y_s, vx, vy, r):
+        # lateral_position first: it closes the 1 kHz lateral loop; pose and velocity feed the
+        # treadmill loop (100 Hz in real time), which must not sit between the two
         self.readings += 1
-        if self.pose_every == 1 or self.readings % self.pose_every == 1:
-            self._publish_pose(stamp, x, y, psi, vx, vy, r)
         point = PointStamped()
         point.header.stamp = stamp
         point.header.frame_id = self.frame_id
         point.point.x, point.point.y = float(x_s), float(y_s)
         self.answer.publish(self.pub_point, point)
+        if self.pose_every == 1 or self.readings % self.pose_every == 1:
+            self._publish_pose(stamp, x, y, psi, vx, vy, r)
 
     def _publish_pose(self, stamp, x, y, psi, vx, vy, r):
         pose = PoseStamped()
