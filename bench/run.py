@@ -3,6 +3,7 @@
     ./irs exec python bench/run.py                 # everything (about 10 min on 2 cores)
     ./irs exec python bench/run.py --quick         # shorter runs (about 4 min), noisier figures
     ./irs exec python bench/run.py --only floor lockstep
+    ./irs exec python bench/run.py --only soak      # the 10-minute soak (not in the default)
 
 Sections (each a function below; results go to ``bench/results/<time>.json`` and a table):
 
@@ -20,7 +21,9 @@ Sections (each a function below; results go to ``bench/results/<time>.json`` and
 - ``replay``: ``bag play`` timing error at 1x and what the recorder keeps of 13 topics x 1 kHz
   (irs_bringup.bag.bench_replay);
 - ``sweep``: bench/sweep.py -- points/s of 12 points of the actuator x speed sweep serially and
-  on 1 and 2 Dask workers, and 100 linear plants stepped at once (BatchLti) against dlsim.
+  on 1 and 2 Dask workers, and 100 linear plants stepped at once (BatchLti) against dlsim;
+- ``soak`` (only with ``--only soak``, 10 min): ``soak_realtime`` process per node with
+  SCHED_FIFO 50 and the recorder on: misses, latency, CPU, and the messages the bag kept and lost.
 
 Speed is measured here, never asserted in tests. Timing figures are noisy on a shared 2-core
 machine: compare ratios within one run (the floor is in the same JSON).
@@ -38,6 +41,8 @@ HERE = Path(__file__).resolve().parent
 sys.path.insert(0, str(HERE))
 
 SECTIONS = ('floor', 'realtime', 'lockstep', 'offline', 'replay', 'sweep')
+#: Sections run only when named with ``--only``.
+EXTRA_SECTIONS = ('soak',)
 
 
 def _domain(offset: int) -> None:
@@ -90,29 +95,45 @@ def _run_experiment(path_or_name, rt_priority=0, duration=None, runs_dir=None, c
     return runner.run()
 
 
+def _realtime_row(label: str, r) -> dict:
+    """One real-time run's figures (timing, CPU per step, the bag's rates and losses); printed."""
+    steps = r.timing.get('steps') or 1
+    row = {'name': label, 'completed': r.completed, 'message': r.message, **r.timing,
+           'cpu_per_step_us': {k: 1e6 * v / steps for k, v in r.cpu.items()},
+           'cpu_total_per_step_us': 1e6 * sum(r.cpu.values()) / steps}
+    if r.bag_dir is not None and r.bag_dir.exists():
+        row['bag'] = _bag_figures(r.bag_dir)
+    print(f"{row['name']:40s} {'ok ' if r.completed else 'FAILED'} misses "
+          f"{row.get('miss_pct', float('nan')):6.2f} %  latency p50/p99/max "
+          f"{row.get('latency_p50_ms', float('nan')):.2f}/"
+          f"{row.get('latency_p99_ms', float('nan')):.2f}/"
+          f"{row.get('latency_max_ms', float('nan')):.1f} ms  CPU "
+          f"{row['cpu_total_per_step_us']:.0f} us/step", flush=True)
+    if 'bag' in row:
+        total = sum(t['count'] for t in row['bag']['topics'].values())
+        print(f"    bag: {total} messages, {row['bag']['dropped_total']} lost", flush=True)
+    if not r.completed:
+        print(f'    {r.message}', flush=True)
+    return row
+
+
 def realtime(seconds: float) -> list:
     rows = []
     for name in ('realtime_figure10', 'realtime_figure10_composed'):
         for prio in (0, 50):
             _domain(10 + len(rows))
             r = _run_experiment(name, prio, seconds)
-            steps = r.timing.get('steps') or 1
-            row = {'name': f"{name}{' SCHED_FIFO' if prio else ''}", 'completed': r.completed,
-                   'message': r.message, **r.timing,
-                   'cpu_per_step_us': {k: 1e6 * v / steps for k, v in r.cpu.items()},
-                   'cpu_total_per_step_us': 1e6 * sum(r.cpu.values()) / steps}
-            if r.bag_dir is not None and r.bag_dir.exists():
-                row['bag'] = _bag_figures(r.bag_dir)
-            rows.append(row)
-            print(f"{row['name']:40s} {'ok ' if r.completed else 'FAILED'} misses "
-                  f"{row.get('miss_pct', float('nan')):6.2f} %  latency p50/p99/max "
-                  f"{row.get('latency_p50_ms', float('nan')):.2f}/"
-                  f"{row.get('latency_p99_ms', float('nan')):.2f}/"
-                  f"{row.get('latency_max_ms', float('nan')):.1f} ms  CPU "
-                  f"{row['cpu_total_per_step_us']:.0f} us/step", flush=True)
-            if not r.completed:
-                print(f'    {r.message}', flush=True)
+            rows.append(_realtime_row(f"{name}{' SCHED_FIFO' if prio else ''}", r))
     return rows
+
+
+def soak() -> list:
+    """``soak_realtime``: 10 minutes process per node at 1 kHz, recorder on, SCHED_FIFO 50
+    (issue 9's target; not in the default sections: ``--only soak``).
+    """
+    _domain(30)
+    r = _run_experiment('soak_realtime', 50)
+    return [_realtime_row('soak_realtime SCHED_FIFO (600 s)', r)]
 
 
 def _message_class(type_name: str):
@@ -238,7 +259,8 @@ def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__,
                                  formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument('--quick', action='store_true', help='shorter runs (noisier figures)')
-    ap.add_argument('--only', nargs='+', choices=SECTIONS, default=list(SECTIONS))
+    ap.add_argument('--only', nargs='+', choices=SECTIONS + EXTRA_SECTIONS, default=list(SECTIONS),
+                    help='sections to run (default: all but soak, a 10-minute run)')
     ap.add_argument('--out', default=str(HERE / 'results'), help='folder for the JSON file')
     a = ap.parse_args(argv)
     floor_s, rt_s, replay_s = (5.0, 20.0, 3.0) if a.quick else (10.0, 60.0, 5.0)
