@@ -252,21 +252,20 @@ def test_recorder_sigkill_leaves_recoverable_prefix(ros, launch, tmp_path):
         assert [m.data for m in r.messages()] == [m.data for m in got]
 
 
-def test_recorder_counts_a_real_loss(ros, launch, tmp_path):
-    """The recorder is stopped (SIGSTOP) while a publisher floods its topic (KEEP_LAST 10 on
-    both sides): messages are really lost. After SIGCONT the bag's drop count equals what was
-    published minus what was recorded, and the recorded values are exactly the ones it kept.
+def flood_a_frozen_recorder(ros, launch, bag, topic, pub_qos, frozen, **rec_params):
+    """Record ``topic`` (Int64 0, 1, 2, ...); once the recorder has taken a message, freeze it
+    (SIGSTOP) while ``frozen`` messages are published, thaw it, publish 20 more, and wait until
+    every message after the warm-up is recorded or counted as dropped. Returns the recorder,
+    the values in the bag, the bag's custom metadata, how many were published in all, and the
+    last warm-up message (the recorder may have missed the ones before it).
     """
-    from rclpy.qos import HistoryPolicy, QoSProfile, ReliabilityPolicy
     from std_msgs.msg import Int64
 
     from irs_bringup.bag.bag_reader import BagReader
 
-    bag = tmp_path / 'lossy'
     status = StatusWatcher(ros)
-    rec = launch(recorder_spec(bag, ['/flood'], qos_depth=10, flush_period=0.2))
-    pub = ros.node.create_publisher(Int64, '/flood', QoSProfile(
-        history=HistoryPolicy.KEEP_LAST, depth=10, reliability=ReliabilityPolicy.RELIABLE))
+    rec = launch(recorder_spec(bag, [topic], flush_period=0.2, **rec_params))
+    pub = ros.node.create_publisher(Int64, topic, pub_qos)
     sent = 0
 
     def publish(n):
@@ -276,25 +275,40 @@ def test_recorder_counts_a_real_loss(ros, launch, tmp_path):
             sent += 1
 
     # warm up until the recorder has taken a message (its sequence bookkeeping is running)
-    while not ros.spin_until(lambda: status.count('/flood') >= 1, 0.2):
+    while not ros.spin_until(lambda: status.count(topic) >= 1, 0.2):
         assert sent < 500 and rec.poll() is None, rec.tail()
         publish(1)
     first_kept = sent - 1            # at most the messages before this one may be unmatched
     os.killpg(rec.pid, signal.SIGSTOP)
     try:
-        publish(5000)                # nobody takes them: the 10-deep queues overflow
+        publish(frozen)              # nobody takes them while the recorder is frozen
     finally:
         os.killpg(rec.pid, signal.SIGCONT)
     publish(20)
     total = sent
     # every message after the warm-up is either recorded or counted as dropped
     assert ros.spin_until(
-        lambda: status.last is not None and status.count('/flood')
-        + status.last['dropped'].get('/flood', 0) >= total - first_kept, 60.0), status.last
+        lambda: status.last is not None and status.count(topic)
+        + status.last['dropped'].get(topic, 0) >= total - first_kept, 60.0), status.last
     assert rec.stop(timeout=15.0) == 0, rec.tail()
     with BagReader(bag) as r:
-        values = [m.data for _, m in r.decoded(['/flood'])]
-        dropped = json.loads(r.bag_metadata['custom_data']['irs.dropped_messages_per_topic'])
+        values = [m.data for _, m in r.decoded([topic])]
+        custom = dict(r.bag_metadata['custom_data'])
+    return rec, values, custom, total, first_kept
+
+
+def test_recorder_counts_a_real_loss(ros, launch, tmp_path):
+    """The recorder is stopped (SIGSTOP) while a publisher floods its topic (KEEP_LAST 10 on
+    both sides): messages are really lost. After SIGCONT the bag's drop count equals what was
+    published minus what was recorded, and the recorded values are exactly the ones it kept.
+    """
+    from rclpy.qos import HistoryPolicy, QoSProfile, ReliabilityPolicy
+
+    rec, values, custom, total, _ = flood_a_frozen_recorder(
+        ros, launch, tmp_path / 'lossy', '/flood', QoSProfile(
+            history=HistoryPolicy.KEEP_LAST, depth=10, reliability=ReliabilityPolicy.RELIABLE),
+        5000, qos_depth=10)          # the 10-deep queues overflow
+    dropped = json.loads(custom['irs.dropped_messages_per_topic'])
     assert values == sorted(values) and values[-1] == total - 1, values[-5:]
     published = total - values[0]     # published from the first recorded message on
     lost = published - len(values)
@@ -352,42 +366,11 @@ def test_a_frozen_recorder_loses_nothing_the_publishers_history_still_holds(ros,
     loss is reported. With the old 100-deep publisher profile this test fails: the writer can
     no longer repair what the frozen recorder missed.
     """
-    from std_msgs.msg import Int64
-
-    from irs_bringup.bag.bag_reader import BagReader
     from irs_common import qos
 
     assert qos.PUBLISHER_HISTORY >= 3000
-    bag = tmp_path / 'frozen'
-    status = StatusWatcher(ros)
-    rec = launch(recorder_spec(bag, ['/stream'], flush_period=0.2))
-    pub = ros.node.create_publisher(Int64, '/stream', qos.SENSOR_PUB)
-    sent = 0
-
-    def publish(n):
-        nonlocal sent
-        for _ in range(n):
-            pub.publish(Int64(data=sent))
-            sent += 1
-
-    while not ros.spin_until(lambda: status.count('/stream') >= 1, 0.2):
-        assert sent < 500 and rec.poll() is None, rec.tail()
-        publish(1)
-    first_kept = sent - 1
-    os.killpg(rec.pid, signal.SIGSTOP)
-    try:
-        publish(3000)
-    finally:
-        os.killpg(rec.pid, signal.SIGCONT)
-    publish(20)
-    total = sent
-    assert ros.spin_until(
-        lambda: status.last is not None and status.count('/stream')
-        + status.last['dropped'].get('/stream', 0) >= total - first_kept, 60.0), status.last
-    assert rec.stop(timeout=15.0) == 0, rec.tail()
-    with BagReader(bag) as r:
-        values = [m.data for _, m in r.decoded(['/stream'])]
-        dropped = r.bag_metadata['custom_data'].get('irs.dropped_messages')
+    _, values, custom, total, first_kept = flood_a_frozen_recorder(
+        ros, launch, tmp_path / 'frozen', '/stream', qos.SENSOR_PUB, 3000)
     assert values == list(range(values[0], total)), (len(values), values[:3], values[-3:])
     assert values[0] <= first_kept
-    assert dropped == '0', dropped
+    assert custom.get('irs.dropped_messages') == '0', custom
