@@ -81,6 +81,7 @@ from rclpy.type_support import check_is_valid_msg_type
 from std_msgs.msg import String
 
 from irs_common.params import Param, declare_table
+from irs_common.qos import PUBLISHER_HISTORY
 
 from .bag_writer import BagWriter, BagWriterError, qos_profiles_yaml
 from .msg_definitions import MessageDefinitionError
@@ -103,8 +104,9 @@ NODE_PARAMS = [
           'a killed recorder can lose)', 's', 0.01, 3600.0, read_only=True),
     Param('discovery_period', 0.1, 'how often the graph is checked for topics to subscribe',
           's', 0.01, 60.0, read_only=True),
-    Param('qos_depth', 5000, 'KEEP_LAST depth of each recording subscription', '1', 1, 100000,
-          read_only=True),
+    # as deep as the IRS publishers' history: a recorder that stalls loses nothing they still hold
+    Param('qos_depth', PUBLISHER_HISTORY, 'KEEP_LAST depth of each recording subscription', '1',
+          1, 100000, read_only=True),
     Param('status_period', 1.0, "period of the 'recorder/status' JSON message (counts, drops; "
           '0 = off)', 's', 0.0, 3600.0, read_only=True),
     Param('final_drain', 0.1, 'on shutdown, keep draining until this long without traffic '
