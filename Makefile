@@ -8,7 +8,7 @@ UV := $(VENV)/bin/uv
 ENV_STAMP := $(VENV)/.irs-requirements.stamp
 LOCK := env/requirements.lock
 BUILD_STAMP := install/.irs-build.stamp
-PACKAGES := irs_msgs irs_common irs_models irs_sensing irs_treadmill irs_vehicle_sim irs_control irs_bringup
+PACKAGES := irs_msgs irs_common irs_models irs_sensing irs_treadmill irs_vehicle_sim irs_control irs_bag irs_bringup irs_sysid irs_studies irs_system_tests
 # The files whose change needs colcon again. Python modules are not among them: the ament_python
 # packages are installed with --symlink-install (develop mode), so edits to them are live.
 PACKAGE_FILES := $(shell find $(PACKAGES) -type f \( -name package.xml -o -name 'setup.*' \
@@ -68,7 +68,7 @@ $(BUILD_STAMP): $(ENV_STAMP) $(PACKAGE_FILES)
 	@touch $@
 
 demo: $(BUILD_STAMP)
-	./irs run irs_bringup experiment demo
+	./irs run irs_studies figure10
 
 # Two pytest-xdist workers (each with its own ROS domain), a test module per worker at a time (its
 # module fixtures run once); tests marked `exclusive` run alone (conftest.py).
@@ -78,7 +78,7 @@ test: $(BUILD_STAMP)
 
 # The paper's Figures 5-10 through the graph: experiments, identification, PNGs in docs/img.
 figures: $(BUILD_STAMP)
-	./irs run irs_bringup sysid figures
+	./irs run irs_studies figures
 
 clean:
 	rm -rf $(VENV) build install log

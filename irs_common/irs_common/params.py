@@ -41,7 +41,7 @@ Parameters tell the truth
   should pass them in one call (``declare_table(node, A + B)``), or ``check_unknown=False`` to
   all but the last call, so that names of a later table are not reported.
 """
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 import difflib
 import math
 from typing import Callable
@@ -66,6 +66,9 @@ class Param:
     ``on_change`` handler applies them); all others are read-only. ``validator(value)`` returns
     ``None`` for a good value or a string saying what is wrong (or raises ``ValueError``); it is
     applied at start-up and to every change. Arrays must be non-empty unless ``allow_empty``.
+    ``node_only`` parameters belong to the node (clock mode, frames, decimation, timeouts), not
+    to its core: :func:`core_values` leaves them out, so the offline twin of the graph builds
+    its cores from the same table as the nodes.
     """
 
     name: str
@@ -78,6 +81,7 @@ class Param:
     writable: bool = False
     validator: Callable[[object], str | None] | None = None
     allow_empty: bool = False
+    node_only: bool = False           # the node's own (clock, topics, rates): not the core's
 
     def __post_init__(self):
         writable = self.writable
@@ -479,6 +483,24 @@ def table_from_defaults(defaults: dict, meta: dict, read_only=(), writable=(),
     return table
 
 
+def node_only(params) -> list:
+    """Copies of ``params`` marked ``node_only`` (a table's block of node parameters)."""
+    return [replace(p, node_only=True) for p in params]
+
+
+def core_values(table, values: dict, nested: bool = True) -> dict:
+    """What a core takes from a node's parameters, nested by the dots of their names.
+
+    The table's defaults, overridden by ``values`` (flat names: a node's declared values or an
+    experiment's parameters), without the ``node_only`` parameters and names the table does
+    not hold (rclpy's ``use_sim_time``); flat names if not ``nested``. The node and the offline
+    twin both build their cores from this, so neither keeps a list of keys to strip.
+    """
+    core = {p.name: p.default for p in table if not p.node_only}
+    core.update((k, v) for k, v in values.items() if k in core)
+    return unflatten(core) if nested else core
+
+
 def flatten(mapping: dict, prefix: str = '') -> dict:
     """``{'a': {'b': 1}}`` -> ``{'a.b': 1}`` (ROS parameter names of nested YAML)."""
     out = {}
@@ -501,3 +523,31 @@ def unflatten(values: dict) -> dict:
             node = node.setdefault(part, {})
         node[leaf] = list(value) if isinstance(value, tuple) else value
     return out
+
+
+#: Entry-point group in which every package registers its nodes' parameter tables:
+#: ``<executable> = <module>:<table or function returning it>`` (setup.cfg).
+TABLE_GROUP = 'irs_parameters'
+
+
+def registered_tables() -> dict:
+    """``{(package, executable): table}`` of every installed node that registers its table in
+    :data:`TABLE_GROUP`, so tools above the nodes (experiment files, the docs) find them without
+    importing the packages by name.
+    """
+    from importlib.metadata import entry_points
+    tables = {}
+    for ep in entry_points(group=TABLE_GROUP):
+        table = ep.load()
+        tables[(ep.dist.name, ep.name)] = list(table() if callable(table) else table)
+    return dict(sorted(tables.items()))
+
+
+def parameter_table(package: str, executable: str):
+    """The parameter table of ``package``'s ``executable``, or None if it registers none."""
+    from importlib.metadata import entry_points
+    for ep in entry_points(group=TABLE_GROUP, name=executable):
+        if ep.dist.name == package:
+            table = ep.load()
+            return list(table() if callable(table) else table)
+    return None

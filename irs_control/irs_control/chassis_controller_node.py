@@ -43,8 +43,8 @@ from irs_common.stamps import to_ns
 from irs_common.time_jump import on_time_jump_back
 from irs_msgs.msg import BeltSpeed, SteeringCommand, WheelEncoders, WheelTorqueCommand
 
-from .chassis_params import LIVE, PARAMS
-from .torque_car_control import TorqueCarConfig, TorqueCarController
+from .chassis_params import LIVE, PARAMS, chassis_config
+from .torque_car_control import TorqueCarController
 
 WHEELS = ('FL', 'FR', 'RL', 'RR')
 STALE = 'stale_encoders'
@@ -56,7 +56,7 @@ class ChassisControllerNode(Node):
     def __init__(self, **node_options):
         super().__init__('chassis_controller', **node_options)
         self.p = declare_table(self, PARAMS, on_change=self._on_parameter)
-        self.core = TorqueCarController(TorqueCarConfig.from_params(self.p))
+        self.core = TorqueCarController(chassis_config(self.p))
         self.gate = StampGate(int(round(self.p['future_tolerance'] * 1e9)))
         self.sync = StampSync(('enc', 'pose', 'vel', 'belt')) if self.p['input_sync'] else None
         self.latest = {'pose': None, 'vel': None, 'belt': None}   # real time: the newest

@@ -1,15 +1,15 @@
-"""Parameter table of the ``chassis_controller`` node (the torque car, issue 13).
+"""Parameter table of the ``chassis_controller`` node (the torque car).
 
 Defaults are the cores' (:mod:`.abs_control`, :mod:`.chassis_control`,
 :mod:`.torque_car_control`). Writable at run time are the driver's inputs the core reads at
 every step (speed target, brake and steer schedules) and the stale timeout; everything that
 builds the controllers is read-only.
 """
-from irs_common.params import Param
+from irs_common.params import Param, core_values
 
 from .abs_control import AbsParams
 from .chassis_control import ChassisParams
-from .torque_car_control import BRAKE_MODES, YAW_CONTROLS
+from .torque_car_control import BRAKE_MODES, YAW_CONTROLS, TorqueCarConfig
 
 _A, _C = AbsParams(), ChassisParams()
 
@@ -26,7 +26,8 @@ PARAMS = [
     Param('dt', 0.001, 'control period = encoder sample period', 's', 1e-5, 1.0),
     Param('input_sync', True,
           'lock-step: answer an encoder sample only once the pose, velocity and belt speed of '
-          'the same stamp have arrived; false (real time): the newest of each', '-'),
+          'the same stamp have arrived; false (real time): the newest of each', '-',
+          node_only=True),
     Param('speed.target', 0.0, 'speed over the belt to hold; 0 = the measured belt speed (the '
           'car stays put on the treadmill); applied at the next step', 'm/s', 0.0, 5.0,
           writable=True),
@@ -63,11 +64,12 @@ PARAMS = [
     Param('torque_limit', _A.torque_limit, 'wheel torque limit (the hub motors)', 'N m', 1e-6,
           10.0),
     Param('stale_timeout', 0.05, 'encoder age after which zero torque and zero steer are '
-          'commanded (applied at once)', 's', 0.001, 10.0, writable=True),
+          'commanded (applied at once)', 's', 0.001, 10.0, writable=True, node_only=True),
     Param('future_tolerance', 0.5, 'inputs stamped further ahead of the node clock are dropped',
-          's', 0.0, 3600.0),
+          's', 0.0, 3600.0, node_only=True),
     Param('status_decimation', 10, 'publish chassis/status every this many steps (and on a '
-          'change of reason or braking); 0 = on changes only', '1', 0, 1_000_000),
+          'change of reason or braking); 0 = on changes only', '1', 0, 1_000_000,
+          node_only=True),
 ]
 
 #: run-time changes the node hands to the core: parameter -> TorqueCarConfig attribute
@@ -75,3 +77,10 @@ LIVE = {'speed.target': 'speed_target', 'brake.start_time': 'brake_start_time',
         'brake.duration': 'brake_duration',
         'brake.torque': 'brake_torque', 'brake.mode': 'brake_mode',
         'steer.amplitude': 'steer_amplitude', 'steer.start_time': 'steer_start_time'}
+
+
+def chassis_config(values: dict) -> TorqueCarConfig:
+    """The torque-car controller's configuration from the node's flat parameters (the node's,
+    or an experiment's for the offline twin), missing ones at their defaults.
+    """
+    return TorqueCarConfig.from_params(core_values(PARAMS, values, nested=False))

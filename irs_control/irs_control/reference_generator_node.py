@@ -34,7 +34,7 @@ from irs_common.ticker import create_ticker
 from irs_msgs.msg import LateralReference
 
 from .reference import console_reference
-from .reference_params import PARAMS, signal_from_params
+from .reference_params import PARAMS, reference_signal
 
 
 class ReferenceGeneratorNode(Node):
@@ -45,7 +45,7 @@ class ReferenceGeneratorNode(Node):
         self.p = declare_table(self, PARAMS, on_change=self._on_parameter)
         if self.p['source'] not in ('function', 'console'):
             raise ValueError(f"source must be 'function' or 'console', got {self.p['source']!r}")
-        self.signal = signal_from_params(self.p)
+        self.signal = reference_signal(self.p)
         self.console_value = 0.0
         self.console_refused = 0
         self.time_resets = 0
@@ -59,7 +59,7 @@ class ReferenceGeneratorNode(Node):
 
     def _on_parameter(self, name, value):
         try:
-            self.signal = signal_from_params(self.p)    # self.p is kept current by declare_table
+            self.signal = reference_signal(self.p)    # self.p is kept current by declare_table
         except ValueError as exc:     # e.g. schedule times set, values not yet: keep the old one
             self.get_logger().warning(f'parameter {name} = {value!r} stored, signal not rebuilt '
                                       f'(the previous one stays): {exc}')

@@ -41,15 +41,15 @@ from irs_common.answer_cache import AnswerCache
 from irs_common.node_main import run_node
 from irs_common.orientation import quaternion_from_yaw
 from irs_common.input_checks import ThrottledWarner
-from irs_common.params import declare_table, unflatten
+from irs_common.params import declare_table
 from irs_common.stamp_gate import StampGate
 from irs_common.stamps import to_ns, to_sec
 from irs_common.time_jump import on_time_jump_back
 from irs_msgs.msg import SensingStatus
 
-from .calibration import ArmCalibration, CalibrationError
-from .estimator_params import estimator_parameter_table
-from .pose_estimator import PoseEstimator, PoseEstimatorParams
+from .calibration import CalibrationError
+from .estimator_params import estimator_config, estimator_parameter_table
+from .pose_estimator import PoseEstimator
 
 NAN = math.nan
 
@@ -60,18 +60,15 @@ class ArmPoseEstimatorNode(Node):
     def __init__(self, **node_options):
         super().__init__('arm_pose_estimator', **node_options)
         values = declare_table(self, estimator_parameter_table(), on_change=self._on_parameter)
-        nested = unflatten(values)
-        self.input = nested.pop('input')
-        if self.input not in ('angles', 'raw'):
-            raise ValueError(f"input must be 'angles' or 'raw', got {self.input!r}")
-        self.frame_id = nested.pop('frame_id')
-        self.child_frame_id = nested.pop('child_frame_id')
-        self.pose_every = nested.pop('pose_decimation')
-        future_tolerance = nested.pop('future_tolerance')
+        config = estimator_config(values)
+        self.input = config.input
+        self.frame_id = values['frame_id']
+        self.child_frame_id = values['child_frame_id']
+        self.pose_every = values['pose_decimation']
+        future_tolerance = values['future_tolerance']
         self.readings = 0
-        self.calibration = ArmCalibration.from_dict(nested.pop('calibration'))
-        self.estimator = PoseEstimator(PoseEstimatorParams.from_ros_params(nested),
-                                       future_tolerance=future_tolerance)
+        self.calibration = config.calibration
+        self.estimator = PoseEstimator(config.params, future_tolerance=future_tolerance)
         self.gate = StampGate(int(round(future_tolerance * 1e9)))
         self.accepted = 0
         self.rejected = 0

@@ -1,8 +1,8 @@
 """Parameter table of the ``treadmill_regulator`` node (defaults from the cores, units here)."""
-from dataclasses import asdict
+from dataclasses import asdict, dataclass
 import math
 
-from irs_common.params import Param, flatten, table_from_defaults
+from irs_common.params import Param, core_values, flatten, node_only, table_from_defaults
 from irs_models.constants import BELT_HALF_LENGTH
 
 from .regulator import RegulatorParams
@@ -42,6 +42,10 @@ NODE = [
         '-',
         read_only=True,
     ),
+    Param('enabled', True, 'regulate (false: drive held at 0 V, belt coasts)', '-', writable=True),
+]
+#: The node's own parameters: input pairing, stamp tolerance, status rate.
+NODE += node_only([
     Param(
         'sync_belt_speed',
         True,
@@ -50,7 +54,6 @@ NODE = [
         '-',
         read_only=True,
     ),
-    Param('enabled', True, 'regulate (false: drive held at 0 V, belt coasts)', '-', writable=True),
     Param('future_tolerance', 0.5, 'poses stamped further ahead of the node clock are dropped',
           's', 0.0, 3600.0, read_only=True),
     Param(
@@ -63,7 +66,7 @@ NODE = [
         1_000_000,
         read_only=True,
     ),
-]
+])
 
 
 #: Regulator parameters the node applies while running (``ros2 param set``).
@@ -79,3 +82,24 @@ def regulator_parameter_table() -> list:
     defaults = flatten({'regulator': asdict(RegulatorParams()), 'safety': asdict(SafetyParams())})
     return NODE + table_from_defaults(defaults, _META, writable=WRITABLE,
                                       validators={'regulator.k_x': _positive})
+
+
+@dataclass(frozen=True)
+class RegulatorConfig:
+    """What the regulator's cores take: the regulator, the safety monitor and how they run."""
+
+    regulator: RegulatorParams
+    safety: SafetyParams
+    rate_hz: float                  # [Hz] control rate = pose rate
+    use_velocity_input: bool        # feed the estimator's velocity forward (else a filter)
+    enabled: bool                   # regulate (false: 0 V, the belt coasts)
+
+
+def regulator_config(values: dict) -> RegulatorConfig:
+    """The cores' configuration from the node's flat parameters (the node's, or an
+    experiment's for the offline twin).
+    """
+    nested = core_values(regulator_parameter_table(), values)
+    return RegulatorConfig(RegulatorParams.from_dict(nested['regulator']),
+                           SafetyParams.from_dict(nested['safety']), nested['rate_hz'],
+                           nested['use_velocity_input'], nested['enabled'])

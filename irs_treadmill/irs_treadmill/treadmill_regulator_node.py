@@ -46,16 +46,16 @@ from irs_common.answer_cache import AnswerCache
 from irs_common.input_checks import ThrottledWarner
 from irs_common.node_main import run_node
 from irs_common.orientation import yaw_from_quaternion
-from irs_common.params import declare_table, unflatten
+from irs_common.params import declare_table
 from irs_common.stamp_gate import FUTURE, StampGate
 from irs_common.stamp_sync import StampSync
 from irs_common.stamps import to_ns
 from irs_common.time_jump import on_time_jump_back
 from irs_msgs.msg import BeltSpeed, TreadmillDriveCommand, TreadmillState
 
-from .regulator import BeltSpeedRegulator, RegulatorParams
-from .regulator_params import regulator_parameter_table
-from .safety import TRANSIENT, SafetyMonitor, SafetyParams
+from .regulator import BeltSpeedRegulator
+from .regulator_params import regulator_config, regulator_parameter_table
+from .safety import TRANSIENT, SafetyMonitor
 
 
 class TreadmillRegulatorNode(Node):
@@ -64,10 +64,9 @@ class TreadmillRegulatorNode(Node):
     def __init__(self, **node_options):
         super().__init__('treadmill_regulator', **node_options)
         self.p = declare_table(self, regulator_parameter_table(), on_change=self._on_parameter)
-        nested = unflatten(self.p)
-        self.regulator = BeltSpeedRegulator(RegulatorParams.from_dict(nested['regulator']))
-        self.safety = SafetyMonitor(SafetyParams.from_dict(nested['safety']),
-                                    future_tolerance=self.p['future_tolerance'])
+        config = regulator_config(self.p)
+        self.regulator = BeltSpeedRegulator(config.regulator)
+        self.safety = SafetyMonitor(config.safety, future_tolerance=self.p['future_tolerance'])
         self.gate = StampGate(int(round(self.p['future_tolerance'] * 1e9)))
         self.dt = 1.0 / self.p['rate_hz']
         inputs = ['pose'] + (['velocity'] if self.p['use_velocity_input'] else []) \

@@ -80,7 +80,7 @@ DEFAULT_STEER_LIMIT_RAD = math.radians(STEER_LIMIT_DEG)
 #: 1-7 Hz with the amplitude (Sec. 3.3); friction, play and the slew limit can only slow a fit
 #: down, so the loop itself must be about 7 Hz.  The paper's 3.8 Hz (isolated servo) and 4.6 Hz
 #: (Eq. 6, in the car) are then fits at moderate amplitudes: this model fits about 4 Hz at 4 deg
-#: and 6 Hz at 2 deg (docs/vehicle_sim.md, measured with :mod:`irs_bringup.sysid.actuator_fit`).
+#: and 6 Hz at 2 deg (docs/vehicle_sim.md, measured with :mod:`irs_sysid.actuator_fit`).
 DEFAULT_LAG_HZ = 7.0
 #: Servo-horn angle per road-wheel steer angle [rad/rad].  Assumed, because the paper gives only
 #: "a gain": a standard hobby servo's +-45 deg of horn travel spans the paper's +-15 deg of steer

@@ -7,7 +7,7 @@ The node declares every entry with a descriptor; ``RigConfig.from_dict`` takes t
 import math
 from dataclasses import asdict
 
-from irs_common.params import table_from_defaults
+from irs_common.params import Param, core_values, node_only, table_from_defaults
 from irs_models.arm_kinematics import ArmGeometry
 from irs_models.constants import BELT_HALF_LENGTH, BELT_HALF_WIDTH
 
@@ -208,3 +208,125 @@ def rig_parameter_table() -> list:
     return table_from_defaults(
         defaults, meta, read_only=('dt',),
         validators={'plant': _check_plant, 'surface.kind': _check_surface_kind})
+
+
+#: The node's own parameters: clock, inputs, topics and their rates (``node_only``: the
+#: offline twin of the graph leaves them out).
+NODE_PARAMS = node_only([
+    Param(
+        'clock_mode',
+        'realtime',
+        "'realtime' (wall timer, latest commands) or 'lockstep' "
+        '(publishes /clock, waits for the commands of each step)',
+        '-',
+        read_only=True,
+    ),
+    Param(
+        'lockstep_inputs',
+        ['steering'],
+        'inputs whose command for step k must arrive before '
+        "step k+1 in lockstep mode: any of 'steering', 'drive', 'driver', 'wheels' "
+        '(wheels: plant two_track only)',
+        '-',
+        read_only=True,
+    ),
+    Param(
+        'lockstep_resend_period',
+        1.0,
+        'wall time without progress after which the outputs of '
+        'the current step are published again (lockstep)',
+        's',
+        0.01,
+        3600.0,
+        writable=True,
+    ),
+    Param(
+        'command_timeout',
+        0.1,
+        'real time: a steering, drive or wheel torque command older than this is stale '
+        'and the safe value is used (steer 0 rad, drive 0 V, torques 0 N m); the driver speed '
+        'is held',
+        's',
+        0.001,
+        3600.0,
+        writable=True,
+    ),
+    Param('future_tolerance', 0.5,
+          "commands stamped further ahead of the rig's time are dropped and counted as rejected",
+          's', 0.0, 3600.0, read_only=True),
+    Param('default_drive_voltage', 0.0,
+          'drive voltage used until the first drive command arrives (0 = belt coasts)', 'V', 0.0,
+          100.0),
+    Param('frame_id', 'treadmill', 'fixed frame of poses and points', '-'),
+    Param('child_frame_id', 'base_link', 'car body frame (ground-truth odometry)', '-'),
+    Param('publish_wheel_speeds', False,
+          'publish the four wheel speeds (independent-wheel-torque car encoders)', '-'),
+    Param(
+        'autostart',
+        True,
+        'start by itself: lock-step at once; real time once every input in '
+        'start_inputs has delivered a command (the car is held at its start pose until then). '
+        'false: wait for a call of the rig/start service (std_srvs/Trigger)',
+        '-',
+        read_only=True,
+    ),
+    Param(
+        'start_inputs',
+        ['steering', 'drive'],
+        "real time with autostart: inputs ('steering', "
+        "'drive', 'driver', 'wheels') that must have delivered a command before the car is "
+        "released; "
+        "[''] = none",
+        '-',
+        read_only=True,
+    ),
+    Param(
+        'ground_truth_decimation',
+        1,
+        'publish ground_truth/odom and ground_truth/sensor_point '
+        'every this many steps (0 = never)',
+        '1',
+        0,
+        1_000_000,
+        read_only=True,
+    ),
+    Param(
+        'belt_speed_decimation',
+        1,
+        'publish belt/speed every this many steps (the treadmill '
+        'regulator may run slower than the lateral loop)',
+        '1',
+        1,
+        1_000_000,
+        read_only=True,
+    ),
+    Param('actuator_state_decimation', 1,
+          'publish steering/state every this many steps (0 = never)', '1', 0, 1_000_000,
+          read_only=True),
+    Param('status_period', 0.1,
+          'rig/status is published on a change and at least this often (simulated time)', 's',
+          0.001, 3600.0, read_only=True),
+    Param(
+        'start_subscribers',
+        '',
+        'lock-step: before publishing step 0, wait until these of the '
+        "rig's topics have matched this many subscriptions ('topic=count,...'; the experiment "
+        'runner sets it), so no consumer misses the first step',
+        '-',
+        read_only=True,
+    ),
+    Param('max_steps', 0, 'stop stepping after this many steps (0 = run until shut down)', '1', 0,
+          2**62),
+])
+
+
+def vehicle_sim_parameter_table() -> list:
+    """Every parameter of the ``vehicle_sim`` node: its own, then the rig core's."""
+    return NODE_PARAMS + rig_parameter_table()
+
+
+def rig_config(values: dict) -> RigConfig:
+    """The rig core's configuration from the node's flat parameters (``vehicle_sim``'s, or an
+    experiment's for the offline twin): the table's defaults, without the node-only ones.
+    """
+    return RigConfig.from_dict(core_values(vehicle_sim_parameter_table(), values))

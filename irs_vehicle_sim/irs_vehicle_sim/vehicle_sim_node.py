@@ -68,7 +68,7 @@ from irs_common.input_checks import ThrottledWarner
 from irs_common.loop_timing import LoopTiming
 from irs_common.node_main import run_node
 from irs_common.orientation import quaternion_from_yaw
-from irs_common.params import Param, declare_table
+from irs_common.params import declare_table
 from irs_common.stamp_gate import FUTURE, OLD, StampGate
 from irs_common.stamp_sync import StampSync
 from irs_common.stamps import from_ns, to_ns
@@ -76,8 +76,8 @@ from irs_msgs.msg import (BeltSpeed, DriverCommand, RigStatus, SteeringActuatorS
                           SteeringCommand, TreadmillDriveCommand, TyreState, WheelEncoders,
                           WheelTorqueCommand)
 
-from .rig import RigConfig, RigInputs, RigSimulation
-from .rig_params import rig_parameter_table
+from .rig import RigInputs, RigSimulation
+from .rig_params import NODE_PARAMS, rig_config, vehicle_sim_parameter_table
 from .rig_torque_car import NOT_LOCKED, ZERO_TORQUE
 
 #: lock-step input name -> (topic, message type)
@@ -90,113 +90,6 @@ INPUTS = {
 #: Safe value of an input whose commands are stale (real time).
 SAFE = {'steering': (0.0, 0.0), 'drive': 0.0, 'wheels': (ZERO_TORQUE, NOT_LOCKED)}
 
-NODE_PARAMS = [
-    Param(
-        'clock_mode',
-        'realtime',
-        "'realtime' (wall timer, latest commands) or 'lockstep' "
-        '(publishes /clock, waits for the commands of each step)',
-        '-',
-        read_only=True,
-    ),
-    Param(
-        'lockstep_inputs',
-        ['steering'],
-        'inputs whose command for step k must arrive before '
-        "step k+1 in lockstep mode: any of 'steering', 'drive', 'driver', 'wheels' "
-        '(wheels: plant two_track only)',
-        '-',
-        read_only=True,
-    ),
-    Param(
-        'lockstep_resend_period',
-        1.0,
-        'wall time without progress after which the outputs of '
-        'the current step are published again (lockstep)',
-        's',
-        0.01,
-        3600.0,
-        writable=True,
-    ),
-    Param(
-        'command_timeout',
-        0.1,
-        'real time: a steering, drive or wheel torque command older than this is stale '
-        'and the safe value is used (steer 0 rad, drive 0 V, torques 0 N m); the driver speed '
-        'is held',
-        's',
-        0.001,
-        3600.0,
-        writable=True,
-    ),
-    Param('future_tolerance', 0.5,
-          "commands stamped further ahead of the rig's time are dropped and counted as rejected",
-          's', 0.0, 3600.0, read_only=True),
-    Param('default_drive_voltage', 0.0,
-          'drive voltage used until the first drive command arrives (0 = belt coasts)', 'V', 0.0,
-          100.0),
-    Param('frame_id', 'treadmill', 'fixed frame of poses and points', '-'),
-    Param('child_frame_id', 'base_link', 'car body frame (ground-truth odometry)', '-'),
-    Param('publish_wheel_speeds', False,
-          'publish the four wheel speeds (independent-wheel-torque car encoders)', '-'),
-    Param(
-        'autostart',
-        True,
-        'start by itself: lock-step at once; real time once every input in '
-        'start_inputs has delivered a command (the car is held at its start pose until then). '
-        'false: wait for a call of the rig/start service (std_srvs/Trigger)',
-        '-',
-        read_only=True,
-    ),
-    Param(
-        'start_inputs',
-        ['steering', 'drive'],
-        "real time with autostart: inputs ('steering', "
-        "'drive', 'driver', 'wheels') that must have delivered a command before the car is "
-        "released; "
-        "[''] = none",
-        '-',
-        read_only=True,
-    ),
-    Param(
-        'ground_truth_decimation',
-        1,
-        'publish ground_truth/odom and ground_truth/sensor_point '
-        'every this many steps (0 = never)',
-        '1',
-        0,
-        1_000_000,
-        read_only=True,
-    ),
-    Param(
-        'belt_speed_decimation',
-        1,
-        'publish belt/speed every this many steps (the treadmill '
-        'regulator may run slower than the lateral loop)',
-        '1',
-        1,
-        1_000_000,
-        read_only=True,
-    ),
-    Param('actuator_state_decimation', 1,
-          'publish steering/state every this many steps (0 = never)', '1', 0, 1_000_000,
-          read_only=True),
-    Param('status_period', 0.1,
-          'rig/status is published on a change and at least this often (simulated time)', 's',
-          0.001, 3600.0, read_only=True),
-    Param(
-        'start_subscribers',
-        '',
-        'lock-step: before publishing step 0, wait until these of the '
-        "rig's topics have matched this many subscriptions ('topic=count,...'; the experiment "
-        'runner sets it), so no consumer misses the first step',
-        '-',
-        read_only=True,
-    ),
-    Param('max_steps', 0, 'stop stepping after this many steps (0 = run until shut down)', '1', 0,
-          2**62),
-]
-
 ARM_JOINTS = ['arm_joint1', 'arm_joint2', 'arm_joint3']
 WHEELS = ['wheel_front_left', 'wheel_front_right', 'wheel_rear_left', 'wheel_rear_right']
 
@@ -206,10 +99,9 @@ class VehicleSimNode(Node):
 
     def __init__(self, **node_options):
         super().__init__('vehicle_sim', **node_options)
-        values = declare_table(self, NODE_PARAMS + rig_parameter_table(),
-                               on_change=self._on_parameter)
+        values = declare_table(self, vehicle_sim_parameter_table(), on_change=self._on_parameter)
         self.p = {p.name: values[p.name] for p in NODE_PARAMS}
-        self.config = RigConfig.from_dict({k: v for k, v in values.items() if k not in self.p})
+        self.config = rig_config(values)
         if self.p['clock_mode'] not in ('realtime', 'lockstep'):
             raise ValueError(
                 f"clock_mode must be 'realtime' or 'lockstep', got {self.p['clock_mode']!r}"
