@@ -12,7 +12,8 @@ import yaml
 
 from irs_bag import BagReader, validate
 from irs_bringup.experiment import ExperimentError, NodeEntry, load_experiment
-from irs_bringup.experiment_cli import main as experiment_main, offline_run
+from irs_bringup.experiment_cli import main as experiment_main
+from irs_bringup.offline_twin.from_experiment import offline_run
 from irs_bringup.experiment_schema import ExperimentModel, NodeModel
 from irs_bringup.executables import resolve_executable
 from irs_bringup.experiment_runner import ExperimentRunner
