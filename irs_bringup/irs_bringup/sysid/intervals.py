@@ -33,7 +33,7 @@ from scipy.linalg import matmul_toeplitz, solve_toeplitz
 from scipy.signal import fftconvolve, lfilter
 
 __all__ = ['Z95', 'P_MAX', 'ResidualModel', 'fit_residual_model', 'sandwich_covariance',
-           'half_widths']
+           'quantile95', 'half_widths']
 
 #: two-sided 95 % normal quantile
 Z95 = 1.959963984540054
@@ -53,6 +53,16 @@ class ResidualModel:
     def order(self) -> int:
         return int(self.phi.size)
 
+    def memory(self) -> float:
+        """Long-run over short-run variance, ``sigma_w^2 / A(1)^2 / gamma_0`` [-]: how many
+        samples one independent sample is worth (at least 1: a negatively correlated residual
+        is counted as white).
+        """
+        if not self.order:
+            return 1.0
+        lrv = self.sigma2 / float(1.0 - np.sum(self.phi)) ** 2
+        return max(1.0, lrv / float(self.autocovariance(1)[0]))
+
     def autocovariance(self, n: int) -> np.ndarray:
         """Autocovariance at lags ``0..n-1`` [unit of the residual squared]."""
         a = np.r_[1.0, -self.phi]
@@ -70,20 +80,31 @@ def _segments(bounds, n):
     return out
 
 
-def _conditional_ls(resid, bounds, p, start):
+def _conditional_ls(resid, bounds, p_max):
+    """Conditional least-squares AR fits of every order 0..p_max on the same rows (from sample
+    p_max of each segment): ``[(phi, innovation variance), ...]``, rows used. The normal
+    equations of the lag matrix X give all orders: ``G[:p, :p] phi = g[:p]`` with ``G = X^T X``,
+    ``g = X^T y``, residual ``|y|^2 - phi . g[:p]`` (``numpy.linalg.solve``).
+    """
     rows, target = [], []
     for a, b in bounds:
         e = resid[a:b]
-        if e.size <= start:
-            continue
-        target.append(e[start:])
-        rows.append(np.column_stack([e[start - k:e.size - k] for k in range(1, p + 1)])
-                    if p else np.zeros((e.size - start, 0)))
+        if e.size > p_max:
+            target.append(e[p_max:])
+            rows.append(np.column_stack([e[p_max - k:e.size - k] for k in range(1, p_max + 1)])
+                        if p_max else np.zeros((e.size - p_max, 0)))
     if not target:
-        return np.zeros(p), math.nan, 0
+        return [], 0
     X, y = np.vstack(rows), np.concatenate(target)
-    phi = np.linalg.lstsq(X, y, rcond=None)[0] if p else np.zeros(0)
-    return phi, float(np.mean((y - X @ phi) ** 2)), y.size
+    G, g, yy = X.T @ X, X.T @ y, float(y @ y)
+    out = []
+    for p in range(p_max + 1):
+        try:
+            phi = np.linalg.solve(G[:p, :p], g[:p]) if p else np.zeros(0)
+        except np.linalg.LinAlgError:
+            break
+        out.append((phi, (yy - float(phi @ g[:p])) / y.size))
+    return out, y.size
 
 
 def _lag_sums(x, y, bounds, p):
@@ -114,12 +135,12 @@ def fit_residual_model(jac, resid, bounds=None, p_max: int = P_MAX,
     n, k = jac.shape
     bounds = _segments(bounds, n)
     p_max = max(0, min(int(p_max), min(b - a for a, b in bounds) // 4))
+    fits, m = _conditional_ls(resid, bounds, p_max)
     best = None
-    for p in range(p_max + 1):
-        phi, s2, m = _conditional_ls(resid, bounds, p, p_max)
-        if not (m > 0 and s2 > 0.0):
+    for phi, s2 in fits:
+        if not s2 > 0.0:
             break
-        bic = m * math.log(s2) + p * math.log(m)
+        bic = m * math.log(s2) + phi.size * math.log(m)
         if best is None or bic < best[0]:
             best = (bic, phi, s2)
     if best is None:
@@ -166,8 +187,21 @@ def sandwich_covariance(jac, resid, bounds=None, p_max: int = P_MAX):
     return B @ meat @ B, model
 
 
+def quantile95(n: int, k: int, model: ResidualModel) -> float:
+    """Two-sided 95 % quantile of Student's t with the residual's effective degrees of freedom,
+    ``n / memory - k`` (at least 1): the interval's variance is itself estimated from the
+    residual, from fewer independent samples the longer its memory (``scipy.stats.t``).
+    """
+    from scipy.stats import t as student_t
+
+    return float(student_t.ppf(0.975, max(1.0, n / model.memory() - k)))
+
+
 def half_widths(jac, resid, bounds=None, p_max: int = P_MAX):
-    """``(95 % half-widths of the parameters, model)`` (NaN where the fit is singular)."""
+    """``(95 % half-widths of the parameters, model)`` (NaN where the fit is singular):
+    :func:`quantile95` times the square roots of :func:`sandwich_covariance`'s diagonal.
+    """
     cov, model = sandwich_covariance(jac, resid, bounds, p_max)
     d = np.diag(cov)
-    return np.where(np.isfinite(d), Z95 * np.sqrt(np.clip(d, 0.0, None)), np.nan), model
+    q = quantile95(*np.shape(jac), model)
+    return np.where(np.isfinite(d), q * np.sqrt(np.clip(d, 0.0, None)), np.nan), model
