@@ -22,6 +22,10 @@ What the intervals assume: the residual is such an AR(p) process, the same in ev
 p at most ``p_max`` samples of memory beyond which it is white; a model error that does not
 average out (a wrong structure) is not covered. White residual: p = 0 and the usual interval.
 Coverage measured on Ornstein-Uhlenbeck noise: ``irs_bringup/test/test_sysid_intervals.py``.
+
+Frequency-domain fits (one point per band of FFT bins) have residuals that are independent
+from band to band but of unequal variance; :func:`grouped_sandwich` gives their covariance
+without assuming the variances known (HC3, the real and imaginary residual of a band a group).
 """
 from __future__ import annotations
 
@@ -33,7 +37,7 @@ from scipy.linalg import matmul_toeplitz, solve_toeplitz
 from scipy.signal import fftconvolve, lfilter
 
 __all__ = ['Z95', 'P_MAX', 'ResidualModel', 'fit_residual_model', 'sandwich_covariance',
-           'quantile95', 'half_widths']
+           'quantile95', 'half_widths', 'grouped_sandwich', 'student95']
 
 #: two-sided 95 % normal quantile
 Z95 = 1.959963984540054
@@ -205,3 +209,29 @@ def half_widths(jac, resid, bounds=None, p_max: int = P_MAX):
     d = np.diag(cov)
     q = quantile95(*np.shape(jac), model)
     return np.where(np.isfinite(d), q * np.sqrt(np.clip(d, 0.0, None)), np.nan), model
+
+
+def student95(dof: float) -> float:
+    """Two-sided 95 % quantile of Student's t with ``dof`` degrees of freedom (at least 1)."""
+    from scipy.stats import t as student_t
+
+    return float(student_t.ppf(0.975, max(1.0, dof)))
+
+
+def grouped_sandwich(jac, resid, groups):
+    """``(cov, dof)``: the heteroscedasticity-consistent (HC3) covariance of a least-squares
+    estimate whose residuals are independent between ``groups`` (index tuples) but not of one
+    variance: ``B (sum_g J_g^T r~_g r~_g^T J_g) B``, ``B = (J^T J)^-1``, ``r~_g = (I - H_gg)^-1
+    r_g`` with ``H = J B J^T`` (the leverage correction of MacKinnon and White); ``dof`` =
+    groups - parameters, for Student's t.
+    """
+    jac, resid = np.asarray(jac, float), np.asarray(resid, float)
+    B = np.linalg.pinv(jac.T @ jac)
+    meat = np.zeros_like(B)
+    for g in groups:
+        g = list(g)
+        jg = jac[g]
+        rg = np.linalg.solve(np.eye(len(g)) - jg @ B @ jg.T, resid[g])
+        v = jg.T @ rg
+        meat += np.outer(v, v)
+    return B @ meat @ B, max(1, len(groups) - jac.shape[1])
