@@ -86,7 +86,8 @@ def check(car, fr, res, kp=5.0):
                  / fr.band_average(lambda w: car.response(w / (2 * math.pi))) - 1.0)
     bad = [] if abs(res.model.gain - car.K) <= Z_TEST * sd_k else [
         f'K: {res.model.gain:.5g} against {car.K:.5g}, error '
-        f'{(res.model.gain - car.K) / sd_k:+.1f} sd (tolerance {Z_TEST:g} sd = {Z_TEST * sd_k:.3g})']
+        f'{(res.model.gain - car.K) / sd_k:+.1f} sd (tolerance {Z_TEST:g} sd = '
+        f'{Z_TEST * sd_k:.3g})']
     bad += [f'response at {f:.2f} Hz: {e:.2%} off' for f, e in zip(fr.f, err) if not e < 0.02]
     assert not bad, '; '.join(bad)
     return sd_k, sd_band

@@ -107,19 +107,18 @@ class FrequencyResponse:
         return np.add.reduceat(wk * response(2.0 * np.pi * fk), starts)
 
     def weights(self) -> np.ndarray:
-        r"""Inverse standard deviation of each band's ``ln P`` (real or imaginary part).
+        r"""Per-band weights of the fit, ``sqrt(n_b gamma^2 / (1 - gamma^2))`` (``gamma^2`` capped
+        at 0.999): the coherence's measure of a band's quality (Bendat & Piersol).
 
-        The noise ``n`` on the measured ``y`` reaches the estimate as ``d ln P = N / (R T)``
-        (``P = T / (C (1 - T))`` with ``T`` the band's r -> y ratio), whose variance the band's
-        ``gamma^2_ru`` gives with ``n_b - 1`` degrees of freedom: ``(1 - gamma^2_ru) / ((n_b - 1)
-        gamma^2_ru |T|^2)``, half of it in each part (``gamma^2`` capped at 1 - 1e-6). Without
-        ``coherence_u``: ``sqrt(n_b gamma^2 / (1 - gamma^2))``.
+        Not the inverse standard deviation of ``ln P``: noise ``n`` on the measured ``y``
+        reaches the estimate as ``N / (R T)``, so that would carry the closed loop's ``|T|`` and
+        weigh the bands above the loop's bandwidth down, where these keep them up -- and with
+        them the fit's place for a zero/pole pair the data cannot resolve, above the band
+        (:func:`reduced_vehicle_polynomials`). The intervals do not rest on the weights
+        (module docstring).
         """
-        if self.coherence_u is None:
-            g2 = np.minimum(self.coherence, 0.999)
-            return np.sqrt(self.bins * g2 / (1.0 - g2))
-        g2 = np.minimum(self.coherence_u, 1.0 - 1e-6)
-        return np.abs(self.T) * np.sqrt(2.0 * (self.bins - 1.0) * g2 / (1.0 - g2))
+        g2 = np.minimum(self.coherence, 0.999)
+        return np.sqrt(self.bins * g2 / (1.0 - g2))
 
     @property
     def w(self) -> np.ndarray:
