@@ -40,9 +40,9 @@ noise), carried to the poles and zeros by the delta method (a numerical Jacobian
 95 % half-width = Student's t (bands - parameters degrees of freedom) sigma. What they assume:
 the bands' errors independent (one boxcar segment of a record that starts and ends at rest:
 neighbouring bands share no bin), and the linearisation valid -- it is for K and for w_n and
-zeta of the quadratics at the rig's noise, not for single roots of a near-double pair, whose
-estimates are far from Gaussian (coverage measured: ``irs_bringup/test/
-test_sysid_vehicle_fit.py``).
+zeta of the quadratics at the rig's noise (coverage 0.93-1.0 over 60 draws of white and of
+0.2 s correlated noise, measured on the test's generator), not for single roots of a near-double
+pair, whose estimates are far from Gaussian.
 """
 from __future__ import annotations
 
