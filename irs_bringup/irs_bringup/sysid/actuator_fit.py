@@ -15,11 +15,9 @@ first-order lag and a dead time (the paper's model of the servo)::
 by :func:`scipy.optimize.least_squares` on the complex log ratio ``log(G / H)`` (real part: log
 magnitude error, imaginary part: phase error [rad], so both panels of a Bode plot weigh alike).
 One dead time ``T`` is shared by all amplitudes (it is a transport delay, the same at any
-amplitude); gain ``K_i`` and pole ``f_p,i`` are per amplitude.  Each band of ``n`` bins is
-weighted by the inverse of its estimate's standard deviation: the band's residual
-``Y - H U`` gives the noise with ``n - 1`` degrees of freedom, and the real and imaginary part
-of ``log H`` each have the variance ``(1 - gamma^2) / (2 (n - 1) gamma^2)``; a band has at least
-``min_bins`` bins (narrower log bands are merged with the next).
+amplitude); gain ``K_i`` and pole ``f_p,i`` are per amplitude.  Each band is weighted by
+``sqrt(gamma^2)`` and has at least ``min_bins`` bins (narrower log bands are merged with the
+next).
 
 95 % confidence half-widths from the heteroscedasticity-consistent sandwich over the bands
 (:func:`.intervals.grouped_sandwich`, Student's t): right whatever the weights, if the bands'
@@ -60,7 +58,7 @@ class FrequencyResponse:
     h : ndarray       complex response, achieved / commanded [rad/rad]
     coherence : ndarray   magnitude-squared coherence in [0, 1]
     amplitude : float     command amplitude of the excitation [rad]
-    bins : ndarray    FFT bins in each band (None: unknown, the weights then sqrt(gamma^2))
+    bins : ndarray    FFT bins in each band (None: unknown)
     spread : tuple    per band, the bins' frequencies [Hz] and their share of the command's
                       power (None: unknown)
     """
@@ -84,14 +82,12 @@ class FrequencyResponse:
         return np.array([np.dot(w, response(fk)) for (fk, w), k in zip(self.spread, keep) if k])
 
     def weights(self) -> np.ndarray:
-        """Inverse standard deviation of each band's ``log H`` (real or imaginary part):
-        ``sqrt(2 (n - 1) gamma^2 / (1 - gamma^2))``, ``gamma^2`` capped at 1 - 1e-6 (a
-        noise-free band); ``sqrt(gamma^2)`` without the bin counts.
+        """Per-band weights of the fit, ``sqrt(gamma^2)``: a band the servo's non-linearity or
+        the noise makes incoherent counts less.  Not the inverse standard deviation of a band's
+        estimate, which on a noise-free, slew-limited servo would follow the distortion and fit
+        the low bands at the cost of the roll-off; the intervals do not rest on the weights.
         """
-        if self.bins is None:
-            return np.sqrt(self.coherence)
-        g2 = np.minimum(self.coherence, 1.0 - 1e-6)
-        return np.sqrt(2.0 * (np.asarray(self.bins) - 1.0) * g2 / (1.0 - g2))
+        return np.sqrt(self.coherence)
 
 
 @dataclass
