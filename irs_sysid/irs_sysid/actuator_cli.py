@@ -1,6 +1,6 @@
 """``sysid actuator``: the steering servo from recorded bags (paper Sec. 3.3, Fig. 6 and 7).
 
-    ./irs run irs_bringup sysid actuator <bag> [<bag> ...] [--png PREFIX]
+    ./irs run irs_sysid sysid actuator <bag> [<bag> ...] [--png PREFIX]
 
 Each bag is a run of ``sysid_actuator_sweep`` (an ``excitation`` chirp on the steer command) or
 ``sysid_actuator_steps`` (an ``excitation`` schedule of steps), told apart by the excitation's
@@ -34,7 +34,7 @@ from . import actuator_fit as af
 from .common import run_experiment
 from .report import Estimate, format_report
 
-#: Tolerances of the identification (tests/test_sysid_actuator.py holds them).
+#: Tolerances of the identification (irs_system_tests/test/test_sysid_actuator.py holds them).
 POLE_REL_TOL = 0.05        # fitted pole vs the configured core's fit at the same amplitude
 DELAY_ABS_TOL = 0.003      # [s] dead time vs the configured transport delay (paper: +-0.005 s)
 RATE_REL_TOL = 0.10        # slew rate of the large steps vs rate_limit / gear_ratio

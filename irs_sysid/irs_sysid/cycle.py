@@ -1,6 +1,6 @@
 """``sysid cycle``: identify the rig's plant, design the MRC on the model, run it, compare.
 
-    ./irs run irs_bringup sysid cycle [--plant identified irs_2wd ...] [--runs-dir runs/cycle]
+    ./irs run irs_sysid sysid cycle [--plant identified irs_2wd ...] [--runs-dir runs/cycle]
                                       [--offline] [--input achieved|command] [--png cycle.png]
 
 Per plant (the rig's ``vehicle_sim`` configured with it: ``identified`` = Eq. 6, or a bicycle

@@ -1,7 +1,7 @@
 """``sysid treadmill <bag>``: the belt's Eq. 2 and Eq. 1 identified from a bag; paper Figure 5.
 
     ./irs run irs_bringup experiment run sysid_treadmill
-    ./irs run irs_bringup sysid treadmill runs/sysid_treadmill-<time>/bag --png fig5.png
+    ./irs run irs_sysid sysid treadmill runs/sysid_treadmill-<time>/bag --png fig5.png
 
 Reads the measured belt speed (``/belt/speed``: the encoder estimate, quantised, as the paper's
 data) and the drive command (``/treadmill/drive``) by stamp, fits (:mod:`.treadmill_fit`) the

@@ -1,16 +1,20 @@
 r"""``sysid vehicle <bag>``: the car's open loop from a closed-loop sweep (paper Sec. 4, Fig. 8-9).
 
-    ./irs run irs_bringup experiment run sysid_vehicle_sweep      # 13.5 s lock-step, recorded
-    ./irs run irs_bringup experiment run sysid_vehicle_step       # 4 s, a 0.02 m step
-    ./irs run irs_bringup sysid vehicle runs/sysid_vehicle_sweep-<t>/bag \
+    ./irs run irs_bringup experiment run sysid_vehicle_sweep      # 16.5 s lock-step, recorded
+    ./irs run irs_bringup experiment run sysid_vehicle_step       # 8 s, a 0.02 m step
+    ./irs run irs_sysid sysid vehicle runs/sysid_vehicle_sweep-<t>/bag \
         [--step-bag runs/sysid_vehicle_step-<t>/bag] [--png out/vehicle]
 
-From the sweep bag (``lateral/reference`` r, ``steering/command`` u, ``lateral_position`` y, and
-``steering/state`` for the achieved steer) two identifications (:mod:`.vehicle_fit`):
+Both experiments run under the paper's PI (Kp = 5, Ki = 3), a loop made from no model of the
+plant: the plant is identified first and designs rest on it afterwards, the paper's order
+(Sec. 4-5). From the sweep bag (``lateral/reference`` r, ``steering/command`` u,
+``lateral_position`` y, and ``steering/state`` for the achieved steer) two identifications
+(:mod:`.vehicle_fit`):
 
 1. **the paper's**: ``S_ry/S_ru`` from the steer *command*, the actuator "simply modeled as a
    4.6 Hz first order lag" plus the transmitter delay configured in the rig (read from the
-   bag's metadata), the Eq. 6 structure fitted;
+   bag's metadata) and half a sample (the command is held over its step), the Eq. 6 structure
+   fitted;
 2. **from the achieved steer** (``S_ry/S_r delta``, the servo's own angle): the vehicle alone,
    with no actuator assumption -- what is left when the actuator is not the paper's lag
    (the rig's amplitude-dependent servo is slew limited at these amplitudes).
@@ -50,7 +54,8 @@ def add_arguments(parser) -> None:
     parser.add_argument('--lag-hz', type=float,
                         help=f'actuator lag [Hz] of the paper fit (default {vf.PAPER_LAG_HZ})')
     parser.add_argument('--delay', type=float,
-                        help="actuator dead time [s] of the paper fit (default: the bag's rig)")
+                        help="actuator dead time [s] of the paper fit (default: the bag's rig, "
+                             'plus half a sample for the hold)')
 
 
 # ------------------------------------------------------------------ bag reading
@@ -122,8 +127,9 @@ def identify(run: dict, band=None, coherence_min: float = vf.COHERENCE_MIN, lag_
                              f"{ref.get('signal.type')!r}): give --band F0 F1")
         band = (float(ref['signal.f0']), float(ref['signal.f1']))
     a = 2 * math.pi * (lag_hz if lag_hz is not None else vf.PAPER_LAG_HZ)
-    d = delay if delay is not None else (configured.delay if configured else 0.0)
     fs = _rate(run['time'])
+    d = delay if delay is not None else \
+        (configured.delay if configured else 0.0) + 0.5 / fs     # the hold: half a sample
     r, u, y = run['reference'], run['steer_cmd'], run['y_measured']
     fr = vf.closed_loop_frequency_response(r, u, y, fs, band, coherence_min=coherence_min)
     fit = vf.fit_open_loop(fr, a, d)
@@ -147,7 +153,7 @@ def reports(ident: dict) -> list:
     fit, conf = ident['fit'], ident['configured']
     m = fit.model
     out = [(f'Open loop from the steer command, actuator = {m.actuator_pole / (2 * math.pi):.2f}'
-            f" Hz lag + {1000 * m.delay:.0f} ms (the paper's method; {fit.points} points, "
+            f" Hz lag + {1000 * m.delay:.1f} ms (the paper's method; {fit.points} points, "
             f'{ident["band"][0]:g}-{ident["band"][1]:g} Hz, RMS log error '
             f'{fit.rms_log_error:.3f})',
             vf.vehicle_estimates(fit, _configured_as(conf, m.actuator_pole, m.delay),
@@ -243,7 +249,7 @@ def plot_bode(ident: dict, path) -> Path:
     z, p = fmt_roots(m.zeros), fmt_roots(m.poles)
     ax_m.set_title(f'Figure 8: open loop steer command -> lateral position, from closed-loop '
                    f'data\nfit: K = {m.gain:.3g} m/(s^2 rad), zeros [{z}], poles [0, 0, {p}, '
-                   f'-{m.actuator_pole:.3g}], delay {1000 * m.delay:.0f} ms', fontsize=10)
+                   f'-{m.actuator_pole:.3g}], delay {1000 * m.delay:.1f} ms', fontsize=10)
     for ax in (ax_m, ax_p):
         ax.grid(True, which='both', alpha=0.3)
     ax_m.legend(loc='lower left')
