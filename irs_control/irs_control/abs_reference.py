@@ -10,9 +10,11 @@ the wheels' own torque balance gives (``J domega/dt = T - R F_x - T_rr``)::
 [rad/s] the encoders', ``a_b`` [m/s^2] the belt's acceleration from its measured speed (the
 car's speed is over the belt, whose frame accelerates: two_track.py). The inertia and belt terms
 are differences, so their integrals are exact (``J (omega_k - omega_0)``, ``V_b,k - V_b,0``)
-whatever the encoders' quantisation. While no wheel brakes, ``v = mean(omega_i) R`` (free-rolling
-wheels; the drive slip at belt speed is 0.6 %), which also starts the integration. While a wheel
-is held by a friction brake its torque is unknown: ``v`` is then the wheels' speed (0). The
+whatever the encoders' quantisation. While no brake is asked for, the wheels' mean
+``mean(omega_i) R`` also corrects it, ``dv/dt += (mean(omega_i) R - v) / free_time`` (free-rolling
+wheels: the drive slip at belt speed is 0.6 %, the rolling resistance's -f_r / C_k = -0.2 %;
+``free_time`` averages out the encoders' steps). While a wheel is held by a friction brake its
+torque is unknown: ``v`` is the wheels' speed. The
 encoders' rim speed is no upper or lower bound while braking: with the relaxed slip a released
 wheel overshoots the car's speed. Used instead of the arm's speed, which a real car lacks.
 """
@@ -46,6 +48,9 @@ class WheelSpeedParams:
         f_r [-] (0.02).
     rr_speed : float
         v_rr [m/s] (0.02).
+    free_time : float
+        Time constant over which the free-rolling wheels' mean is averaged [s] (0.02: the
+        encoders' 0.61 rad/s steps are 0.02 m/s of rim speed).
     """
 
     mass: float = 2.86
@@ -53,9 +58,11 @@ class WheelSpeedParams:
     wheel_inertia: float = 5e-5
     rolling_resistance: float = 0.02
     rr_speed: float = 0.02
+    free_time: float = 0.02
 
     def __post_init__(self):
-        check_numbers(self, ('mass', 'wheel_radius', 'wheel_inertia', 'rr_speed'), above=0.0)
+        check_numbers(self, ('mass', 'wheel_radius', 'wheel_inertia', 'rr_speed', 'free_time'),
+                      above=0.0)
         check_numbers(self, ('rolling_resistance',), at_least=0.0)
 
 
@@ -103,7 +110,7 @@ class WheelSpeedObserver:
         p = self.params
         w = np.asarray(omega, float)
         wheels = float(np.mean(w)) * p.wheel_radius
-        if self._omega is None or not braking or held or not math.isfinite(self.estimate):
+        if self._omega is None or held or not math.isfinite(self.estimate):
             self.estimate = wheels
             self.forces = np.zeros(self.n)
         else:
@@ -111,6 +118,8 @@ class WheelSpeedObserver:
             self.forces = (t - self.rolling_torques(w) - p.wheel_inertia * (w - self._omega) / dt
                            ) / p.wheel_radius
             self.estimate += dt * float(np.sum(self.forces)) / p.mass + (belt_speed - self._belt)
+            if not braking:     # free-rolling wheels correct it (their 0.02 m/s steps averaged)
+                self.estimate += min(1.0, dt / p.free_time) * (wheels - self.estimate)
         self._omega = w.copy()
         self._belt = float(belt_speed)
         return self.estimate
