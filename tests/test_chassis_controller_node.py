@@ -94,7 +94,10 @@ def start(launch, **params):
 
 
 def test_abs_releases_the_slipping_wheel_and_keeps_the_full_brake_on_the_others(ros, launch):
-    start(launch, **{'brake.start_time': 0.0, 'brake.mode': 'abs', 'brake.torque': 0.3})
+    # the arm's speed as the ABS's reference: the wheels cannot tell it (one slips, the others
+    # roll at an unknown slip), the arm can, so the slip is known
+    start(launch, **{'brake.start_time': 0.0, 'brake.mode': 'abs', 'brake.torque': 0.3,
+                     'abs.reference': 'arm'})
     link = ChassisLink(ros)
     slipping = [0.5 * ROLLING, ROLLING, ROLLING, ROLLING]     # FL at slip -0.5
     for k in range(40):
@@ -109,6 +112,7 @@ def test_abs_releases_the_slipping_wheel_and_keeps_the_full_brake_on_the_others(
     assert reason == 'ok' and values['braking'] == 'true' and values['brake_mode'] == 'abs'
     assert float(values['slip_FL']) == pytest.approx(-0.5, abs=1e-9)
     assert float(values['v_hat']) == pytest.approx(V, abs=1e-9)
+    assert float(values['slip_target_FL']) == -0.10 and math.isfinite(float(values['v_ref']))
     # The same wheel rolling again: ABS gives the brake back (integral towards the request).
     for k in range(40, 200):
         cmd = link.step(k * MS, [ROLLING] * 4)

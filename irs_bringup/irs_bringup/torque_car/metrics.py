@@ -22,7 +22,7 @@ Braking (``braking_metrics``), all from the rig's ground truth unless said other
 * the ABS's reference speed (``v_ref`` of ``chassis/status``, from the wheels): its largest
   error ``max |v_ref - u|`` [m/s] over the status samples between ``t_b`` and the stop with
   ``u > 0.2 m/s``, and the mean slip target over them (the peak seeker's; -0.10 fixed); NaN
-  without them;
+  without them and for locked wheels (then the estimated slips too: held wheels tell nothing);
 * a wheel locked: ``|omega_i| R < lock_speed`` (0.01 m/s) while ``u > v_min`` between ``t_b``
   and the stop (after it the friction brakes hold the wheels while the car rocks on its
   tyres); the time it spent so [s];
@@ -194,6 +194,9 @@ def braking_metrics(run) -> dict:
     out['slip_min'] = slip.min(axis=0).tolist() if slip.size else [_NAN] * 4
     out.update(_estimated_slip_means(run, tb, t_end))
     out.update(_reference_metrics(run, tb, t_end))
+    if run_kind(run.name)['mode'] == 'locked':
+        # the friction brakes hold the wheels: the controller's reference and slips are moot
+        out.update(slip_est_median=[_NAN] * 4, v_ref_error_max=_NAN, slip_target_mean=_NAN)
     after = (t >= tb) & (t <= t_end) & (u > V_MIN)
     rim = np.abs(tyre['omega']) * wheel_radius(run)
     locked = (rim < LOCK_SPEED) & after[:, None]
