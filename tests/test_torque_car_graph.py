@@ -111,7 +111,7 @@ def test_abs_stops_shorter_than_locked_wheels_on_low_mu_with_slip_near_target(ru
     held = float(np.median(st['slip'][(st['t'] >= T_BRAKE) & (u_st > 0.15) & (st['t'] <
                                                                             tyre['t'][i1])]))
     print(f'low mu: slip under ABS {held:.3f} as the controller measures it, {mean_slip:.3f} '
-          f'the tyres\' (target -0.10); locked wheels: '
+          f"the tyres' (target -0.10); locked wheels: "
           f'{np.mean(runs["torque_braking_locked_low"][1].series["tyre"]["slip"][i0:i1]):.3f}')
     assert abs(held + 0.10) < 0.01
     # the tyres' relaxed slip is deeper (measured -0.13): the encoders' 2.5 ms lag on a
