@@ -161,7 +161,8 @@ class TorqueCarOutput:
     ``torques`` [N m] FL, FR, RL, RR; ``locked`` 4 bools; ``front_steer``, ``rear_steer`` [rad];
     ``v_hat`` [m/s] the arm's speed, ``v_ref`` [m/s] the wheels'; ``slips`` [-] measured
     against the ABS's speed (0 when not computed); ``slip_target`` [-] per wheel (negative);
-    ``mu`` [-] the peak seeker's friction estimate per wheel; ``r_ref`` [rad/s]; ``braking``;
+    ``mu`` [-] the peak seeker's friction estimate per wheel (0 unless ``'abs_peak'``, which
+    alone runs it); ``r_ref`` [rad/s]; ``braking``;
     ``t`` [s] since the first step; ``reason`` ``'ok'``, ``'low_speed'`` (ABS off below v_min)
     or the bad input (then every command is 0).
     """
@@ -221,6 +222,7 @@ class TorqueCarController:
         self.peak.reset()
         self.applied = np.zeros(4)          # torques held over the last step [N m]
         self.applied_locked = False
+        self.peak_running = False
 
     def update_pose(self, stamp_ns: int, x: float, psi: float, belt_speed: float) -> None:
         """A new arm pose ``x`` [m], ``psi`` [rad] and belt speed [m/s] at ``stamp_ns``.
@@ -283,9 +285,14 @@ class TorqueCarController:
         # the hold latches for the braking event (the speed hovers about v_min as the car stops)
         self.holding = braking and (self.holding or v_abs <= c.abs.v_min)
         peak = c.brake_mode == 'abs_peak'
-        learn = (ch.torques < 0.0) & (braking and peak and not self.holding)
-        with np.errstate(over='ignore', invalid='ignore'):
-            targets = self.peak.step(omega, self.applied, v_abs, learn, c.dt)
+        if peak != self.peak_running:       # (brake.mode is writable): the seeker starts afresh
+            self.peak.reset()
+            self.peak_running = peak
+        targets = self.peak.target.copy()
+        if peak:
+            learn = (ch.torques < 0.0) & (braking and not self.holding)
+            with np.errstate(over='ignore', invalid='ignore'):
+                targets = self.peak.step(omega, self.applied, v_abs, learn, c.dt)
         if not (math.isfinite(v_ref) and np.all(np.isfinite(targets))
                 and np.all(np.isfinite(self.peak.kappa))):
             self.wheels.reset()             # absurd input: start again (the ABS answers 0 N m)

@@ -61,7 +61,8 @@ def test_brake_modes_on_a_wheel_slipping_at_minus_half(mode):
     omega = [0.5 * V / R, V / R, V / R, V / R]
     before = drive(ctl, 10, omega=omega)
     assert not before.braking
-    out = drive(ctl, 30, omega=omega, k0=10)
+    first = drive(ctl, 1, omega=omega, k0=10)
+    out = drive(ctl, 29, omega=omega, k0=11)
     assert out.braking
     if mode == 'locked':
         assert out.locked == (True,) * 4 and np.all(out.torques == 0.0)
@@ -71,7 +72,9 @@ def test_brake_modes_on_a_wheel_slipping_at_minus_half(mode):
         assert out.locked == (False,) * 4
         assert np.allclose(out.torques[1:], -0.2) and out.torques[0] > -0.05
         assert out.slips[0] == pytest.approx(-0.5)
-        assert np.allclose(out.slip_target, -0.10)     # the peak seeker starts at the baseline
+        assert np.allclose(first.slip_target, -0.10)   # the peak seeker starts at the baseline
+        # ... and 20 ms into the stop raises it by its probe, 0.03
+        assert np.allclose(out.slip_target, -0.13 if mode == 'abs_peak' else -0.10)
 
 
 def test_the_abs_takes_the_wheels_speed_not_the_arms():
@@ -82,10 +85,11 @@ def test_the_abs_takes_the_wheels_speed_not_the_arms():
     ctl = controller(brake_start_time=0.01, brake_mode='abs', brake_torque=0.2)
     omega = [1.0 / R] * 4
     before = drive(ctl, 10, omega=omega)
-    assert before.v_ref == pytest.approx(1.0) and before.v_hat == pytest.approx(V)
+    # (the wheels correct the torque-integrated speed over 20 ms; the torques here drive)
+    assert before.v_ref == pytest.approx(1.0, abs=0.005) and before.v_hat == pytest.approx(V)
     out = drive(ctl, 1, omega=omega, k0=10)
     assert out.braking and np.allclose(out.torques, -0.2)
-    assert np.allclose(out.slips, 0.0, atol=1e-3)
+    assert np.allclose(out.slips, 0.0, atol=0.005)
     arm = controller(brake_start_time=0.01, brake_mode='abs', brake_torque=0.2,
                      abs_reference='arm')
     drive(arm, 10, omega=omega)
