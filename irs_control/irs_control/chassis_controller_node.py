@@ -8,8 +8,9 @@ from the arm, the driver's brake and steer schedule, :class:`ChassisController`,
 Publishes, one answer per encoder sample and stamped with it: ``wheels/torque_command``
 (irs_msgs/WheelTorqueCommand: torques [N m] FL, FR, RL, RR, + drives; ``locked`` flags) and
 ``steering/command`` (front = the driver's step steer, rear = the chassis controller's);
-``chassis/status`` (diagnostic_msgs/DiagnosticArray: mode, braking, v_hat, slips, r_ref,
-reason) every ``status_decimation`` steps and when the reason or braking changes.
+``chassis/status`` (diagnostic_msgs/DiagnosticArray: mode, braking, v_hat (arm), v_ref
+(wheels), slips, slip targets, friction estimates, r_ref, reason) every ``status_decimation``
+steps and when the reason or braking changes.
 
 Pairing: with ``input_sync`` (lock-step) an encoder sample t_k is answered once the pose,
 velocity and belt speed stamped t_k have arrived (:class:`~irs_common.stamp_sync.StampSync`), so
@@ -194,9 +195,11 @@ class ChassisControllerNode(Node):
         values = {'brake_mode': c.brake_mode, 'yaw_control': c.yaw_control,
                   'braking': str(bool(out is not None and out.braking)).lower()}
         if out is not None:
-            values.update({'t': out.t, 'v_hat': out.v_hat, 'r_ref': out.r_ref,
+            values.update({'t': out.t, 'v_hat': out.v_hat, 'v_ref': out.v_ref, 'r_ref': out.r_ref,
                            'front_steer': out.front_steer, 'rear_steer': out.rear_steer})
             values.update({f'slip_{w}': float(s) for w, s in zip(WHEELS, out.slips)})
+            values.update({f'slip_target_{w}': float(s) for w, s in zip(WHEELS, out.slip_target)})
+            values.update({f'mu_{w}': float(s) for w, s in zip(WHEELS, out.mu)})
             values.update({f'torque_{w}': float(v) for w, v in zip(WHEELS, out.torques)})
         st.values = [KeyValue(key=k, value=f'{v:.9g}' if isinstance(v, float) else v)
                      for k, v in values.items()]

@@ -1,13 +1,14 @@
-"""``torque_car``: metrics and figures of the torque car's experiments (issue 13).
+"""``torque_car``: metrics and figures of the torque car's experiments.
 
-    ./irs run irs_bringup torque_car runs/torque_braking_abs_low-<time> ... [--out docs/img]
-    ./irs run irs_bringup torque_car --run [--out docs/img]     # run the nine experiments first
+    ./irs run irs_studies torque_car runs/torque_braking_abs_low-<time> ... [--out docs/img]
+    ./irs run irs_studies torque_car --run [--out docs/img]     # run the experiments first
 
 Each argument is a run directory (``<run>/bag``), a bag directory or an ``.mcap`` file of one of
 the experiments in :data:`EXPERIMENTS`; the experiment is told by the bag's metadata (else by
 the run directory's name). It prints the metrics tables (:mod:`.metrics`, Markdown), writes them
 to ``--metrics`` (JSON, default ``runs/torque_car/metrics.json``) and the figures
-(:mod:`.plots`) to ``--out``: ``torque_braking_<surface>.png`` (locked against ABS, per surface),
+(:mod:`.plots`) to ``--out``: ``torque_braking_<surface>.png`` (locked wheels, the fixed-target
+and the peak-seeking ABS, per surface: high, low, split and a mid-stop step),
 ``torque_split_yaw.png`` and ``torque_step_steer.png``. ``--run`` runs the experiments through
 the graph (lock-step, one after the other, bags under ``--runs-dir``) and then does the same
 with their bags. A bad file or argument is one line on stderr and exit code 2; an experiment
@@ -27,12 +28,10 @@ from .series import load_run
 
 __all__ = ['EXPERIMENTS', 'main', 'analyse']
 
-EXPERIMENTS = (
-    'torque_braking_locked_high', 'torque_braking_abs_high',
-    'torque_braking_locked_low', 'torque_braking_abs_low',
-    'torque_braking_locked_split', 'torque_braking_abs_split', 'torque_braking_chassis_split',
-    'torque_step_steer_open', 'torque_step_steer_chassis',
-)
+EXPERIMENTS = tuple(
+    [f'torque_braking_{mode}_{surface}' for surface in ('high', 'low', 'split', 'step')
+     for mode in ('locked', 'abs', 'abspeak')]
+    + ['torque_braking_chassis_split', 'torque_step_steer_open', 'torque_step_steer_chassis'])
 PROG = 'torque_car'
 
 
@@ -112,7 +111,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument('--run', action='store_true',
                    help='run the experiments through the graph first (see --experiments)')
     p.add_argument('--experiments', nargs='+', default=list(EXPERIMENTS), metavar='NAME',
-                   help='experiments for --run (default: all nine)')
+                   help=f'experiments for --run (default: all {len(EXPERIMENTS)})')
     p.add_argument('--runs-dir', type=Path, default=Path('runs'),
                    help='where --run puts its runs (default runs/)')
     p.add_argument('--out', type=Path, default=Path('runs/torque_car'),
