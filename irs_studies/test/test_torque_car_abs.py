@@ -11,7 +11,7 @@ over the belt surface (the rig's ``x_belt``), from the brake start at 0.05 s to 
 import numpy as np
 import pytest
 
-from irs_bringup.offline_twin.chassis_loop import chassis_offline_run
+from irs_bringup.offline_twin.from_experiment import offline_run
 
 SURFACES = ('high', 'low', 'split', 'step')
 MODES = ('locked', 'abs', 'abspeak')
@@ -22,7 +22,7 @@ STOPPED = 0.02          # [m/s]
 @pytest.fixture(scope='module')
 def runs():
     """``{(mode, surface): offline run}`` of the twelve braking experiments."""
-    return {(m, s): chassis_offline_run(f'torque_braking_{m}_{s}')
+    return {(m, s): offline_run(f'torque_braking_{m}_{s}')
             for s in SURFACES for m in MODES}
 
 
