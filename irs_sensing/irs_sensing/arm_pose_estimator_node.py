@@ -129,7 +129,8 @@ class ArmPoseEstimatorNode(Node):
             est, reason = None, str(exc)
         if est is None:
             self.rejected += 1
-            self.warner.warn('rejected', f'arm reading rejected: {reason}', time.monotonic())
+            # a persisting rejection (a car off the belt) is logged once, not every second
+            self.warner.once('rejected', f'arm reading rejected: {reason}', time.monotonic())
             self._publish(msg.header.stamp, NAN, NAN, NAN, NAN, NAN, NAN, NAN, NAN)
             wall = time.monotonic()
             if self.last_state != SensingStatus.REJECTED or wall - self.last_status_wall >= 1.0:
@@ -137,6 +138,9 @@ class ArmPoseEstimatorNode(Node):
                 self._status(msg.header.stamp, SensingStatus.REJECTED, reason, 0.0)
             return
         self.accepted += 1
+        if self.warner.in_episode('rejected'):
+            self.warner.end('rejected', self._log_info, 'arm readings accepted again',
+                            time.monotonic())
         vx, vy, r = (est.u, est.v, est.yaw_rate) if est.velocity_valid else (NAN, NAN, NAN)
         self._publish(msg.header.stamp, est.x_cg, est.y_cg, est.psi, est.x_s, est.y_s, vx, vy, r)
         if self.last_state != SensingStatus.OK:

@@ -81,7 +81,7 @@ class SafetyParams:
     belt_half_width: float = BELT_HALF_WIDTH
     end_margin: float = 0.15
     edge_margin: float = 0.10
-    stale_timeout: float = 0.1
+    stale_timeout: float = 0.5
 
     def __post_init__(self) -> None:
         check_numbers(self, ('belt_half_length', 'belt_half_width', 'end_margin', 'edge_margin',

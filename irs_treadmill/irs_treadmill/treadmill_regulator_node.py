@@ -83,7 +83,6 @@ class TreadmillRegulatorNode(Node):
         self.edge = EdgeGate(self, self.p['future_tolerance'], 'pose', self._reset_time_state,
                              self.warner)
         self.fault_warner = ThrottledWarner(self._log_error, 1.0)
-        self.info_warner = ThrottledWarner(self._log_info, 1.0)
         self.pub_drive = self.create_publisher(
             TreadmillDriveCommand, 'treadmill/drive', qos.COMMAND_PUB
         )
@@ -168,8 +167,11 @@ class TreadmillRegulatorNode(Node):
             self.safety.update_position(x, y, stamp_ns * 1e-9, now=now_ns * 1e-9)
         out = self.regulator.update(x, belt_in, self.dt, xdot=xdot,
                                     enabled=self.safety.drive_permitted and self.p['enabled'])
-        if out.reason:
-            self.warner.warn('input', f'treadmill input: {out.reason}', time.monotonic())
+        if out.reason:    # logged once while it persists
+            self.warner.once('input', f'treadmill input: {out.reason}', time.monotonic())
+        elif self.warner.in_episode('input'):
+            self.warner.end('input', self._log_info, 'treadmill input valid again',
+                            time.monotonic())
         voltage = self.safety.gate(out.voltage) if self.p['enabled'] else 0.0
         self._publish(
             pose.header.stamp, voltage, belt, x, out.voltage == 0.0 and out.speed_setpoint < belt
@@ -205,13 +207,14 @@ class TreadmillRegulatorNode(Node):
             self.reported_fault = self.safety.fault
             kind = 'until the input is valid again' if self.safety.fault in TRANSIENT else \
                 'latched until reset'
-            # once per transition, and at most once a second per fault (input faults can come
-            # and go with every pose)
-            self.fault_warner.warn(f'fault-{int(self.safety.fault)}',
+            # once per transition; input faults that come and go with every pose once in all
+            # until the drive resumes
+            self.fault_warner.once(f'fault-{int(self.safety.fault)}',
                                    f'treadmill fault, drive cut ({kind}): {st.fault_text}',
                                    time.monotonic())
         elif not self.safety.faulted and self.reported_fault is not None:
-            self.info_warner.warn('resumed', f'treadmill input valid again: drive resumes (was: '
+            self.fault_warner.end(f'fault-{int(self.reported_fault)}', self._log_info,
+                                  f'treadmill input valid again: drive resumes (was: '
                                   f'{self.reported_fault.text})', time.monotonic())
             self.reported_fault = None
 
@@ -227,6 +230,7 @@ class TreadmillRegulatorNode(Node):
         self.safety.reset()
         self.regulator.reset()
         self.reported_fault = None
+        self.fault_warner.forget_episodes()
         self.edge.gate.clear()
         self.answer.clear()
         self.get_logger().info('treadmill fault reset')

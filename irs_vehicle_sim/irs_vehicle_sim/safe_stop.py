@@ -9,9 +9,10 @@ fault. States (the numbers of ``irs_msgs/RigStatus``'s ``SAFE_*``):
   value is held, as the real servos and drive hold theirs, for up to ``stall_grace`` [s];
 * ``STOPPING``: a command silent for longer than ``stall_grace``, or a treadmill fault: the
   controlled stop. Steer 0 rad, drive 0 V (the belt coasts down by friction), and the car's own
-  speed command follows the measured belt speed, ``u_cmd = V_b``, so that the car's speed over
-  the belt and the belt's speed fall together and ``dx/dt = u cos(psi) - V_b`` stays near 0:
-  the car is neither carried off the rear nor drives off the front. The lateral plant advances
+  speed command follows the measured belt speed and holds the position the stop began at,
+  ``u_cmd = max(0, V_b - hold_gain (x - x_stop))``, so that the car's speed over the belt and
+  the belt's speed fall together and ``dx/dt = u cos(psi) - V_b`` stays near 0: the car is
+  neither carried off the rear nor drives off the front. The lateral plant advances
   on the car's path, at ``u / U`` of real time (:attr:`path_rate`): a car at rest drifts
   nowhere;
 * ``STOPPED``: belt and car below ``stopped_speed`` [m/s]: at rest, latched until recover;
@@ -41,7 +42,9 @@ WATCHED = ('steering', 'drive')
 @dataclass(frozen=True)
 class SafeStopParams:
     """command_timeout, stall_grace [s]; belt_gain [m/s/V]; u_max [V]; spin_up_gain [V s/m];
-    release_tolerance, stopped_speed, u0 [m/s] (module docstring).
+    release_tolerance, stopped_speed, u0 [m/s]; hold_gain [1/s] (module docstring; with the
+    car's 0.3 s speed lag ``tau_u`` the position loop ``tau_u s^2 + s + hold_gain`` has damping
+    0.65 at 2 1/s).
     """
 
     command_timeout: float = 0.1
@@ -52,11 +55,12 @@ class SafeStopParams:
     release_tolerance: float = 0.05
     stopped_speed: float = 0.01
     u0: float = 1.2
+    hold_gain: float = 2.0
 
     def __post_init__(self):
         check_numbers(self, ('command_timeout', 'stall_grace', 'belt_gain', 'u_max',
                              'release_tolerance', 'stopped_speed'), above=0.0)
-        check_numbers(self, ('spin_up_gain', 'u0'), at_least=0.0)
+        check_numbers(self, ('spin_up_gain', 'u0', 'hold_gain'), at_least=0.0)
         if self.stall_grace < self.command_timeout:
             raise ValueError(f'stall_grace ({self.stall_grace} s) must be at least '
                              f'command_timeout ({self.command_timeout} s)')
@@ -65,7 +69,7 @@ class SafeStopParams:
 class SafeStop:
     """The rig's safe-action state machine (module docstring)."""
 
-    __slots__ = ('params', 'state', 'cause', 'late', 'stops', 'recoveries')
+    __slots__ = ('params', 'state', 'cause', 'late', 'stops', 'recoveries', 'x_stop')
 
     def __init__(self, params: SafeStopParams | None = None):
         self.params = params or SafeStopParams()
@@ -74,6 +78,7 @@ class SafeStop:
         self.late = ''           # the late inputs while HOLDING, e.g. 'drive'
         self.stops = 0
         self.recoveries = 0
+        self.x_stop = None       # [m] where the car was when the stop began
 
     @property
     def overriding(self) -> bool:
@@ -112,25 +117,41 @@ class SafeStop:
         if self.state >= STOPPING:
             return ''
         self.state = STOPPING
+        self.x_stop = None
         self.cause = cause
         self.stops += 1
         return cause
 
-    def stop_speed(self, belt_speed: float, car_speed: float) -> float:
-        """The car's speed command [m/s] during the stop: the measured belt speed (0 if not
-        finite); latches ``STOPPED`` once belt and car are at rest.
+    def stop_speed(self, belt_speed: float, car_speed: float, x: float) -> float:
+        """The car's speed command [m/s] during the stop (module docstring) from the measured
+        belt speed, the car's speed and its position ``x`` [m]; latches ``STOPPED`` once belt
+        and car are at rest.
         """
         v = belt_speed if math.isfinite(belt_speed) and belt_speed > 0.0 else 0.0
         if self.state == STOPPING and v < self.params.stopped_speed \
                 and abs(car_speed) < self.params.stopped_speed:
             self.state = STOPPED
-        return v
+        if not math.isfinite(x):
+            return v
+        if self.x_stop is None:
+            self.x_stop = x
+        return max(0.0, v - self.params.hold_gain * (x - self.x_stop))
 
     def path_rate(self, car_speed: float, plant_speed: float) -> float:
         """Fraction of real time the lateral plant advances during a stop: ``u / U`` in [0, 1]."""
         if plant_speed <= 0.0 or not math.isfinite(car_speed):
             return 0.0
         return min(1.0, max(0.0, car_speed / plant_speed))
+
+    def commands(self, outputs, plant_speed: float):
+        """``(drive [V], speed command [m/s], path_rate)`` the rig applies in place of the
+        graph's while :attr:`overriding` (steer 0 rad on both axles), from the rig's
+        ``outputs`` (``belt_speed_measured``, ``u``) and the lateral plant's speed ``U`` [m/s].
+        """
+        if self.state == RECOVERING:
+            return self.spin_up_voltage(outputs.belt_speed_measured), self.params.u0, 1.0
+        speed = self.stop_speed(outputs.belt_speed_measured, outputs.u, outputs.x)
+        return 0.0, speed, self.path_rate(outputs.u, plant_speed)
 
     def recover(self) -> None:
         """Start the recovery (module docstring), from any state."""
