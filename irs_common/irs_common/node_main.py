@@ -83,11 +83,8 @@ def run_nodes(factories, args=None) -> int:
     nodes = []
     executor = None
     try:
-        for factory in factories:
-            nodes.append(factory())
-            guard_clock(nodes[-1])   # a bad /clock message is dropped, not fatal
-            if stop.signalled:
-                return 0             # stopped while starting up
+        if not _build_nodes(factories, nodes, stop):
+            return 0                 # stopped while starting up
         if rt_note:
             nodes[0].get_logger().info(rt_note)
         # Composed nodes hand their messages over in-process (irs_common.intra_process).
@@ -106,11 +103,10 @@ def run_nodes(factories, args=None) -> int:
     except (KeyboardInterrupt, ExternalShutdownException):
         pass
     except _START_ERRORS as exc:
-        if not rclpy.ok() or executor is not None:
-            if executor is not None:
-                raise   # a failure while running is a bug: keep its traceback
-            return 0    # shut down by a signal while starting up
-        return _fail(f'configuration error: {_one_line(exc)}')
+        if executor is not None:
+            raise       # a failure while running is a bug: keep its traceback
+        # shut down by a signal while starting up, or a configuration error
+        return _fail(f'configuration error: {_one_line(exc)}') if rclpy.ok() else 0
     except Exception:
         if rclpy.ok():
             raise
@@ -124,6 +120,16 @@ def run_nodes(factories, args=None) -> int:
         rclpy.try_shutdown()
         stop.restore()
     return 0
+
+
+def _build_nodes(factories, nodes: list, stop) -> bool:
+    """Build the nodes in order into ``nodes``; False if a signal came while starting up."""
+    for factory in factories:
+        nodes.append(factory())
+        guard_clock(nodes[-1])   # a bad /clock message is dropped, not fatal
+        if stop.signalled:
+            return False
+    return True
 
 
 class _StopOnSignal:

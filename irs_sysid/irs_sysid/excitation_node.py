@@ -15,7 +15,8 @@ of the tick). Otherwise it publishes at ``rate`` on a wall timer, ``t`` counting
 tick. The output is always finite and clipped to ``[-limit, limit]`` (steering) or
 ``[0, limit]`` (drive: the belt's motor cannot reverse), ``limit`` = 0 meaning the target's own
 (0.2618 rad, 12.7 V); a ``limit`` beyond the target's own, or a signal whose range leaves the
-bounds, is refused (start-up: one line, exit 2; ``ros2 param set``: the change is refused). It replaces the lateral controller (steering) or the treadmill regulator
+bounds, is refused (start-up: one line, exit 2; ``ros2 param set``: the change is
+refused). It replaces the lateral controller (steering) or the treadmill regulator
 (drive) in an identification experiment; it never closes a loop.
 
 Writable parameters (``ros2 param set``): ``signal.*``, rebuilt at once (set a schedule's
@@ -33,8 +34,8 @@ from irs_common.params import declare_table
 from irs_common.ticker import create_ticker
 from irs_msgs.msg import SteeringCommand, TreadmillDriveCommand
 
-from .excitation_params import (PARAMS, TARGETS, excitation_problem, excitation_value, output_limit,
-                                signal_from_params)
+from .excitation_params import (PARAMS, TARGETS, excitation_problem, excitation_value,
+                                output_limit, signal_from_params)
 
 
 class ExcitationNode(Node):
