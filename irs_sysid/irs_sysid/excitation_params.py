@@ -59,7 +59,7 @@ def excitation_problem(p: dict):
         return (f'limit {p["limit"]:g} {unit} exceeds the limit of {topic} ({own:g} {unit})')
     low, high = signal_range(p)
     bounds = output_limit(p)
-    if low < bounds[0] - 1e-12 or high > bounds[1] + 1e-12:
+    if low < bounds[0] or high > bounds[1]:
         return (f'the signal spans [{low:g}, {high:g}] {unit}, beyond the output bounds '
                 f'[{bounds[0]:g}, {bounds[1]:g}] {unit} of {topic}')
     return None
