@@ -256,7 +256,7 @@ NODE_PARAMS = node_only([
         0.5,
         'real time: a steering or drive command silent for longer than this (or a treadmill '
         'fault) brings the rig to a controlled stop (steer 0, belt coasts, car speed follows '
-        'the belt; docs/safety.md); must be >= command_timeout',
+        'the belt; docs/safety.md); at least command_timeout (the larger of the two applies)',
         's',
         0.001,
         3600.0,

@@ -125,7 +125,7 @@ class VehicleSimNode(Node):
         self.status_every = max(1, int(round(self.p['status_period'] / self.config.dt)))
         self.sim = RigSimulation(self.config)
         self.safe = SafeStop(SafeStopParams(
-            command_timeout=self.p['command_timeout'], stall_grace=self.p['stall_grace'],
+            command_timeout=self.p['command_timeout'], stall_grace=self._grace(),
             belt_gain=self.config.belt.gain / self.config.belt.pole,
             u_max=self.config.belt.u_max, u0=self.config.u0))
         self.plant_speed = (self.config.bicycle['speed'] if self.config.plant == 'bicycle'
@@ -204,6 +204,10 @@ class VehicleSimNode(Node):
             f"rig up: {self.p['clock_mode']}, dt = {self.config.dt} s, plant = {self.config.plant}"
             + (f', lock-step inputs {list(self.required)}' if self.lockstep else ''))
 
+
+    def _grace(self) -> float:
+        """The stall grace in effect [s]: ``stall_grace``, at least ``command_timeout``."""
+        return max(self.p['stall_grace'], self.p['command_timeout'])
 
     def _check_input_names(self, what, names):
         unknown = set(names) - set(self.inputs)
@@ -341,7 +345,9 @@ class VehicleSimNode(Node):
     def _on_parameter(self, name, value):
         self.p[name] = value    # read where used (watchdog, stale check)
         if name in ('command_timeout', 'stall_grace'):
-            self.safe.params = dataclasses.replace(self.safe.params, **{name: value})
+            self.safe.params = dataclasses.replace(
+                self.safe.params, command_timeout=self.p['command_timeout'],
+                stall_grace=self._grace())
         self.get_logger().info(f'parameter {name} = {value!r} applied')
 
     # ---------------------------------------------------------------- inputs
