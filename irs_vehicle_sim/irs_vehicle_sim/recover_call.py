@@ -8,6 +8,7 @@ import time
 
 import rclpy
 from rclpy.context import Context
+from rclpy.executors import SingleThreadedExecutor
 from std_srvs.srv import Trigger
 
 from irs_common import qos
@@ -22,7 +23,7 @@ def recover(timeout: float = 30.0, log=print) -> bool:
     status = []
     node.create_subscription(RigStatus, 'rig/status', status.append, qos.STATUS)
     client = node.create_client(Trigger, 'rig/recover')
-    executor = rclpy.executors.SingleThreadedExecutor(context=context)
+    executor = SingleThreadedExecutor(context=context)
     executor.add_node(node)
     deadline = time.monotonic() + timeout
 
