@@ -74,6 +74,7 @@ class TreadmillRegulatorNode(Node):
         self.sync = StampSync(self.inputs)
         self.belt_speed = math.nan
         self.belt_seen = False
+        self.pose_arrived_ns = None   # node clock [ns] when the last valid pose arrived
         self.answer = AnswerCache()   # what was published for the last stamp (re-sent on a repeat)
         self.reported_fault = None
         self.published_mode = None
@@ -121,6 +122,7 @@ class TreadmillRegulatorNode(Node):
         """
         self.regulator.reset()
         self.safety.forget_time()
+        self.pose_arrived_ns = None
         self.answer.clear()
 
     def _on_belt(self, msg):
@@ -165,6 +167,7 @@ class TreadmillRegulatorNode(Node):
             self.safety.update_position(math.nan, math.nan, stamp_ns * 1e-9, now=now_ns * 1e-9)
         else:
             self.safety.update_position(x, y, stamp_ns * 1e-9, now=now_ns * 1e-9)
+            self.pose_arrived_ns = now_ns
         out = self.regulator.update(x, belt_in, self.dt, xdot=xdot,
                                     enabled=self.safety.drive_permitted and self.p['enabled'])
         if out.reason:    # logged once while it persists
@@ -219,16 +222,21 @@ class TreadmillRegulatorNode(Node):
             self.reported_fault = None
 
     def _check_stale(self):
-        if self.safety.faulted or self.edge.last_ns is None:
+        """No valid pose *arrived* for ``safety.stale_timeout`` (the node clock since the last
+        one, not its stamp: a rig catching up after a stall of its own sends stamps that lag the
+        clock, and its poses are not stale).
+        """
+        if self.safety.faulted or self.pose_arrived_ns is None:
             return
         now = self.get_clock().now()
-        if self.safety.check(now.nanoseconds * 1e-9):
+        if self.safety.check_age((now.nanoseconds - self.pose_arrived_ns) * 1e-9):
             self.regulator.reset()
             self._publish(now.to_msg(), 0.0, self.belt_speed, math.nan, False)
 
     def _reset(self):
         self.safety.reset()
         self.regulator.reset()
+        self.pose_arrived_ns = None
         self.reported_fault = None
         self.fault_warner.forget_episodes()
         self.edge.gate.clear()
