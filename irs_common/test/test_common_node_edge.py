@@ -8,6 +8,8 @@ MS = 1_000_000
 
 
 class Answer:
+    """Counts the repeats an AnswerCache would publish."""
+
     def __init__(self):
         self.repeats = 0
 

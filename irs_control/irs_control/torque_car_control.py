@@ -26,9 +26,10 @@ integral stay 0: no yaw moment, speed control only); ``'rear_steer'``, ``'differ
 
 Bad input: a non-finite or missing encoder speed, a non-finite pose or belt speed (the arm
 estimator publishes NaN for a rejected reading), a pose beyond 5 m or a belt speed or speed
-estimate beyond 20 m/s, or, with yaw control on, a non-finite yaw rate -> all torques 0, no wheel locked, both steers 0 (the car coasts straight), the ABS and chassis
-integrals reset, and ``reason`` names the input; the next valid step runs again (from rest of the
-integrals). Every output is finite.
+estimate beyond 20 m/s, or, with yaw control on, a non-finite yaw rate -> all torques 0, no
+wheel locked, both steers 0 (the car coasts straight), the ABS and chassis integrals reset,
+and ``reason`` names the input; the next valid step runs again (from rest of the integrals).
+Every output is finite.
 """
 from __future__ import annotations
 

@@ -1,5 +1,6 @@
 """vehicle_sim in real time: invalid commands fall back to the safe value; a late one is held,
-then the rig stops under control (docs/safety.md); both reported on rig/status."""
+then the rig stops under control (docs/safety.md); both reported on rig/status.
+"""
 import math
 
 from irs_common import qos
