@@ -44,8 +44,8 @@ RIG_KEY = ('irs_vehicle_sim', 'vehicle_sim')
 NODE_TOPICS = {
     ('irs_vehicle_sim', 'vehicle_sim'): {
         'pub': ['/clock', 'arm/joint_states', 'belt/speed', 'steering/state', 'ground_truth/odom',
-                'ground_truth/sensor_point', 'rig/status', 'rig/timing'],
-        'sub': ['steering/command', 'treadmill/drive', 'driver/command']},
+                'ground_truth/sensor_point', 'rig/status', 'rig/timing', 'treadmill/reset'],
+        'sub': ['steering/command', 'treadmill/drive', 'driver/command', 'treadmill/state']},
     ('irs_sensing', 'arm_pose_estimator'): {
         'pub': ['pose', 'velocity', 'lateral_position', 'sensing/status'],
         'sub': ['arm/joint_states']},
