@@ -8,8 +8,11 @@ SCHED_FIFO 50, for the given length. Every ``PERIOD`` s the resident set (``VmRS
 proportional set (``Pss`` of ``smaps_rollup``) of every process of the run, and the
 container's memory (cgroup ``memory.current``), are sampled. The growth is the least-squares
 slope over the samples after ``WARMUP`` s, in MB per hour: a leak of 1.4 MB per 10 min shows as
-8 MB/h; a flat process is within a fraction of 1 MB/h.
+8 MB/h; a flat process is within a fraction of 1 MB/h. With ``memtrace`` the processes run under
+``tracemalloc`` (``IRS_MEMTRACE``, irs_common.node_main: more CPU per step) and the allocation
+sites that grew most are printed: where a leak is.
 """
+import os
 import tempfile
 import threading
 import time
@@ -67,13 +70,27 @@ def _slopes(samples: list) -> dict:
     return out
 
 
-def soak(minutes: float) -> dict:
+def _memtrace_tail(prefix: str, lines: int = 40) -> str:
+    """The last report of every ``<prefix>.<pid>.txt`` the processes wrote."""
+    out = []
+    for path in sorted(Path(prefix).parent.glob(Path(prefix).name + '.*.txt')):
+        text = path.read_text()
+        out.append(f'-- {path.name}\n' + '\n'.join(text[text.rfind('== '):].splitlines()[:lines]))
+    return '\n'.join(out)
+
+
+def soak(minutes: float, memtrace: bool = True) -> dict:
     from irs_bringup.experiment import load_experiment
     from irs_bringup.experiment_runner import ExperimentRunner
     _domain(60)
     exp = load_experiment('realtime_figure10_composed')
     exp.duration = 60.0 * minutes
-    runner = ExperimentRunner(exp, runs_dir=tempfile.mkdtemp(prefix='irs_soak_hour_'),
+    runs_dir = tempfile.mkdtemp(prefix='irs_soak_hour_')
+    prefix = f'{runs_dir}/memtrace'
+    if memtrace:
+        os.environ['IRS_MEMTRACE'] = prefix
+        os.environ['IRS_MEMTRACE_PERIOD'] = '240'
+    runner = ExperimentRunner(exp, runs_dir=runs_dir,
                               progress=False, rt_priority=50, log=lambda *_: None)
     result = {}
     thread = threading.Thread(target=lambda: result.update(r=runner.run()))
@@ -96,4 +113,8 @@ def soak(minutes: float) -> dict:
           f"{r.timing.get('miss_pct', float('nan')):.2f} %", flush=True)
     for key, slope in sorted(slopes.items()):
         print(f'    {key:32s} {slope:+8.2f} MB/h after {WARMUP / 60:g} min', flush=True)
+    if memtrace:
+        os.environ.pop('IRS_MEMTRACE', None)
+        row['memtrace'] = _memtrace_tail(prefix)
+        print(row['memtrace'], flush=True)
     return row
