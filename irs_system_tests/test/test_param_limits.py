@@ -198,3 +198,26 @@ def test_reference_generator_within_one_metre():
         reached.append(1)
     check()
     assert len(reached) >= 20, len(reached)
+
+
+def test_excitation_node_refuses_limits_beyond_its_target(ros, launch):
+    """The graph check: the node exits with one line for a limit beyond the steering servo's,
+    and refuses a run-time amplitude that would leave its bounds (the signal stays as it was).
+    """
+    from irs_bringup.processes import NodeSpec
+    from test_param_set_nodes import set_params
+
+    bad = launch(NodeSpec('irs_sysid', 'excitation', params={'target': 'steering',
+                                                             'limit': 1.0}))
+    assert ros.spin_until(lambda: bad.poll() is not None, 30.0)
+    assert bad.poll() == 2
+    lines = [ln for ln in bad.output().splitlines() if ln.strip()]
+    assert len(lines) == 1 and 'limit 1 rad exceeds the limit of steering/command (0.2618 rad)' \
+        in lines[0], lines
+    launch(NodeSpec('irs_sysid', 'excitation', params={'target': 'steering',
+                                                       'signal.type': 'sine',
+                                                       'signal.amplitude': 0.1}))
+    [res] = set_params(ros, 'excitation', signal__amplitude=5.0)
+    assert not res.successful and 'beyond the output bounds' in res.reason, res.reason
+    [res] = set_params(ros, 'excitation', signal__amplitude=0.2)
+    assert res.successful, res.reason
