@@ -292,7 +292,11 @@ def test_fuzz_reference_generator_console(ros, launch):
 def test_fuzz_vehicle_sim(ros, launch):
     proc = launch(NodeSpec('irs_vehicle_sim', 'vehicle_sim',
                            params={'clock_mode': 'realtime', 'dt': 0.005, 'start_inputs': [''],
-                                   'command_timeout': 1.0, 'ground_truth_decimation': 0}))
+                                   'command_timeout': 1.0, 'ground_truth_decimation': 0,
+                                   # the values and stamps are fuzzed here, not the silences
+                                   # (a drawn drive command stamped ahead is dropped: the drive
+                                   # goes silent, which would stop the rig: test_starvation.py)
+                                   'stall_grace': 3600.0}))
     node = ros.node
     pubs = {'steering': node.create_publisher(SteeringCommand, 'steering/command', qos.COMMAND),
             'drive': node.create_publisher(TreadmillDriveCommand, 'treadmill/drive', qos.COMMAND),
