@@ -26,7 +26,7 @@ Sections (each a function below; results go to ``bench/results/<time>.json`` and
 - ``soak`` (only with ``--only soak``, 10 min): ``soak_realtime`` process per node with
   SCHED_FIFO 50 and the recorder on: misses, latency, CPU, and the messages the bag kept and lost;
 - ``starvation`` (only with ``--only starvation``, about 8 min; bench/starvation.py): one process
-  of each real-time deployment stopped for 0.1-5 s: car kept, controlled stop or lost;
+  of each real-time deployment stopped for 0.2-5 s: car kept, controlled stop or lost;
 - ``soak_hour`` (only with ``--only soak_hour [--soak-minutes N]``; bench/soak_hour.py): the
   composed real-time graph with the recorder for an hour, memory per process every minute.
 
