@@ -47,8 +47,9 @@ def _cgroup_mb() -> float:
 
 def _sample(procs: dict, t: float) -> dict:
     row = {'t_s': t, 'cgroup_mb': _cgroup_mb()}
-    for label, proc in procs.items():
-        pid = proc.pid
+    pids = {label: proc.pid for label, proc in procs.items()}
+    pids['runner'] = os.getpid()      # the experiment runner runs in this process
+    for label, pid in pids.items():
         row[f'{label}.rss_mb'] = _kib(Path(f'/proc/{pid}/status'), 'VmRSS') / 1024.0
         row[f'{label}.pss_mb'] = _kib(Path(f'/proc/{pid}/smaps_rollup'), 'Pss') / 1024.0
     return row
