@@ -26,7 +26,9 @@ own loop (deadline misses, loop latency: :mod:`irs_common.loop_timing`) and publ
 
 Commands that are NaN, inf or out of range are replaced by the safe value (steer 0 rad, drive 0 V,
 driver speed held) with a throttled warning; the counts are on ``rig/status``. In real time a
-steering or drive command older than ``command_timeout`` is stale and the safe value is used too.
+steering or drive command older than ``command_timeout`` is held, and one silent for longer than
+``stall_grace`` (or a fault on ``treadmill/state``) brings the rig to its controlled stop, car and
+belt together (:mod:`.safe_stop`; ``rig/status`` says which, and why, in one log line).
 
 The torque car (``plant: two_track``, docs/torque_car.md): the rig also subscribes
 ``wheels/torque_command`` (irs_msgs/WheelTorqueCommand, the lock-step input ``wheels``) and
@@ -46,10 +48,12 @@ stamp 0 every time).
 
 ``rig/reset`` (std_srvs/Trigger): after the car left the belt (or at any time), put the car back
 at its start pose and clear the rig's latched fault (:meth:`RigSimulation.reset_to_start`; time
-runs on, the belt keeps its speed); ``rig/status`` says ``car_on_belt`` again. The treadmill
-regulator's own latched fault is reset through its ``treadmill/reset_fault``.
+runs on, the belt keeps its speed); ``rig/status`` says ``car_on_belt`` again (a stop stays).
+``rig/recover`` (std_srvs/Trigger, real time): the whole rig running again from any fault: the car
+held at its start pose, the treadmill reset (``treadmill/reset``, std_msgs/Empty), the belt
+brought up to ``u0`` by the rig, then the car released (docs/safety.md).
 
-Writable parameters (``ros2 param set``, applied at once): ``command_timeout``,
+Writable parameters (``ros2 param set``, applied at once): ``command_timeout``, ``stall_grace``,
 ``lockstep_resend_period``.
 """
 import dataclasses
