@@ -279,7 +279,7 @@ class VehicleSimNode(Node):
         pubs = {'/clock': self.pub_clock, 'arm/joint_states': self.pub_arm,
                 'belt/speed': self.pub_belt, 'steering/state': self.pub_act,
                 'ground_truth/odom': self.pub_odom, 'ground_truth/sensor_point': self.pub_point,
-                'rig/status': self.pub_status}
+                'rig/status': self.pub_status, 'treadmill/reset': self.pub_treadmill_reset}
         if self.torque_car:
             pubs.update({'wheels/encoders': self.pub_encoders, 'rig/tyre_truth': self.pub_tyre})
         waits = {}
