@@ -10,7 +10,7 @@ from irs_bringup.processes import NodeSpec
 
 def test_invalid_steering_gives_zero_steer_and_a_late_one_is_held_then_stopped(ros, launch):
     proc = launch(NodeSpec('irs_vehicle_sim', 'vehicle_sim',
-                           params={'clock_mode': 'realtime', 'command_timeout': 0.2,
+                           params={'clock_mode': 'realtime', 'dt': 0.005, 'command_timeout': 0.2,
                                    'stall_grace': 1.0, 'status_period': 0.01,
                                    'start_inputs': ['steering']}))
     node = ros.node

@@ -7,7 +7,9 @@ fault. States (the numbers of ``irs_msgs/RigStatus``'s ``SAFE_*``):
 * ``RUNNING``: every command is fresh (younger than ``command_timeout`` [s]);
 * ``HOLDING``: a steering or drive command is late (older than ``command_timeout``): its last
   value is held, as the real servos and drive hold theirs, for up to ``stall_grace`` [s];
-* ``STOPPING``: a command silent for longer than ``stall_grace``, or a treadmill fault: the
+* ``STOPPING``: a command silent for longer than ``stall_grace``, the rig itself more than
+  ``stall_grace`` behind real time (it is starved: its steps and the graph's answers no longer
+  meet), or a treadmill fault: the
   controlled stop. Steer 0 rad, drive 0 V (the belt coasts down by friction), and the car's own
   speed command follows the measured belt speed and holds the position the stop began at,
   ``u_cmd = max(0, V_b - hold_gain (x - x_stop))``, so that the car's speed over the belt and
@@ -85,14 +87,18 @@ class SafeStop:
         """True while the rig's own commands replace the graph's (stop or recovery)."""
         return self.state >= STOPPING
 
-    def watch(self, now: float, received_at: dict) -> str:
+    def watch(self, now: float, received_at: dict, lag: float = 0.0) -> str:
         """Update from the inputs' last arrival times [s] (``received_at``: name -> time, the
         watched inputs never received are not late: the start-up hold covers them) at ``now``
-        [s]; returns the cause when a stop begins here, else ``''``.
+        [s] and the rig's own lag behind real time ``lag`` [s]; returns the cause when a stop
+        begins here, else ``''``.
         """
         if self.state >= STOPPING:
             return ''
         p = self.params
+        if lag > p.stall_grace:
+            return self.stop(f'the rig is {lag:.3f} s behind real time (> stall_grace '
+                             f'{p.stall_grace:g} s)')
         late = ''
         oldest = 0.0
         for name in WATCHED:

@@ -271,7 +271,7 @@ class VehicleSimNode(Node):
             self.timer = self.create_timer(0.01, begin)
         else:
             self.stamp0_ns = self.get_clock().now().nanoseconds
-            self.wall0 = self.next_timing = time.monotonic()
+            self.wall0 = self.next_timing = self.tick_now = time.monotonic()
             self.timer = self.create_timer(self.config.dt, self._realtime_tick)
 
     def _start_waits(self) -> dict:
@@ -416,13 +416,14 @@ class VehicleSimNode(Node):
         latest = dict(self.latest)
         if self.lockstep:
             return latest
-        # the step's own wall time: a rig catching up after a stall of its own sees the ages
-        # its inputs had at each step, not all at once
-        now = self.wall0 + self.sim.k * self.config.dt
+        # the wall time of this tick (the inputs' ages are real ages, whatever the rig's own
+        # lag), and how far the step being taken is behind real time
+        now = self.tick_now
         if self.torque_car:
             self._wheels_fresh(latest, now)
         held = self.safe.late
-        cause = self.safe.watch(now, self.received_at)
+        cause = self.safe.watch(now, self.received_at,
+                                now - self.wall0 - self.sim.k * self.config.dt)
         if cause:
             self._announce_stop(cause)
         elif self.safe.late != held:
@@ -490,8 +491,7 @@ class VehicleSimNode(Node):
     def _recovering(self):
         """Hold the car at its start pose; release it once the belt is up to speed."""
         out = self.sim.reset_to_start()
-        now = self.wall0 + self.sim.k * self.config.dt
-        if self.safe.ready(out.belt_speed_measured, now, self.received_at):
+        if self.safe.ready(out.belt_speed_measured, self.tick_now, self.received_at):
             self.pub_treadmill_reset.publish(Empty())   # the regulator restarts from here
             self.get_logger().info(f'rig/recover: belt at {out.belt_speed_measured:.3f} m/s, '
                                    'car released')
@@ -519,7 +519,8 @@ class VehicleSimNode(Node):
             self.last_progress = time.monotonic()
 
     def _realtime_tick(self):
-        due = int((time.monotonic() - self.wall0) / self.config.dt)
+        self.tick_now = time.monotonic()
+        due = int((self.tick_now - self.wall0) / self.config.dt)
         if due - self.sim.k > 1:
             self.timing.late_ticks += 1    # the tick came late: steps are taken back to back
         for _ in range(min(due - self.sim.k, 100)):   # catch up, at most 0.1 s per tick

@@ -140,3 +140,14 @@ def test_recover_waits_for_fresh_commands():
 def test_params_refused(bad):
     with pytest.raises(ValueError):
         SafeStopParams(**bad)
+
+
+def test_a_rig_behind_real_time_stops():
+    """A rig more than stall_grace behind real time (starved itself) stops, whatever the ages
+    of its inputs (they look fresh: the graph answers what little the rig publishes).
+    """
+    _cfg, _sim, safe = _rig()
+    fresh = {'steering': 10.0, 'drive': 10.0}
+    assert safe.watch(10.0, fresh, lag=0.4) == '' and safe.state == RUNNING
+    cause = safe.watch(10.0, fresh, lag=0.6)
+    assert safe.state == STOPPING and 'behind real time' in cause
