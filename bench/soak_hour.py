@@ -8,9 +8,10 @@ SCHED_FIFO 50, for the given length. Every ``PERIOD`` s the resident set (``VmRS
 proportional set (``Pss`` of ``smaps_rollup``) of every process of the run, and the
 container's memory (cgroup ``memory.current``), are sampled. The growth is the least-squares
 slope over the samples after ``WARMUP`` s, in MB per hour: a leak of 1.4 MB per 10 min shows as
-8 MB/h; a flat process is within a fraction of 1 MB/h. With ``memtrace`` the processes run under
-``tracemalloc`` (``IRS_MEMTRACE``, irs_common.node_main: more CPU per step) and the allocation
-sites that grew most are printed: where a leak is.
+8 MB/h; a flat process is within a fraction of 1 MB/h. With ``memtrace`` (off by default) the
+processes run under ``tracemalloc`` (``IRS_MEMTRACE``, irs_common.node_main) and the allocation
+sites that grew most are printed: where a leak is. It costs so much CPU per step that the composed
+1 kHz loop no longer keeps real time (measured: the rig fell seconds behind and stopped).
 """
 import os
 import tempfile
@@ -80,7 +81,7 @@ def _memtrace_tail(prefix: str, lines: int = 40) -> str:
     return '\n'.join(out)
 
 
-def soak(minutes: float, memtrace: bool = True) -> dict:
+def soak(minutes: float, memtrace: bool = False) -> dict:
     from irs_bringup.experiment import load_experiment
     from irs_bringup.experiment_runner import ExperimentRunner
     _domain(60)
