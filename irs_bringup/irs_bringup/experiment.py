@@ -29,7 +29,7 @@ for ``realtime`` ``clock_mode: realtime``.
 
 Deployment is the file's choice (``process:``), and :meth:`Experiment.composed` (the runner's
 ``--composed``) overrides it: every node and the recorder in one ``container`` process. Lock-step
-bags are the same to the bit either way (``tests/test_deployments.py``).
+bags are the same to the bit either way (``irs_system_tests/test/test_deployments.py``).
 """
 from dataclasses import dataclass, field, replace
 import math
@@ -44,8 +44,8 @@ RIG_KEY = ('irs_vehicle_sim', 'vehicle_sim')
 NODE_TOPICS = {
     ('irs_vehicle_sim', 'vehicle_sim'): {
         'pub': ['/clock', 'arm/joint_states', 'belt/speed', 'steering/state', 'ground_truth/odom',
-                'ground_truth/sensor_point', 'rig/status', 'rig/timing'],
-        'sub': ['steering/command', 'treadmill/drive', 'driver/command']},
+                'ground_truth/sensor_point', 'rig/status', 'rig/timing', 'treadmill/reset'],
+        'sub': ['steering/command', 'treadmill/drive', 'driver/command', 'treadmill/state']},
     ('irs_sensing', 'arm_pose_estimator'): {
         'pub': ['pose', 'velocity', 'lateral_position', 'sensing/status'],
         'sub': ['arm/joint_states']},

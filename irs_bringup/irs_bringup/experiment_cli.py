@@ -5,6 +5,7 @@ commands:
   experiment run <name|file.yaml>        run one through the ROS graph, record, plot
   experiment run <name> --composed       the same with every node in one process
   experiment run <name> --offline        the same cores without ROS (closed_loop.py)
+  experiment recover                     rig/recover: the running rig back from any fault
 """
 import argparse
 import sys
@@ -76,6 +77,7 @@ def main(argv=None) -> int:
     p_run.add_argument('--no-plots', action='store_true', help='skip plots and the .rrd')
     p_run.add_argument('--offline', action='store_true', help='simulate the cores without ROS')
     p_run.add_argument('--composed', action='store_true', help=COMPOSED_HELP)
+    sub.add_parser('recover', help='call rig/recover (docs/safety.md) and wait until the rig runs')
     p_run.add_argument('--rt-priority', type=int, default=0, metavar='N',
                        help='run every node process with SCHED_FIFO priority N (1-99; needs root '
                        'or CAP_SYS_NICE; 0 = normal scheduling)')
@@ -88,6 +90,9 @@ def main(argv=None) -> int:
                 exp = load_experiment(str(path))
                 print(f'{path.stem:36s} {exp.clock:9s} {exp.duration:7.1f} s  {exp.description}')
             return 0
+        if args.cmd == 'recover':
+            from irs_vehicle_sim.recover_call import recover
+            return 0 if recover() else 1
         if args.cmd == 'run':
             if args.offline:
                 from .offline_twin.from_experiment import offline_run

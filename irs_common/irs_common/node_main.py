@@ -23,6 +23,10 @@ Profiling: with ``IRS_PROFILE=<prefix>`` the spin runs under ``cProfile`` and th
 written to ``<prefix>.<pid>.prof`` at exit (read them with ``python -m pstats``); an experiment's
 processes inherit the variable, so ``IRS_PROFILE=/tmp/p ./irs run irs_bringup experiment run X``
 profiles every node of a run.
+
+Memory: with ``IRS_MEMTRACE=<prefix>`` the spin runs under ``tracemalloc`` and every
+``IRS_MEMTRACE_PERIOD`` s (default 300) the 25 allocation sites that grew most since the first
+minute are written to ``<prefix>.<pid>.txt`` (a soak finds a leak's line this way).
 """
 import gc
 import os
@@ -83,11 +87,8 @@ def run_nodes(factories, args=None) -> int:
     nodes = []
     executor = None
     try:
-        for factory in factories:
-            nodes.append(factory())
-            guard_clock(nodes[-1])   # a bad /clock message is dropped, not fatal
-            if stop.signalled:
-                return 0             # stopped while starting up
+        if not _build_nodes(factories, nodes, stop):
+            return 0                 # stopped while starting up
         if rt_note:
             nodes[0].get_logger().info(rt_note)
         # Composed nodes hand their messages over in-process (irs_common.intra_process).
@@ -106,11 +107,10 @@ def run_nodes(factories, args=None) -> int:
     except (KeyboardInterrupt, ExternalShutdownException):
         pass
     except _START_ERRORS as exc:
-        if not rclpy.ok() or executor is not None:
-            if executor is not None:
-                raise   # a failure while running is a bug: keep its traceback
-            return 0    # shut down by a signal while starting up
-        return _fail(f'configuration error: {_one_line(exc)}')
+        if executor is not None:
+            raise       # a failure while running is a bug: keep its traceback
+        # shut down by a signal while starting up, or a configuration error
+        return _fail(f'configuration error: {_one_line(exc)}') if rclpy.ok() else 0
     except Exception:
         if rclpy.ok():
             raise
@@ -124,6 +124,16 @@ def run_nodes(factories, args=None) -> int:
         rclpy.try_shutdown()
         stop.restore()
     return 0
+
+
+def _build_nodes(factories, nodes: list, stop) -> bool:
+    """Build the nodes in order into ``nodes``; False if a signal came while starting up."""
+    for factory in factories:
+        nodes.append(factory())
+        guard_clock(nodes[-1])   # a bad /clock message is dropped, not fatal
+        if stop.signalled:
+            return False
+    return True
 
 
 class _StopOnSignal:
@@ -153,6 +163,9 @@ class _StopOnSignal:
 
 
 def _spin(executor) -> None:
+    memtrace = os.environ.get('IRS_MEMTRACE', '').strip()
+    if memtrace:
+        _start_memtrace(memtrace, float(os.environ.get('IRS_MEMTRACE_PERIOD', '300')))
     prefix = os.environ.get('IRS_PROFILE', '').strip()
     if not prefix:
         executor.spin()
@@ -163,6 +176,29 @@ def _spin(executor) -> None:
         profile.runcall(executor.spin)
     finally:
         profile.dump_stats(f'{prefix}.{os.getpid()}.prof')
+
+
+def _start_memtrace(prefix: str, period: float) -> None:
+    """A daemon thread: the allocation sites that grew since the first minute, every period."""
+    import threading
+    import time
+    import tracemalloc
+    tracemalloc.start(6)
+    path = f'{prefix}.{os.getpid()}.txt'
+
+    def watch():
+        time.sleep(60.0)
+        base = tracemalloc.take_snapshot()
+        t0 = time.monotonic()
+        while True:
+            time.sleep(period)
+            stats = tracemalloc.take_snapshot().compare_to(base, 'traceback')[:25]
+            with open(path, 'a') as out:
+                out.write(f'== {time.monotonic() - t0:.0f} s after the first minute\n')
+                for stat in stats:
+                    out.write(f'{stat.size_diff / 1024:+10.1f} KiB {stat.count_diff:+8d} '
+                              f'blocks\n    ' + '\n    '.join(stat.traceback.format()) + '\n')
+    threading.Thread(target=watch, daemon=True, name='irs-memtrace').start()
 
 
 def run_node(node_factory, args=None) -> int:

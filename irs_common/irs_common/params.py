@@ -286,6 +286,7 @@ class ParameterGuard:
         self.params = {}      # name -> Param (declared through declare_table)
         self.handlers = {}    # name -> on_change(name, value), writable parameters only
         self.values = {}      # name -> the dict declare_table returned for it (kept current)
+        self.checks = {}      # name -> check(candidate values) of its table, if it has one
         node.add_pre_set_parameters_callback(self.pre_set)
         node.add_on_set_parameters_callback(self.on_set)
         node.add_post_set_parameters_callback(self.post_set)
@@ -334,6 +335,23 @@ class ParameterGuard:
                 p.coerce(param.value)
             except ValueError as exc:
                 return SetParametersResult(successful=False, reason=str(exc))
+        return self._check_tables(parameters)
+
+    def _check_tables(self, parameters) -> SetParametersResult:
+        """Each changed table's ``check`` on its values as they would be after the change."""
+        done = set()
+        for param in parameters:
+            check = self.checks.get(param.name)
+            if check is None or id(check) in done:
+                continue
+            done.add(id(check))
+            candidate = dict(self.values[param.name])
+            for other in parameters:
+                if other.name in candidate and other.name in self.params:
+                    candidate[other.name] = self.params[other.name].coerce(other.value)
+            reason = check(candidate)
+            if reason:
+                return SetParametersResult(successful=False, reason=reason)
         return SetParametersResult(successful=True)
 
     def post_set(self, parameters):
@@ -358,7 +376,7 @@ def _ptype(p: Param) -> int:
 
 
 def declare_table(node, table, on_change=None, *, strict: bool = False,
-                  check_unknown: bool = True) -> dict:
+                  check_unknown: bool = True, check=None) -> dict:
     """Declare every parameter of ``table`` on ``node``; return ``{name: value}``.
 
     ``on_change(name, value)`` is called after a change of a writable parameter was accepted
@@ -366,7 +384,9 @@ def declare_table(node, table, on_change=None, *, strict: bool = False,
     when the table has a writable parameter (``TypeError`` otherwise). Initial values (defaults,
     params files, ``-p``) are validated like changes; a bad one raises one ``ValueError``.
     Override names that are no declared parameter are logged as one warning
-    (``strict``: ``ValueError``) unless ``check_unknown`` is false.
+    (``strict``: ``ValueError``) unless ``check_unknown`` is false. ``check(values)`` (optional)
+    judges the table as a whole (limits that depend on another parameter): it returns ``None``
+    or a sentence; a sentence refuses a change (and, at start-up, raises ``ValueError``).
     """
     writable = [p.name for p in table if p.writable]
     if writable and on_change is None:
@@ -401,11 +421,17 @@ def declare_table(node, table, on_change=None, *, strict: bool = False,
                              f'expected {p.expected()}') from None
         value = node.get_parameter(p.name).value
         values[p.name] = list(value) if isinstance(value, tuple) else value
+    if check is not None:
+        reason = check(values)
+        if reason:
+            raise ValueError(f"node '{node.get_name()}': {reason}")
     for p in table:
         guard.params[p.name] = p
         guard.values[p.name] = values
         if p.writable:
             guard.handlers[p.name] = on_change
+        if check is not None:
+            guard.checks[p.name] = check
     if check_unknown:
         report_unknown_overrides(node, strict=strict)
     return values

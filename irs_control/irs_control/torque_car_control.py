@@ -31,10 +31,11 @@ integral stay 0: no yaw moment, speed control only); ``'rear_steer'``, ``'differ
 ``'both'`` are the chassis controller's mixes.
 
 Bad input: a non-finite or missing encoder speed, a non-finite pose or belt speed (the arm
-estimator publishes NaN for a rejected reading) or, with yaw control on, a non-finite yaw rate
--> all torques 0, no wheel locked, both steers 0 (the car coasts straight), the ABS and chassis
-integrals, the wheels' speed and the peak seeker reset, and ``reason`` names the input; the next
-valid step runs again (from rest of the integrals). Every output is finite.
+estimator publishes NaN for a rejected reading), a pose beyond 5 m or a belt speed or speed
+estimate beyond 20 m/s, or, with yaw control on, a non-finite yaw rate -> all torques 0, no
+wheel locked, both steers 0 (the car coasts straight), the ABS and chassis integrals, the
+wheels' speed and the peak seeker reset, and ``reason`` names the input; the next valid step
+runs again (from rest of the integrals). Every output is finite.
 """
 from __future__ import annotations
 
@@ -190,6 +191,12 @@ def _finite(*xs) -> bool:
     return all(math.isfinite(x) for x in xs)
 
 
+#: A pose beyond this [m] (the belt is 2.44 m long) or a belt speed or speed estimate beyond
+#: this [m/s] (the belt's top speed is 6.7 m/s) is no measurement: the step is a bad-input one.
+POSITION_LIMIT = 5.0
+SPEED_LIMIT = 20.0
+
+
 class TorqueCarController:
     """Speed estimate + driver + chassis controller + ABS (module docstring)."""
 
@@ -231,7 +238,8 @@ class TorqueCarController:
         pose); a pose stamped at or before the last one is not differentiated again.
         """
         x, psi, belt_speed = float(x), float(psi), float(belt_speed)
-        self.pose_ok = _finite(x, psi, belt_speed)
+        self.pose_ok = _finite(x, psi, belt_speed) and abs(x) <= POSITION_LIMIT \
+            and abs(belt_speed) <= SPEED_LIMIT
         self.belt_speed = belt_speed
         if self.last_pose_ns is not None and stamp_ns <= self.last_pose_ns:
             return
@@ -247,6 +255,9 @@ class TorqueCarController:
             return 'invalid_pose_or_belt_speed'     # (a huge finite belt speed overflows)
         if self.config.yaw_control != 'off' and not math.isfinite(yaw_rate):
             return 'nonfinite_yaw_rate'
+        v_hat = self.estimator.estimate
+        if not (math.isfinite(v_hat) and abs(v_hat) <= SPEED_LIMIT):
+            return 'implausible_speed_estimate'
         return None
 
     def step(self, stamp_ns: int, omega, yaw_rate: float) -> TorqueCarOutput:
@@ -267,7 +278,9 @@ class TorqueCarController:
         problem = self._problem(omega, yaw_rate)
         if problem is not None:
             self.reset_controllers()
-            return TorqueCarOutput(np.zeros(4), (False,) * 4, 0.0, 0.0, self.estimator.estimate,
+            v_hat = self.estimator.estimate
+            return TorqueCarOutput(np.zeros(4), (False,) * 4, 0.0, 0.0,
+                                   v_hat if math.isfinite(v_hat) else 0.0,
                                    np.zeros(4), 0.0, braking, t, problem)
         delta_f = c.steer_amplitude if t >= c.steer_start_time else 0.0
         v_hat = self.estimator.estimate

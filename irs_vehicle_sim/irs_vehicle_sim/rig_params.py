@@ -256,9 +256,20 @@ NODE_PARAMS = node_only([
     Param(
         'command_timeout',
         0.1,
-        'real time: a steering, drive or wheel torque command older than this is stale '
-        'and the safe value is used (steer 0 rad, drive 0 V, torques 0 N m); the driver speed '
-        'is held',
+        'real time: a steering or drive command older than this is late and its last value is '
+        'held (rig/status SAFE_HOLDING) for up to stall_grace; a wheel torque command older '
+        'than this is stale (torques 0 N m); the driver speed is held',
+        's',
+        0.001,
+        3600.0,
+        writable=True,
+    ),
+    Param(
+        'stall_grace',
+        0.5,
+        'real time: a steering or drive command silent for longer than this (or a treadmill '
+        'fault) brings the rig to a controlled stop (steer 0, belt coasts, car speed follows '
+        'the belt; docs/safety.md); at least command_timeout (the larger of the two applies)',
         's',
         0.001,
         3600.0,
