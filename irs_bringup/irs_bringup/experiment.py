@@ -190,8 +190,7 @@ def find_experiment(name_or_path: str) -> Path:
     candidate = experiments_dir() / f'{name_or_path}.yaml'
     if not candidate.is_file():
         names = [x.stem for x in experiments_dir().glob('*.yaml')]
-        raise ExperimentError(did_you_mean(name_or_path, names, 'experiment')
-                              .replace('; known:', '; installed:'))
+        raise ExperimentError(did_you_mean(name_or_path, names, 'experiment', 'experiment list'))
     return candidate
 
 

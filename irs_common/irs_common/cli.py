@@ -164,6 +164,10 @@ def run_cli(prog: str, main, argv=None) -> int:
     except InputError as exc:
         error(prog, exc)
         return EXIT_INPUT
+    except BrokenPipeError:
+        # the reader of stdout left (``experiment list | head``): no more output, no message
+        os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
+        return EXIT_FAILED
     except OSError as exc:
         error(prog, os_error_text(exc))
         return EXIT_INPUT
@@ -183,12 +187,16 @@ def run_cli(prog: str, main, argv=None) -> int:
             GUARD = None
 
 
-def did_you_mean(name: str, names, what: str) -> str:
-    """``no <what> '<name>' (did you mean X?); known: ...`` as one sentence."""
+def did_you_mean(name: str, names, what: str, listing: str = '') -> str:
+    """``no <what> '<name>' (did you mean X?); installed: ...`` as one sentence: the names if
+    there are at most 8, else their number and ``listing`` (the command that lists them).
+    """
     import difflib
     names = sorted(names)
     close = difflib.get_close_matches(name, names, n=3, cutoff=0.5)
     hint = f" (did you mean {' or '.join(close)}?)" if close else ''
-    listed = ', '.join(names) if len(names) <= 8 else \
-        ', '.join(names[:8]) + f', ... ({len(names)} in all; see the list command)'
-    return f"no {what} '{name}'{hint}; known: {listed or 'none'}"
+    if len(names) <= 8:
+        known = f"installed: {', '.join(names) or 'none'}"
+    else:
+        known = f'{len(names)} installed' + (f' ({listing} lists them)' if listing else '')
+    return f"no {what} '{name}'{hint}; {known}"
