@@ -6,6 +6,7 @@ whatever ends it into one line on stderr, ``<prog>: error: <what>``, and an exit
 :data:`EXIT_CODES` (the table of docs/cli.md):
 
 * :class:`InputError` (a bad file, argument, bag; the message names it): exit 2;
+* :class:`RunFailed` (a run the command needs did not complete): exit 1;
 * ``OSError`` (a file that cannot be read or written, a refused connection): exit 2;
 * SIGINT, SIGTERM, SIGHUP: the command's clean-up runs, then exit 128 + the signal number;
 * anything else is a bug: ``<prog>: internal error: <type>: <message>`` with a request to report
@@ -48,6 +49,12 @@ BUG_HINT = ('this is a bug in IRS: please report it with the command line and th
 class InputError(ValueError):
     """What the user gave (file, argument, bag, output path) is wrong; the message, one line,
     says what and where. Every command's own error class derives from it.
+    """
+
+
+class RunFailed(RuntimeError):
+    """A run the command needs did not complete (a node died, the car left the belt); the
+    message says which and why. Exit code 1.
     """
 
 
@@ -164,6 +171,9 @@ def run_cli(prog: str, main, argv=None) -> int:
     except InputError as exc:
         error(prog, exc)
         return EXIT_INPUT
+    except RunFailed as exc:
+        error(prog, exc)
+        return EXIT_FAILED
     except BrokenPipeError:
         # the reader of stdout left (``experiment list | head``): no more output, no message
         os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())

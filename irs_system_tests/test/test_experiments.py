@@ -435,8 +435,8 @@ def test_schema_offline_run_with_a_parameter_only_the_cores_check_is_one_line(tm
     path = _write(tmp_path, doc)
     assert experiment_main(['run', str(path), '--offline']) == 2
     _out, err = capsys.readouterr()
-    assert err == (f'experiment: error: {path}: nodes: the offline closed loop refuses a parameter: '
-                   "mode must be 'mrc' or 'pi', got 'bogus'\n")
+    assert err == (f'experiment: error: {path}: nodes: the offline closed loop refuses a '
+                   "parameter: mode must be 'mrc' or 'pi', got 'bogus'\n")
 
 
 def test_schema_the_installed_command_prints_one_line_and_exits_2(tmp_path):
