@@ -153,7 +153,11 @@ def warning(prog: str, text) -> None:
 
 
 def run_cli(prog: str, main, argv=None) -> int:
-    """Run ``main(argv)`` as the command ``prog``; its exit code (module docstring)."""
+    """Run ``main(argv)`` as the command ``prog``; its exit code (module docstring).
+
+    ``argv`` None (the console script: ``sys.argv``): the guard stays installed to the end of
+    the process; given (called in-process): the previous handlers are restored on return.
+    """
     global GUARD
     guard = GUARD = SignalGuard().install()
     try:
@@ -190,11 +194,13 @@ def run_cli(prog: str, main, argv=None) -> int:
               file=sys.stderr, flush=True)
         return EXIT_BUG
     finally:
-        # a signal from here on: the command is ending anyway, leave at once
         guard.on_first = None
-        guard.ending = True
         if GUARD is guard:
             GUARD = None
+        if argv is None:
+            guard.ending = True     # the process's main: a signal from here on leaves at once
+        else:
+            guard.restore()         # called in-process (tests, other commands)
 
 
 def did_you_mean(name: str, names, what: str, listing: str = '') -> str:

@@ -81,8 +81,10 @@ def run_nodes(factories, args=None, guard=None) -> int:
 
     Returns the process exit code: 0 after SIGINT/SIGTERM/SIGHUP, 2 after a start-up error.
     ``guard``: a :class:`~irs_common.cli.SignalGuard` the caller installed before its own
-    start-up work (the ``container``); one is installed here otherwise.
+    start-up work (the ``container``); one is installed here otherwise, and kept to the end of
+    the process unless ``args`` are given (a signal after the stop leaves at once).
     """
+    own_guard = guard is None
     guard = guard or SignalGuard().install()
     rt_note = set_realtime_priority()
     nodes = []
@@ -142,7 +144,8 @@ def run_nodes(factories, args=None, guard=None) -> int:
         for node in nodes:
             node.destroy_node()
         rclpy.try_shutdown()
-        guard.restore()
+        if own_guard and args is not None:
+            guard.restore()   # called in-process; as the process's main the guard stays
     return 0
 
 
