@@ -192,6 +192,21 @@ class ExperimentRunner:
             codes.update(stop_processes([self.procs['recorder']], RECORDER_GRACE))
         return codes
 
+    def scheduling_report(self) -> str:
+        """Which node processes got SCHED_FIFO (``--rt-priority``): it needs root or
+        CAP_SYS_NICE, and a process that is refused runs at normal priority.
+        """
+        fifo = []
+        for label, proc in self.procs.items():
+            try:
+                if os.sched_getscheduler(proc.pid) == os.SCHED_FIFO:
+                    fifo.append(label)
+            except OSError:
+                pass
+        return (f'SCHED_FIFO priority {self.rt_priority} granted to {len(fifo)} of '
+                f'{len(self.procs)} processes' + (f' ({", ".join(sorted(fifo))})' if fifo else
+                                                  ' (needs root or CAP_SYS_NICE)'))
+
     def _check_stop(self):
         if self.stop_signal is not None:
             raise _StopRequested()
@@ -257,6 +272,8 @@ class ExperimentRunner:
             self.log(f'[experiment] {exp.name}: started {len(self.procs)} processes, '
                      f'logs in {logs}')
             self._wait_for_graph(watcher)
+            if self.rt_priority:
+                self.log(f'[experiment] {self.scheduling_report()}')
             node = watcher.node
             node.create_subscription(
                 RigStatus, 'rig/status', lambda m: clock.update(
