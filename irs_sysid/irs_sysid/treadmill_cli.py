@@ -200,13 +200,24 @@ def add_arguments(parser) -> None:
     parser.add_argument('--png', metavar='PATH', help='write Figure 5 to PATH')
 
 
+def check_excitation(run: dict, bag) -> None:
+    """:class:`InputError` unless the drive command has a step up from rest and a coast-down
+    (a bag of another experiment: the torque car's, the regulation's).
+    """
+    segs = segments(run['time'], run['voltage'])
+    ups = sum(s.kind == 'up' and s.u_before <= 0.0 for s in segs)
+    coasts = sum(s.kind == 'coast' for s in segs)
+    if not ups or not coasts:
+        raise InputError(f'{bag}: {ups} drive steps up from rest and {coasts} coast-downs in '
+                         '/treadmill/drive: nothing to identify the belt from (record the '
+                         'sysid_treadmill experiment)')
+
+
 def run(args) -> int:
-    res = identify(load_run(args.bag))
+    data = load_run(args.bag)
+    check_excitation(data, args.bag)
+    res = identify(data)
     d, c = res['drive'], res['coast']
-    if not d.steps or not c.coasts:
-        raise InputError(f'{args.bag}: {len(d.steps)} drive steps up from rest and '
-                         f'{len(c.coasts)} coast-downs in /treadmill/drive: nothing to identify '
-                         'the belt from (record the sysid_treadmill experiment)')
     print(format_report(f'treadmill belt, identified from {args.bag} ({len(d.steps)} steps up, '
                         f'{len(c.coasts)} coast-downs; configured values from the '
                         f"{res['run']['rig_source']})", estimates(res)))
