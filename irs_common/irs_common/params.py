@@ -34,6 +34,9 @@ Parameters tell the truth
 * **Start-up errors are one ``ValueError``** naming the parameter, the value and what was
   expected (``run_node`` turns it into one line and exit code 2), also when a second params
   file gives a parameter another type.
+* **Parameter files are checked** before the node spins (:func:`params_file_problems`, called
+  by ``run_nodes``): a ``--params-file`` with no section for the node (a misspelt node name) and
+  a later file that gives a parameter another type are start-up errors; rcl drops both silently.
 * **Unknown names are reported.** Overrides (params files, ``-p``) naming no declared parameter
   are listed in one warning at the end of ``declare_table``, with the closest declared names;
   ``strict=True`` makes that an error. Warning by default, because a params file with a ``/**``
