@@ -31,7 +31,8 @@ import sys
 
 import yaml
 
-from irs_common.cli import InputError, Interrupted, SignalGuard, did_you_mean
+from irs_common.cli import (BUG_HINT, EXIT_BUG, InputError, Interrupted, SignalGuard,
+                            did_you_mean, one_line)
 
 GROUP = 'irs_components'
 
@@ -126,6 +127,10 @@ def main(argv=None) -> int:
     except Interrupted:
         guard.restore()
         return 0
+    except Exception as exc:  # noqa: BLE001 -- the catch-all of the container's own start
+        print(f'[FATAL] container: internal error: {type(exc).__name__}: {one_line(exc)[:300]}; '
+              f'{BUG_HINT}', file=sys.stderr)
+        return EXIT_BUG
     global_ros_args = argv[len(own):]        # '--ros-args ...' for every node, e.g. a log level
     return run_nodes(factories, args=['container', *global_ros_args], guard=guard)
 
