@@ -34,6 +34,9 @@ Parameters tell the truth
 * **Start-up errors are one ``ValueError``** naming the parameter, the value and what was
   expected (``run_node`` turns it into one line and exit code 2), also when a second params
   file gives a parameter another type.
+* **Parameter files are checked** before the node spins (:func:`params_file_problems`, called
+  by ``run_nodes``): a ``--params-file`` with no section for the node (a misspelt node name) and
+  a later file that gives a parameter another type are start-up errors; rcl drops both silently.
 * **Unknown names are reported.** Overrides (params files, ``-p``) naming no declared parameter
   are listed in one warning at the end of ``declare_table``, with the closest declared names;
   ``strict=True`` makes that an error. Warning by default, because a params file with a ``/**``
@@ -261,6 +264,112 @@ def check_values(table, values: dict, unknown: bool = True) -> dict:
 def _did_you_mean(name, names) -> str:
     close = difflib.get_close_matches(name, list(names), n=2, cutoff=0.6)
     return f" (did you mean {' or '.join(close)}?)" if close else ''
+
+
+# ------------------------------------------------------------------- parameter files (no rclpy)
+def params_file_sections(path) -> dict:
+    """``{section: flat parameters}`` of a ``--params-file``; ``ValueError`` (one line) unless it
+    is YAML of ``<node name>: {ros__parameters: {...}}`` sections.
+    """
+    import yaml
+    try:
+        with open(path) as f:
+            doc = yaml.safe_load(f) or {}
+    except (OSError, UnicodeDecodeError, yaml.YAMLError) as exc:
+        raise ValueError(f"--params-file {path}: not readable YAML: {' '.join(str(exc).split())}"
+                         ) from None
+    if not isinstance(doc, dict) or not all(
+            isinstance(sec, dict) and isinstance(sec.get('ros__parameters', {}), dict)
+            for sec in doc.values()):
+        raise ValueError(f'--params-file {path}: expected <node name>: '
+                         '{ros__parameters: {...}} sections')
+    return {str(k): flatten(v.get('ros__parameters') or {}) for k, v in doc.items()}
+
+
+def section_matches(section: str, node_fqn: str) -> bool:
+    """Whether a parameter file's section name applies to the node ``node_fqn`` (``/ns/name``),
+    as rcl matches them: a relative name is under ``/``, ``*`` is one name token, ``**`` any
+    number of them (``/**``: every node).
+    """
+    import re
+    pattern = section if section.startswith('/') else '/' + section
+    regex = ''
+    for token in pattern.strip('/').split('/'):
+        regex += {'**': r'(?:/[^/]+)*', '*': r'/[^/]+'}.get(token, '/' + re.escape(token))
+    return re.fullmatch(regex, node_fqn) is not None
+
+
+def params_file_problems(files, node_fqn: str) -> list:
+    """What is wrong with the ``--params-file`` ``files`` (in order) given to node ``node_fqn``:
+    a file none of whose sections applies to the node (a misspelt node name), and a parameter
+    that a later file gives another type than an earlier one (rcl would keep one silently).
+    Integers for doubles are no change of type (the tables take them).
+    """
+    problems, seen = [], {}      # name -> (kind, file)
+    for path in files:
+        sections = params_file_sections(path)
+        applying = [k for k in sections if section_matches(k, node_fqn)]
+        if sections and not applying:
+            names = [k for k in sections if '*' not in k]
+            close = difflib.get_close_matches(node_fqn.rsplit('/', 1)[-1],
+                                              [n.rsplit('/', 1)[-1] for n in names], n=1)
+            hint = f" (a misspelt '{node_fqn.rsplit('/', 1)[-1]}'?)" if close else ''
+            problems.append(f'--params-file {path}: no section for node {node_fqn}: it has '
+                            f'{", ".join(sections)}{hint}')
+        for key in applying:
+            for name, value in sections[key].items():
+                kind = _value_kind(value)
+                before = seen.get(name)
+                if before is not None and not _same_kind(before[0], kind):
+                    problems.append(f"parameter '{name}' of node {node_fqn}: {before[1]} gives "
+                                    f'{_KIND_WORDS_SHORT.get(before[0], before[0])}, {path} '
+                                    f'{_KIND_WORDS_SHORT.get(kind, kind)} (one parameter, one '
+                                    'type)')
+                seen[name] = (kind, path)
+    return problems
+
+
+_KIND_WORDS_SHORT = {'bool': 'a boolean', 'int': 'an integer', 'double': 'a double',
+                     'string': 'a string', 'bool[]': 'a boolean array',
+                     'int[]': 'an integer array', 'double[]': 'a double array',
+                     'string[]': 'a string array', 'none': 'no value', '[]': 'an empty array'}
+
+
+def _value_kind(value) -> str:
+    if value is None:
+        return 'none'
+    if isinstance(value, (list, tuple)):
+        if not value:
+            return '[]'
+        kinds = {_value_kind(v) for v in value}
+        return (kinds.pop() if len(kinds) == 1 else 'mixed') + '[]'
+    return _kind(value)
+
+
+def _same_kind(a: str, b: str) -> bool:
+    numbers = {'int', 'double'}
+    if a == b or '[]' in (a, b) and a.endswith('[]') and b.endswith('[]'):
+        return True
+    if a in numbers and b in numbers:
+        return True
+    return a.endswith('[]') and b.endswith('[]') and {a[:-2], b[:-2]} <= numbers
+
+
+def ros_args_params_files(args) -> tuple[list, str | None]:
+    """``(params files, node name remap or None)`` from a command line's ``--ros-args`` parts."""
+    files, name, inside = [], None, False
+    args = list(args or [])
+    for i, arg in enumerate(args):
+        if arg == '--ros-args':
+            inside = True
+        elif arg == '--':
+            inside = False
+        elif inside and arg == '--params-file' and i + 1 < len(args):
+            files.append(args[i + 1])
+        elif inside and arg in ('-r', '--remap') and i + 1 < len(args) \
+                and args[i + 1].startswith('__node:='):
+            name = args[i + 1].split(':=', 1)[1]
+    return files, name
 
 
 # ---------------------------------------------------------------------------------- rclpy side

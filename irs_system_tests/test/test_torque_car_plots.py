@@ -418,7 +418,7 @@ def _one_line_error(capsys, argv):
     rc = cli_main(argv)
     err = capsys.readouterr().err.strip()
     assert rc == 2
-    assert len(err.splitlines()) == 1 and err.startswith('torque_car: '), err
+    assert len(err.splitlines()) == 1 and err.startswith('torque_car: error: '), err
     assert 'Traceback' not in err
     return err
 
@@ -444,7 +444,7 @@ def test_run_with_an_unknown_experiment_names_it(tmp_path, capsys):
     err = capsys.readouterr().err.strip().splitlines()
     assert rc == 2
     assert len(err) == 2 and 'no_such_torque_experiment' in err[0], err
-    assert err[1] == 'torque_car: no runs given (paths or --run)'
+    assert err[1] == 'torque_car: error: no runs given (paths or --run)'
     assert not (tmp_path / 'm.json').exists()
 
 
@@ -472,4 +472,4 @@ def test_installed_executable_gives_one_line(tmp_path):
                          timeout=120)
     assert res.returncode == 2
     assert res.stderr.strip().splitlines() == [
-        f'torque_car: {tmp_path / "missing"}: no such run directory or bag']
+        f'torque_car: error: {tmp_path / "missing"}: no such run directory or bag']

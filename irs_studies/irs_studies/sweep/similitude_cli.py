@@ -25,6 +25,8 @@ from pathlib import Path
 
 import numpy as np
 
+from irs_common.cli import InputError
+
 HELP = '1:10 car vs full-size presets: Pi-groups, best-matching speed, scaled responses'
 
 
@@ -46,9 +48,9 @@ def similitude_table(scale_name: str = 'irs_2wd', speed: float = 1.2) -> dict:
     try:
         scale = get_preset(scale_name)
     except KeyError as exc:
-        raise ValueError(f'--scale: {exc.args[0]}') from None
+        raise InputError(f'--scale: {exc.args[0]}') from None
     if not speed > 0:
-        raise ValueError(f'--speed must be a positive speed in m/s, got {speed}')
+        raise InputError(f'--speed must be a positive speed in m/s, got {speed}')
     full = {}
     for name, p in load_presets().items():
         if p.kind == 'full_size':
