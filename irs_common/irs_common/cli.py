@@ -210,6 +210,9 @@ def did_you_mean(name: str, names, what: str, listing: str = '') -> str:
     import difflib
     names = sorted(names)
     close = difflib.get_close_matches(name, names, n=3, cutoff=0.5)
+    if close:   # only the near-best: a shared prefix alone does not make a suggestion
+        best = difflib.SequenceMatcher(None, name, close[0]).ratio()
+        close = [c for c in close if difflib.SequenceMatcher(None, name, c).ratio() > best - 0.1]
     hint = f" (did you mean {' or '.join(close)}?)" if close else ''
     if len(names) <= 8:
         known = f"installed: {', '.join(names) or 'none'}"

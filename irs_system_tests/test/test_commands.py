@@ -83,7 +83,8 @@ def test_sweep_list_and_similitude(tmp_path):
     assert res.returncode == 0, res.stderr
     assert '| irs_2wd |' in res.stdout and 'Pi3' in res.stdout
     pngs = sorted((tmp_path / 'sim').glob('*.png'))
-    assert [p.name for p in pngs] == ['sweep_similitude_speed.png', 'sweep_similitude_step.png']
+    assert [p.name for p in pngs] == ['similitude_eq6_eq7_10.png', 'sweep_similitude_speed.png',
+                                      'sweep_similitude_step.png']
     assert all(p.stat().st_size > 20000 for p in pngs)
     assert tree(tmp_path) == {'sim', *(f'sim/{p.name}' for p in pngs)}
 
@@ -147,7 +148,7 @@ def test_experiment_duration_refused_in_one_line(tmp_path, value, what):
 def test_wrong_names_get_did_you_mean(tmp_path):
     err = one_line_error(run('irs_bringup', 'experiment', 'run', 'figure10_pii', cwd=tmp_path,
                              timeout=120), 'experiment')
-    assert "no experiment 'figure10_pii' (did you mean figure10_pi " in err
+    assert "no experiment 'figure10_pii' (did you mean figure10_pi?)" in err
     assert 'installed (experiment list lists them)' in err and len(err) < 300
     err = one_line_error(run('irs_studies', 'sweep', 'actuator_sped', cwd=tmp_path,
                              timeout=120), 'sweep')

@@ -197,8 +197,10 @@ def make_client(workers: int | None = None, scheduler: str | None = None):
             raise SweepError(f'--scheduler {scheduler}: no Dask scheduler answered there '
                              f'({type(exc).__name__}: {text})') from None
     n = workers or os.cpu_count() or 1
+    # preload: each worker ignores SIGINT (worker_signals), only this process stops the sweep
     return Client(n_workers=n, threads_per_worker=1, processes=True,
-                  dashboard_address=':0', silence_logs=40)   # dashboard on any free port
+                  dashboard_address=':0', silence_logs=40,   # dashboard on any free port
+                  preload=['irs_studies.sweep.worker_signals'])
 
 
 def _kill(pids):
