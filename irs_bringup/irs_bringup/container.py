@@ -22,7 +22,11 @@ with a spec file such as::
         executable: arm_pose_estimator
         ros_args: [--params-file, sensing.yaml]
 
-The experiment runner writes such a file for every ``process:`` group of an experiment.
+A parameter file given as ``pkg://<package>/<path>`` is taken from that package's share
+directory, a relative path from the spec's directory; the spec itself may be a ``pkg://``
+reference too (``container pkg://irs_bringup/config/realtime_loop.yaml`` is the Figure 10 loop
+in real time). The experiment runner writes such a file for every ``process:`` group of an
+experiment.
 """
 import argparse
 from importlib.metadata import entry_points
@@ -65,10 +69,29 @@ def _node_name(executable: str, ros_args: list) -> str:
     return executable
 
 
+def _resolve(ref: str, base: Path) -> Path:
+    """A file the spec names: ``pkg://<package>/<path>``, or a path relative to ``base``."""
+    from .experiment_schema import resolve_params_ref
+    if not ref.startswith('pkg://') and not Path(ref).is_absolute():
+        ref = str(base / ref)
+    try:
+        return resolve_params_ref(ref)
+    except ValueError as exc:
+        raise ContainerError(str(exc)) from None
+
+
+def _resolve_files(args: list, base: Path) -> list:
+    """``args`` with the file after each ``--params-file`` resolved (:func:`_resolve`)."""
+    return [str(_resolve(a, base)) if i and args[i - 1] == '--params-file' else a
+            for i, a in enumerate(args)]
+
+
 def load_spec(path) -> list:
     """``[(package, executable, ros_args)]`` from a spec file (module docstring); every node
     registered in :data:`GROUP`, no two with one name.
     """
+    if str(path).startswith('pkg://'):
+        path = _resolve(str(path), Path.cwd())
     try:
         doc = yaml.safe_load(Path(path).read_text())
     except (OSError, UnicodeDecodeError, yaml.YAMLError) as exc:
@@ -84,8 +107,8 @@ def load_spec(path) -> list:
         if not isinstance(args, list):
             raise ContainerError(f'{path}: nodes[{i}].ros_args must be a list')
         package, executable = str(entry['package']), str(entry['executable'])
-        args = [str(a) for a in args]
         try:
+            args = _resolve_files([str(a) for a in args], Path(path).parent)
             _entry_point(package, executable)
         except ContainerError as exc:
             raise ContainerError(f'{path}: nodes[{i}]: {exc}') from None
