@@ -2,28 +2,13 @@
 
 One :class:`SafeStop` per rig decides, at every real-time step, what the rig applies when the
 nodes that command it fall silent (CPU starvation, a stopped process) or the treadmill reports a
-fault. States (the numbers of ``irs_msgs/RigStatus``'s ``SAFE_*``):
-
-* ``RUNNING``: every command is fresh (younger than ``command_timeout`` [s]);
-* ``HOLDING``: a steering or drive command is late (older than ``command_timeout``): its last
-  value is held, as the real servos and drive hold theirs, for up to ``stall_grace`` [s];
-* ``STOPPING``: a command silent for longer than ``stall_grace``, the rig itself more than
-  ``stall_grace`` behind real time (it is starved: its steps and the graph's answers no longer
-  meet), or a treadmill fault: the
-  controlled stop. Steer 0 rad, drive 0 V (the belt coasts down by friction), and the car's own
-  speed command follows the measured belt speed and holds the position the stop began at,
-  ``u_cmd = max(0, V_b - hold_gain (x - x_stop))``, so that the car's speed over the belt and
-  the belt's speed fall together and ``dx/dt = u cos(psi) - V_b`` stays near 0: the car is
-  neither carried off the rear nor drives off the front. The lateral plant advances
-  on the car's path, at ``u / U`` of real time (:attr:`path_rate`): a car at rest drifts
-  nowhere;
-* ``STOPPED``: belt and car below ``stopped_speed`` [m/s]: at rest, latched until recover;
-* ``RECOVERING`` (:meth:`recover`): the car is held at its start pose while the rig brings the
-  belt up to the start speed ``u0`` itself (feed-forward ``u0 / belt_gain`` plus
-  ``spin_up_gain (u0 - V_b)``, clipped to ``[0, u_max]`` V); once ``|V_b - u0| <=
-  release_tolerance`` and both commands are fresh, the car is released (``RUNNING``).
-
-The cause of a stop is kept once (:attr:`cause`), for ``rig/status`` and one log line.
+fault: ``RUNNING``, ``HOLDING`` (late commands held for ``stall_grace`` [s]), ``STOPPING``,
+``STOPPED`` and ``RECOVERING`` (``irs_msgs/RigStatus``'s ``SAFE_*``). In the controlled stop the
+steer is 0 rad, the drive 0 V (the belt coasts down by friction) and the car's speed command
+follows the belt, ``u_cmd = max(0, V_b - hold_gain (x - x_stop))`` [m/s], so that car and belt
+come to rest together with the car on the belt. It exists because a real car on a real belt
+cannot simply freeze: the states in detail are in :class:`SafeStop`, the operator's view in
+docs/safety.md.
 """
 from __future__ import annotations
 
@@ -69,7 +54,32 @@ class SafeStopParams:
 
 
 class SafeStop:
-    """The rig's safe-action state machine (module docstring)."""
+    """The rig's safe-action state machine.
+
+    One :class:`SafeStop` per rig decides, at every real-time step, what the rig applies when the
+    nodes that command it fall silent (CPU starvation, a stopped process) or the treadmill reports
+    a fault. States (the numbers of ``irs_msgs/RigStatus``'s ``SAFE_*``):
+
+    * ``RUNNING``: every command is fresh (younger than ``command_timeout`` [s]);
+    * ``HOLDING``: a steering or drive command is late (older than ``command_timeout``): its last
+      value is held, as the real servos and drive hold theirs, for up to ``stall_grace`` [s];
+    * ``STOPPING``: a command silent for longer than ``stall_grace``, the rig itself more than
+      ``stall_grace`` behind real time (it is starved: its steps and the graph's answers do not
+      meet), or a treadmill fault: the controlled stop. Steer 0 rad, drive 0 V (the belt coasts
+      down by friction), and the car's own speed command follows the measured belt speed and holds
+      the position the stop began at, ``u_cmd = max(0, V_b - hold_gain (x - x_stop))``, so that the
+      car's speed over the belt and the belt's speed fall together and ``dx/dt = u cos(psi) - V_b``
+      stays near 0: the car is neither carried off the rear nor drives off the front. The lateral
+      plant advances on the car's path, at ``u / U`` of real time (:attr:`path_rate`): a car at
+      rest drifts nowhere;
+    * ``STOPPED``: belt and car below ``stopped_speed`` [m/s]: at rest, latched until recover;
+    * ``RECOVERING`` (:meth:`recover`): the car is held at its start pose while the rig brings the
+      belt up to the start speed ``u0`` itself (feed-forward ``u0 / belt_gain`` plus ``spin_up_gain
+      (u0 - V_b)``, clipped to ``[0, u_max]`` V); once ``|V_b - u0| <= release_tolerance`` and both
+      commands are fresh, the car is released (``RUNNING``).
+
+    The cause of a stop is kept once (:attr:`cause`), for ``rig/status`` and one log line.
+    """
 
     __slots__ = ('params', 'state', 'cause', 'late', 'stops', 'recoveries', 'x_stop')
 

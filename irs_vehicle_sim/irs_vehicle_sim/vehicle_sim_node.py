@@ -1,60 +1,14 @@
 """``vehicle_sim`` node: the simulated IRS rig on ROS topics (thin wrapper of :mod:`.rig`).
 
-Clock modes (parameter ``clock_mode``, read-only):
-
-- ``realtime``: a wall timer advances the rig by as many steps as wall time has passed, each with
-  the latest commands received, like the hardware. Stamps are ``t_start + k dt`` (ROS time).
-- ``lockstep``: the rig is the clock. It publishes ``/clock`` = t_k and every output stamped t_k,
-  then waits until every input listed in ``lockstep_inputs`` has delivered a command stamped t_k
-  (the answer to the measurement of t_k) before it steps to t_{k+1}. Inputs not listed use the
-  latest value received. A run is therefore bit-for-bit reproducible whatever the machine load.
-  If nothing arrives for ``lockstep_resend_period`` s of wall time (a subscriber matched late and
-  missed step k), step k's outputs are published again; consumers ignore stamps they have seen.
-
-Start in real time: with ``autostart`` the rig holds the car at its start pose (publishing its
-sensors stamped with the current time, the simulation not advancing) until every input in
-``start_inputs`` has delivered a command, so a graph started by hand in any order does not lose
-the car while its nodes are still joining. ``rig/start`` (std_srvs/Trigger) starts it at once.
-
-Message budget per step (see docs/architecture.md): ``arm/joint_states``, ``belt/speed`` and, in
-lock-step, ``/clock`` every step; the ground truth (``ground_truth/odom``,
-``ground_truth/sensor_point``) every ``ground_truth_decimation`` steps and ``steering/state``
-every ``actuator_state_decimation`` steps (0 = off: simulation-only extras a real-time run can
-drop); ``rig/status`` on a change and every ``status_period`` s. In real time the rig measures its
-own loop (deadline misses, loop latency: :mod:`irs_common.loop_timing`) and publishes it on
-``rig/timing`` (diagnostic_msgs/DiagnosticArray) every second.
-
-Commands that are NaN, inf or out of range are replaced by the safe value (steer 0 rad, drive 0 V,
-driver speed held) with a throttled warning; the counts are on ``rig/status``. In real time a
-steering or drive command older than ``command_timeout`` is held, and one silent for longer than
-``stall_grace`` (or a fault on ``treadmill/state``) brings the rig to its controlled stop, car and
-belt together (:mod:`.safe_stop`; ``rig/status`` says which, and why, in one log line).
-
-The torque car (``plant: two_track``, docs/torque_car.md): the rig also subscribes
-``wheels/torque_command`` (irs_msgs/WheelTorqueCommand, the lock-step input ``wheels``) and
-publishes ``wheels/encoders`` (irs_msgs/WheelEncoders) every step and the tyres' ground truth
-``rig/tyre_truth`` (irs_msgs/TyreState) every ``ground_truth_decimation`` steps; the driver's
-speed command is ignored. A non-finite wheel torque is replaced by 0 N m (that wheel coasts), a
-stale one (real time, ``command_timeout``) or none yet by 0 N m on every wheel and no wheel
-locked, each with a throttled warning. The other plants have none of these topics.
-
-Stamps of commands (irs_common.stamp_gate): one stamped more than ``future_tolerance`` s ahead of
-the rig's time (lock-step: the current step; real time: the node clock) is dropped and counted as
-rejected (it is not applied and does not refresh the stale timer). In lock-step a command for an
-earlier step is a resend duplicate and ignored. In real time a command older than the last one of
-its input is ignored as out of order, unless it is more than 1 s older (a restarted publisher):
-then it is taken; a command with the same stamp as the last is taken (``ros2 topic pub`` sends
-stamp 0 every time).
-
-``rig/reset`` (std_srvs/Trigger): after the car left the belt (or at any time), put the car back
-at its start pose and clear the rig's latched fault (:meth:`RigSimulation.reset_to_start`; time
-runs on, the belt keeps its speed); ``rig/status`` says ``car_on_belt`` again (a stop stays).
-``rig/recover`` (std_srvs/Trigger, real time): the whole rig running again from any fault: the car
-held at its start pose, the treadmill reset (``treadmill/reset``, std_msgs/Empty), the belt
-brought up to ``u0`` by the rig, then the car released (docs/safety.md).
-
-Writable parameters (``ros2 param set``, applied at once): ``command_timeout``, ``stall_grace``,
-``lockstep_resend_period``.
+In ``lockstep`` the rig is the clock: it publishes ``/clock`` = t_k and every output stamped t_k,
+and steps to t_{k+1} once each listed input has answered step k, so a run is reproducible to the
+bit whatever the machine load. In ``realtime`` a wall timer steps it with the latest commands,
+like the hardware. Bad, stale or future-stamped commands get the safe value (steer 0 rad, drive
+0 V) and, past ``stall_grace``, the rig's controlled stop (:mod:`.safe_stop`). The node exists so
+that the controllers, the estimator and the recorder see the same topics from the simulation
+as from the hardware. Clock modes, start, message budget, stamps, the torque car's topics and
+the services: :class:`VehicleSimNode`; parameters: docs/parameters.md; topics:
+docs/architecture.md; stop and recovery: docs/safety.md.
 """
 import dataclasses
 import math
@@ -106,7 +60,67 @@ WHEELS = ['wheel_front_left', 'wheel_front_right', 'wheel_rear_left', 'wheel_rea
 
 
 class VehicleSimNode(Node):
-    """Publishes what the rig's sensors report; takes steering, drive and driver commands."""
+    """Publishes what the rig's sensors report; takes steering, drive and driver commands.
+
+    Clock modes (parameter ``clock_mode``, read-only):
+
+    - ``realtime``: a wall timer advances the rig by as many steps as wall time has passed, each
+      with the latest commands received, like the hardware. Stamps are ``t_start + k dt`` (ROS
+      time).
+    - ``lockstep``: the rig is the clock. It publishes ``/clock`` = t_k and every output stamped
+      t_k, then waits until every input listed in ``lockstep_inputs`` has delivered a command
+      stamped t_k (the answer to the measurement of t_k) before it steps to t_{k+1}. Inputs not
+      listed use the latest value received. A run is therefore bit-for-bit reproducible whatever
+      the machine load. If nothing arrives for ``lockstep_resend_period`` s of wall time (a
+      subscriber matched late and missed step k), step k's outputs are published again; consumers
+      ignore stamps they have seen.
+
+    Start in real time: with ``autostart`` the rig holds the car at its start pose (publishing its
+    sensors stamped with the current time, the simulation not advancing) until every input in
+    ``start_inputs`` has delivered a command, so a graph started by hand in any order does not lose
+    the car while its nodes are still joining. ``rig/start`` (std_srvs/Trigger) starts it at once.
+
+    Message budget per step (see docs/architecture.md): ``arm/joint_states``, ``belt/speed`` and,
+    in lock-step, ``/clock`` every step; the ground truth (``ground_truth/odom``,
+    ``ground_truth/sensor_point``) every ``ground_truth_decimation`` steps and ``steering/state``
+    every ``actuator_state_decimation`` steps (0 = off: simulation-only extras a real-time run can
+    drop); ``rig/status`` on a change and every ``status_period`` s. In real time the rig measures
+    its own loop (deadline misses, loop latency: :mod:`irs_common.loop_timing`) and publishes it on
+    ``rig/timing`` (diagnostic_msgs/DiagnosticArray) every second.
+
+    Commands that are NaN, inf or out of range are replaced by the safe value (steer 0 rad, drive 0
+    V, driver speed held) with a throttled warning; the counts are on ``rig/status``. In real time
+    a steering or drive command older than ``command_timeout`` is held, and one silent for longer
+    than ``stall_grace`` (or a fault on ``treadmill/state``) brings the rig to its controlled stop,
+    car and belt together (:mod:`.safe_stop`; ``rig/status`` says which, and why, in one log line).
+
+    The torque car (``plant: two_track``, docs/torque_car.md): the rig also subscribes
+    ``wheels/torque_command`` (irs_msgs/WheelTorqueCommand, the lock-step input ``wheels``) and
+    publishes ``wheels/encoders`` (irs_msgs/WheelEncoders) every step and the tyres' ground truth
+    ``rig/tyre_truth`` (irs_msgs/TyreState) every ``ground_truth_decimation`` steps; the driver's
+    speed command is ignored. A non-finite wheel torque is replaced by 0 N m (that wheel coasts), a
+    stale one (real time, ``command_timeout``) or none yet by 0 N m on every wheel and no wheel
+    locked, each with a throttled warning. The other plants have none of these topics.
+
+    Stamps of commands (irs_common.stamp_gate): one stamped more than ``future_tolerance`` s ahead
+    of the rig's time (lock-step: the current step; real time: the node clock) is dropped and
+    counted as rejected (it is not applied and does not refresh the stale timer). In lock-step a
+    command for an earlier step is a resend duplicate and ignored. In real time a command older
+    than the last one of its input is ignored as out of order, unless it is more than 1 s older (a
+    restarted publisher): then it is taken; a command with the same stamp as the last is taken
+    (``ros2 topic pub`` sends stamp 0 every time).
+
+    ``rig/reset`` (std_srvs/Trigger): after the car left the belt (or at any time), put the car
+    back at its start pose and clear the rig's latched fault (:meth:`RigSimulation.reset_to_start`;
+    time runs on, the belt keeps its speed); ``rig/status`` says ``car_on_belt`` again (a stop
+    stays). ``rig/recover`` (std_srvs/Trigger, real time): the whole rig running again from any
+    fault: the car held at its start pose, the treadmill reset (``treadmill/reset``,
+    std_msgs/Empty), the belt brought up to ``u0`` by the rig, then the car released
+    (docs/safety.md).
+
+    Writable parameters (``ros2 param set``, applied at once): ``command_timeout``,
+    ``stall_grace``, ``lockstep_resend_period``.
+    """
 
     def __init__(self, **node_options):
         super().__init__('vehicle_sim', **node_options)
