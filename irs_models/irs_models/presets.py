@@ -13,21 +13,10 @@ Presets
 Every preset in the YAML stores its parameters, the speed ``V`` and sensor distance ``ds`` it was
 fitted at, and the published target poles/zeros, so tests can recompute the error.
 
-Fitting
--------
-:func:`fit_preset` adjusts (m, I_z, l_f, l_r, C_f, C_r) inside bounds so that the monic
-quadratic factors of the bicycle model (Eq. 5 with the s^2 integrators removed)::
-
-    den:  s^2 + a1 s + a0,   a1 = (C_f + C_r)/(m V) + (C_f l_f^2 + C_r l_r^2)/(I_z V)
-                             a0 = C_f C_r L^2/(m I_z V^2) + (C_r l_r - C_f l_f)/I_z
-    num:  s^2 + b1 s + b0,   b1 = C_r L (l_r + d_s) / (V (I_z + m l_f d_s))
-                             b0 = C_r L / (I_z + m l_f d_s)
-
-match those built from the target roots (``a1 = -(p1 + p2)``, ``a0 = p1 p2``, etc.).  The
-coefficient residuals are relative, and a weak log-space regularisation towards the nominal
-parameters removes the one-parameter scale freedom (poles and zeros are unchanged if m, I_z,
-C_f and C_r are all multiplied by the same factor) so the answer is unique and near the nominal.
-Since ``b1 / b0 = (l_r + d_s) / V``, the *zeros alone* fix ``l_r + d_s`` for a given speed.
+:func:`fit_preset` adjusts (m, I_z, l_f, l_r, C_f, C_r) inside bounds so that the bicycle
+model's quadratic pole and zero factors (Eq. 5 without the s^2 integrators) match the published
+roots. The presets exist so that the rig, the studies and the similitude comparison name their
+cars instead of repeating numbers (docs/vehicle_presets.md).
 """
 
 from __future__ import annotations
@@ -272,6 +261,23 @@ def fit_preset(target_poles, target_zeros, speed: float, ds: float, bounds: dict
     Returns
     -------
     FitResult
+
+    Notes
+    -----
+    :func:`fit_preset` adjusts (m, I_z, l_f, l_r, C_f, C_r) inside bounds so that the monic
+    quadratic factors of the bicycle model (Eq. 5 with the s^2 integrators removed)::
+
+        den:  s^2 + a1 s + a0,   a1 = (C_f + C_r)/(m V) + (C_f l_f^2 + C_r l_r^2)/(I_z V)
+                                 a0 = C_f C_r L^2/(m I_z V^2) + (C_r l_r - C_f l_f)/I_z
+        num:  s^2 + b1 s + b0,   b1 = C_r L (l_r + d_s) / (V (I_z + m l_f d_s))
+                                 b0 = C_r L / (I_z + m l_f d_s)
+
+    match those built from the target roots (``a1 = -(p1 + p2)``, ``a0 = p1 p2``, etc.).  The
+    coefficient residuals are relative, and a weak log-space regularisation towards the nominal
+    parameters removes the one-parameter scale freedom (poles and zeros are unchanged if m, I_z,
+    C_f and C_r are all multiplied by the same factor) so the answer is unique and near the
+    nominal. Since ``b1 / b0 = (l_r + d_s) / V``, the *zeros alone* fix ``l_r + d_s`` for a given
+    speed.
     """
     from scipy.optimize import least_squares
 
