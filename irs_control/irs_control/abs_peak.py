@@ -8,18 +8,11 @@ friction (``_f``: first-order filter, time constant tau; T delayed by the encode
     F_x = (T_f - J domega_f/dt) / R,   F_z = F_z0 -+ m a_x h / (2 L),   a_x = sum F_x / m
     s = -kappa_f,  mu = -F_x / F_z,   fitted by  mu(s) = c1 (1 - exp(-c2 s)) - c3 s
 
-(Burckhardt 1993; Kiencke and Nielsen, Automotive Control Systems, 2005): linear in ``(c1,
-c3)`` for a fixed ``c2``, so a bank of recursive least squares (forgetting ``lambda``) over a
-grid of ``c2``, the one of least discounted residual is the curve. A sample counts once the
-wheel has settled (filtered and raw slip within ``settle_slip`` and ``|J domega_f/dt| < q
-|T_f|`` for ``settle_samples``): in transients the filtered pair is off the curve. A held slip
-only shows the curve at one point, so ``probe_after`` samples into a stop the target is raised
-by ``probe`` for ``probe_samples``. Then the target goes to the smallest slip within ``knee`` of
-the fit's maximum, clamped to ``trust`` around the slips seen, when the predicted gain less
-``sigmas`` standard deviations (from the RLS covariance) exceeds ``gain_threshold`` for
-``confirm`` samples; after a move up it probes again. Start: the fixed ABS's target
-(``baseline``); ``change_samples`` residuals above ``change_ratio |mu|`` (a new surface) restart
-the fit there. So on a flat curve it stays the fixed-target ABS but for one probe.
+Burckhardt 1993; Kiencke and Nielsen, Automotive Control Systems, 2005. The fit is linear in
+``(c1, c3)`` for a fixed ``c2``: a bank of recursive least squares over a grid of ``c2``. It
+exists because the fixed ABS target (-0.10) misses the friction peak on some surfaces; on a flat
+curve the seeker stays the fixed-target ABS but for one probe. Settling, probing and the moves
+of the target: :class:`PeakSeeker`.
 """
 from __future__ import annotations
 
@@ -140,7 +133,22 @@ class PeakSeekParams:
 
 
 class PeakSeeker:
-    """Slip targets of the four wheels from a Burckhardt fit each (module docstring)."""
+    """Slip targets of the four wheels from a Burckhardt fit each.
+
+    The fit and the moves of the target. (Burckhardt 1993; Kiencke and Nielsen, Automotive Control
+    Systems, 2005): linear in ``(c1, c3)`` for a fixed ``c2``, so a bank of recursive least squares
+    (forgetting ``lambda``) over a grid of ``c2``, the one of least discounted residual is the
+    curve. A sample counts once the wheel has settled (filtered and raw slip within ``settle_slip``
+    and ``|J domega_f/dt| < q |T_f|`` for ``settle_samples``): in transients the filtered pair is
+    off the curve. A held slip only shows the curve at one point, so ``probe_after`` samples into a
+    stop the target is raised by ``probe`` for ``probe_samples``. Then the target goes to the
+    smallest slip within ``knee`` of the fit's maximum, clamped to ``trust`` around the slips seen,
+    when the predicted gain less ``sigmas`` standard deviations (from the RLS covariance) exceeds
+    ``gain_threshold`` for ``confirm`` samples; after a move up it probes again. Start: the fixed
+    ABS's target (``baseline``); ``change_samples`` residuals above ``change_ratio |mu|`` (a new
+    surface) restart the fit there. So on a flat curve it stays the fixed-target ABS but for one
+    probe.
+    """
 
     def __init__(self, params: PeakSeekParams | None = None, n: int = 4):
         self.params = params if params is not None else PeakSeekParams()

@@ -1,30 +1,12 @@
-"""``chassis_controller`` node: ABS and integrated chassis control of the torque car (issue 13).
+"""``chassis_controller`` node: ABS and integrated chassis control of the torque car.
 
-A thin wrapper of :class:`~irs_control.torque_car_control.TorqueCarController` (speed estimate
-from the arm, the driver's brake and steer schedule, :class:`ChassisController`,
-:class:`AbsController`; equations there). Subscribes the measurements only: ``wheels/encoders``
-(irs_msgs/WheelEncoders, 1 kHz), ``pose`` (PoseStamped, treadmill frame), ``velocity``
-(TwistStamped, ``angular.z`` = yaw rate [rad/s]) and ``belt/speed`` (irs_msgs/BeltSpeed).
-Publishes, one answer per encoder sample and stamped with it: ``wheels/torque_command``
-(irs_msgs/WheelTorqueCommand: torques [N m] FL, FR, RL, RR, + drives; ``locked`` flags) and
-``steering/command`` (front = the driver's step steer, rear = the chassis controller's);
-``chassis/status`` (diagnostic_msgs/DiagnosticArray: mode, braking, v_hat (arm), v_ref
-(wheels), slips, slip targets, friction estimates, r_ref, reason) every ``status_decimation``
-steps and when the reason or braking changes.
-
-Pairing: with ``input_sync`` (lock-step) an encoder sample t_k is answered once the pose,
-velocity and belt speed stamped t_k have arrived (:class:`~irs_common.stamp_sync.StampSync`), so
-a run does not depend on DDS delivery order; otherwise (real time) each encoder sample is
-answered with the newest pose, velocity and belt speed. Time is the time since the first
-answered sample (sim time in lock-step).
-
-Bad input: non-finite encoder speeds, a NaN pose (a rejected arm reading), a non-finite belt
-speed or yaw rate (with yaw control) -> zero torques, no wheel locked, zero steer, the reason on
-``chassis/status`` and a throttled warning; the next valid sample runs again. No encoder sample
-for ``stale_timeout`` -> the same zero command, stamped now (STALE). Stamps follow
-:mod:`irs_common.stamp_gate` (future -> dropped; older -> dropped; a repeat -> the same answer
-again; more than 1 s back or ``/clock`` jumping back -> everything restarts). Published values
-are always finite.
+A thin wrapper of :class:`~irs_control.torque_car_control.TorqueCarController` (equations
+there): measurements in (``wheels/encoders`` at 1 kHz, ``pose``, ``velocity``, ``belt/speed``),
+one answer per encoder sample, stamped with it, out (``wheels/torque_command`` [N m],
+``steering/command`` [rad], ``chassis/status``). With ``input_sync`` (lock-step) a sample waits
+for the measurements of its stamp, so a run does not depend on DDS delivery order. Bad, stale or
+mis-stamped input gives zero torques and steer; published values are always finite. Topics,
+pairing and the bad-input rule: :class:`ChassisControllerNode`.
 """
 import time
 
@@ -51,7 +33,34 @@ STALE = 'stale_encoders'
 
 
 class ChassisControllerNode(Node):
-    """Encoders, pose, velocity and belt speed in; wheel torques and steer out."""
+    """Encoders, pose, velocity and belt speed in; wheel torques and steer out.
+
+    A thin wrapper of :class:`~irs_control.torque_car_control.TorqueCarController` (speed estimate
+    from the arm, the driver's brake and steer schedule, :class:`ChassisController`,
+    :class:`AbsController`; equations there). Subscribes the measurements only: ``wheels/encoders``
+    (irs_msgs/WheelEncoders, 1 kHz), ``pose`` (PoseStamped, treadmill frame), ``velocity``
+    (TwistStamped, ``angular.z`` = yaw rate [rad/s]) and ``belt/speed`` (irs_msgs/BeltSpeed).
+    Publishes, one answer per encoder sample and stamped with it: ``wheels/torque_command``
+    (irs_msgs/WheelTorqueCommand: torques [N m] FL, FR, RL, RR, + drives; ``locked`` flags) and
+    ``steering/command`` (front = the driver's step steer, rear = the chassis controller's);
+    ``chassis/status`` (diagnostic_msgs/DiagnosticArray: mode, braking, v_hat (arm), v_ref
+    (wheels), slips, slip targets, friction estimates, r_ref, reason) every ``status_decimation``
+    steps and when the reason or braking changes.
+
+    Pairing: with ``input_sync`` (lock-step) an encoder sample t_k is answered once the pose,
+    velocity and belt speed stamped t_k have arrived (:class:`~irs_common.stamp_sync.StampSync`),
+    so a run does not depend on DDS delivery order; otherwise (real time) each encoder sample is
+    answered with the newest pose, velocity and belt speed. Time is the time since the first
+    answered sample (sim time in lock-step).
+
+    Bad input: non-finite encoder speeds, a NaN pose (a rejected arm reading), a non-finite belt
+    speed or yaw rate (with yaw control) -> zero torques, no wheel locked, zero steer, the reason
+    on ``chassis/status`` and a throttled warning; the next valid sample runs again. No encoder
+    sample for ``stale_timeout`` -> the same zero command, stamped now (STALE). Stamps follow
+    :mod:`irs_common.stamp_gate` (future -> dropped; older -> dropped; a repeat -> the same answer
+    again; more than 1 s back or ``/clock`` jumping back -> everything restarts). Published values
+    are always finite.
+    """
 
     def __init__(self, **node_options):
         super().__init__('chassis_controller', **node_options)

@@ -1,43 +1,14 @@
 """``lateral_controller`` node: MRC/RST or PI lateral control of the sensor point.
 
-Subscribes ``lateral_position`` (geometry_msgs/PointStamped, y = sensed lateral displacement of
-the sensor point [m]) and ``lateral/reference`` (irs_msgs/LateralReference); publishes
-``steering/command`` (irs_msgs/SteeringCommand, front axle) stamped with the measurement's stamp,
-every step, and ``lateral/status`` (irs_msgs/LateralControllerStatus) every
-``status_decimation`` steps and whenever the state changes (telemetry, not part of the loop).
-
-One control step per measurement (the measurement stream sets the rate; ``dt`` must equal its
-period, 1 kHz by default). With ``reference_sync`` (lock-step runs) a measurement is answered
-only once the reference with the same stamp has arrived, so the run does not depend on DDS
-delivery order; otherwise the latest reference is used. A NaN/inf measurement, or a measurement
-older than ``stale_timeout`` (checked on a timer), gives zero steer and a STALE/INVALID status;
-the controller restarts from rest when valid measurements return.
-
-Bad input (the rule at this node's edge; see irs_common.stamp_gate and the controllers'
-bad-input rule in :mod:`.discrete_rst`):
-
-- values: every step goes through ``controller.step_checked``: an invalid reference (NaN, inf,
-  beyond 2 m) holds the last valid one (RUNNING, reason on ``lateral/status``); an invalid
-  measurement gives zero steer, resets the controller and reports INVALID. The published steer
-  is always finite and within ``steer_limit``;
-- stamps, against the node clock: a measurement or reference stamped more than
-  ``future_tolerance`` s ahead is dropped (not answered, not stored); one older than the last
-  step is dropped as out of order, unless it is more than 1 s older (a replay loop, a
-  restarted publisher): then the controller, the stamp memory and the pairing restart and the
-  message is taken; a measurement with the stamp of the last step is answered again with the
-  same command (lock-step resend);
-- the node clock jumping back (``/clock`` of ``bag play --loop --clock``) resets the same time
-  state; a STALE measurement resets the controller (it restarts from rest).
-
-Start-up design check: the controller built from the parameters is closed with the plant model
-``check_plant`` (default ``identified``, the rig's Eq. 6 plant, with the actuator lag) --
-continuous and sampled closed-loop poles, gain and phase margins (:mod:`.design_check`). An
-unstable loop is refused with one line naming the poles and the plant (exit code 2) unless
-``allow_unstable_design`` is true (then a warning); the result is logged either way.
-
-Writable parameters (``ros2 param set``): ``stale_timeout`` and ``default_reference`` (applied at
-once: it is the reference until the next ``lateral/reference`` message; without
-``reference_sync``).
+One control step per measurement of the sensor point's lateral displacement y [m]
+(``lateral_position``, 1 kHz by default): the controller's steer [rad] goes out on
+``steering/command`` stamped with the measurement's stamp, ``lateral/status`` carries the
+telemetry. With ``reference_sync`` (lock-step) a measurement waits for the reference of the same
+stamp, so the run does not depend on DDS delivery order. Bad, stale, future-stamped or
+out-of-order input gives zero steer or is dropped, never a non-finite command; an unstable design
+is refused at start-up (:mod:`.design_check`). The node exists so that the controller core runs
+in the graph unchanged; topics, the bad-input rule, the design check and the writable
+parameters: :class:`LateralControllerNode`.
 """
 import math
 import time
@@ -62,7 +33,47 @@ from .discrete_rst import STATE_RUNNING
 from .lateral_params import PARAMS, controller_config
 
 class LateralControllerNode(Node):
-    """Thin wrapper around the controller built by :func:`make_controller`."""
+    """Thin wrapper around the controller built by :func:`make_controller`.
+
+    Subscribes ``lateral_position`` (geometry_msgs/PointStamped, y = sensed lateral displacement of
+    the sensor point [m]) and ``lateral/reference`` (irs_msgs/LateralReference); publishes
+    ``steering/command`` (irs_msgs/SteeringCommand, front axle) stamped with the measurement's
+    stamp, every step, and ``lateral/status`` (irs_msgs/LateralControllerStatus) every
+    ``status_decimation`` steps and whenever the state changes (telemetry, not part of the loop).
+
+    One control step per measurement (the measurement stream sets the rate; ``dt`` must equal its
+    period, 1 kHz by default). With ``reference_sync`` (lock-step runs) a measurement is answered
+    only once the reference with the same stamp has arrived, so the run does not depend on DDS
+    delivery order; otherwise the latest reference is used. A NaN/inf measurement, or a measurement
+    older than ``stale_timeout`` (checked on a timer), gives zero steer and a STALE/INVALID status;
+    the controller restarts from rest when valid measurements return.
+
+    Bad input (the rule at this node's edge; see irs_common.stamp_gate and the controllers'
+    bad-input rule in :mod:`.discrete_rst`):
+
+    - values: every step goes through ``controller.step_checked``: an invalid reference (NaN, inf,
+      beyond 2 m) holds the last valid one (RUNNING, reason on ``lateral/status``); an invalid
+      measurement gives zero steer, resets the controller and reports INVALID. The published steer
+      is always finite and within ``steer_limit``;
+    - stamps, against the node clock: a measurement or reference stamped more than
+      ``future_tolerance`` s ahead is dropped (not answered, not stored); one older than the last
+      step is dropped as out of order, unless it is more than 1 s older (a replay loop, a restarted
+      publisher): then the controller, the stamp memory and the pairing restart and the message is
+      taken; a measurement with the stamp of the last step is answered again with the same command
+      (lock-step resend);
+    - the node clock jumping back (``/clock`` of ``bag play --loop --clock``) resets the same time
+      state; a STALE measurement resets the controller (it restarts from rest).
+
+    Start-up design check: the controller built from the parameters is closed with the plant model
+    ``check_plant`` (default ``identified``, the rig's Eq. 6 plant, with the actuator lag) --
+    continuous and sampled closed-loop poles, gain and phase margins (:mod:`.design_check`). An
+    unstable loop is refused with one line naming the poles and the plant (exit code 2) unless
+    ``allow_unstable_design`` is true (then a warning); the result is logged either way.
+
+    Writable parameters (``ros2 param set``): ``stale_timeout`` and ``default_reference`` (applied
+    at once: it is the reference until the next ``lateral/reference`` message; without
+    ``reference_sync``).
+    """
 
     def __init__(self, **node_options):
         super().__init__('lateral_controller', **node_options)

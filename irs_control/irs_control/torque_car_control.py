@@ -2,40 +2,15 @@
 
 ROS-free; the ``chassis_controller`` node wraps it and the offline composition
 (``irs_bringup/offline_twin/chassis_loop.py``) steps the same object, so the graph and the offline
-run give the same commands. Per measurement step ``t_k`` (encoder sample ``omega_i`` [rad/s], arm
-pose ``x`` [m], ``psi`` [rad], yaw rate ``r`` [rad/s], belt speed ``V_b`` [m/s]; measurements only,
-never ground truth)::
+run give the same commands.
 
-    t       = t_k - t_0                           (time since the first step, [s])
-    v_hat   = ArmSpeedEstimator(x, psi, V_b)      (((x_k - x_{k-W}) / (W dt) + V_b) / cos psi)
-    v_ref   = WheelSpeedObserver(omega, T_{k-1}, V_b)   (the wheels' speed: abs_reference.py)
-    v_abs   = v_ref, or v_hat with abs.reference 'arm'
-    delta_f = A  if t >= t_steer else 0           (the driver's front step steer [rad])
-    braking = t_brake >= 0 and t >= t_brake and (d_brake <= 0 or t < t_brake + d_brake)
-    v_tgt   = speed.target, or V_b if it is 0     (drive at belt speed: stay put on the belt)
-    (T_req, delta_r) = ChassisController(v_tgt, v_hat, r, delta_f, dt, brake = b if braking)
-    T       = AbsController(T_req, omega, v_abs, dt)      (brake.mode 'abs': lambda* fixed)
-              AbsController(T_req, omega, v_abs, dt, -PeakSeeker(...))   ('abs_peak')
-              T_req                                       ('open': the request, no ABS)
-              0 with every wheel locked while braking     ('locked': the friction brake)
-              0 with every wheel locked once braking and v_abs <= v_min (any mode: a motor's
-              brake torque on a stopped wheel would drive it backwards; the friction brake
-              holds the stopped car, as real ABS hands over to locked wheels at walking pace),
-              latched until the brake is released
-
-The arm's speed ``v_hat`` drives the speed loop and the yaw reference (staying put on the
-treadmill is the rig's business); the ABS takes the wheels' ``v_ref``, as a car must.
-
-``yaw_control``: ``'off'`` runs the chassis controller with ``r = r_ref`` (its yaw error and
-integral stay 0: no yaw moment, speed control only); ``'rear_steer'``, ``'differential'``,
-``'both'`` are the chassis controller's mixes.
-
-Bad input: a non-finite or missing encoder speed, a non-finite pose or belt speed (the arm
-estimator publishes NaN for a rejected reading), a pose beyond 5 m or a belt speed or speed
-estimate beyond 20 m/s, or, with yaw control on, a non-finite yaw rate -> all torques 0, no
-wheel locked, both steers 0 (the car coasts straight), the ABS and chassis integrals, the
-wheels' speed and the peak seeker reset, and ``reason`` names the input; the next valid step
-runs again (from rest of the integrals). Every output is finite.
+Per measurement step (wheel encoders ``omega_i`` [rad/s], arm pose ``x`` [m], ``psi`` [rad], yaw
+rate ``r`` [rad/s], belt speed ``V_b`` [m/s]; measurements only, never ground truth) the driver
+sets the front step steer and the brake, the chassis controller (:mod:`.chassis_control`) the
+wheel torque requests [N m] and the rear steer [rad], and the ABS (:mod:`.abs_control`) limits
+each braking wheel's slip. Bad input gives zero torques and steer (the car coasts straight),
+never a non-finite command. The step, the brake modes and the bad-input rule:
+:class:`TorqueCarController`.
 """
 from __future__ import annotations
 
@@ -198,7 +173,43 @@ SPEED_LIMIT = 20.0
 
 
 class TorqueCarController:
-    """Speed estimate + driver + chassis controller + ABS (module docstring)."""
+    """Speed estimate + driver + chassis controller + ABS.
+
+    Per measurement step ``t_k`` (encoder sample ``omega_i`` [rad/s], arm pose ``x`` [m], ``psi``
+    [rad], yaw rate ``r`` [rad/s], belt speed ``V_b`` [m/s]; measurements only, never ground
+    truth)::
+
+        t       = t_k - t_0                           (time since the first step, [s])
+        v_hat   = ArmSpeedEstimator(x, psi, V_b)      (((x_k - x_{k-W}) / (W dt) + V_b) / cos psi)
+        v_ref   = WheelSpeedObserver(omega, T_{k-1}, V_b)   (the wheels' speed: abs_reference.py)
+        v_abs   = v_ref, or v_hat with abs.reference 'arm'
+        delta_f = A  if t >= t_steer else 0           (the driver's front step steer [rad])
+        braking = t_brake >= 0 and t >= t_brake and (d_brake <= 0 or t < t_brake + d_brake)
+        v_tgt   = speed.target, or V_b if it is 0     (drive at belt speed: stay put on the belt)
+        (T_req, delta_r) = ChassisController(v_tgt, v_hat, r, delta_f, dt, brake = b if braking)
+        T       = AbsController(T_req, omega, v_abs, dt)      (brake.mode 'abs': lambda* fixed)
+                  AbsController(T_req, omega, v_abs, dt, -PeakSeeker(...))   ('abs_peak')
+                  T_req                                       ('open': the request, no ABS)
+                  0 with every wheel locked while braking     ('locked': the friction brake)
+                  0 with every wheel locked once braking and v_abs <= v_min (any mode: a motor's
+                  brake torque on a stopped wheel would drive it backwards; the friction brake
+                  holds the stopped car, as real ABS hands over to locked wheels at walking pace),
+                  latched until the brake is released
+
+    The arm's speed ``v_hat`` drives the speed loop and the yaw reference (staying put on the
+    treadmill is the rig's business); the ABS takes the wheels' ``v_ref``, as a car must.
+
+    ``yaw_control``: ``'off'`` runs the chassis controller with ``r = r_ref`` (its yaw error and
+    integral stay 0: no yaw moment, speed control only); ``'rear_steer'``, ``'differential'``,
+    ``'both'`` are the chassis controller's mixes.
+
+    Bad input: a non-finite or missing encoder speed, a non-finite pose or belt speed (the arm
+    estimator publishes NaN for a rejected reading), a pose beyond 5 m or a belt speed or speed
+    estimate beyond 20 m/s, or, with yaw control on, a non-finite yaw rate -> all torques 0, no
+    wheel locked, both steers 0 (the car coasts straight), the ABS and chassis integrals, the
+    wheels' speed and the peak seeker reset, and ``reason`` names the input; the next valid step
+    runs again (from rest of the integrals). Every output is finite.
+    """
 
     def __init__(self, config: TorqueCarConfig | None = None):
         self.config = config if config is not None else TorqueCarConfig()
