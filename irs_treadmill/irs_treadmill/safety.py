@@ -11,18 +11,8 @@ A fault cuts the drive (0 V; the belt then coasts down by friction, it cannot br
   (counted in ``recoveries``): a start-up transient, a scheduling stall or one rejected arm
   reading must not latch the belt off and lose the car.
 
-Stamps (:meth:`SafetyMonitor.update_position` with the node's clock ``now``): a position whose
-stamp is more than ``future_tolerance`` [s] ahead of ``now`` (``FUTURE``), or older than the last
-stored one (``OLD``), or equal to it (``REPEAT``) is *rejected for timing*: its stamp is never
-stored as the last position time and it does not refresh the stale timer (so a reading stamped a
-day ahead, or at the largest time, can neither make later readings look old nor hide a stale
-input); the rejection is counted in ``rejected_stamps`` and described in ``last_rejection``. Its
-x, y are still checked against the belt ends and edges (a car near an edge is a fault whatever
-its stamp). Without ``now`` (offline use) only OLD/REPEAT are rejected.
-
-Before the first valid position the drive is inhibited (``drive_permitted`` False) without a
-latched fault.  After ``reset()`` the conditions are re-evaluated on the next call, so a
-persisting condition re-latches immediately.  Belt geometry: ``docs/conventions.md``.
+It exists because the belt can only coast: the drive must be cut before the car reaches an end
+or edge. Stamps and start-up: :class:`SafetyMonitor`; belt geometry: ``docs/conventions.md``.
 """
 from __future__ import annotations
 
@@ -110,9 +100,23 @@ TRANSIENT = frozenset({FaultCode.STALE_POSITION, FaultCode.INVALID_INPUT})
 
 
 class SafetyMonitor:
-    """Latched drive-cut logic (see module docstring).
+    """Latched drive-cut logic (the two kinds of fault in the module docstring).
 
     ``future_tolerance`` [s] (>= 0): stamps further ahead of the clock are rejected for timing.
+
+    Stamps (:meth:`SafetyMonitor.update_position` with the node's clock ``now``): a position whose
+    stamp is more than ``future_tolerance`` [s] ahead of ``now`` (``FUTURE``), or older than the
+    last stored one (``OLD``), or equal to it (``REPEAT``) is *rejected for timing*: its stamp is
+    never stored as the last position time and it does not refresh the stale timer (so a reading
+    stamped a day ahead, or at the largest time, can neither make later readings look old nor hide
+    a stale input); the rejection is counted in ``rejected_stamps`` and described in
+    ``last_rejection``. Its x, y are still checked against the belt ends and edges (a car near an
+    edge is a fault whatever its stamp). Without ``now`` (offline use) only OLD/REPEAT are
+    rejected.
+
+    Before the first valid position the drive is inhibited (``drive_permitted`` False) without a
+    latched fault.  After ``reset()`` the conditions are re-evaluated on the next call, so a
+    persisting condition re-latches immediately.  Belt geometry: ``docs/conventions.md``.
     """
 
     def __init__(self, params: Optional[SafetyParams] = None,

@@ -1,36 +1,12 @@
 """``treadmill_regulator`` node: keeps the car at its longitudinal set point with the belt speed.
 
-Inputs: ``pose`` (PoseStamped, car c.g. in the treadmill frame), ``velocity`` (TwistStamped, car
-velocity in the car frame relative to the treadmill), ``belt/speed`` (irs_msgs/BeltSpeed). Pose
-and velocity of the same stamp are paired (they come from the same arm reading); the belt speed
-too when ``sync_belt_speed`` is set. One regulator step per pose: ``treadmill/drive``
-(TreadmillDriveCommand, stamped like the pose) every step and ``treadmill/state``
-(TreadmillState) every ``state_decimation`` steps and whenever the mode changes.
-
-Safety (irs_treadmill.safety): a car near a belt end or edge cuts the drive (0 V: the belt
-coasts) and latches a fault, published in ``treadmill/state`` until reset through the
-``treadmill/reset_fault`` service (std_srvs/Trigger) or a message on ``treadmill/reset``
-(std_msgs/Empty). A NaN pose or no pose for ``safety.stale_timeout`` s cuts the drive too, until
-the next valid pose (an input fault, not a dangerous car: it is not latched).
-
-Bad input at this node's edge:
-
-- values: a pose with ``|x|`` or ``|y|`` beyond the regulator's position limit (5 m; the belt is
-  2.44 x 1.22 m) is not a measurement: treated like a NaN pose (drive cut, transient input
-  fault); a bad belt speed gives 0 V and a regulator reset; a bad velocity makes the regulator
-  use its internal estimate (``BeltSpeedRegulator.update`` rule). The reason is logged through
-  a throttled warner (at most once a second per kind) and the fault is on ``treadmill/state``;
-- stamps, against the node clock: a pose/velocity/belt speed stamped more than
-  ``future_tolerance`` s ahead is dropped (not answered, not stored); an older step than the
-  last is dropped as out of order unless it is more than 1 s older (a replay loop, a restarted
-  rig): then the regulator and the safety monitor's position timing restart (latched faults
-  stay) and the step is taken; the last step again is answered with the same command;
-- the node clock jumping back (``/clock`` of ``bag play --loop --clock``) restarts the same
-  time state.
-
-Writable parameters (``ros2 param set``, applied at once): ``enabled`` (false: 0 V, belt
-coasts), ``regulator.x_ref``, ``regulator.k_x``, ``regulator.k_i``, ``regulator.k_v``,
-``regulator.integral_limit``.
+A thin wrapper of :class:`~irs_treadmill.regulator.BeltSpeedRegulator` and
+:class:`~irs_treadmill.safety.SafetyMonitor`: one regulator step per pose (paired with the
+velocity of the same stamp), ``treadmill/drive`` [V] stamped like the pose and
+``treadmill/state`` out. A car near a belt end or edge cuts the drive and latches a fault until
+reset; a bad or stale pose cuts it until the next valid one. It exists so that the regulator
+and the safety monitor run in the graph unchanged. Topics, the bad-input rule and the writable
+parameters: :class:`TreadmillRegulatorNode`.
 """
 import dataclasses
 import math
@@ -59,7 +35,40 @@ from .safety import TRANSIENT, SafetyMonitor
 
 
 class TreadmillRegulatorNode(Node):
-    """Pose and belt speed in, treadmill drive command and state out (module docstring)."""
+    """Pose and belt speed in, treadmill drive command and state out.
+
+    Inputs: ``pose`` (PoseStamped, car c.g. in the treadmill frame), ``velocity`` (TwistStamped,
+    car velocity in the car frame relative to the treadmill), ``belt/speed`` (irs_msgs/BeltSpeed).
+    Pose and velocity of the same stamp are paired (they come from the same arm reading); the belt
+    speed too when ``sync_belt_speed`` is set. One regulator step per pose: ``treadmill/drive``
+    (TreadmillDriveCommand, stamped like the pose) every step and ``treadmill/state``
+    (TreadmillState) every ``state_decimation`` steps and whenever the mode changes.
+
+    Safety (irs_treadmill.safety): a car near a belt end or edge cuts the drive (0 V: the belt
+    coasts) and latches a fault, published in ``treadmill/state`` until reset through the
+    ``treadmill/reset_fault`` service (std_srvs/Trigger) or a message on ``treadmill/reset``
+    (std_msgs/Empty). A NaN pose or no pose for ``safety.stale_timeout`` s cuts the drive too,
+    until the next valid pose (an input fault, not a dangerous car: it is not latched).
+
+    Bad input at this node's edge:
+
+    - values: a pose with ``|x|`` or ``|y|`` beyond the regulator's position limit (5 m; the belt
+      is 2.44 x 1.22 m) is not a measurement: treated like a NaN pose (drive cut, transient input
+      fault); a bad belt speed gives 0 V and a regulator reset; a bad velocity makes the regulator
+      use its internal estimate (``BeltSpeedRegulator.update`` rule). The reason is logged through
+      a throttled warner (at most once a second per kind) and the fault is on ``treadmill/state``;
+    - stamps, against the node clock: a pose/velocity/belt speed stamped more than
+      ``future_tolerance`` s ahead is dropped (not answered, not stored); an older step than the
+      last is dropped as out of order unless it is more than 1 s older (a replay loop, a restarted
+      rig): then the regulator and the safety monitor's position timing restart (latched faults
+      stay) and the step is taken; the last step again is answered with the same command;
+    - the node clock jumping back (``/clock`` of ``bag play --loop --clock``) restarts the same
+      time state.
+
+    Writable parameters (``ros2 param set``, applied at once): ``enabled`` (false: 0 V, belt
+    coasts), ``regulator.x_ref``, ``regulator.k_x``, ``regulator.k_i``, ``regulator.k_v``,
+    ``regulator.integral_limit``.
+    """
 
     def __init__(self, **node_options):
         super().__init__('treadmill_regulator', **node_options)

@@ -1,5 +1,5 @@
 """Bad inputs cannot make the treadmill regulator emit a non-finite or out-of-limit voltage, its
-state recovers, and a future-stamped position cannot blind the safety monitor (issue 10).
+state recovers, and a future-stamped position cannot blind the safety monitor.
 """
 import math
 
