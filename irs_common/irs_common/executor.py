@@ -1,49 +1,18 @@
 """A lean single-threaded executor: one reused rcl wait set, callbacks called directly.
 
-Why not rclpy's ``SingleThreadedExecutor``
--------------------------------------------
-Measured on this 2-core machine (``bench/``), rclpy 7.1.6's ``SingleThreadedExecutor`` spends
-250-300 us of CPU per message hop (publish + take), 3x the 95-130 us of a loop over one raw
-``WaitSet``. Per ``spin_once`` it rebuilds the entity lists through generators, creates a new
-``WaitSet`` object, wraps every ready entity in a ``Task`` (a coroutine plus a future), and takes
-*one* message per wait. ``rclpy.experimental.EventsExecutor`` is as cheap as the raw wait set,
-but in rclpy 7.1.6 its ``spin()`` dispatched nothing and it hung on shutdown in some runs.
+It exists because rclpy's ``SingleThreadedExecutor`` is too slow for a 1 kHz loop on this
+2-core machine (``bench/``): rclpy 7.1.6's spends 250-300 us of CPU per message hop (publish +
+take), 3x the 95-130 us of a loop over one raw ``WaitSet``, because per ``spin_once`` it rebuilds
+the entity lists through generators, creates a new ``WaitSet``, wraps every ready entity in a
+``Task`` (a coroutine plus a future) and takes *one* message per wait.
+``rclpy.experimental.EventsExecutor`` is as cheap as the raw wait set, but in rclpy 7.1.6 its
+``spin()`` dispatches nothing and it hangs on shutdown in some runs.
 
-What this executor does instead
--------------------------------
-It keeps rclpy's ``Executor`` base (``add_node``, ``wake``, ``shutdown``, the guard condition
-that node entity creation triggers, the SIGINT guard condition), so nodes, timers, services,
-clients, parameter services, the sim-time ``/clock`` subscription and QoS event handlers work
-unchanged. Its ``spin_once`` is the loop the recorder already used:
-
-1. the entity lists of all nodes are gathered only when they change (a node created or
-   destroyed an entity: rclpy triggers the executor's guard condition then);
-2. one ``_rclpy.WaitSet`` (sized once per gather) is cleared, refilled and waited on. The
-   1 kHz entities (subscriptions, timers, guard conditions) go in every time. Three slow
-   chores take turns, at most one per ``spin_once`` (the most overdue), and the wait is capped
-   so that none is left out longer than its period:
-
-   - services (every node has six parameter services) and clients, every ``slow_period`` s
-     (default 10 ms): a service call waits at most that much longer;
-   - the QoS event handlers of every publisher and subscription (incompatible QoS, lost
-     messages, matching), every ``event_period`` s (default 0.5 s);
-   - the graph lookup of the in-process routes (:mod:`irs_common.intra_process`), every
-     ``graph_period`` s (default 0.1 s).
-
-   Five nodes and the composed recorder have about 45 services and 200 event handlers. Adding
-   them on every wait cost more than all the messages of a step. Adding them all, and asking
-   the graph about 15 routes, in one ``spin_once`` every 10 ms cost 0.5 ms there, and 65 % of
-   the composed real-time loop's overruns (measured in the fourth round of issue 9);
-3. every ready subscription is drained: ``take_message`` until nothing is left, each message
-   handed straight to its callback (no ``Task``); then ready timers are called
-   (``call_timer`` + callback), so a periodic step sees every message that had arrived when it
-   woke; then services, clients, guard conditions and waitables.
-
-With ``intra_process=True`` (composition: ``run_nodes`` with several nodes), messages between
-the executor's own nodes are handed over instead of sent through DDS while no subscriber outside
-the process listens (:mod:`irs_common.intra_process`); the handovers are delivered, oldest first,
-at the end of the ``spin_once`` that produced them, the recorder's copies last, in slices of
-``BACKGROUND_SLICE_NS`` while the loop is idle.
+:class:`LeanExecutor` keeps rclpy's ``Executor`` base, gathers the entities only when they
+change, reuses one wait set, serves slow chores (services, QoS events, graph lookups) in turns
+and drains every ready subscription straight into its callback. With ``intra_process=True``
+(``run_nodes`` with several nodes) messages between its own nodes are handed over instead of
+sent through DDS while no subscriber outside the process listens (:mod:`irs_common.intra_process`).
 
 Callbacks must be plain functions (no coroutines) -- all of ours are. Callback groups are
 ignored: one thread runs every callback, so every group is effectively mutually exclusive.
@@ -114,7 +83,40 @@ class _Entities:
 
 
 class LeanExecutor(Executor):
-    """Single-threaded executor with a reused wait set and direct callbacks (module docstring)."""
+    """Single-threaded executor with a reused wait set and direct callbacks.
+
+    It keeps rclpy's ``Executor`` base (``add_node``, ``wake``, ``shutdown``, the guard condition
+    that node entity creation triggers, the SIGINT guard condition), so nodes, timers, services,
+    clients, parameter services, the sim-time ``/clock`` subscription and QoS event handlers work
+    unchanged. Its ``spin_once``:
+
+    1. gathers the entity lists of all nodes only when they change (a node created or destroyed
+       an entity: rclpy triggers the executor's guard condition then);
+    2. clears, refills and waits on one ``_rclpy.WaitSet`` (sized once per gather). The 1 kHz
+       entities (subscriptions, timers, guard conditions) go in every time. Three slow chores
+       take turns, at most one per ``spin_once`` (the most overdue), and the wait is capped so
+       that none is left out longer than its period:
+
+       - services (every node has six parameter services) and clients, every ``slow_period`` s
+         (default 10 ms): a service call waits at most that much longer;
+       - the QoS event handlers of every publisher and subscription (incompatible QoS, lost
+         messages, matching), every ``event_period`` s (default 0.5 s);
+       - the graph lookup of the in-process routes (:mod:`irs_common.intra_process`), every
+         ``graph_period`` s (default 0.1 s).
+
+       Five nodes and the composed recorder have about 45 services and 200 event handlers.
+       Adding them on every wait costs more than all the messages of a step; adding them all,
+       and asking the graph about 15 routes, in one ``spin_once`` every 10 ms costs 0.5 ms there
+       and most of the composed real-time loop's overruns;
+    3. drains every ready subscription: ``take_message`` until nothing is left, each message
+       handed straight to its callback (no ``Task``); then calls the ready timers
+       (``call_timer`` + callback), so a periodic step sees every message that had arrived when
+       it woke; then services, clients, guard conditions and waitables.
+
+    With ``intra_process=True`` the handovers are delivered, oldest first, at the end of the
+    ``spin_once`` that produced them, the recorder's copies last, in slices of
+    ``BACKGROUND_SLICE_NS`` while the loop is idle.
+    """
 
     def __init__(self, *, context=None, slow_period: float = 0.01, event_period: float = 0.5,
                  graph_period: float = 0.1, intra_process: bool = False):

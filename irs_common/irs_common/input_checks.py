@@ -3,33 +3,15 @@
 Every node checks what it receives before a core sees it, with the same rules and the same
 wording, so a log or a status message says the same thing whichever node found the problem.
 
-Rules
------
 Values (:func:`finite_problem`, :func:`range_problem`)
     A value is *usable* when it is a real number (``int``, ``float``, numpy scalars; not ``bool``),
-    finite
-    (not NaN, not +-inf) and, for a range check, ``low <= value <= high`` (limits in the value's
-    unit, inclusive). Each check returns ``None`` for a usable value or one sentence saying what
-    is wrong (naming the input, its value and the expected range). Finite-but-absurd values such
-    as ``1e308`` are *not* caught by the finite check: every physical input must also get a range
-    check with a documented physical bound (e.g. ``|y| <= 2 m`` for a lateral position on the
-    4 x 8 ft belt).
-
-Stamps (:func:`stamp_problem`), all in integer nanoseconds
-    With ``now_ns`` the receiving node's clock, ``last_ns`` the stamp of the last *accepted*
-    message on that input (``None`` before the first) and ``future_tolerance_ns >= 0``:
-
-    * ``stamp_ns > now_ns + future_tolerance_ns`` -> ``FUTURE``: rejected and reported; the stamp
-      must **not** be stored as ``last_ns`` (otherwise one reading stamped a day ahead, or at the
-      largest representable time, makes every later genuine reading look old). Checked first.
-    * ``stamp_ns == last_ns`` -> ``REPEAT``: the same step again (lock-step resend); a node answers
-      it with the answer it already gave, its state untouched.
-    * ``stamp_ns < last_ns`` -> ``OLD``: out of order; rejected and reported, not stored.
-    * otherwise ``OK``: the caller processes the message and stores ``stamp_ns`` as ``last_ns``.
-
-    ``now_ns=None`` skips the future check (e.g. replay without a clock). Negative stamps are
-    ``OLD`` only relative to ``last_ns``; the checker has no opinion on the epoch.
-
+    finite (not NaN, not +-inf) and, for a range check, ``low <= value <= high`` (inclusive, in
+    the value's unit). Each check returns ``None`` or one sentence naming the input, its value and
+    the expected range. ``1e308`` passes the finite check: every physical input also gets a range
+    check with a documented physical bound (e.g. ``|y| <= 2 m`` on the 4 x 8 ft belt).
+Stamps (:func:`stamp_problem`), integer nanoseconds against the node's clock and the last stamp
+    ``FUTURE`` (rejected, never stored), ``REPEAT`` (lock-step resend: the same answer again),
+    ``OLD`` (out of order: rejected) or ``OK``.
 Throttled warnings (:class:`ThrottledWarner`)
     Logs at most one message per ``key`` every ``period`` seconds of the caller's clock and counts
     the suppressed ones, so a 1 kHz stream of bad data gives one line per second that says how
@@ -95,7 +77,22 @@ class StampVerdict(str, enum.Enum):
 
 def stamp_problem(stamp_ns: int, now_ns: Optional[int], future_tolerance_ns: int,
                   last_ns: Optional[int]) -> Tuple[StampVerdict, Optional[str]]:
-    """Classify a message stamp; see the module docstring for the rule.
+    """Classify a message stamp: ``FUTURE``, ``REPEAT``, ``OLD`` or ``OK``.
+
+    The rule, all in integer nanoseconds. With ``now_ns`` the receiving node's clock,
+    ``last_ns`` the stamp of the last *accepted* message on that input (``None`` before the
+    first) and ``future_tolerance_ns >= 0``:
+
+    * ``stamp_ns > now_ns + future_tolerance_ns`` -> ``FUTURE``: rejected and reported; the stamp
+      must **not** be stored as ``last_ns`` (otherwise one reading stamped a day ahead, or at the
+      largest representable time, makes every later genuine reading look old). Checked first.
+    * ``stamp_ns == last_ns`` -> ``REPEAT``: the same step again (lock-step resend); a node answers
+      it with the answer it already gave, its state untouched.
+    * ``stamp_ns < last_ns`` -> ``OLD``: out of order; rejected and reported, not stored.
+    * otherwise ``OK``: the caller processes the message and stores ``stamp_ns`` as ``last_ns``.
+
+    ``now_ns=None`` skips the future check (e.g. replay without a clock). Negative stamps are
+    ``OLD`` only relative to ``last_ns``; the checker has no opinion on the epoch.
 
     Parameters
     ----------

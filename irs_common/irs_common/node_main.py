@@ -14,27 +14,9 @@ out of range), and an ``RCLError`` from a bad ``--ros-args`` or ``--params-file`
 gives a parameter another type are start-up errors too
 (:func:`irs_common.params.params_file_problems`).
 
-Signals (SIGINT, SIGTERM, SIGHUP; :class:`irs_common.cli.SignalGuard`): while the nodes are built
-a signal abandons the start-up at once; while they spin it asks the executor to stop after the
-callback in progress (within its 10 ms wait); both end with exit code 0. A second signal while
-the nodes are destroyed (the recorder closing its bag) leaves at once with 128 + the signal.
-
-Real-time priority: with ``IRS_RT_PRIORITY=<1..99>`` in the environment the process switches to
-``SCHED_FIFO`` at that priority before rclpy starts its DDS threads (which inherit it), as
-ros2_control's real-time loops do. It needs root or ``CAP_SYS_NICE`` (``ulimit -r``); if the
-switch is refused, a warning says so and the node runs at normal priority.
-
-Garbage collection: the objects built before spinning are frozen (``gc.freeze``), so the rare
-full collection no longer scans them (it paused the composed 1 kHz loop for 79 ms).
-
-Memory: with ``IRS_MEMTRACE=<prefix>`` the spin runs under ``tracemalloc`` and every
-``IRS_MEMTRACE_PERIOD`` s (default 300) the 25 allocation sites that grew most since the first
-minute are written to ``<prefix>.<pid>.txt`` (a soak finds a leak's line this way).
-
-Profiling: with ``IRS_PROFILE=<prefix>`` the spin runs under ``cProfile`` and the statistics are
-written to ``<prefix>.<pid>.prof`` at exit (read them with ``python -m pstats``); an experiment's
-processes inherit the variable, so ``IRS_PROFILE=/tmp/p ./irs run irs_bringup experiment run X``
-profiles every node of a run.
+Signals end the process with exit code 0. The environment switches on real-time priority
+(``IRS_RT_PRIORITY``), allocation tracing (``IRS_MEMTRACE``) and profiling (``IRS_PROFILE``):
+:func:`run_nodes`. It exists so that every executable starts, fails and stops the same way.
 """
 import gc
 import os
@@ -87,6 +69,30 @@ def run_nodes(factories, args=None, guard=None) -> int:
     ``guard``: a :class:`~irs_common.cli.SignalGuard` the caller installed before its own
     start-up work (the ``container``); one is installed here otherwise, and kept to the end of
     the process unless ``args`` are given (a signal after the stop leaves at once).
+
+    Signals (SIGINT, SIGTERM, SIGHUP; :class:`irs_common.cli.SignalGuard`): while the nodes are
+    built a signal abandons the start-up at once; while they spin it asks the executor to stop
+    after the callback in progress (within its 10 ms wait); both end with exit code 0. A second
+    signal while the nodes are destroyed (the recorder closing its bag) leaves at once with 128 +
+    the signal.
+
+    Real-time priority: with ``IRS_RT_PRIORITY=<1..99>`` in the environment the process switches to
+    ``SCHED_FIFO`` at that priority before rclpy starts its DDS threads (which inherit it), as
+    ros2_control's real-time loops do. It needs root or ``CAP_SYS_NICE`` (``ulimit -r``); if the
+    switch is refused, a warning says so and the node runs at normal priority.
+
+    Garbage collection: the objects built before spinning are frozen (``gc.freeze``), so the rare
+    full collection does not scan them (scanning them pauses the composed 1 kHz loop for up to 79
+    ms).
+
+    Memory: with ``IRS_MEMTRACE=<prefix>`` the spin runs under ``tracemalloc`` and every
+    ``IRS_MEMTRACE_PERIOD`` s (default 300) the 25 allocation sites that grew most since the first
+    minute are written to ``<prefix>.<pid>.txt`` (a soak finds a leak's line this way).
+
+    Profiling: with ``IRS_PROFILE=<prefix>`` the spin runs under ``cProfile`` and the statistics
+    are written to ``<prefix>.<pid>.prof`` at exit (read them with ``python -m pstats``); an
+    experiment's processes inherit the variable, so ``IRS_PROFILE=/tmp/p ./irs run irs_bringup
+    experiment run X`` profiles every node of a run.
     """
     own_guard = guard is None
     guard = guard or SignalGuard().install()

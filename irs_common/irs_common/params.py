@@ -5,44 +5,12 @@ the unit, range, read-only flag). ``declare_table`` declares them all and return
 of values, which is what the ROS-free cores take. ``markdown_table`` renders the same table for
 the docs, so the docs cannot drift from the code.
 
-Parameters tell the truth
--------------------------
-* **Read-only unless a parameter says otherwise.** ``Param(..., writable=True)`` is a parameter
-  the node applies while running; every other parameter has a read-only descriptor and rclpy
-  refuses to set it after start-up. (The older spelling ``read_only=True`` is still accepted
-  and means the default; ``read_only=False`` means ``writable=True``.)
-* **A writable parameter needs a handler.** The node passes ``on_change(name, value)`` to
-  :func:`declare_table`; declaring a writable parameter without one raises ``TypeError``::
-
-      self.p = declare_table(self, TABLE, on_change=self._on_parameter)
-
-      def _on_parameter(self, name, value):   # called after rclpy stored the accepted value
-          if name == 'command_timeout':
-              self.timeout = value
-
-  Before that, the change was validated (one ``on_set`` callback per node): type, range,
-  finiteness of doubles, non-empty arrays, and the parameter's own ``validator``; a refused
-  change returns ``SetParametersResult(successful=False, reason=...)`` naming the parameter, the
-  value and what was expected. The ``dict`` ``declare_table`` returned is kept current too.
-* **Integers are doubles where a double is expected.** ``-p x0:=0`` or ``x0: 0`` in a params
-  file (an INTEGER) for a double parameter is taken as ``0.0``, likewise ``[1, 2]`` for a double
-  array: at start-up the node's parameter overrides are converted before declaration, at run
-  time a ``pre_set`` callback converts the request before rclpy's type check (rclpy 7.1 checks
-  the type against the descriptor before any ``on_set`` callback, so an ``on_set`` callback
-  cannot do it). ``ParameterDescriptor.dynamic_typing`` would also let integers in, but it drops
-  rclpy's type check altogether (a string would then replace a double), so it is not used.
-* **Start-up errors are one ``ValueError``** naming the parameter, the value and what was
-  expected (``run_node`` turns it into one line and exit code 2), also when a second params
-  file gives a parameter another type.
-* **Parameter files are checked** before the node spins (:func:`params_file_problems`, called
-  by ``run_nodes``): a ``--params-file`` with no section for the node (a misspelt node name) and
-  a later file that gives a parameter another type are start-up errors; rcl drops both silently.
-* **Unknown names are reported.** Overrides (params files, ``-p``) naming no declared parameter
-  are listed in one warning at the end of ``declare_table``, with the closest declared names;
-  ``strict=True`` makes that an error. Warning by default, because a params file with a ``/**``
-  section may legitimately carry parameters for other nodes. A node that declares several tables
-  should pass them in one call (``declare_table(node, A + B)``), or ``check_unknown=False`` to
-  all but the last call, so that names of a later table are not reported.
+Parameters tell the truth: read-only unless a parameter is marked ``writable`` (and then the
+node must pass a handler that applies it); every value, at start-up and on change, is validated
+(type, range, finiteness, the parameter's own ``validator``) and a refused one is named in one
+sentence; integers are taken as doubles where a double is expected; parameter files are checked
+before the node spins; override names that match no parameter are reported. The rules in
+detail: :func:`declare_table`.
 """
 from dataclasses import dataclass, replace
 import difflib
@@ -496,6 +464,50 @@ def declare_table(node, table, on_change=None, *, strict: bool = False,
     (``strict``: ``ValueError``) unless ``check_unknown`` is false. ``check(values)`` (optional)
     judges the table as a whole (limits that depend on another parameter): it returns ``None``
     or a sentence; a sentence refuses a change (and, at start-up, raises ``ValueError``).
+
+    Notes
+    -----
+    Parameters tell the truth:
+
+    * **Read-only unless a parameter says otherwise.** ``Param(..., writable=True)`` is a parameter
+      the node applies while running; every other parameter has a read-only descriptor and rclpy
+      refuses to set it after start-up. (``read_only=True`` is accepted as an alias of the default;
+      ``read_only=False`` means ``writable=True``.)
+    * **A writable parameter needs a handler.** The node passes ``on_change(name, value)`` to
+      :func:`declare_table`; declaring a writable parameter without one raises ``TypeError``::
+
+          self.p = declare_table(self, TABLE, on_change=self._on_parameter)
+
+          def _on_parameter(self, name, value):   # called after rclpy stored the accepted value
+              if name == 'command_timeout':
+                  self.timeout = value
+
+      Before that call, the change is validated (one ``on_set`` callback per node): type, range,
+      finiteness of doubles, non-empty arrays, and the parameter's own ``validator``; a refused
+      change returns ``SetParametersResult(successful=False, reason=...)`` naming the parameter,
+      the value and what was expected. The ``dict`` ``declare_table`` returned is kept current too.
+    * **Integers are doubles where a double is expected.** ``-p x0:=0`` or ``x0: 0`` in a params
+      file (an INTEGER) for a double parameter is taken as ``0.0``, likewise ``[1, 2]`` for a
+      double array: at start-up the node's parameter overrides are converted before declaration, at
+      run time a ``pre_set`` callback converts the request before rclpy's type check (rclpy 7.1
+      checks the type against the descriptor before any ``on_set`` callback, so an ``on_set``
+      callback cannot do it). ``ParameterDescriptor.dynamic_typing`` would also let integers in,
+      but it drops rclpy's type check altogether (a string would then replace a double), so it is
+      not used.
+    * **Start-up errors are one ``ValueError``** naming the parameter, the value and what was
+      expected (``run_node`` turns it into one line and exit code 2), also when a second params
+      file gives a parameter another type.
+    * **Parameter files are checked** before the node spins (:func:`params_file_problems`, called
+      by ``run_nodes``): a ``--params-file`` with no section for the node (a misspelt node name)
+      and a later file that gives a parameter another type are start-up errors; rcl drops both
+      silently.
+    * **Unknown names are reported.** Overrides (params files, ``-p``) naming no declared parameter
+      are listed in one warning at the end of ``declare_table``, with the closest declared names;
+      ``strict=True`` makes that an error. Warning by default, because a params file with a ``/**``
+      section may legitimately carry parameters for other nodes. A node that declares several
+      tables should pass them in one call (``declare_table(node, A + B)``), or
+      ``check_unknown=False`` to all but the last call, so that names of a later table are not
+      reported.
     """
     writable = [p.name for p in table if p.writable]
     if writable and on_change is None:
