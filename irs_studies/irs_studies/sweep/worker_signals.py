@@ -4,7 +4,7 @@ The workers are children of the sweep process in its process group, so a Ctrl-C 
 reaches them as well; each would print its own ``KeyboardInterrupt`` traceback. With SIGINT
 ignored, only the sweep process handles it: it closes the cluster, and kills what is left after
 5 s (``runner._close``). SIGTERM and SIGKILL still end a worker. A Ctrl-C in the second or two
-while a worker imports (before this preload runs) still reaches it.
+while a worker imports (ahead of this preload) still reaches it.
 """
 import signal
 
