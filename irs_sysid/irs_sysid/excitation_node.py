@@ -18,9 +18,6 @@ tick. The output is always finite and clipped to ``[-limit, limit]`` (steering) 
 bounds, is refused (start-up: one line, exit 2; ``ros2 param set``: the change is
 refused). It replaces the lateral controller (steering) or the treadmill regulator
 (drive) in an identification experiment; it never closes a loop.
-
-Writable parameters (``ros2 param set``): ``signal.*``, rebuilt at once (set a schedule's
-``signal.times`` and ``signal.values`` together: until they agree the previous signal stays).
 """
 import time
 
@@ -39,7 +36,11 @@ from .excitation_params import (PARAMS, TARGETS, excitation_problem, excitation_
 
 
 class ExcitationNode(Node):
-    """Publishes the excitation signal on ``steering/command`` or ``treadmill/drive`` per tick."""
+    """Publishes the excitation signal on ``steering/command`` or ``treadmill/drive`` per tick.
+
+    Writable parameters (``ros2 param set``): ``signal.*``, rebuilt at once (set a schedule's
+    ``signal.times`` and ``signal.values`` together: until they agree the previous signal stays).
+    """
 
     def __init__(self, **node_options):
         super().__init__('excitation', **node_options)

@@ -10,14 +10,8 @@ plant: the plant is identified first and designs rest on it afterwards, the pape
 (Sec. 4-5). From the sweep bag (``lateral/reference`` r, ``steering/command`` u,
 ``lateral_position`` y, and ``steering/state`` for the achieved steer) two identifications
 (:mod:`.vehicle_fit`):
-
-1. **the paper's**: ``S_ry/S_ru`` from the steer *command*, the actuator "simply modeled as a
-   4.6 Hz first order lag" plus the transmitter delay configured in the rig (read from the
-   bag's metadata) and half a sample (the command is held over its step), the Eq. 6 structure
-   fitted;
-2. **from the achieved steer** (``S_ry/S_r delta``, the servo's own angle): the vehicle alone,
-   with no actuator assumption -- what is left when the actuator is not the paper's lag
-   (the rig's amplitude-dependent servo is slew limited at these amplitudes).
+the paper's (from the steer *command*, the actuator a 4.6 Hz lag plus the configured delay) and
+one from the achieved steer (the vehicle alone, no actuator assumption): :func:`identify`.
 
 Both are printed against the plant configured in the bag's metadata (``vehicle_sim``
 parameters: Eq. 6 or a bicycle preset). ``--png PREFIX`` writes ``PREFIX_bode.png`` (Figure 8:
@@ -118,7 +112,16 @@ def _rate(t) -> float:
 # ------------------------------------------------------------------ identification
 def identify(run: dict, band=None, coherence_min: float = vf.COHERENCE_MIN, lag_hz=None,
              delay=None) -> dict:
-    """Both identifications of the module docstring; a dict of the pieces."""
+    """Both identifications; a dict of the pieces.
+
+    1. **the paper's**: ``S_ry/S_ru`` from the steer *command*, the actuator "simply modeled as a
+       4.6 Hz first order lag" plus the transmitter delay configured in the rig (read from the
+       bag's metadata) and half a sample (the command is held over its step), the Eq. 6 structure
+       fitted;
+    2. **from the achieved steer** (``S_ry/S_r delta``, the servo's own angle): the vehicle alone,
+       with no actuator assumption -- what is left when the actuator is not the paper's lag (the
+       rig's amplitude-dependent servo is slew limited at these amplitudes).
+    """
     params = run.get('params', {})
     rig = params.get('vehicle_sim', {})
     ref = params.get('reference_generator', {})
