@@ -11,22 +11,10 @@ stamp, publishes
 - ``lateral_position`` (geometry_msgs/PointStamped): the sensor point ``ds`` ahead of the c.g.;
   ``point.y`` is the lateral displacement the lateral controller regulates.
 
-A reading that is NaN, out of the joint ranges, out of the arm's reach, off the belt or an
-implausible jump is rejected: no pose is computed from it. The three topics then carry NaN for
-that stamp (an explicit "no valid measurement" marker, so that downstream nodes take their safe
-action for that step and a lock-step run does not stall), and ``sensing/status`` (SensingStatus,
-latched) says why. No valid reading for ``stale_timeout`` s is reported as STALE (logged once
-per transition, and once when valid readings return). ``sensing/status`` is published on every
-change of state and at most once a second while readings keep being rejected.
-
-Stamps (irs_common.stamp_gate, against the node clock): a reading stamped more than
-``future_tolerance`` s ahead is dropped (no answer, not stored: it cannot silence the input); one
-older than the last is dropped as out of order unless it is more than 1 s older (a replay loop, a
-restarted rig): then the estimator's history restarts and the reading is taken; a reading with
-the last stamp is answered again with the same messages (lock-step resend). The node clock
-jumping back (``/clock`` of ``bag play --loop --clock``) restarts the history too.
-
-Writable parameter: ``stale_timeout`` (``ros2 param set``; applied at once).
+A rejected reading gives NaN on the three topics for its stamp (so downstream nodes take their
+safe action and lock-step does not stall) and its reason on ``sensing/status``. The node exists
+so that :class:`~irs_sensing.pose_estimator.PoseEstimator` runs in the graph unchanged; bad
+readings, staleness, stamps and the writable parameter: :class:`ArmPoseEstimatorNode`.
 """
 import dataclasses
 import math
@@ -54,7 +42,26 @@ NAN = math.nan
 
 
 class ArmPoseEstimatorNode(Node):
-    """Arm joint angles in, car pose, velocity and lateral position out (module docstring)."""
+    """Arm joint angles in, car pose, velocity and lateral position out.
+
+    A reading that is NaN, out of the joint ranges, out of the arm's reach, off the belt or an
+    implausible jump is rejected: no pose is computed from it. The three topics then carry NaN for
+    that stamp (an explicit "no valid measurement" marker, so that downstream nodes take their safe
+    action for that step and a lock-step run does not stall), and ``sensing/status``
+    (SensingStatus, latched) says why. No valid reading for ``stale_timeout`` s is reported as
+    STALE (logged once per transition, and once when valid readings return). ``sensing/status`` is
+    published on every change of state and at most once a second while readings keep being
+    rejected.
+
+    Stamps (irs_common.stamp_gate, against the node clock): a reading stamped more than
+    ``future_tolerance`` s ahead is dropped (no answer, not stored: it cannot silence the input);
+    one older than the last is dropped as out of order unless it is more than 1 s older (a replay
+    loop, a restarted rig): then the estimator's history restarts and the reading is taken; a
+    reading with the last stamp is answered again with the same messages (lock-step resend). The
+    node clock jumping back (``/clock`` of ``bag play --loop --clock``) restarts the history too.
+
+    Writable parameter: ``stale_timeout`` (``ros2 param set``; applied at once).
+    """
 
     def __init__(self, **node_options):
         super().__init__('arm_pose_estimator', **node_options)
