@@ -12,21 +12,8 @@ Usage::
 
     ros2 run irs_bringup container <spec.yaml>      # (./irs run irs_bringup container ...)
 
-with a spec file such as::
-
-    nodes:
-      - package: irs_vehicle_sim
-        executable: vehicle_sim
-        ros_args: [--params-file, rig.yaml, -p, 'clock_mode:=realtime']
-      - package: irs_sensing
-        executable: arm_pose_estimator
-        ros_args: [--params-file, sensing.yaml]
-
-A parameter file given as ``pkg://<package>/<path>`` is taken from that package's share
-directory, a relative path from the spec's directory; the spec itself may be a ``pkg://``
-reference too (``container pkg://irs_bringup/config/realtime_loop.yaml`` is the Figure 10 loop
-in real time). The experiment runner writes such a file for every ``process:`` group of an
-experiment.
+with a spec file listing each node's package, executable and ``--ros-args`` (format:
+:func:`load_spec`); the experiment runner writes one for every ``process:`` group.
 """
 import argparse
 from importlib.metadata import entry_points
@@ -87,8 +74,24 @@ def _resolve_files(args: list, base: Path) -> list:
 
 
 def load_spec(path) -> list:
-    """``[(package, executable, ros_args)]`` from a spec file (module docstring); every node
+    """``[(package, executable, ros_args)]`` from a spec file; every node
     registered in :data:`GROUP`, no two with one name.
+
+    A spec file::
+
+        nodes:
+          - package: irs_vehicle_sim
+            executable: vehicle_sim
+            ros_args: [--params-file, rig.yaml, -p, 'clock_mode:=realtime']
+          - package: irs_sensing
+            executable: arm_pose_estimator
+            ros_args: [--params-file, sensing.yaml]
+
+    A parameter file given as ``pkg://<package>/<path>`` is taken from that package's share
+    directory, a relative path from the spec's directory; the spec itself may be a ``pkg://``
+    reference too (``container pkg://irs_bringup/config/realtime_loop.yaml`` is the Figure 10 loop
+    in real time). The experiment runner writes such a file for every ``process:`` group of an
+    experiment.
     """
     if str(path).startswith('pkg://'):
         path = _resolve(str(path), Path.cwd())

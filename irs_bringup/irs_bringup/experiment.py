@@ -1,27 +1,11 @@
 """Experiment files: what runs, with which parameters, on which clock, for how long (no rclpy).
 
-An experiment file (YAML, see ``config/experiments/``)::
-
-    name: figure10_mrc_with_actuator
-    description: one line
-    clock: lockstep            # lockstep (rig publishes /clock, reproducible) | realtime
-    duration: 8.0              # [s] simulated (lockstep) or wall (realtime) time
-    nodes:                     # node name -> how to start it (as `ros2 run` would)
-      vehicle_sim:
-        package: irs_vehicle_sim
-        executable: vehicle_sim
-        params_files: [pkg://irs_vehicle_sim/config/rig.yaml]   # share/<pkg>/... or a path
-        params: {plant: identified}                              # overrides, flat names
-        remaps: {}
-        process: rig           # optional process group: nodes with the same one share a process
-    record:
-      topics: [arm/joint_states, ...]     # what the recorder writes to the bag ([] = no bag)
-      process: loop                       # optional: the recorder composed with that group
-    surface: {kind: split, mu_left: 0.8, mu_right: 0.3}   # optional, torque car only: the road
-
-The ``surface:`` section (irs_vehicle_sim.surface.SurfaceSpec: ``uniform`` mu, a ``patch`` in x,
-``split`` left/right, a ``step`` in time) becomes the rig's ``surface.*`` parameters; it needs
-``plant: two_track`` in the rig's ``params`` and no ``surface.*`` parameter there as well.
+An experiment file (YAML, ``config/experiments/``) names the clock (``lockstep``: the rig
+publishes ``/clock`` and runs are reproducible to the bit; ``realtime``), the duration [s], every
+node with its package, executable, parameter files, overrides, remaps and optional ``process:``
+group, the topics to record and, for the torque car, the road surface. It exists so that a run
+is one reviewed file, checked before anything starts; the annotated format:
+:class:`Experiment`.
 
 Clock handling is the runner's job: for ``lockstep`` it sets ``clock_mode: lockstep``,
 ``autostart: false`` and ``max_steps`` on the rig and ``use_sim_time: true`` on every other node;
@@ -109,7 +93,32 @@ class NodeEntry:
 
 @dataclass
 class Experiment:
-    """A loaded experiment file (format: the module docstring)."""
+    """A loaded experiment file.
+
+    An experiment file (YAML, see ``config/experiments/``)::
+
+        name: figure10_mrc_with_actuator
+        description: one line
+        clock: lockstep            # lockstep (rig publishes /clock, reproducible) | realtime
+        duration: 8.0              # [s] simulated (lockstep) or wall (realtime) time
+        nodes:                     # node name -> how to start it (as `ros2 run` would)
+          vehicle_sim:
+            package: irs_vehicle_sim
+            executable: vehicle_sim
+            params_files: [pkg://irs_vehicle_sim/config/rig.yaml]   # share/<pkg>/... or a path
+            params: {plant: identified}                              # overrides, flat names
+            remaps: {}
+            process: rig           # optional group: nodes with the same one share a process
+        record:
+          topics: [arm/joint_states, ...]     # what the recorder writes to the bag ([] = no bag)
+          process: loop                       # optional: the recorder composed with that group
+        surface: {kind: split, mu_left: 0.8, mu_right: 0.3}   # optional, torque car only: the road
+
+    The ``surface:`` section (irs_vehicle_sim.surface.SurfaceSpec: ``uniform`` mu, a ``patch`` in
+    x, ``split`` left/right, a ``step`` in time) becomes the rig's ``surface.*`` parameters; it
+    needs ``plant: two_track`` in the rig's ``params`` and no ``surface.*`` parameter there as
+    well.
+    """
 
     name: str
     description: str

@@ -1,29 +1,12 @@
 """Run an experiment: start every node as its own process, wait for the graph, run, shut down.
 
-Order of events:
-
-1. a run directory ``<runs>/<name>-<time>/`` with ``logs/`` (one log per node) and ``bag/``;
-2. the recorder (if the experiment records) and every node start through their ament-resolved
-   executables, with the experiment's parameter files and overrides plus the clock parameters;
-   nodes that share a ``process:`` name start together in one ``container`` process
-   (composition: one executor, the nodes still separate on topics);
-3. the runner waits until every node is in the graph and every topic has its expected
-   publishers and subscriptions (``experiment.expected_endpoints``), then calls ``rig/start``;
-4. it follows the run (the rig's ``rig/status``, 10 Hz of simulated time, in lock-step; wall
-   time in real time) with a progress line,
-   checking every process: if one dies the run stops, naming the node and its last output; if
-   the rig reports that the car left the belt, the run stops too;
-5. on completion or a stop request every node is stopped with SIGINT (then SIGTERM/SIGKILL per
-   process group, all at once: :func:`~.processes.stop_processes`), the recorder last so it
-   writes everything it received; no process is left behind.
-
-Stopping: SIGINT, SIGTERM or SIGHUP (or :meth:`ExperimentRunner.request_stop` from another
-thread) only sets a flag; every wait of the runner (graph, ``rig/start``, the run, the drain)
-spins in steps of 50 ms and checks it, so a stop starts within one step wherever the run is,
-start-up included. The nodes then get :data:`NODE_GRACE` s to stop, the recorder
-:data:`RECORDER_GRACE` s (it writes its bag's index), each SIGTERM then SIGKILL after that. A
-second signal kills every process group at once and ends the runner's process (exit 128 +
-signal). The result says which signal stopped the run (``RunResult.interrupted``).
+The runner makes a run directory (node logs, bag), starts the recorder and every node (a shared
+``process:`` group in one ``container``), waits until every node and topic endpoint is in the
+graph, calls ``rig/start``, follows the run with a progress line and stops it when a process
+dies or the car leaves the belt, then stops every process, the recorder last, leaving none
+behind. A signal only sets a flag that every wait checks within 50 ms. It exists so that an
+experiment file is one command with a clean end; the order of events and the stop rules:
+:class:`ExperimentRunner`.
 """
 from dataclasses import dataclass, field
 import datetime
@@ -120,7 +103,33 @@ def _rig_dt(exp: Experiment) -> float:
 
 
 class ExperimentRunner:
-    """Runs one :class:`~irs_bringup.experiment.Experiment` (see module docstring)."""
+    """Runs one :class:`~irs_bringup.experiment.Experiment`.
+
+    Order of events:
+
+    1. a run directory ``<runs>/<name>-<time>/`` with ``logs/`` (one log per node) and ``bag/``;
+    2. the recorder (if the experiment records) and every node start through their ament-resolved
+       executables, with the experiment's parameter files and overrides plus the clock parameters;
+       nodes that share a ``process:`` name start together in one ``container`` process
+       (composition: one executor, the nodes still separate on topics);
+    3. the runner waits until every node is in the graph and every topic has its expected
+       publishers and subscriptions (``experiment.expected_endpoints``), then calls ``rig/start``;
+    4. it follows the run (the rig's ``rig/status``, 10 Hz of simulated time, in lock-step; wall
+       time in real time) with a progress line, checking every process: if one dies the run stops,
+       naming the node and its last output; if the rig reports that the car left the belt, the run
+       stops too;
+    5. on completion or a stop request every node is stopped with SIGINT (then SIGTERM/SIGKILL per
+       process group, all at once: :func:`~.processes.stop_processes`), the recorder last so it
+       writes everything it received; no process is left behind.
+
+    Stopping: SIGINT, SIGTERM or SIGHUP (or :meth:`ExperimentRunner.request_stop` from another
+    thread) only sets a flag; every wait of the runner (graph, ``rig/start``, the run, the drain)
+    spins in steps of 50 ms and checks it, so a stop starts within one step wherever the run is,
+    start-up included. The nodes then get :data:`NODE_GRACE` s to stop, the recorder
+    :data:`RECORDER_GRACE` s (it writes its bag's index), each SIGTERM then SIGKILL after that. A
+    second signal kills every process group at once and ends the runner's process (exit 128 +
+    signal). The result says which signal stopped the run (``RunResult.interrupted``).
+    """
 
     def __init__(self, exp: Experiment, runs_dir='runs', log=print, graph_timeout=60.0,
                  stall_timeout=30.0, progress=True, rt_priority=0):
