@@ -141,7 +141,7 @@ def check_controller_params(cfg: dict) -> None:
     Numbers: ``dt``, ``steer_limit``, ``actuator_pole``, ``speed`` positive and finite;
     ``ds``, ``plant_gain`` (>= 0), ``kp``, ``ki`` (>= 0), the input bounds (> 0, inf allowed) and
     ``initial_reference`` finite; ``anti_windup`` one of ``'back_calculation'``, ``'clip'`` (or a
-    bool, the older spelling). Reference model (MRC only): ``reference_model_num`` a non-empty
+    bool, an alias). Reference model (MRC only): ``reference_model_num`` a non-empty
     list of finite coefficients, not all zero; ``reference_model_den`` the same, monic and
     stable (Hurwitz), of higher degree than the numerator (a strictly proper model).
     """
