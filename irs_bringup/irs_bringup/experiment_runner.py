@@ -194,7 +194,7 @@ class ExperimentRunner:
                                        f'{proc.tail(15)}')
 
     def _stop_all(self) -> dict:
-        """Every node at once, then the recorder (module docstring); ``{label: exit code}``."""
+        """Every node at once, then the recorder (class docstring); ``{label: exit code}``."""
         nodes = [p for label, p in self.procs.items() if label != 'recorder']
         codes = stop_processes(nodes, NODE_GRACE)
         if 'recorder' in self.procs:

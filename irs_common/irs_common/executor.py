@@ -40,7 +40,7 @@ HANDOVER_BUDGET_NS = 5_000_000
 #: that falls due waits at most one slice: 0.2 ms, a fifth of a 1 kHz period.
 BACKGROUND_SLICE_NS = 200_000
 
-#: The slow chore of one ``spin_once`` (module docstring): none, services and clients, or the
+#: The slow chore of one ``spin_once`` (:class:`LeanExecutor`): none, services and clients, or the
 #: QoS event handlers.
 _NONE, _SLOW, _EVENTS = 0, 1, 2
 
@@ -198,7 +198,7 @@ class LeanExecutor(Executor):
         return ents
 
     def _pick_chore(self, now_ns: int) -> int:
-        """At most one slow chore per spin_once (module docstring), the most overdue: services
+        """At most one slow chore per spin_once (class docstring), the most overdue: services
         and clients (``_SLOW``), or the QoS event handlers (``_EVENTS``), or the graph lookup of
         the in-process routes (done here); ``_NONE`` when none is due.
         """

@@ -34,7 +34,7 @@ _SEEN = 100        # samples kept for the range of slips seen
 
 @dataclass
 class PeakSeekParams:
-    """Parameters of the peak seeker (module docstring). Values chosen on the two-track model
+    """Parameters of the peak seeker (:class:`PeakSeeker`). Values chosen on the two-track model
     through the offline chassis loop (irs_bringup/offline_twin/chassis_loop.py), 1 kHz, W = 5.
 
     Attributes

@@ -136,7 +136,7 @@ class IdentifiedParams:
         Sensor distance ahead of the c.g. [m].  Default 0.33.
     heading : {'kinematic', 'bicycle'}
         How heading, yaw rate and c.g. lateral velocity are formed. ``'kinematic'`` (default):
-        ``psi = v_s / U``, not physical (module docstring).  ``'bicycle'``: from the bicycle
+        ``psi = v_s / U``, unphysical (IdentifiedPlant).  ``'bicycle'``: from the bicycle
         that has this G(s) (:func:`bicycle_realisation`; a fifth state psi), physical; refused
         with a sentence when no bicycle realisation exists (Eq. 6 has none).
     """

@@ -109,7 +109,7 @@ class Differentiator:
         return lfilter(self._b, self._a, imp)
 
     def group_delay(self) -> float:
-        """Low-frequency delay of the derivative estimate [s] (see module docstring)."""
+        """Low-frequency delay of the derivative estimate [s] (see the class docstring)."""
         bp, rem = np.polydiv(self._b, np.array([1.0, -1.0]))  # B = (1 - z^-1) B'
         if np.max(np.abs(rem)) > 1e-9 * max(1.0, np.max(np.abs(self._b))):
             raise ValueError('filter has no zero at z = 1, it is not a differentiator.')

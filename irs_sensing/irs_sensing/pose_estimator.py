@@ -49,7 +49,7 @@ def _real(v) -> bool:
 
 
 def reading_problem(theta1, theta2, theta3, stamp, belt_speed=0.0) -> Optional[str]:
-    """The value checks of step 1 (module docstring): ``None`` or the reason a reading is bad.
+    """Value checks (step 1 of :meth:`PoseEstimator.update`): ``None`` or why a reading is bad.
 
     Pure function, no state: a node may call it before its own stamp bookkeeping so that a NaN
     reading is reported as such whatever its stamp.

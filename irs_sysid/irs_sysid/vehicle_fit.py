@@ -95,7 +95,7 @@ class FrequencyResponse:
         weigh the bands above the loop's bandwidth down, where these keep them up -- and with
         them the fit's place for a zero/pole pair the data cannot resolve, above the band
         (:func:`reduced_vehicle_polynomials`). The intervals do not rest on the weights
-        (module docstring).
+        (:func:`vehicle_estimates`).
         """
         g2 = np.minimum(self.coherence, 0.999)
         return np.sqrt(self.bins * g2 / (1.0 - g2))
@@ -257,7 +257,7 @@ def _model(theta, a, delay) -> PlantModel:
 
 
 def _levy_start(w, P, a, delay, order=2):
-    """Linear least squares for ``[ln K, c1, c0, d1, d0]`` (module docstring), or None;
+    """Linear least squares for ``[ln K, c1, c0, d1, d0]`` (:func:`fit_open_loop`), or None;
     ``order`` 1: ``[ln K, c0, d0]`` of ``P_n (s + d0) = K s + K c0``.
     """
     s = 1j * w
@@ -368,7 +368,7 @@ def fit_open_loop(fr: FrequencyResponse, actuator_pole: float, delay: float = 0.
     weights : array_like, 'coherence' or None
         Per-point weights of the residual; ``'coherence'`` (default): the inverse standard
         deviation of each band's log estimate (:meth:`FrequencyResponse.weights`); None: equal
-        weights. The intervals do not rest on them (module docstring).
+        weights. The intervals do not rest on them (:func:`vehicle_estimates`).
     minimum_phase : bool
         True (default): ``c1, c0, d1, d0 >= 0``, i.e. the zeros and the non-origin poles in the
         closed left half plane (a quadratic is Hurwitz iff its coefficients are positive) --

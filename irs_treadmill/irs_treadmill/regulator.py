@@ -190,7 +190,7 @@ class BeltSpeedRegulator:
         enabled : bool
             False (e.g. safety fault) -> output 0 V and reset the controller state.
 
-        Never raises for bad ``x``, ``belt_speed``, ``xdot`` (module docstring rule); the
+        Never raises for bad ``x``, ``belt_speed``, ``xdot`` (the rule above); the
         voltage is always finite and within ``[0, u_max]``.
         """
         p = self.params

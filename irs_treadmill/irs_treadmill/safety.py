@@ -146,7 +146,7 @@ class SafetyMonitor:
 
         ``now`` [s] is the node's clock (sim time in lock-step): a stamp more than
         ``future_tolerance`` ahead of it, or not newer than the last stored stamp, is rejected
-        for timing (module docstring); the belt limits are checked either way. Non-finite x, y
+        for timing (class docstring); the belt limits are checked either way. Non-finite x, y
         or stamp latch ``INVALID_INPUT``.
         """
         p = self.params

@@ -26,7 +26,7 @@ from irs_models.arm_kinematics import ArmGeometry, inverse_kinematics
 __all__ = ['ArmSensorParams', 'ArmSensor', 'quantize', 'ENCODER_STEP', 'POT_RESOLUTION_RATIO',
            'POT_STEP']
 
-#: Joint-encoder angle step [rad]: 1024 lines x 4 (quadrature) per turn -- assumed (module doc).
+#: Joint-encoder angle step [rad]: 1024 lines x 4 (quadrature) per turn; assumed (ArmSensorParams).
 ENCODER_STEP = 2.0 * math.pi / 4096
 #: Paper Sec. 3.2: the encoders had 1/10 the angular resolution of a potentiometer.
 POT_RESOLUTION_RATIO = 10

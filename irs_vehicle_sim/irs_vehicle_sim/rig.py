@@ -530,7 +530,7 @@ class RigSimulation:
             self._path_time -= dt
 
     def _step_torque_car(self, inputs: RigInputs, applied: RigInputs, warn: list) -> RigOutputs:
-        """Step ``t_k -> t_{k+1}`` of the torque car (module docstring); ``applied`` holds the
+        """Step ``t_k -> t_{k+1}`` of the torque car (class docstring); ``applied`` holds the
         sanitised steer, voltage and speed command, ``warn`` their reasons.
         """
         dt = self.config.dt

@@ -141,7 +141,7 @@ def _align(x, n):
 
 
 def step_window(time, reference):
-    """``(y0, setpoint, t_step, t_end, i0, i1)`` of the first reference step (see module doc).
+    """``(y0, setpoint, t_step, t_end, i0, i1)`` of the first reference step (:func:`run_metrics`).
 
     ``i0:i1`` is the index slice of the step window.
     """

@@ -103,7 +103,7 @@ def seed_stats(values, band_inside_noise: bool = False, floor: float = 0.0) -> d
     """Median, min, max, number of finite values and the noise-dominated flag of one metric.
 
     ``values``: the metric over the seeds (NaN = undefined, e.g. not settled); ``floor``: the
-    spread that never counts (the metric's print resolution); see the module docstring.
+    spread that never counts (the metric's print resolution); the rule is below.
 
     Noise-dominated (a flag per metric and case), when any of:
 
