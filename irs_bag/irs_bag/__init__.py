@@ -12,7 +12,7 @@ node :mod:`.recorder_node` (``recorder``, parameters in :mod:`.recorder_params`)
 behind ``bag`` (:mod:`.cli`): info, export, play, plots, rerun, recover, validate.
 """
 from .reader import BagReader, recover
-from .scan import BagError
+from .errors import BagError
 from .validation import ValidationReport, validate
 from .writer import BagWriter
 
