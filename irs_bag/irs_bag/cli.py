@@ -14,9 +14,10 @@ Every verb reads unfinished or damaged bags too: the readable part (a damaged su
 replaced by a scan of the data section; an unfinished bag gives its complete chunks), with one
 warning line on stderr saying so.
 
-Exit codes: 0 ok; 1 the bag was read but found wanting (``validate``: problems; ``plots`` /
-``rerun``: no usable topic; ``play``: subscriber timeout); 2 unreadable bag (one line naming
-the file and what is wrong) or usage error. Errors are one line, never a traceback.
+Exit codes: 0 ok; 1 the bag was read but found wanting (``validate``: problems, an unfinished
+bag among them; ``plots`` / ``rerun``: no usable topic; ``play``: subscriber timeout); 2
+unreadable bag (one line naming the file and what is wrong) or usage error; ``play``: 130
+after SIGINT (Ctrl-C), 143 after SIGTERM. Errors are one line, never a traceback.
 """
 from __future__ import annotations
 
@@ -44,7 +45,7 @@ def _usage() -> str:
 def _validate(argv: List[str]) -> int:
     import argparse
 
-    from .reader import BagError
+    from .errors import BagError
     from .validation import validate
 
     p = argparse.ArgumentParser(
@@ -59,8 +60,7 @@ def _validate(argv: List[str]) -> int:
     if rep.ok:
         if rep.warnings:
             print('bag validate: warning: ' + '; '.join(rep.warnings), file=sys.stderr)
-        what = 'OK' if rep.complete else 'OK (recovered prefix of an unfinished bag)'
-        print(f'{what}: {rep.message_count} messages, {rep.chunk_count} chunks, CRCs valid')
+        print(f'OK: {rep.message_count} messages, {rep.chunk_count} chunks, CRCs valid')
         return 0
     print('FAILED:')
     for prob in rep.problems:
@@ -101,7 +101,7 @@ def main(argv: Optional[List[str]] = None) -> int:
     except KeyboardInterrupt:
         return 130
     except Exception as exc:  # a last resort: one line, never a traceback
-        from .scan import one_line
+        from .errors import one_line
         print(f'bag {cmd}: error: unexpected {one_line(exc)} (please report this bag)',
               file=sys.stderr)
         return 2
