@@ -109,19 +109,21 @@ def unfinished_reason(path: Path) -> Optional[str]:
             f.seek(-8, io.SEEK_END)
             if f.read(8) != MAGIC:
                 return 'no MCAP footer: cut off'
-            footer = _record_at(f, size - 8 - FOOTER_LEN, size)
+            footer = record_at(f, size - 8 - FOOTER_LEN, size)
             if not isinstance(footer, Footer):
                 return None      # a damaged footer: a closed file with a damaged end
             if footer.summary_start:
                 return None
-            before = _record_at(f, size - 8 - FOOTER_LEN - DATA_END_LEN, size)
+            before = record_at(f, size - 8 - FOOTER_LEN - DATA_END_LEN, size)
             return None if isinstance(before, DataEnd) else 'no DataEnd record, no summary'
     except OSError as exc:
         raise BagError(f'{path}: cannot read ({_one_line(exc)})') from None
 
 
-def _record_at(f, offset: int, size: int):
-    """The MCAP record at ``offset`` (mcap's StreamReader), or None if there is none."""
+def record_at(f, offset: int, size: int):
+    """The MCAP record at byte ``offset`` of the open file ``f`` of ``size`` bytes (read with
+    mcap's ``StreamReader``), or None if no record can be read there.
+    """
     if offset < 8:
         return None
     f.seek(offset)

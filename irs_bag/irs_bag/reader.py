@@ -32,10 +32,9 @@ from typing import Any, Dict, Iterable, Iterator, List, Optional, Tuple, Union
 
 from mcap.reader import SeekingReader
 from mcap.records import Channel, Footer, Schema
-from mcap.stream_reader import StreamReader
 
 from .errors import BagError, one_line as _one_line
-from .layout import FOOTER_LEN as _FOOTER_LEN, PathLike, resolve_bag as _resolve
+from .layout import FOOTER_LEN as _FOOTER_LEN, PathLike, record_at, resolve_bag as _resolve
 from .scan import MAGIC, UNCLOSED, BagMessage, Recovered, ScanResult, scan_file
 from .scan import recover as _recover
 from .stamps import clock_mode, stamp_reader
@@ -103,11 +102,7 @@ def _check_summary(f, size: int) -> None:
     1.6.0) reads the footer and parses the summary but never compares ``Footer.summary_crc``
     with the summary bytes, so a summary with a flipped byte would be trusted.
     """
-    try:
-        f.seek(size - 8 - _FOOTER_LEN)
-        footer = next(StreamReader(f, skip_magic=True, record_size_limit=size).records)
-    except Exception as exc:
-        raise _SummaryBad(f'damaged footer ({_one_line(exc, 120)})') from None
+    footer = record_at(f, size - 8 - _FOOTER_LEN, size)
     if not isinstance(footer, Footer):
         raise _SummaryBad('damaged footer')
     if not 8 < footer.summary_start < size - 8 - _FOOTER_LEN:
