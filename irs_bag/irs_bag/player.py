@@ -15,7 +15,7 @@
    not drop it as stamped ahead of its clock;
 4. the schedule: message i at ``wall_start + (t_i - t_first) / rate``, ``/clock`` advanced to
    ``t_i`` right before it; sleeping in slices of at most ``SLICE_S``, spinning the last
-   ``SPIN_S``;
+   ``SPIN_S``; a message published late does not shift the ones after it (absolute times);
 5. the end: every reliable subscriber's acknowledgement of every message is awaited
    (at most ``ACK_TIMEOUT_S``), then one summary line.
 
@@ -209,39 +209,42 @@ class Player:
             time.sleep(CLOCK_REPEAT_S)
         self.last_clock = first
 
-    def _sleep_until(self, due: float) -> None:
-        """Sleep (in slices, watching for an interrupt), then spin the last ``SPIN_S``."""
-        perf = time.perf_counter
-        while not self.interrupt:
-            rem = due - perf()
-            if rem <= SPIN_S:
-                break
-            time.sleep(min(rem - SPIN_S, SLICE_S))
-        while perf() < due and not self.interrupt:
-            pass
-
     def _play_once(self) -> None:
-        """One pass over the selection on the schedule; ``/clock`` jumps back at its start."""
-        plan, rate, perf = self.plan, self.plan.rate, time.perf_counter
+        """One pass over the selection on the schedule; ``/clock`` jumps back at its start.
+
+        The per-message path is kept lean (locals, no calls but the publishes): at 13 topics x
+        1 kHz a message has 77 us, and a player that falls behind plays late from then on.
+        """
+        plan, rate, perf, sleep = self.plan, self.plan.rate, time.perf_counter, time.sleep
+        interrupt, pubs, clock_pub = self.interrupt, self.pubs, self.clock_pub
+        add_error = self.stats.errors.append
+        scale = 1e-9 / rate if rate > 0 else 0.0
         t_first = plan.times[0]
-        wall0 = perf()
         if self.played:     # a later loop: the clock restarts with the data
             self.last_clock = None
+        last_clock = self.last_clock
+        wall0 = perf()
         for m, t_i, tc in zip(plan.todo, plan.times, plan.clock_times):
-            due = wall0 + (t_i - t_first) * 1e-9 / rate if rate > 0 else 0.0
             if rate > 0:
-                self._sleep_until(due)
-            if self.interrupt:
-                return
-            if self.clock_pub is not None and tc is not None and (
-                    self.last_clock is None or tc > self.last_clock):
-                self.clock_pub.publish(self._clock_msg(tc))
-                self.last_clock = tc
+                due = wall0 + (t_i - t_first) * scale
+                rem = due - perf()
+                while rem > SPIN_S and interrupt.signum is None:   # sleep in slices
+                    sleep(min(rem - SPIN_S, SLICE_S))
+                    rem = due - perf()
+                while perf() < due and interrupt.signum is None:
+                    pass
+            if interrupt.signum is not None:
+                break
+            if clock_pub is not None and tc is not None and (
+                    last_clock is None or tc > last_clock):
+                clock_pub.publish(self._clock_msg(tc))
+                last_clock = tc
                 self.clocks += 1
-            self.pubs[m.topic].publish(bytes(m.data))
+            pubs[m.topic].publish(bytes(m.data))
             if rate > 0:
-                self.stats.add(perf() - due)
+                add_error(perf() - due)
             self.played += 1
+        self.last_clock = last_clock
 
     def _wait_for_acks(self) -> None:
         """Every reliable subscriber acknowledged every message (<= ``ACK_TIMEOUT_S``)."""
