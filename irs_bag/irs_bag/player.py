@@ -47,12 +47,24 @@ ACK_TIMEOUT_S = 10.0
 
 
 class Interrupt:
-    """SIGINT / SIGTERM recorded as a flag while installed; :attr:`exit_code` = 128 + signal."""
+    """SIGINT / SIGTERM / SIGHUP recorded as a flag while installed; :attr:`exit_code` = 128 +
+    signal. Under ``irs_common.cli.run_cli`` the command's guard keeps its handlers and calls
+    the flag on the first signal (a second one leaves at once, as every command); called
+    without it, the flag has handlers of its own for SIGINT and SIGTERM.
+    """
 
     def __init__(self) -> None:
+        from irs_common.cli import current_guard
         self.signum: Optional[int] = None
         self._old = {}
-        if threading.current_thread() is threading.main_thread():   # signals go there only
+        self._guard = None
+        if threading.current_thread() is not threading.main_thread():   # signals go there only
+            return
+        guard = current_guard()
+        if guard is not None:
+            self._guard = guard
+            guard.on_first = lambda signum: self._on_signal(signum, None)
+        else:
             self._old = {sig: signal.signal(sig, self._on_signal)
                          for sig in (signal.SIGINT, signal.SIGTERM)}
 
@@ -72,6 +84,7 @@ class Interrupt:
         """Put the previous handlers back."""
         for sig, handler in self._old.items():
             signal.signal(sig, handler)
+        self._old = {}
 
 
 class TimingStats:
