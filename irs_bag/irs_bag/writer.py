@@ -153,7 +153,7 @@ class BagSummary:
     start_time_ns: int
     end_time_ns: int
     duration_ns: int
-    chunk_count: int
+    chunk_count: int        # chunks in the file (flushed); a queued chunk counts once written
     late_messages: int
     dropped_total: int
     topics: Dict[str, TopicStats] = field(default_factory=dict)
@@ -599,7 +599,6 @@ class BagWriter:
             self._written_end = end if self._written_end is None else max(self._written_end,
                                                                            end)
             self._pending_bytes = 0
-            self._chunks += 1
         if self._batches is None:
             self._write_batch(batch)
         else:
@@ -617,6 +616,8 @@ class BagWriter:
                     time.sleep(_YIELD_S)   # let a waiting thread take the GIL
             self._writer.flush()  # finishes the chunk (if any) + message indexes, flushes stream
             self._sync()
+            if batch:
+                self._chunks += 1   # counted once in the file: what a killed writer leaves
 
     def _write_batches(self) -> None:
         """The writer thread: write queued chunks until the ``None`` that ends it."""
