@@ -95,7 +95,8 @@ def _main(argv: Optional[List[str]]) -> int:
     elif cmd == 'recover':
         from .recovery import main as run
     else:
-        print(f"bag: error: unknown command '{cmd}'\n{_usage()}", file=sys.stderr)
+        print(f"bag: error: unknown command '{cmd}' (commands: {', '.join(COMMANDS)}; "
+              "'bag --help' explains them)", file=sys.stderr)
         return 2
     return int(run(rest) or 0)
 

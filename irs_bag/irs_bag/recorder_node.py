@@ -153,6 +153,11 @@ class Recorder(Node):
         if self.p['compression'] not in ('zstd', 'lz4', 'none'):
             raise ValueError(f"compression must be 'zstd', 'lz4' or 'none', "
                              f"got {self.p['compression']!r}")
+        self.recorded: dict[str, _Recorded] = {}
+        self.unsupported: set[str] = set()
+        self._ticks = 0
+        self._next_count = 0
+        self.status_pub = None
         self.output = output_directory(self.p['output'])
         try:
             # background: the chunks are written by the bag's writer thread, so a composed
@@ -161,12 +166,17 @@ class Recorder(Node):
                                     compression=self.p['compression'], background=True)
         except BagWriterError as exc:
             raise ValueError(str(exc)) from None
+        try:
+            self._start(meta, topics)
+        except BaseException:
+            # a signal or an error before the node is handed to the executor: nobody will
+            # destroy it, so the bag is closed here (summary, metadata.yaml, the closing line)
+            print(self.close(), flush=True)
+            raise
+
+    def _start(self, meta: dict, topics: list) -> None:
+        """The metadata record, the status publisher and the timers (after the bag exists)."""
         self.writer.add_metadata('irs_experiment', meta)
-        self.recorded: dict[str, _Recorded] = {}
-        self.unsupported: set[str] = set()
-        self._ticks = 0
-        self._next_count = 0
-        self.status_pub = None
         if self.p['status_period'] > 0:
             self.status_pub = self.create_publisher(
                 String, 'recorder/status',
