@@ -39,7 +39,7 @@ def test_cores_do_not_import_rclpy():
                'irs_common/irs_common/sim_time.py', 'irs_common/irs_common/time_jump.py',
                'irs_bringup/irs_bringup/graph.py',
                'irs_bringup/irs_bringup/experiment_runner.py',
-               'irs_bag/irs_bag/play.py',
+               'irs_bag/irs_bag/player.py',
                'irs_system_tests/irs_system_tests/msg_echo.py',
                'irs_vehicle_sim/irs_vehicle_sim/recover_call.py'}
     offenders = []

@@ -14,9 +14,11 @@ Every verb reads unfinished or damaged bags too: the readable part (a damaged su
 replaced by a scan of the data section; an unfinished bag gives its complete chunks), with one
 warning line on stderr saying so.
 
-Exit codes: 0 ok; 1 the bag was read but found wanting (``validate``: problems; ``plots`` /
-``rerun``: no usable topic; ``play``: subscriber timeout); 2 unreadable bag (one line naming
-the file and what is wrong) or usage error. Errors are one line, never a traceback.
+Exit codes (``irs_common.cli.run_cli``, docs/cli.md): 0 ok; 1 the bag was read but found
+wanting (``validate``: problems, an unfinished bag among them; ``plots`` / ``rerun``: no usable
+topic; ``play``: subscriber timeout); 2 unreadable bag (one line naming the file and what is
+wrong), unwritable output or usage error; 70 an internal error (a bug); 128 + signal after
+SIGINT (130), SIGTERM (143) or SIGHUP (129). Errors are one line, never a traceback.
 """
 from __future__ import annotations
 
@@ -44,7 +46,7 @@ def _usage() -> str:
 def _validate(argv: List[str]) -> int:
     import argparse
 
-    from .reader import BagError
+    from .errors import BagError
     from .validation import validate
 
     p = argparse.ArgumentParser(
@@ -59,8 +61,7 @@ def _validate(argv: List[str]) -> int:
     if rep.ok:
         if rep.warnings:
             print('bag validate: warning: ' + '; '.join(rep.warnings), file=sys.stderr)
-        what = 'OK' if rep.complete else 'OK (recovered prefix of an unfinished bag)'
-        print(f'{what}: {rep.message_count} messages, {rep.chunk_count} chunks, CRCs valid')
+        print(f'OK: {rep.message_count} messages, {rep.chunk_count} chunks, CRCs valid')
         return 0
     print('FAILED:')
     for prob in rep.problems:
@@ -73,7 +74,7 @@ def _validate(argv: List[str]) -> int:
     return 1
 
 
-def main(argv: Optional[List[str]] = None) -> int:
+def _main(argv: Optional[List[str]]) -> int:
     argv = list(sys.argv[1:] if argv is None else argv)
     if not argv or argv[0] in ('-h', '--help', 'help'):
         print(_usage())
@@ -94,17 +95,16 @@ def main(argv: Optional[List[str]] = None) -> int:
     elif cmd == 'recover':
         from .recovery import main as run
     else:
-        print(f"bag: error: unknown command '{cmd}'\n{_usage()}", file=sys.stderr)
+        print(f"bag: error: unknown command '{cmd}' (commands: {', '.join(COMMANDS)}; "
+              "'bag --help' explains them)", file=sys.stderr)
         return 2
-    try:
-        return int(run(rest) or 0)
-    except KeyboardInterrupt:
-        return 130
-    except Exception as exc:  # a last resort: one line, never a traceback
-        from .scan import one_line
-        print(f'bag {cmd}: error: unexpected {one_line(exc)} (please report this bag)',
-              file=sys.stderr)
-        return 2
+    return int(run(rest) or 0)
+
+
+def main(argv: Optional[List[str]] = None) -> int:
+    """Entry point of ``bag``: the verb run through ``run_cli`` (exit codes: module docstring)."""
+    from irs_common.cli import run_cli
+    return run_cli('bag', _main, argv)
 
 
 if __name__ == '__main__':

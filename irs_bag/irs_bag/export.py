@@ -1,4 +1,4 @@
-"""``irs-bag export <bag> --topics ... --out DIR``: one CSV per topic with flattened fields.
+"""``bag export <bag> --topics ... --out DIR``: one CSV per topic with flattened fields.
 
 Column naming (``flatten``):
 
@@ -28,7 +28,8 @@ import sys
 from pathlib import Path
 from typing import Any, Dict, Iterator, List, Optional, Sequence, TextIO, Tuple
 
-from .reader import BagError, open_bag, reading
+from .errors import BagError
+from .reader import open_bag, reading
 
 __all__ = ['flatten', 'export_topics', 'topic_file_name', 'main']
 
@@ -121,19 +122,19 @@ def export_topics(bag, out_dir: str, topics: Optional[Sequence[str]] = None
 
 
 def main(argv: Optional[List[str]] = None, out: Optional[TextIO] = None) -> int:
-    """Entry point of ``irs-bag export``; returns the exit code."""
+    """Entry point of ``bag export``; returns the exit code."""
     out = sys.stdout if out is None else out
     p = argparse.ArgumentParser(
-        prog='irs-bag export', description='Export bag topics to CSV files.')
+        prog='bag export', description='Export bag topics to CSV files.')
     p.add_argument('bag', help='bag directory or .mcap file')
     p.add_argument('--topics', nargs='+', metavar='TOPIC', help='topics to export (default all)')
     p.add_argument('--out', required=True, metavar='DIR', help='output directory')
     args = p.parse_args(argv)
     try:
-        with open_bag(args.bag, 'irs-bag export') as r:
+        with open_bag(args.bag, 'bag export') as r:
             res = export_topics(r, args.out, args.topics)
     except (BagError, OSError, ValueError) as exc:
-        print(f'irs-bag export: error: {exc}', file=sys.stderr)
+        print(f'bag export: error: {exc}', file=sys.stderr)
         return 2
     for t, (path, n) in res.items():
         print(f'{t}: {n} rows -> {path}', file=out)

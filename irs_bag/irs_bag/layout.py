@@ -1,8 +1,8 @@
 """A bag on disk: a rosbag2 directory (``metadata.yaml`` + ``*.mcap``) or one ``.mcap`` file.
 
 :func:`resolve_bag` finds the MCAP files of a bag (from its ``metadata.yaml``, or the
-directory's ``*.mcap`` files when that is unusable) and :func:`check_complete` tells a closed
-MCAP file (magic at both ends, a footer) from an unfinished one. The reader, the validator and
+directory's ``*.mcap`` files when that is unusable) and :func:`unfinished_reason` tells a
+closed MCAP file from one its writer did not close. The reader, the validator and
 recovery all start here. No rclpy.
 """
 from __future__ import annotations
@@ -13,11 +13,16 @@ from pathlib import Path
 from typing import List, Optional, Tuple, Union
 
 import yaml
+from mcap.records import DataEnd, Footer
+from mcap.stream_reader import StreamReader
 
-from .scan import MAGIC, BagError, one_line as _one_line
+from .errors import BagError, one_line as _one_line
+from .scan import MAGIC
 
 #: Bytes of an MCAP footer record: opcode, length, summary_start, summary_offset_start, crc.
 FOOTER_LEN = 1 + 8 + 8 + 8 + 4
+#: Bytes of an MCAP DataEnd record: opcode, length, data_section_crc.
+DATA_END_LEN = 1 + 8 + 4
 
 PathLike = Union[str, os.PathLike]
 
@@ -82,19 +87,47 @@ def resolve_bag(path: PathLike, warnings: Optional[List[str]] = None
     return p, files, meta
 
 
-def check_complete(path: Path) -> None:
-    """BagError unless ``path`` starts with the MCAP magic and ends with a footer + magic."""
+def unfinished_reason(path: Path) -> Optional[str]:
+    """Why the MCAP file ``path`` is unfinished (its writer did not close it), None if closed.
+
+    Closed: the MCAP magic at both ends, a footer before the closing one, and (when the footer
+    names no summary) a ``DataEnd`` record before the footer. An open :class:`BagWriter` file
+    ends with a footer but no ``DataEnd`` (its provisional tail); a killed one may end anywhere.
+
+    Raises
+    ------
+    BagError
+        Not an MCAP file (bad magic) or not readable.
+    """
     try:
         size = path.stat().st_size
         with open(path, 'rb') as f:
-            head = f.read(8)
-            if size >= 16:
-                f.seek(-8, io.SEEK_END)
-            tail = f.read(8)
+            if f.read(8) != MAGIC:
+                raise BagError(f'{path}: not an MCAP file (bad magic)')
+            if size < 16 + FOOTER_LEN:
+                return 'cut off before its footer'
+            f.seek(-8, io.SEEK_END)
+            if f.read(8) != MAGIC:
+                return 'no MCAP footer: cut off'
+            footer = record_at(f, size - 8 - FOOTER_LEN, size)
+            if not isinstance(footer, Footer):
+                return None      # a damaged footer: a closed file with a damaged end
+            if footer.summary_start:
+                return None
+            before = record_at(f, size - 8 - FOOTER_LEN - DATA_END_LEN, size)
+            return None if isinstance(before, DataEnd) else 'no DataEnd record, no summary'
     except OSError as exc:
         raise BagError(f'{path}: cannot read ({_one_line(exc)})') from None
-    if head != MAGIC:
-        raise BagError(f'{path}: not an MCAP file (bad magic)')
-    if size < 16 + FOOTER_LEN or tail != MAGIC:
-        raise BagError(f'{path}: truncated or not closed (no MCAP footer); '
-                       f'`bag recover` / irs_bag.recover() give back its complete chunks')
+
+
+def record_at(f, offset: int, size: int):
+    """The MCAP record at byte ``offset`` of the open file ``f`` of ``size`` bytes (read with
+    mcap's ``StreamReader``), or None if no record can be read there.
+    """
+    if offset < 8:
+        return None
+    f.seek(offset)
+    try:
+        return next(StreamReader(f, skip_magic=True, record_size_limit=size).records)
+    except Exception:
+        return None

@@ -3,45 +3,43 @@
 * :class:`BagReader` opens a bag directory (``metadata.yaml`` + ``*.mcap``) or a single
   ``.mcap`` file and iterates :class:`BagMessage` ``(topic, type, log_time_ns, data)`` in
   log-time order, optionally for some topics only; ``data`` is the raw CDR bytes.
-* A file is read through its summary section (indexes, statistics) when the summary is sound:
-  footer present, summary CRC right, indexes consistent with each other and the file. Otherwise
-  the data section is scanned sequentially (:mod:`irs_bag.scan`) and the messages are
-  held in memory: with a complete data section that is the whole bag (one warning in
-  :attr:`BagReader.warnings`); with an unfinished one (no footer, e.g. a killed recorder) or a
-  damaged one it is the prefix of complete chunks, which ``allow_partial=True`` accepts (with
-  a warning) and the default refuses with a :class:`BagError`.
+* A closed file is read with ``mcap.reader.SeekingReader`` (summary, statistics, chunk
+  indexes, metadata records, messages in log-time order with chunk CRCs checked) once its
+  summary CRC is right (the one check mcap leaves out). Otherwise the data section is scanned
+  (:mod:`irs_bag.scan`, mcap's ``StreamReader``) and the messages are held in memory: with a
+  complete data section that is the whole bag (one warning in :attr:`BagReader.warnings`);
+  with an unfinished one (no footer, e.g. a killed recorder) or a damaged one it is the prefix
+  of complete chunks, which ``allow_partial=True`` accepts (with a warning) and the default
+  refuses with a :class:`~irs_bag.errors.BagError`.
 * A ``metadata.yaml`` that is not UTF-8, not YAML or not a rosbag2 one is ignored with a
   warning, and the directory's ``*.mcap`` files are read.
 * :func:`recover` returns the complete chunks of a truncated or damaged bag.
 * :func:`deserialize` / :meth:`BagReader.decoded` decode CDR with
   ``mcap_ros2.decoder.DecoderFactory`` using the definitions stored in the bag.
 
-Times are integer nanoseconds (log time = receive time). Every failure is a :class:`BagError`
-with a one-line message (never a raw library traceback).
+Times are integer nanoseconds (log time = receive time). Every failure is a ``BagError`` with
+a one-line message (never a raw library traceback).
 """
 
 from __future__ import annotations
 
 import heapq
 import io
-import struct
 import zlib
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, Dict, Iterable, Iterator, List, Optional, Tuple, Union
 
-from mcap.data_stream import ReadDataStream
 from mcap.reader import SeekingReader
-from mcap.records import Channel, MessageIndex, Metadata, Schema
-from mcap.stream_reader import StreamReader
+from mcap.records import Channel, Footer, Schema
 
-from .layout import FOOTER_LEN as _FOOTER_LEN, PathLike, resolve_bag as _resolve
-from .scan import MAGIC, BagError, BagMessage, Recovered, ScanResult, scan_file
-from .scan import one_line as _one_line
+from .errors import BagError, one_line as _one_line
+from .layout import FOOTER_LEN as _FOOTER_LEN, PathLike, record_at, resolve_bag as _resolve
+from .scan import MAGIC, UNCLOSED, BagMessage, Recovered, ScanResult, scan_file
 from .scan import recover as _recover
+from .stamps import clock_mode, stamp_reader
 
 __all__ = [
-    'BagError',
     'BagMessage',
     'BagReader',
     'Recovered',
@@ -55,9 +53,18 @@ __all__ = [
 
 
 
+def _mean_rate(n: int, first: Optional[int], last: Optional[int]) -> Optional[float]:
+    """(n - 1) / (last - first) [Hz] for times in ns; None with < 2 messages or no span."""
+    if n < 2 or first is None or last is None or last <= first:
+        return None
+    return (n - 1) * 1e9 / (last - first)
+
+
 @dataclass
 class TopicInfo:
-    """A topic in a bag; times in ns (log time)."""
+    """A topic in a bag: its first and last message by log (receive) time, and the header
+    stamps of those two messages if its type starts with a Header or a Time; times in ns.
+    """
 
     name: str
     type: str
@@ -66,23 +73,50 @@ class TopicInfo:
     type_hash: str = ''
     first_log_time_ns: Optional[int] = None
     last_log_time_ns: Optional[int] = None
+    first_stamp_ns: Optional[int] = None
+    last_stamp_ns: Optional[int] = None
 
     @property
     def rate_hz(self) -> Optional[float]:
-        """Mean rate (n - 1) / (last - first) [Hz]; None with < 2 messages or zero span."""
-        if (self.message_count < 2 or self.first_log_time_ns is None
-                or self.last_log_time_ns is None
-                or self.last_log_time_ns <= self.first_log_time_ns):
-            return None
-        return (self.message_count - 1) * 1e9 / (self.last_log_time_ns - self.first_log_time_ns)
+        """Mean rate over receive time (n - 1) / (last - first) [Hz]; None with < 2 messages
+        or zero span.
+        """
+        return _mean_rate(self.message_count, self.first_log_time_ns, self.last_log_time_ns)
+
+    @property
+    def stamp_rate_hz(self) -> Optional[float]:
+        """Mean rate over header stamps (sim time in a lock-step bag) [Hz]; None without
+        stamps, with < 2 messages or zero span.
+        """
+        return _mean_rate(self.message_count, self.first_stamp_ns, self.last_stamp_ns)
 
 
 class _SummaryBad(Exception):
     """The summary section cannot be trusted (message says why)."""
 
 
+def _check_summary(f, size: int) -> None:
+    """_SummaryBad unless the footer is sound and the summary CRC matches.
+
+    The one check done here and not by the mcap library: ``SeekingReader.get_summary`` (mcap
+    1.6.0) reads the footer and parses the summary but never compares ``Footer.summary_crc``
+    with the summary bytes, so a summary with a flipped byte would be trusted.
+    """
+    footer = record_at(f, size - 8 - _FOOTER_LEN, size)
+    if not isinstance(footer, Footer):
+        raise _SummaryBad('damaged footer')
+    if not 8 < footer.summary_start < size - 8 - _FOOTER_LEN:
+        raise _SummaryBad('no summary section' if footer.summary_start == 0 else
+                          f'footer points at summary offset {footer.summary_start} outside '
+                          f'the file')
+    f.seek(footer.summary_start)
+    if footer.summary_crc and zlib.crc32(f.read(size - 8 - 4 - footer.summary_start)) \
+            != footer.summary_crc:
+        raise _SummaryBad('damaged summary section (summary CRC mismatch)')
+
+
 class _Indexed:
-    """One MCAP file read through its summary, which is checked before it is trusted."""
+    """One MCAP file read through ``mcap.reader.SeekingReader`` (summary CRC checked first)."""
 
     def __init__(self, path: Path, validate_crcs: bool) -> None:
         self.path = path
@@ -94,96 +128,57 @@ class _Indexed:
             raise
 
     def _load(self, validate_crcs: bool) -> None:
-        f = self.f
-        size = f.seek(0, io.SEEK_END)
-        f.seek(size - 8 - _FOOTER_LEN)
-        op, length, s_start, _, s_crc = struct.unpack('<BQQQI', f.read(_FOOTER_LEN))
-        if op != 0x02 or length != _FOOTER_LEN - 9:
-            raise _SummaryBad('damaged footer')
-        if not 8 < s_start < size - 8 - _FOOTER_LEN:
-            raise _SummaryBad('no summary section' if s_start == 0 else
-                              f'footer points at summary offset {s_start} outside the file')
-        f.seek(s_start)
-        if s_crc and zlib.crc32(f.read(size - 8 - 4 - s_start)) != s_crc:
-            raise _SummaryBad('damaged summary section (summary CRC mismatch)')
+        size = self.f.seek(0, io.SEEK_END)
+        _check_summary(self.f, size)
         self.warnings: List[str] = []
         try:
-            f.seek(0)
-            self.reader = SeekingReader(f, validate_crcs=validate_crcs, record_size_limit=size)
+            self.f.seek(0)
+            self.reader = SeekingReader(self.f, validate_crcs=validate_crcs,
+                                        record_size_limit=size)
             summary = self.reader.get_summary()
         except Exception as exc:
             raise _SummaryBad(f'unreadable summary section ({_one_line(exc)})') from None
+        if summary is None or summary.statistics is None:
+            raise _SummaryBad('summary section without statistics')
         try:
             self.header = self.reader.get_header()
         except Exception as exc:
             self.header = None
             self.warnings.append(f'{self.path}: damaged MCAP header record ({_one_line(exc)}); '
                                  f'profile and library unknown')
-        if summary is None or summary.statistics is None:
-            raise _SummaryBad('summary section without statistics')
-        self.summary = summary
         self.schemas: Dict[int, Schema] = dict(summary.schemas)
         self.channels: Dict[int, Channel] = dict(summary.channels)
         stats = summary.statistics
         self.counts: Dict[int, int] = dict(stats.channel_message_counts)
-        if any(c.schema_id and c.schema_id not in self.schemas for c in self.channels.values()):
-            raise _SummaryBad('summary channel refers to a missing schema')
-        if not set(self.counts) <= set(self.channels) or (
-                self.counts and sum(self.counts.values()) != stats.message_count):
-            raise _SummaryBad('summary statistics disagree with its channels')
         self.message_count = stats.message_count
         self.start, self.end = stats.message_start_time, stats.message_end_time
-        self.ranges = self._index_ranges(s_start)
         self.metadata: List[Tuple[str, Dict[str, str]]] = []
-        for md in summary.metadata_indexes:
-            if not 8 <= md.offset < s_start:
-                raise _SummaryBad('metadata index points outside the data section')
-            try:
-                f.seek(md.offset)
-                rec = next(StreamReader(f, skip_magic=True, record_size_limit=size).records)
-                if not isinstance(rec, Metadata):
-                    raise ValueError('no Metadata record there')
-                self.metadata.append((rec.name, dict(rec.metadata)))
-            except Exception as exc:
-                self.warnings.append(f'{self.path}: damaged metadata record {md.name!r} '
-                                     f'skipped ({_one_line(exc, 120)})')
-
-    def _index_ranges(self, data_end: int) -> Dict[int, Tuple[int, int]]:
-        """Per-channel (first, last) log time [ns] from the chunk and message indexes."""
-        ranges: Dict[int, Tuple[int, int]] = {}
-        for ci in self.summary.chunk_indexes:
-            if not (8 <= ci.chunk_start_offset and
-                    ci.chunk_start_offset + ci.chunk_length <= data_end):
-                raise _SummaryBad('chunk index points outside the data section')
-            for cid, off in ci.message_index_offsets.items():
-                if cid not in self.channels or not 8 <= off < data_end:
-                    raise _SummaryBad('chunk index lists a bad message index')
-                try:
-                    self.f.seek(off + 1 + 8)
-                    idx = MessageIndex.read(ReadDataStream(self.f))
-                except Exception as exc:
-                    raise _SummaryBad(f'unreadable message index ({_one_line(exc)})') from None
-                ts = [t for t, _ in idx.records]
-                if idx.channel_id != cid or (ts and (
-                        min(ts) < ci.message_start_time or max(ts) > ci.message_end_time)):
-                    raise _SummaryBad('message index disagrees with its chunk index')
-                if ts:
-                    lo, hi = min(ts), max(ts)
-                    old = ranges.get(cid)
-                    ranges[cid] = (lo, hi) if old is None else (min(lo, old[0]),
-                                                                max(hi, old[1]))
-        return ranges
-
-    def iter_messages(self, topics: Optional[List[str]]) -> Iterator[BagMessage]:
         try:
-            for schema, channel, msg in self.reader.iter_messages(topics=topics,
-                                                                  log_time_order=True):
+            for rec in self.reader.iter_metadata():
+                self.metadata.append((rec.name, dict(rec.metadata)))
+        except Exception as exc:
+            self.warnings.append(f'{self.path}: damaged metadata record, it and the ones after '
+                                 f'it skipped ({_one_line(exc, 120)})')
+
+    def iter_messages(self, topics: Optional[List[str]], reverse: bool = False
+                      ) -> Iterator[BagMessage]:
+        try:
+            for schema, channel, msg in self.reader.iter_messages(
+                    topics=topics, log_time_order=True, reverse=reverse):
                 yield BagMessage(channel.topic, schema.name if schema else '', msg.log_time,
                                  msg.data)
         except Exception as exc:
             raise BagError(f'{self.path}: damaged data section, cannot read its messages '
                            f'({_one_line(exc)}); `bag recover` gives back the complete '
                            f'chunks') from None
+
+    def edges(self, topic: str) -> Tuple[Optional[BagMessage], Optional[BagMessage]]:
+        """First and last message of ``topic`` by log time (mcap reads only the chunks that
+        hold them: the message queue opens chunks in order of their start or end time).
+        """
+        first = next(self.iter_messages([topic]), None)
+        last = next(self.iter_messages([topic], reverse=True), None)
+        return first, last
 
     def metadata_records(self) -> List[Tuple[str, Dict[str, str]]]:
         return list(self.metadata)
@@ -203,12 +198,12 @@ class _Scanned:
         by_topic = {c.topic: cid for cid, c in self.channels.items()}
         self.messages = sorted(scan.messages, key=lambda m: m.log_time_ns)
         self.counts: Dict[int, int] = {}
-        self.ranges: Dict[int, Tuple[int, int]] = {}
+        self._edges: Dict[str, List[BagMessage]] = {}
         for m in self.messages:
             cid = by_topic[m.topic]
             self.counts[cid] = self.counts.get(cid, 0) + 1
-            lo, hi = self.ranges.get(cid, (m.log_time_ns, m.log_time_ns))
-            self.ranges[cid] = (min(lo, m.log_time_ns), max(hi, m.log_time_ns))
+            edge = self._edges.setdefault(m.topic, [m, m])
+            edge[1] = m
         self.message_count = len(self.messages)
         self.start = self.messages[0].log_time_ns if self.messages else 0
         self.end = self.messages[-1].log_time_ns if self.messages else 0
@@ -216,6 +211,11 @@ class _Scanned:
     def iter_messages(self, topics: Optional[List[str]]) -> Iterator[BagMessage]:
         wanted = None if topics is None else set(topics)
         return (m for m in self.messages if wanted is None or m.topic in wanted)
+
+    def edges(self, topic: str) -> Tuple[Optional[BagMessage], Optional[BagMessage]]:
+        """First and last message of ``topic`` by log time."""
+        first, last = self._edges.get(topic, (None, None))
+        return first, last
 
     def metadata_records(self) -> List[Tuple[str, Dict[str, str]]]:
         return list(self._metadata)
@@ -246,6 +246,8 @@ def _open_file(path: Path, validate_crcs: bool, allow_partial: bool,
         scan = scan_file(path)
     except OSError as exc:
         raise BagError(f'{path}: cannot read ({_one_line(exc)})') from None
+    if scan.error == UNCLOSED:
+        reason = 'unfinished (not closed by its writer: no summary, no DataEnd record)'
     n = len(scan.messages)
     if scan.error is None:
         warnings.append(f'{path}: {reason}; read its data section instead ({n} messages)')
@@ -379,13 +381,31 @@ class BagReader:
                         ch.metadata.get('offered_qos_profiles', ''),
                         ch.metadata.get('topic_type_hash', ''))
                 info.message_count += f.counts.get(cid, 0)
-                if cid in f.ranges:
-                    lo, hi = f.ranges[cid]
-                    info.first_log_time_ns = lo if info.first_log_time_ns is None else min(
-                        lo, info.first_log_time_ns)
-                    info.last_log_time_ns = hi if info.last_log_time_ns is None else max(
-                        hi, info.last_log_time_ns)
+        for name, info in topics.items():
+            self._set_edges(info)
         return topics
+
+    def _set_edges(self, info: TopicInfo) -> None:
+        """First/last log time of a topic over all files, and the stamps of those messages."""
+        firsts, lasts = [], []
+        for f in self._files:
+            first, last = f.edges(info.name)
+            if first is not None:
+                firsts.append(first)
+                lasts.append(last)
+        if not firsts:
+            return
+        first = min(firsts, key=lambda m: m.log_time_ns)
+        last = max(lasts, key=lambda m: m.log_time_ns)
+        info.first_log_time_ns, info.last_log_time_ns = first.log_time_ns, last.log_time_ns
+        read = stamp_reader(self.schemas.get(info.type, ''))
+        if read is not None:
+            info.first_stamp_ns, info.last_stamp_ns = read(first.data), read(last.data)
+
+    @property
+    def clock_mode(self) -> Tuple[Optional[str], str]:
+        """``('lockstep' | 'realtime' | None, why)``: :func:`irs_bag.stamps.clock_mode`."""
+        return clock_mode(self.metadata_records(), self.topics)
 
     def metadata_records(self) -> List[Tuple[str, Dict[str, str]]]:
         """All MCAP Metadata records as ``(name, dict)``, in file order."""

@@ -10,7 +10,8 @@ NODE_PARAMS = [
     Param('exclude', ['/rosout', '/parameter_events', '/recorder/status'],
           'topics (fnmatch patterns) never recorded by a pattern', '-', read_only=True),
     Param('output', '', "bag directory to create (must not exist or be empty); '' = "
-          'irs_bag_YYYY_MM_DD-HH_MM_SS in the working directory', '-', read_only=True),
+          'runs/bags/irs_bag_YYYY_MM_DD-HH_MM_SS under the working directory', '-',
+          read_only=True),
     Param('metadata', '{}', "JSON object of string -> string written as MCAP metadata record "
           "'irs_experiment' (experiment file, parameters, versions, git commit)", '-',
           read_only=True),

@@ -22,7 +22,8 @@ from pathlib import Path
 from typing import List, Optional
 
 from .layout import resolve_bag as _resolve
-from .scan import BagError, recover
+from .errors import BagError
+from .scan import recover
 from .writer import BagWriter, BagWriterError
 from .msg_definitions import MessageDefinitionError
 

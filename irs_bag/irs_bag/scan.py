@@ -1,12 +1,14 @@
 """Sequential scan of an MCAP file's data section (no rclpy, no summary needed).
 
 Used where the summary section cannot be trusted or does not exist: an unfinished file (the
-recorder was killed: no summary, no footer), a damaged summary (bad CRC, inconsistent indexes)
+recorder was killed: no summary, and no footer or only the provisional one the writer keeps at
+the end of an open file), a damaged summary (bad CRC, inconsistent indexes)
 or a damaged data section (a chunk that fails its CRC). :func:`scan_file` reads records in
 file order with ``mcap.stream_reader.StreamReader`` (chunk and data-section CRCs validated,
 record lengths bounded by the file size) and stops at the first record that is cut off or fails
-to parse, decompress or match its CRC, or at the ``DataEnd`` record (the end of the data
-section; the summary after it is not read). Chunks are all-or-nothing. :func:`recover` is the
+to parse, decompress or match its CRC, at a footer not preceded by a ``DataEnd`` record (an
+unclosed file), or at the ``DataEnd`` record (the end of the data section; the summary after it
+is not read). Chunks are all-or-nothing. :func:`recover` is the
 same for a bag directory or file, merged and sorted by log time.
 
 Times are integer nanoseconds (MCAP log times).
@@ -22,15 +24,12 @@ from typing import Dict, List, NamedTuple, Optional, Tuple, Union
 from mcap.records import Channel, Chunk, DataEnd, Footer, Header, Message, Metadata, Schema
 from mcap.stream_reader import StreamReader, breakup_chunk
 
-__all__ = ['BagError', 'BagMessage', 'Recovered', 'ScanResult', 'one_line', 'recover',
-           'scan_file', 'MAGIC']
+from .errors import BagError, one_line
+
+__all__ = ['BagMessage', 'MAGIC', 'Recovered', 'ScanResult', 'UNCLOSED', 'recover', 'scan_file']
 
 MAGIC = b'\x89MCAP0\r\n'
 PathLike = Union[str, os.PathLike]
-
-
-class BagError(Exception):
-    """A bag cannot be opened, read or validated; ``str()`` is a one-line explanation."""
 
 
 class BagMessage(NamedTuple):
@@ -40,14 +39,6 @@ class BagMessage(NamedTuple):
     type: str
     log_time_ns: int
     data: bytes
-
-
-def one_line(exc: BaseException, limit: int = 300) -> str:
-    """``Type: text`` of an exception on one line, at most ``limit`` characters."""
-    text = ' '.join(str(exc).split())
-    name = type(exc).__name__
-    out = f'{name}: {text}' if text else name
-    return out if len(out) <= limit else out[:limit - 3] + '...'
 
 
 @dataclass
@@ -112,14 +103,23 @@ def scan_file(path: Path) -> ScanResult:
                     _take(res, [rec])
                 elif isinstance(rec, Metadata):
                     res.metadata.append((rec.name, dict(rec.metadata)))
-                elif isinstance(rec, (DataEnd, Footer)):
+                elif isinstance(rec, DataEnd):
                     res.data_end = True
+                    break
+                elif isinstance(rec, Footer):   # the provisional tail of an open bag
+                    res.error = UNCLOSED
                     break
         except Exception as exc:  # cut off, corrupt, CRC mismatch, bad compression...
             res.error = one_line(exc) or 'unreadable record'
     if res.error is None and not res.data_end:
         res.error = 'file ended without a DataEnd record (not closed)'
     return res
+
+
+#: Why a scan stopped at a footer that follows no ``DataEnd`` record: the provisional tail of a
+#: bag whose writer did not close it (:mod:`irs_bag.writer`).
+UNCLOSED = 'footer without a DataEnd record: its writer did not close it'
+
 
 
 def _take(res: ScanResult, records) -> None:

@@ -2,9 +2,10 @@
 
 :func:`validate` reads every record of every file with the mcap library's CRC checks on and
 cross-checks the summary (statistics, chunk and message indexes) and ``metadata.yaml`` against
-what the data section holds. An unfinished file (no footer: a killed recorder) is validated up
-to its last complete chunk and reported with ``complete = False`` and a warning, not as a
-problem; an unusable ``metadata.yaml`` is a problem, and the MCAP files are still checked.
+what the data section holds. An unfinished file (its writer did not close it: a killed
+recorder) is a problem naming ``bag recover``; its complete chunks are still checked and
+counted (``complete = False``). An unusable ``metadata.yaml`` is a problem, and the MCAP files
+are still checked.
 Times are integer nanoseconds.
 """
 from __future__ import annotations
@@ -20,8 +21,9 @@ from mcap.records import (Channel, Chunk, ChunkIndex, Footer, Header, Message, M
                           Metadata, Schema, Statistics)
 from mcap.stream_reader import StreamReader, breakup_chunk, get_chunk_data_stream
 
-from .layout import PathLike, check_complete as _check_complete, resolve_bag as _resolve
-from .scan import BagError, one_line as _one_line, scan_file
+from .layout import PathLike, resolve_bag as _resolve, unfinished_reason
+from .errors import BagError, one_line as _one_line
+from .scan import scan_file
 
 __all__ = ['ValidationReport', 'validate']
 
@@ -87,186 +89,225 @@ def validate(path: PathLike, *, strict: bool = False) -> ValidationReport:
     return rep
 
 
+@dataclass
+class _Records:
+    """What the sequential, CRC-validated pass over one file found (offsets in the file)."""
+
+    data: bytes
+    header: Optional[Header] = None
+    schemas: Dict[int, Schema] = field(default_factory=dict)
+    channels: Dict[int, Channel] = field(default_factory=dict)
+    chan_counts: Dict[int, int] = field(default_factory=dict)
+    chunks: Dict[int, Chunk] = field(default_factory=dict)
+    chunk_msgs: Dict[int, List[Tuple[int, int, int]]] = field(default_factory=dict)
+    msg_index: Dict[Tuple[int, int], List[Tuple[int, int]]] = field(default_factory=dict)
+    meta_names: List[str] = field(default_factory=list)
+    stats: Optional[Statistics] = None
+    chunk_indexes: List[ChunkIndex] = field(default_factory=list)
+    footer: Optional[Footer] = None
+    count: int = 0
+    tmin: Optional[int] = None
+    tmax: Optional[int] = None
+    unordered_chunks: int = 0
+    problems: List[str] = field(default_factory=list)
+    last_chunk: Optional[int] = None
+
+    def message(self, channel_id: int, log_time: int) -> None:
+        self.chan_counts[channel_id] = self.chan_counts.get(channel_id, 0) + 1
+        self.count += 1
+        self.tmin = log_time if self.tmin is None else min(self.tmin, log_time)
+        self.tmax = log_time if self.tmax is None else max(self.tmax, log_time)
+
+    def take(self, rec, off: int, name: str) -> None:
+        """Note one top-level record found at ``off``."""
+        if isinstance(rec, Header):
+            self.header = rec
+        elif isinstance(rec, (Schema, Channel)):
+            (self.schemas if isinstance(rec, Schema) else self.channels).setdefault(rec.id, rec)
+        elif isinstance(rec, Chunk):
+            self._take_chunk(rec, off, name)
+        elif isinstance(rec, MessageIndex):
+            if self.last_chunk is not None:
+                self.msg_index[(self.last_chunk, rec.channel_id)] = list(rec.records)
+        elif isinstance(rec, Message):
+            self.message(rec.channel_id, rec.log_time)
+        elif isinstance(rec, Metadata):
+            self.meta_names.append(rec.name)
+        elif isinstance(rec, Statistics):
+            self.stats = rec
+        elif isinstance(rec, ChunkIndex):
+            self.chunk_indexes.append(rec)
+        elif isinstance(rec, Footer):
+            self.footer = rec
+
+    def _take_chunk(self, chunk: Chunk, off: int, name: str) -> None:
+        """A chunk's records (chunk CRC validated), message positions and time range."""
+        self.chunks[off] = chunk
+        self.last_chunk = off
+        pos = iter(_chunk_positions(chunk))
+        inner, times = [], []
+        for r in breakup_chunk(chunk, validate_crc=True):
+            if isinstance(r, (Schema, Channel)):
+                (self.schemas if isinstance(r, Schema) else self.channels).setdefault(r.id, r)
+            elif isinstance(r, Message):
+                inner.append((r.channel_id, r.log_time, next(pos)))
+                times.append(r.log_time)
+                self.message(r.channel_id, r.log_time)
+        self.chunk_msgs[off] = inner
+        if times != sorted(times):
+            self.unordered_chunks += 1
+        if times and (chunk.message_start_time != min(times)
+                      or chunk.message_end_time != max(times)):
+            self.problems.append(f'{name}: chunk at {off} start/end times do not match its '
+                                 f'messages')
+
+
+def _read_records(fp: Path) -> _Records:
+    """Every record of the file in order, with mcap's ``StreamReader(validate_crcs=True)``
+    (chunk and data-section CRCs). Raises what the reader raises on a damaged record.
+    """
+    got = _Records(fp.read_bytes())
+    stream = io.BytesIO(got.data)
+    records = StreamReader(stream, emit_chunks=True, validate_crcs=True).records
+    while True:
+        off = stream.tell()
+        try:
+            rec = next(records)
+        except StopIteration:
+            return got
+        got.take(rec, off, fp.name)
+
+
 def _validate_file(fp: Path, rep: ValidationReport, per_topic: Dict[str, int],
                    agg: Dict[str, Any]) -> None:
-    probs = rep.problems
-    name = fp.name
-    try:
-        _check_complete(fp)
-    except BagError as exc:
-        if 'no MCAP footer' not in str(exc):
-            probs.append(str(exc))
-        else:
-            _validate_prefix(fp, rep, per_topic, agg)
+    """Validate one MCAP file (see :func:`validate`): named steps, problems into ``rep``."""
+    why = unfinished_reason(fp)
+    if why is not None:
+        _validate_prefix(fp, why, rep, per_topic, agg)
         return
-    data = fp.read_bytes()
-    schemas: Dict[int, Schema] = {}
-    channels: Dict[int, Channel] = {}
-    chan_counts: Dict[int, int] = {}
-    chunk_recs: Dict[int, Chunk] = {}
-    chunk_msgs: Dict[int, List[Tuple[int, int, int]]] = {}  # offset -> (channel, time, pos)
-    msg_index: Dict[Tuple[int, int], List[Tuple[int, int]]] = {}
-    meta_names: List[str] = []
-    header: Optional[Header] = None
-    stats: Optional[Statistics] = None
-    chunk_indexes: List[ChunkIndex] = []
-    footer: Optional[Footer] = None
-    count, tmin, tmax = 0, None, None
-    # 1. sequential pass with CRC validation; track offsets to cross-check indexes.
-    stream = io.BytesIO(data)
-    reader = StreamReader(stream, emit_chunks=True, validate_crcs=True)
-    last_chunk_off = None
     try:
-        it = reader.records
-        while True:
-            off = stream.tell()
-            try:
-                rec = next(it)
-            except StopIteration:
-                break
-            if isinstance(rec, Header):
-                header = rec
-            elif isinstance(rec, Schema):
-                schemas.setdefault(rec.id, rec)
-            elif isinstance(rec, Channel):
-                channels.setdefault(rec.id, rec)
-            elif isinstance(rec, Chunk):
-                chunk_recs[off] = rec
-                last_chunk_off = off
-                recs = breakup_chunk(rec, validate_crc=True)
-                inner, times = [], []
-                pos = _chunk_positions(rec)
-                mi = 0
-                for r in recs:
-                    if isinstance(r, Schema):
-                        schemas.setdefault(r.id, r)
-                    elif isinstance(r, Channel):
-                        channels.setdefault(r.id, r)
-                    elif isinstance(r, Message):
-                        inner.append((r.channel_id, r.log_time, pos[mi]))
-                        mi += 1
-                        times.append(r.log_time)
-                        chan_counts[r.channel_id] = chan_counts.get(r.channel_id, 0) + 1
-                        count += 1
-                        tmin = r.log_time if tmin is None else min(tmin, r.log_time)
-                        tmax = r.log_time if tmax is None else max(tmax, r.log_time)
-                chunk_msgs[off] = inner
-                if times != sorted(times):
-                    rep.unordered_chunks += 1
-                if times and (rec.message_start_time != min(times)
-                              or rec.message_end_time != max(times)):
-                    probs.append(f'{name}: chunk at {off} start/end times do not match its '
-                                 f'messages')
-            elif isinstance(rec, MessageIndex):
-                if last_chunk_off is not None:
-                    msg_index[(last_chunk_off, rec.channel_id)] = list(rec.records)
-            elif isinstance(rec, Message):
-                chan_counts[rec.channel_id] = chan_counts.get(rec.channel_id, 0) + 1
-                count += 1
-                tmin = rec.log_time if tmin is None else min(tmin, rec.log_time)
-                tmax = rec.log_time if tmax is None else max(tmax, rec.log_time)
-            elif isinstance(rec, Metadata):
-                meta_names.append(rec.name)
-            elif isinstance(rec, Statistics):
-                stats = rec
-            elif isinstance(rec, ChunkIndex):
-                chunk_indexes.append(rec)
-            elif isinstance(rec, Footer):
-                footer = rec
+        got = _read_records(fp)
     except Exception as exc:
-        probs.append(f'{name}: sequential CRC-validated read failed ({_one_line(exc)})')
+        rep.problems.append(f'{fp.name}: sequential CRC-validated read failed ({_one_line(exc)})')
         return
-    rep.metadata_names.extend(meta_names)
-    rep.message_count += count
-    rep.chunk_count += len(chunk_recs)
-    for cid, n in chan_counts.items():
-        ch = channels.get(cid)
+    rep.problems.extend(got.problems)
+    rep.unordered_chunks += got.unordered_chunks
+    _add_counts(got, fp.name, rep, per_topic, agg)
+    _check_encodings(got, fp.name, rep.problems)
+    if _check_summary_crc(got, fp.name, rep.problems):
+        _check_statistics(got, fp.name, rep.problems)
+        _check_indexes(got, fp.name, rep.problems)
+        _check_seeking_read(fp, got.count, rep.problems)
+
+
+def _add_counts(got: _Records, name: str, rep: ValidationReport, per_topic: Dict[str, int],
+                agg: Dict[str, Any]) -> None:
+    """The file's messages, chunks, metadata names and time range into the totals."""
+    rep.metadata_names.extend(got.meta_names)
+    rep.message_count += got.count
+    rep.chunk_count += len(got.chunks)
+    for cid, n in got.chan_counts.items():
+        ch = got.channels.get(cid)
         if ch is None:
-            probs.append(f'{name}: messages on undeclared channel {cid}')
+            rep.problems.append(f'{name}: messages on undeclared channel {cid}')
             continue
         per_topic[ch.topic] = per_topic.get(ch.topic, 0) + n
-    if count:
-        agg['start'] = tmin if agg['start'] is None else min(agg['start'], tmin)
-        agg['end'] = tmax if agg['end'] is None else max(agg['end'], tmax)
-    agg['count'] += count
+    if got.count:
+        agg['start'] = got.tmin if agg['start'] is None else min(agg['start'], got.tmin)
+        agg['end'] = got.tmax if agg['end'] is None else max(agg['end'], got.tmax)
+    agg['count'] += got.count
 
-    # 2. header / encodings
-    if header is None or header.profile != 'ros2':
-        probs.append(f"{name}: header profile is {getattr(header, 'profile', None)!r}, "
+
+def _check_encodings(got: _Records, name: str, probs: List[str]) -> None:
+    """Profile ``ros2``, schemas ``ros2msg``, channels ``cdr`` with a known schema."""
+    if got.header is None or got.header.profile != 'ros2':
+        probs.append(f"{name}: header profile is {getattr(got.header, 'profile', None)!r}, "
                      f"expected 'ros2'")
-    for s in schemas.values():
+    for s in got.schemas.values():
         if s.encoding != 'ros2msg':
             probs.append(f'{name}: schema {s.name!r} encoding {s.encoding!r}, expected ros2msg')
-    for c in channels.values():
+    for c in got.channels.values():
         if c.message_encoding != 'cdr':
             probs.append(f'{name}: channel {c.topic!r} encoding {c.message_encoding!r}, '
                          f'expected cdr')
-        if c.schema_id not in schemas:
+        if c.schema_id not in got.schemas:
             probs.append(f'{name}: channel {c.topic!r} refers to missing schema {c.schema_id}')
 
-    # 3. footer / summary CRC
+
+def _check_summary_crc(got: _Records, name: str, probs: List[str]) -> bool:
+    """A summary section exists and its CRC matches; False if there is none to check."""
+    footer = got.footer
     if footer is None or footer.summary_start == 0:
         probs.append(f'{name}: no summary section')
-        return
+        return False
     if footer.summary_crc != 0:
-        crc = zlib.crc32(data[footer.summary_start:len(data) - 8 - 4])
+        crc = zlib.crc32(got.data[footer.summary_start:len(got.data) - 8 - 4])
         if crc != footer.summary_crc:
             probs.append(f'{name}: summary CRC mismatch ({crc:#010x} != '
                          f'{footer.summary_crc:#010x})')
+    return True
 
-    # 4. statistics
+
+def _check_statistics(got: _Records, name: str, probs: List[str]) -> None:
+    """The Statistics record agrees with what the data section holds."""
+    stats, count = got.stats, got.count
     if stats is None:
         probs.append(f'{name}: no statistics record')
-    else:
-        if stats.message_count != count:
-            probs.append(f'{name}: statistics message_count {stats.message_count} != '
-                         f'{count} messages in the file')
-        if dict(stats.channel_message_counts) != {k: v for k, v in chan_counts.items()}:
-            probs.append(f'{name}: statistics per-channel counts disagree with the data')
-        if count and (stats.message_start_time != tmin or stats.message_end_time != tmax):
-            probs.append(f'{name}: statistics start/end time disagree with the data')
-        if stats.chunk_count != len(chunk_recs):
-            probs.append(f'{name}: statistics chunk_count {stats.chunk_count} != '
-                         f'{len(chunk_recs)} chunks')
-        if stats.schema_count != len(schemas) or stats.channel_count != len(channels):
-            probs.append(f'{name}: statistics schema/channel counts disagree with the data')
-        if stats.metadata_count != len(meta_names):
-            probs.append(f'{name}: statistics metadata_count {stats.metadata_count} != '
-                         f'{len(meta_names)} metadata records')
+        return
+    if stats.message_count != count:
+        probs.append(f'{name}: statistics message_count {stats.message_count} != '
+                     f'{count} messages in the file')
+    if dict(stats.channel_message_counts) != got.chan_counts:
+        probs.append(f'{name}: statistics per-channel counts disagree with the data')
+    if count and (stats.message_start_time != got.tmin or stats.message_end_time != got.tmax):
+        probs.append(f'{name}: statistics start/end time disagree with the data')
+    if stats.chunk_count != len(got.chunks):
+        probs.append(f'{name}: statistics chunk_count {stats.chunk_count} != '
+                     f'{len(got.chunks)} chunks')
+    if stats.schema_count != len(got.schemas) or stats.channel_count != len(got.channels):
+        probs.append(f'{name}: statistics schema/channel counts disagree with the data')
+    if stats.metadata_count != len(got.meta_names):
+        probs.append(f'{name}: statistics metadata_count {stats.metadata_count} != '
+                     f'{len(got.meta_names)} metadata records')
 
-    # 5. chunk + message indexes
-    if len(chunk_indexes) != len(chunk_recs):
-        probs.append(f'{name}: {len(chunk_indexes)} chunk indexes for {len(chunk_recs)} chunks')
-    for ci in chunk_indexes:
-        ch = chunk_recs.get(ci.chunk_start_offset)
+
+def _check_indexes(got: _Records, name: str, probs: List[str]) -> None:
+    """Chunk indexes match the chunks; message indexes point at the right messages."""
+    if len(got.chunk_indexes) != len(got.chunks):
+        probs.append(f'{name}: {len(got.chunk_indexes)} chunk indexes for {len(got.chunks)} '
+                     f'chunks')
+    for ci in got.chunk_indexes:
+        off = ci.chunk_start_offset
+        ch = got.chunks.get(off)
         if ch is None:
-            probs.append(f'{name}: chunk index points at {ci.chunk_start_offset}, no chunk there')
+            probs.append(f'{name}: chunk index points at {off}, no chunk there')
             continue
         if (ci.message_start_time != ch.message_start_time
                 or ci.message_end_time != ch.message_end_time
                 or ci.uncompressed_size != ch.uncompressed_size
                 or ci.compression != ch.compression):
-            probs.append(f'{name}: chunk index at {ci.chunk_start_offset} disagrees with chunk')
+            probs.append(f'{name}: chunk index at {off} disagrees with chunk')
         expect: Dict[int, List[Tuple[int, int]]] = {}
-        for cid, t, pos in chunk_msgs[ci.chunk_start_offset]:
+        for cid, t, pos in got.chunk_msgs[off]:
             expect.setdefault(cid, []).append((t, pos))
-        got = {cid: msg_index.get((ci.chunk_start_offset, cid)) for cid in
-               ci.message_index_offsets}
-        if set(got) != set(expect):
-            probs.append(f'{name}: message index channels of chunk at {ci.chunk_start_offset} '
-                         f'do not match its messages')
+        indexed = {cid: got.msg_index.get((off, cid)) for cid in ci.message_index_offsets}
+        if set(indexed) != set(expect):
+            probs.append(f'{name}: message index channels of chunk at {off} do not match its '
+                         f'messages')
             continue
-        for cid, recs in got.items():
+        for cid, recs in indexed.items():
             if recs is None or sorted(recs) != sorted(expect[cid]):
-                probs.append(f'{name}: message index of channel {cid} in chunk at '
-                             f'{ci.chunk_start_offset} does not match the chunk')
+                probs.append(f'{name}: message index of channel {cid} in chunk at {off} does '
+                             f'not match the chunk')
 
-    # 6. seeking, log-time-ordered read with CRC validation
+
+def _check_seeking_read(fp: Path, count: int, probs: List[str]) -> None:
+    """mcap's seeking reader (``make_reader``, CRCs on) yields every message in time order."""
+    name = fp.name
     try:
         with open(fp, 'rb') as f:
-            r = make_reader(f, validate_crcs=True)
             n, last = 0, None
-            for _, _, m in r.iter_messages(log_time_order=True):
+            for _, _, m in make_reader(f, validate_crcs=True).iter_messages(log_time_order=True):
                 if last is not None and m.log_time < last:
                     probs.append(f'{name}: seeking reader returned messages out of time order')
                     break
@@ -278,9 +319,11 @@ def _validate_file(fp: Path, rep: ValidationReport, per_topic: Dict[str, int],
         probs.append(f'{name}: indexed CRC-validated read failed ({_one_line(exc)})')
 
 
-def _validate_prefix(fp: Path, rep: 'ValidationReport', per_topic: Dict[str, int],
+def _validate_prefix(fp: Path, why: str, rep: ValidationReport, per_topic: Dict[str, int],
                      agg: Dict[str, Any]) -> None:
-    """An unfinished file: its complete chunks are checked (CRCs); the cut is a warning."""
+    """An unfinished file: its complete chunks are checked (CRCs); being unfinished is a
+    problem whose text names ``bag recover``.
+    """
     s = scan_file(fp)
     rep.complete = False
     rep.message_count += len(s.messages)
@@ -293,9 +336,9 @@ def _validate_prefix(fp: Path, rep: 'ValidationReport', per_topic: Dict[str, int
         agg['start'] = min(ts) if agg['start'] is None else min(agg['start'], min(ts))
         agg['end'] = max(ts) if agg['end'] is None else max(agg['end'], max(ts))
     agg['count'] += len(s.messages)
-    rep.warnings.append(f'{fp}: unfinished (no MCAP footer); validated its recovered prefix: '
-                        f'{len(s.messages)} messages in {s.chunks} complete chunks, CRCs valid '
-                        f'(the scan stopped at: {s.error})')
+    rep.problems.append(f'{fp}: unfinished, its writer did not close it ({why}); '
+                        f'{len(s.messages)} messages in {s.chunks} complete chunks are readable '
+                        f'(CRCs valid); `bag recover` writes them as a closed bag')
 
 
 def _chunk_positions(chunk: Chunk) -> List[int]:

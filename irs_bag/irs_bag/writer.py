@@ -5,7 +5,7 @@ A bag written by :class:`BagWriter` is a directory laid out as ``ros2 bag record
 
     <directory>/
         <directory name>_0.mcap    # MCAP, profile "ros2", schemas "ros2msg", channels "cdr"
-        metadata.yaml              # rosbag2_bagfile_information, version 9 (written on close)
+        metadata.yaml              # rosbag2_bagfile_information, version 9
 
 MCAP details: header profile ``ros2``; one schema per message type named ``pkg/msg/Type``
 with encoding ``ros2msg`` and the complete definition from
@@ -24,10 +24,14 @@ time (stable, so equal times keep arrival order), written as one complete chunk 
 message indexes, and the file is flushed to the OS (``fsync=True`` also forces it to disk).
 Every log time inside a chunk is therefore in order. A message whose log time is earlier than
 the end of an already written chunk cannot be moved into that chunk; it is written (chunks then
-overlap in time, which MCAP readers handle) and counted in ``late_messages``. If the process
-dies, the file holds every chunk finished so far, and
-:func:`irs_bag.reader.recover` returns those messages; at most the buffered, unflushed
-messages (< ``chunk_size`` bytes) are lost. ``metadata.yaml`` only exists after ``close()``.
+overlap in time, which MCAP readers handle) and counted in ``late_messages``. While the bag is
+open, its file ends after every chunk and metadata record with a footer without summary and
+the closing magic (overwritten by the next record), and ``metadata.yaml`` is a provisional one
+(the topics declared so far, no counts, ``custom_data`` key ``irs.provisional``): a bag whose
+writer dies is opened by readers that need both (rosbags), which read its chunks; the missing
+``DataEnd`` record marks it unfinished (:mod:`irs_bag.scan`). It holds every chunk finished so
+far; :func:`irs_bag.reader.recover` returns those messages and ``bag recover`` writes them as a
+closed bag. At most the buffered messages (< ``chunk_size`` bytes) are lost.
 """
 
 from __future__ import annotations
@@ -52,6 +56,7 @@ __all__ = [
     'BagWriter',
     'BagWriterError',
     'COMPRESSIONS',
+    'PROVISIONAL_KEY',
     'ROS_DISTRO',
     'TopicStats',
     'bag_metadata_dict',
@@ -81,6 +86,18 @@ COMPRESSIONS = {
 #: a composed 1 kHz loop. 16 messages take about 0.2 ms.
 _YIELD_EVERY = 16
 _YIELD_S = 0.0001
+
+#: Written after every chunk and metadata record and overwritten by the next one: a Footer
+#: without a summary (summary_start 0) and the closing magic. An unfinished file therefore ends
+#: like a closed one (rosbags and other readers that need the footer read its chunks), and the
+#: missing DataEnd record tells it from a closed one (:mod:`irs_bag.scan`).
+_PROVISIONAL_TAIL = (bytes([0x02]) + (20).to_bytes(8, 'little') + bytes(20)
+                     + b'\x89MCAP0\r\n')
+
+#: ``custom_data`` key of the metadata.yaml written while a bag is open (replaced at close).
+PROVISIONAL_KEY = 'irs.provisional'
+PROVISIONAL_TEXT = ('the bag was not closed when this was written: no counts; `bag recover` '
+                    'writes a closed copy')
 
 # Time "infinity" rosbag2 uses for unset QoS durations (RMW_DURATION_INFINITE).
 _INFINITE = {'sec': 9223372036, 'nsec': 854775807}
@@ -136,7 +153,7 @@ class BagSummary:
     start_time_ns: int
     end_time_ns: int
     duration_ns: int
-    chunk_count: int
+    chunk_count: int        # chunks in the file (flushed); a queued chunk counts once written
     late_messages: int
     dropped_total: int
     topics: Dict[str, TopicStats] = field(default_factory=dict)
@@ -197,6 +214,17 @@ def bag_metadata_dict(*, file_name: str, topics: Mapping[str, Tuple[str, str, st
     }
 
 
+def _check_new_directory(directory: Path) -> None:
+    """BagWriterError if ``directory`` exists and is not an empty directory (OSError if it
+    cannot be looked at, e.g. a name too long).
+    """
+    if directory.exists():
+        if not directory.is_dir():
+            raise BagWriterError(f'{directory} exists and is not a directory')
+        if any(directory.iterdir()):
+            raise BagWriterError(f'bag directory {directory} already exists and is not empty')
+
+
 class BagWriter:
     """Write serialized CDR messages to a rosbag2-compatible MCAP bag directory.
 
@@ -244,13 +272,12 @@ class BagWriter:
             raise BagWriterError(
                 f"compression must be one of 'zstd', 'lz4', 'none', got {compression!r}")
         self._directory = Path(directory)
-        if self._directory.exists():
-            if not self._directory.is_dir():
-                raise BagWriterError(f'{self._directory} exists and is not a directory')
-            if any(self._directory.iterdir()):
-                raise BagWriterError(
-                    f'bag directory {self._directory} already exists and is not empty')
-        name = self._directory.resolve().name or 'bag'
+        try:
+            _check_new_directory(self._directory)
+            name = self._directory.resolve().name or 'bag'
+        except OSError as exc:
+            raise BagWriterError(f'cannot create the bag directory {self._directory}: '
+                                 f'{exc.strerror or exc}') from None
         self._file_name = f'{name}_0.mcap'
         self._compression = 'none' if comp == '' else comp
         self._chunk_size = chunk_size
@@ -263,9 +290,17 @@ class BagWriter:
         self._thread: Optional[threading.Thread] = None
         self._thread_error: Optional[BaseException] = None
 
-        self._directory.mkdir(parents=True, exist_ok=True)
         self._path = self._directory / self._file_name
-        self._stream = open(self._path, 'wb')
+        try:
+            self._directory.mkdir(parents=True, exist_ok=True)
+        except OSError as exc:
+            raise BagWriterError(f'cannot create the bag directory {self._directory}: '
+                                 f'{exc.strerror or exc}') from None
+        try:
+            self._stream = open(self._path, 'wb')
+        except OSError as exc:
+            raise BagWriterError(f'cannot create the bag file {self._path}: '
+                                 f'{exc.strerror or exc}') from None
         try:
             self._writer = McapWriter(
                 self._stream,
@@ -281,7 +316,7 @@ class BagWriter:
                 enable_data_crcs=True,
             )
             self._writer.start(profile='ros2', library=LIBRARY)
-            self._stream.flush()
+            self._sync()
         except Exception as exc:
             self._stream.close()
             raise BagWriterError(f'cannot start MCAP file {self._path}: {exc}') from None
@@ -304,6 +339,12 @@ class BagWriter:
         self._chunks = 0
         self._closed = False
         self._summary: Optional[BagSummary] = None
+        try:
+            self._write_metadata_yaml(self._metadata(provisional=True))
+        except OSError as exc:
+            self._stream.close()
+            raise BagWriterError(f'cannot write {self._directory}/metadata.yaml: '
+                                 f'{exc.strerror or exc}') from None
         if background:
             self._batches = queue.SimpleQueue()
             self._thread = threading.Thread(target=self._write_batches, daemon=True,
@@ -475,6 +516,7 @@ class BagWriter:
                     self._writer.add_metadata(
                         'rosbag2', {'serialized_metadata': yaml.safe_dump(meta, sort_keys=False)})
                     self._writer.finish()
+                    self._stream.truncate()      # no provisional tail beyond the footer
                     self._stream.flush()
                     if self._fsync:
                         os.fsync(self._stream.fileno())
@@ -482,10 +524,7 @@ class BagWriter:
                 self._stop_thread()
                 self._stream.close()
                 self._closed = True
-            tmp = self._directory / 'metadata.yaml.tmp'
-            tmp.write_text(yaml.safe_dump({'rosbag2_bagfile_information': meta},
-                                          sort_keys=False), encoding='utf-8')
-            os.replace(tmp, self._directory / 'metadata.yaml')
+            self._write_metadata_yaml(meta)
             self._summary = self._make_summary(closed=True)
             return self._summary
 
@@ -550,6 +589,7 @@ class BagWriter:
             stats.dropped = old.dropped
         self._topics[topic] = stats
         self._topic_hash[topic] = thash
+        self._write_metadata_yaml(self._metadata(provisional=True))
 
     def _flush_chunk(self) -> None:
         """Cut the buffer as one chunk: written now, or queued for the writer thread."""
@@ -559,7 +599,6 @@ class BagWriter:
             self._written_end = end if self._written_end is None else max(self._written_end,
                                                                            end)
             self._pending_bytes = 0
-            self._chunks += 1
         if self._batches is None:
             self._write_batch(batch)
         else:
@@ -577,6 +616,8 @@ class BagWriter:
                     time.sleep(_YIELD_S)   # let a waiting thread take the GIL
             self._writer.flush()  # finishes the chunk (if any) + message indexes, flushes stream
             self._sync()
+            if batch:
+                self._chunks += 1   # counted once in the file: what a killed writer leaves
 
     def _write_batches(self) -> None:
         """The writer thread: write queued chunks until the ``None`` that ends it."""
@@ -601,7 +642,11 @@ class BagWriter:
                                      f'{self._thread_error}')
 
     def _sync(self) -> None:
+        """Write the provisional tail after what was written, flush (and fsync if asked)."""
+        end = self._stream.tell()
+        self._stream.write(_PROVISIONAL_TAIL)
         self._stream.flush()
+        self._stream.seek(end)
         if self._fsync:
             os.fsync(self._stream.fileno())
 
@@ -610,19 +655,35 @@ class BagWriter:
         d.update({t: s.dropped for t, s in self._drop_only.items() if s.dropped})
         return d
 
-    def _metadata(self) -> dict:
+    def _metadata(self, provisional: bool = False) -> dict:
+        """The ``rosbag2_bagfile_information`` of the bag as it is; ``provisional``: the one
+        written while the bag is open (topics so far, no counts, :data:`PROVISIONAL_KEY`).
+        """
+        custom = dict(self._custom)
+        if provisional:
+            topics = {t: (s.type, self._qos[t], self._topic_hash.get(t, ''), 0)
+                      for t, s in self._topics.items()}
+            custom[PROVISIONAL_KEY] = PROVISIONAL_TEXT
+            return bag_metadata_dict(file_name=self._file_name, topics=topics, start_ns=0,
+                                     duration_ns=0, message_count=0, custom_data=custom)
         start = self._start or 0
         duration = (self._end - self._start) if self._count else 0
         topics = {t: (s.type, self._qos[t], self._topic_hash.get(t, ''), s.message_count)
                   for t, s in self._topics.items()}
         drops = self._all_drops()
-        custom = dict(self._custom)
         custom['irs.dropped_messages'] = str(sum(drops.values()))
         custom['irs.dropped_messages_per_topic'] = json.dumps(drops, sort_keys=True)
         custom['irs.late_messages'] = str(self._late)
         return bag_metadata_dict(file_name=self._file_name, topics=topics, start_ns=start,
                                  duration_ns=duration, message_count=self._count,
                                  custom_data=custom)
+
+    def _write_metadata_yaml(self, meta: dict) -> None:
+        """Replace ``metadata.yaml`` atomically (a reader never sees half a file)."""
+        tmp = self._directory / 'metadata.yaml.tmp'
+        tmp.write_text(yaml.safe_dump({'rosbag2_bagfile_information': meta}, sort_keys=False),
+                       encoding='utf-8')
+        os.replace(tmp, self._directory / 'metadata.yaml')
 
     def _make_summary(self, closed: bool) -> BagSummary:
         topics = {t: TopicStats(**vars(s)) for t, s in self._topics.items()}

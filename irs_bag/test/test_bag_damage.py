@@ -128,12 +128,18 @@ def test_unfinished_bag_every_verb_on_its_prefix(small_bag, tmp_path):
     with BagReader(bag, allow_partial=True) as r:
         prefix = [m for m in r.messages()]
     assert 10 < len(prefix) < 2 * N
-    for verb in ('info', 'validate', 'export', 'play', 'plots', 'rerun'):
+    for verb in ('info', 'export', 'play', 'plots', 'rerun'):
         code, out, err = run_verb(verb, str(bag), tmp_path / verb)
         assert code == 0, (verb, err)
         lines = err.strip().splitlines()
         assert len(lines) == 1 and 'warning' in lines[0] and 'unfinished' in lines[0], (verb, err)
         assert 'Traceback' not in out + err
+    # validate reads the same prefix but fails the bag, naming the way out
+    code, out, err = run_verb('validate', str(bag), tmp_path / 'validate')
+    lines = err.strip().splitlines()
+    assert code == 1 and len(lines) == 1, err
+    assert 'unfinished' in lines[0] and '`bag recover`' in lines[0], lines
+    assert f'{len(prefix)} messages' in lines[0], lines
     code, out, err = run_verb('recover', str(bag), tmp_path)
     assert code == 0 and not err, err
     assert len(out.strip().splitlines()) == 1 and f'{len(prefix)} messages' in out, out

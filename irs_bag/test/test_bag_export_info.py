@@ -1,4 +1,4 @@
-"""irs-bag info / export commands."""
+"""bag info / export commands."""
 
 
 
@@ -162,3 +162,59 @@ def test_flatten_and_file_names():
     assert list(flatten(dec)) == [('header.stamp', 1.5), ('header.frame_id', 'x'),
                                   ('name[0]', 'a'), ('position[0]', 1.0)]
     assert topic_file_name('/arm/joint_states') == 'arm__joint_states.csv'
+
+
+def _lockstep_bag(path, steps, log_step_ns, record):
+    """A lock-step recording: /clock and /arm/joint_states stamped k ms (simulated time),
+    received every ``log_step_ns`` (the graph's stepping speed), with ``record`` as the
+    irs_experiment metadata record (or none).
+    """
+    clock_t = 'rosgraph_msgs/msg/Clock'
+    with BagWriter(path, chunk_size=64 * 1024) as w:
+        if record is not None:
+            w.add_metadata('irs_experiment', record)
+        for k in range(steps):
+            stamp = _time(k * 1_000_000)
+            log = T0 + k * log_step_ns
+            w.write('/clock', clock_t, bytes(TS.serialize_cdr(G[clock_t](clock=stamp), clock_t)),
+                    log)
+            js = G[JS](header=G['std_msgs/msg/Header'](stamp=stamp, frame_id='arm'),
+                       name=['j1'], position=np.array([0.1]), velocity=np.zeros(0),
+                       effort=np.zeros(0))
+            w.write('/arm/joint_states', JS, bytes(TS.serialize_cdr(js, JS)), log + 1000)
+    return path
+
+
+@pytest.mark.parametrize('record, why', [
+    ({'clock': 'lockstep', 'experiment_yaml': 'name: x\n'}, 'the experiment record says'),
+    ({'experiment_yaml': 'name: x\nclock: lockstep\n'}, 'its experiment file says'),
+    (None, 'it has /clock'),
+])
+def test_info_of_a_lockstep_bag_gives_its_simulated_time(tmp_path, record, why):
+    """2 s of simulated time at 1 kHz, received over 8 s: info says lock-step (and why), the
+    simulated span and step rate, both rates per topic, and what every counter means.
+    """
+    bag = _lockstep_bag(tmp_path / 'ls', 2001, 4_000_000, record)
+    out = io.StringIO()
+    assert bag_info.main([str(bag)], out=out) == 0
+    text = out.getvalue()
+    assert 'Clock:        lock-step (' + why in text, text
+    assert 'Sim time:     2.000000 s (0.000000 .. 2.000000 s; /clock: 2001 steps at 1000.0 Hz)' \
+        in text, text
+    assert 'Duration:     8.000001 s (receive time)' in text, text
+    row = {ln.split()[0]: ln.split() for ln in text.splitlines()
+           if ln.startswith('  /')}['/arm/joint_states']
+    assert float(row[3]) == pytest.approx(250.0)       # per second of receive time
+    assert float(row[4]) == pytest.approx(1000.0)      # per second of simulated time
+    for key in ('irs.dropped_messages', 'irs.dropped_messages_per_topic', 'irs.late_messages'):
+        [line] = [ln for ln in text.splitlines() if ln.startswith(f'  {key}: ')]
+        assert line.split('   -- ')[1] == bag_info.COUNTERS[key]
+
+
+def test_info_of_a_realtime_bag_says_so(bag):
+    d, _ = bag
+    out = io.StringIO()
+    assert bag_info.main([str(d)], out=out) == 0
+    text = out.getvalue()
+    assert 'Clock:        real time (assumed): no experiment record and no /clock' in text
+    assert 'Sim time' not in text

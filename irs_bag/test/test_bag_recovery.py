@@ -11,6 +11,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+import yaml
 from mcap.data_stream import ReadDataStream
 from mcap.reader import make_reader
 from mcap.records import Chunk, Message
@@ -19,7 +20,7 @@ from rosbags.typesys import Stores, get_typestore
 
 from irs_bag import info as bag_info
 from irs_bag import BagError, BagReader, recover, validate
-from irs_bag.writer import BagWriter
+from irs_bag.writer import PROVISIONAL_KEY, BagWriter
 
 TS = get_typestore(Stores.ROS2_JAZZY)
 JS = 'sensor_msgs/msg/JointState'
@@ -91,8 +92,10 @@ def test_truncated_file(bag, tmp_path, cut):
         return
     expected = _expected_count(ends, n)
     rep = validate(bad)
-    assert rep.ok and not rep.complete and rep.message_count == expected, rep
-    assert len(rep.warnings) == 1 and 'unfinished' in rep.warnings[0]
+    assert not rep.ok and not rep.complete, rep
+    assert rep.message_count == (N if n >= _summary_start(data) else expected), rep
+    assert len(rep.problems) == 1 and 'unfinished' in rep.problems[0], rep.problems
+    assert '`bag recover`' in rep.problems[0]
     rec = recover(bad)
     if n >= _summary_start(data):
         # cut inside the summary: the data section is whole, read without the summary
@@ -152,7 +155,9 @@ def test_copy_of_unclosed_bag_is_recoverable(tmp_path):
         if k in (0, 137, 499):
             snap = tmp_path / f'snap{k}'
             shutil.copytree(d, snap)
-            assert not (snap / 'metadata.yaml').exists()
+            custom = yaml.safe_load((snap / 'metadata.yaml').read_text())[
+                'rosbag2_bagfile_information']['custom_data']
+            assert PROVISIONAL_KEY in custom        # the provisional metadata.yaml
             rec = recover(snap)
             assert [m.data for m in rec] == written[:len(rec)]
             # nothing buffered beyond one chunk is lost
@@ -167,6 +172,51 @@ def test_copy_of_unclosed_bag_is_recoverable(tmp_path):
     assert [m.data for m in recover(snap)] == written
     w.close()
     assert validate(d).ok
+
+
+def test_validate_fails_an_unfinished_bag_and_names_recover(tmp_path, capsys):
+    """A bag whose writer is still open (or was killed) is not a valid bag: ``bag validate``
+    exits 1 with one line naming ``bag recover``; after close the same bag validates.
+    """
+    from irs_bag import cli
+    d = tmp_path / 'live'
+    w = BagWriter(d, chunk_size=1024)
+    for k in range(300):
+        t, b = joint_state_bytes(k)
+        w.write('/js', JS, b, t)
+    snap = tmp_path / 'snap'
+    shutil.copytree(d, snap)
+    w.close()
+    n = len(recover(snap))
+    rep = validate(snap)
+    assert not rep.ok and not rep.complete and rep.message_count == n
+    assert cli.main(['validate', str(snap)]) == 1
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and 'unfinished' in err[0] and '`bag recover`' in err[0], err
+    assert cli.main(['validate', str(d)]) == 0
+
+
+def test_rosbags_opens_an_unfinished_bag(tmp_path):
+    """A bag whose writer was not closed (a copy taken while it is open) opens in rosbags'
+    Reader: the provisional metadata.yaml names its topics, and the file ends with the
+    provisional footer; rosbags reads exactly the complete chunks that recover() returns.
+    Without either (the writer before the provisional metadata.yaml and tail), Reader raises.
+    """
+    from rosbags.rosbag2 import Reader
+    d = tmp_path / 'live'
+    w = BagWriter(d, chunk_size=1024)
+    for k in range(300):
+        t, b = joint_state_bytes(k)
+        w.write('/js', JS, b, t)
+    snap = tmp_path / 'snap'
+    shutil.copytree(d, snap)
+    w.close()
+    rec = recover(snap)
+    assert not rec.complete and 100 < len(rec) < 300
+    with Reader(snap) as r:
+        assert [c.topic for c in r.connections] == ['/js']
+        got = [(t, data) for _, t, data in r.messages()]
+    assert got == [(m.log_time_ns, m.data) for m in rec]
 
 
 CHILD = r"""

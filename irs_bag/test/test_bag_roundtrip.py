@@ -459,3 +459,27 @@ def test_background_writer_reports_a_failed_write_on_the_next_call(tmp_path):
     w._thread.join()
     with pytest.raises(BagWriterError, match='writer thread failed: disk full'):
         w.write('/a', JS, data, T0 + 1)
+
+
+def test_background_writer_counts_only_chunks_in_the_file(tmp_path):
+    """``summary().chunk_count`` (the recorder's status ``chunks``) counts the chunks written to
+    the file, not the ones still queued for the writer thread: a writer killed after the status
+    said K chunks leaves at least K complete chunks for ``recover``.
+    """
+    import time
+
+    from irs_bag import recover
+    w = BagWriter(tmp_path / 'bag', chunk_size=1024, background=True)
+    data = TS.serialize_cdr(make_joint_state(0, T0), JS)
+    w.add_topic('/a', JS)        # declaring writes the channel: before the file lock is taken
+    with w._io:                  # the writer thread cannot write while the file lock is held
+        w.write('/a', JS, data, T0)
+        w.flush()                # one chunk cut and queued, not yet in the file
+        assert w.summary().chunk_count == 0
+    deadline = time.monotonic() + 10.0
+    while w.summary().chunk_count < 1 and time.monotonic() < deadline:
+        time.sleep(0.01)
+    assert w.summary().chunk_count == 1
+    got = recover(tmp_path / 'bag')   # the writer still open: what a kill would leave
+    assert not got.complete and got.chunks == 1 and [m.data for m in got] == [bytes(data)]
+    assert w.close().chunk_count == 1

@@ -51,7 +51,13 @@ def _number(text: str):
 
 
 class ExperimentFailed(RuntimeError):
-    """A node died, the graph did not come up, or the run did not progress."""
+    """A node died, the graph did not come up, or the run did not progress. ``detail`` (a dead
+    node's last output) is logged once with the message, and is not part of it.
+    """
+
+    def __init__(self, message, detail=''):
+        super().__init__(message)
+        self.detail = detail
 
 
 class _StopRequested(Exception):
@@ -91,7 +97,7 @@ def experiment_metadata(exp: Experiment) -> dict:
     return {'experiment_name': exp.name, 'experiment_file': str(exp.path or ''),
             'experiment_yaml': exp.text, 'node_parameters': json.dumps(params, default=str),
             'processes': json.dumps(exp.processes()),
-            'python': platform.python_version(), 'numpy': numpy.__version__,
+            'clock': exp.clock, 'python': platform.python_version(), 'numpy': numpy.__version__,
             'scipy': scipy.__version__, 'ros_distro': os.environ.get('ROS_DISTRO', 'jazzy'),
             'rmw': os.environ.get('RMW_IMPLEMENTATION', ''), 'git_commit': _git_commit(),
             'started': datetime.datetime.now().isoformat(timespec='seconds')}
@@ -190,8 +196,12 @@ class ExperimentRunner:
             if code is not None:
                 what = (f"process '{name}' (nodes {', '.join(self.members[name])})"
                         if name in self.members else f"node '{name}'")
-                raise ExperimentFailed(f'{what} died (exit code {code}); its last output:\n'
-                                       f'{proc.tail(15)}')
+                hint = ''
+                if 'recorder' in self.members.get(name, [name]):
+                    hint = (f"; the bag is unfinished: `bag recover {self.run_dir / 'bag'}` "
+                            f'writes a closed copy of what it recorded')
+                raise ExperimentFailed(f'{what} died (exit code {code}){hint}',
+                                       f'its last output:\n{proc.tail(15)}')
 
     def _stop_all(self) -> dict:
         """Every node at once, then the recorder (class docstring); ``{label: exit code}``."""
@@ -305,7 +315,8 @@ class ExperimentRunner:
             self.log(f'\n[experiment] {message}: shutting down')
         except ExperimentFailed as exc:
             message = str(exc)
-            self.log(f'\n[experiment] FAILED: {message}')
+            self.log(f'\n[experiment] FAILED: {message}'
+                     + (f'\n{exc.detail}' if exc.detail else ''))
         finally:
             self.phase = 'stopping'
             codes = self._stop_all()

@@ -64,7 +64,7 @@ class ActuatorRun:
 
 def load_run(bag) -> ActuatorRun:
     """Read ``/steering/state`` and the experiment metadata of a bag (no rclpy)."""
-    from irs_bag.scan import BagError
+    from irs_bag import BagError
 
     try:
         return _load_run(bag)

@@ -61,7 +61,7 @@ def load_run(bag) -> dict:
         No such bag, not a bag, or no belt-speed / drive messages in it.
     """
     from irs_bag.reader import BagReader
-    from irs_bag.scan import BagError
+    from irs_bag import BagError
 
     if not Path(bag).exists():
         raise InputError(f'{bag}: no such bag')

@@ -58,7 +58,7 @@ def add_arguments(parser) -> None:
 def bag_parameters(bag) -> dict:
     """``{node name: flat parameters}`` from the bag's experiment metadata ({} if none)."""
     from irs_bag.reader import BagReader
-    from irs_bag.scan import BagError
+    from irs_bag import BagError
 
     try:
         with BagReader(bag) as reader:
@@ -78,7 +78,7 @@ def load_run(bag) -> dict:
     """Series by stamp (:func:`irs_bag.run_series.lateral_run`) on the samples where
     reference, steer command and measurement all exist; plus ``params`` (the metadata).
     """
-    from irs_bag.scan import BagError
+    from irs_bag import BagError
     from irs_bag.run_series import lateral_run
 
     if not Path(bag).exists():

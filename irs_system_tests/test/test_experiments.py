@@ -89,6 +89,38 @@ def test_killing_a_node_ends_the_run_with_a_clear_message(tmp_path):
         assert not _alive(pid), f'{name} (pid {pid}) left behind'
 
 
+def test_a_dead_recorder_names_bag_recover_and_its_last_output_once(tmp_path):
+    """SIGKILL the recorder of a running experiment: the run stops with a one-line message that
+    names ``bag recover`` for its bag, the recorder's last output is logged once (the message
+    the experiment command prints after the run does not repeat it), and ``bag recover`` makes
+    a valid bag of what it recorded.
+    """
+    exp = load_experiment('figure10_mrc_with_actuator')
+    exp.duration = 60.0
+    logs = []
+    runner = ExperimentRunner(exp, runs_dir=tmp_path, progress=False, log=logs.append)
+    box = {}
+    thread = threading.Thread(target=lambda: box.setdefault('result', runner.run()))
+    thread.start()
+    assert wait_until(lambda: runner.phase in ('running', 'done'), 120.0)
+    assert runner.phase == 'running', 'the run must be under way when the recorder is killed'
+    recorder = runner.procs['recorder']
+    os.kill(recorder.pid, signal.SIGKILL)
+    thread.join(120)
+    assert not thread.is_alive()
+    result = box['result']
+    bag = runner.run_dir / 'bag'
+    assert not result.completed
+    assert result.message.startswith("node 'recorder' died (exit code -9)"), result.message
+    assert f'`bag recover {bag}`' in result.message and '\n' not in result.message
+    last = recorder.tail(1)
+    assert last and sum(entry.count(last) for entry in logs + [result.message]) == 1, logs
+    res = subprocess.run([resolve_executable('irs_bag', 'bag'), 'recover', str(bag), '--out',
+                          str(tmp_path / 'fixed')], capture_output=True, text=True, timeout=120)
+    assert res.returncode == 0, res.stderr
+    assert validate(tmp_path / 'fixed').ok
+
+
 def _alive(pid):
     try:
         os.kill(pid, 0)

@@ -231,8 +231,16 @@ def test_recorder_sigkill_leaves_recoverable_prefix(ros, launch, tmp_path):
     assert len(got) >= 2 and {m.topic for m in got} <= {'/arm/joint_states', '/belt/speed'}
     assert any(name == 'irs_experiment' for name, _ in got.metadata)
 
+    # rosbags opens it (provisional metadata.yaml, provisional footer) and reads those chunks
+    from rosbags.rosbag2 import Reader
+    with Reader(bag) as rb:
+        assert {c.topic for c in rb.connections} <= {'/arm/joint_states', '/belt/speed'}
+        # in file order; chunks may overlap in time (late messages), recover() sorts by time
+        in_order = sorted(((t, data) for _, t, data in rb.messages()), key=lambda x: x[0])
+        assert [data for _, data in in_order] == [m.data for m in got]
+
     bag_exe = resolve_executable('irs_bag', 'bag')
-    for cmd in (['info'], ['validate'], ['plots', '--out', str(tmp_path / 'plots')],
+    for cmd in (['info'], ['plots', '--out', str(tmp_path / 'plots')],
                 ['export', '--out', str(tmp_path / 'csv')]):
         res = subprocess.run([bag_exe, *cmd[:1], str(bag), *cmd[1:]], capture_output=True,
                              text=True, timeout=60)
@@ -240,6 +248,11 @@ def test_recorder_sigkill_leaves_recoverable_prefix(ros, launch, tmp_path):
         assert 'Traceback' not in res.stderr + res.stdout
         lines = res.stderr.strip().splitlines()
         assert len(lines) == 1 and 'warning' in lines[0] and 'unfinished' in lines[0], lines
+    res = subprocess.run([bag_exe, 'validate', str(bag)], capture_output=True, text=True,
+                         timeout=60)
+    lines = res.stderr.strip().splitlines()
+    assert res.returncode == 1 and len(lines) == 1, (res.stdout, res.stderr)
+    assert 'unfinished' in lines[0] and '`bag recover`' in lines[0], lines
     res = subprocess.run([bag_exe, 'info', str(bag)], capture_output=True, text=True, timeout=60)
     assert f'Messages:     {len(got)}' in res.stdout, res.stdout
     res = subprocess.run([bag_exe, 'recover', str(bag), '--out', str(tmp_path / 'fixed')],
@@ -343,18 +356,47 @@ def test_lockstep_experiments_record_clock():
         assert expected_endpoints(exp)['/clock'] == (1, non_rig + 1), name
 
 
-def test_an_output_it_cannot_create_is_one_line_at_start_up(tmp_path):
-    """Before any topic appears: a bag directory under a file is refused at once, exit 2."""
+@pytest.mark.parametrize('case', ['under a file', 'in /proc', 'name too long'])
+def test_an_output_it_cannot_create_is_one_line_at_start_up(tmp_path, case):
+    """Before any topic appears: an output under a file, in /proc (mkdir fails) or with a name
+    longer than the file system takes is refused at once, in one line, exit code 2.
+    """
     blocker = tmp_path / 'a_file'
     blocker.write_text('not a directory')
+    output = {'under a file': f'{blocker}/bag', 'in /proc': '/proc/irs_bag',
+              'name too long': str(tmp_path / ('x' * 300))}[case]
     exe = resolve_executable('irs_bag', 'recorder')
-    res = subprocess.run([exe, '--ros-args', '-p', f'output:={blocker}/bag', '-p',
+    res = subprocess.run([exe, '--ros-args', '-p', f'output:={output}', '-p',
                           "topics:=['/nothing/ever']"], capture_output=True, text=True,
                          timeout=60)
     assert res.returncode == 2, res.stdout + res.stderr
     lines = [ln for ln in res.stderr.splitlines() if ln.strip()]
     assert len(lines) == 1 and 'cannot create the bag directory' in lines[0], res.stderr
     assert 'Traceback' not in res.stderr + res.stdout
+
+
+def test_a_recorder_started_by_hand_writes_under_runs(tmp_path):
+    """Without ``output`` the bag goes to runs/bags/irs_bag_<date> under the working
+    directory, never into its root; its provisional metadata.yaml is there from the start, and
+    SIGINT closes it (exit code 0).
+    """
+    from irs_bag import validate
+
+    exe = resolve_executable('irs_bag', 'recorder')
+    proc = subprocess.Popen([exe, '--ros-args', '-p', "topics:=['/nothing/ever']"],
+                            cwd=tmp_path, stdout=subprocess.PIPE, stderr=subprocess.STDOUT,
+                            text=True)
+    try:
+        assert wait_until(lambda: list(tmp_path.glob('runs/bags/irs_bag_*/metadata.yaml')),
+                          30.0), 'no provisional metadata.yaml'
+    finally:
+        proc.send_signal(signal.SIGINT)
+        out, _ = proc.communicate(timeout=30)
+    assert proc.returncode == 0, out
+    assert [p.name for p in tmp_path.iterdir()] == ['runs'], list(tmp_path.iterdir())
+    [bag] = tmp_path.glob('runs/bags/irs_bag_*')
+    assert f'recorder: closed {bag.relative_to(tmp_path)}: 0 messages' in out, out
+    assert validate(bag).ok
 
 
 def test_a_frozen_recorder_loses_nothing_the_publishers_history_still_holds(ros, launch,

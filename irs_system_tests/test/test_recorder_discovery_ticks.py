@@ -1,4 +1,4 @@
-"""The composed recorder's discovery tick: a graph scan rarely once settled, one count per tick.
+"""The recorder's discovery tick: a graph scan rarely once settled, one count per tick.
 
 A full scan plus a publisher count for each of 13 topics took 0.5 ms of the composed 1 kHz loop
 ten times a second. Once every explicitly named topic is recorded the recorder scans only every
@@ -10,7 +10,7 @@ import uuid
 import rclpy
 from std_msgs.msg import Float64
 
-from irs_bag.recorder_node import ComposableRecorder
+from irs_bag.recorder_node import Recorder
 
 
 def _recorder(ros, tmp_path, topics, names):
@@ -18,7 +18,7 @@ def _recorder(ros, tmp_path, topics, names):
     pub_node = rclpy.create_node(f'ticks_pub_{uuid.uuid4().hex[:6]}', context=context)
     for name in names:
         pub_node.create_publisher(Float64, name, 10)
-    rec = ComposableRecorder(context=context, parameter_overrides=[
+    rec = Recorder(context=context, parameter_overrides=[
         rclpy.parameter.Parameter('topics', value=topics),
         rclpy.parameter.Parameter('output', value=str(tmp_path / 'bag')),
         rclpy.parameter.Parameter('status_period', value=0.0)])
@@ -41,7 +41,7 @@ def test_settled_recorder_scans_every_tenth_tick_and_counts_round_robin(ros, tmp
         rec.update_publisher_counts = lambda recs=None: counted.extend(r.topic for r in recs)
         for _ in range(30):
             rec._discover()
-        assert len(scans) == 30 // ComposableRecorder.SETTLED_EVERY
+        assert len(scans) == 30 // Recorder.SETTLED_EVERY
         assert len(counted) == 30, 'one topic counted per tick'
         assert set(counted) == set(names) and all(counted.count(n) == 10 for n in names)
     finally:

@@ -165,7 +165,7 @@ def load_run(path) -> Run:
         No such path, not a readable bag, or none of the torque car's topics in it.
     """
     from irs_bag.reader import BagReader
-    from irs_bag.scan import BagError
+    from irs_bag import BagError
 
     bag = resolve_bag(path)
     by_topic = {topic: (key, getters) for key, (topic, getters) in TOPICS.items()}
