@@ -22,8 +22,9 @@ Anti-windup (``anti_windup``, the paper describes none): ``'back_calculation'`` 
 the Astrom-Wittenmark polynomial form, PI: tracking time ``kp/ki``) or ``'clip'`` (the linear law
 runs on, only the output is clipped); see :mod:`.discrete_rst`.
 
-Design check (``check_plant``, ``allow_unstable_design``): not used here; the node closes the
-loop of the built controller with that plant at start-up (:mod:`.design_check`).
+Design check (``check_plant``, ``check_delay``, ``allow_unstable_design``): not used here; the
+node closes the loop of the built controller with that plant and delay at start-up
+(:mod:`.design_check`).
 
 Bad-input bounds (:data:`INPUT_CHECK_DEFAULTS`, optional keys of :func:`make_controller`, not
 required from the node): ``measurement_limit`` and ``reference_limit`` [m] bound ``|y|`` and
@@ -69,6 +70,7 @@ CONTROLLER_DEFAULTS = {
     'steer_limit': STEER_LIMIT,
     'anti_windup': 'back_calculation',
     'check_plant': 'identified',
+    'check_delay': 0.017,
     'allow_unstable_design': False,
 }
 
@@ -145,17 +147,18 @@ def check_controller_params(cfg: dict) -> None:
     arithmetic; raises ``ValueError`` with one sentence naming the parameter.
 
     Numbers: ``dt``, ``steer_limit``, ``actuator_pole``, ``speed`` positive and finite;
-    ``ds``, ``plant_gain`` (>= 0), ``kp``, ``ki`` (>= 0), the input bounds (> 0, inf allowed) and
-    ``initial_reference`` finite; ``anti_windup`` one of ``'back_calculation'``, ``'clip'`` (or a
-    bool, the older spelling). Reference model (MRC only): ``reference_model_num`` a non-empty
-    list of finite coefficients, not all zero; ``reference_model_den`` the same, monic and
-    stable (Hurwitz), of higher degree than the numerator (a strictly proper model).
+    ``ds``, ``plant_gain`` (>= 0), ``kp``, ``ki`` (>= 0), ``check_delay`` (>= 0), the input
+    bounds (> 0, inf allowed) and ``initial_reference`` finite; ``anti_windup`` one of
+    ``'back_calculation'``, ``'clip'`` (or a bool, the older spelling). Reference model (MRC
+    only): ``reference_model_num`` a non-empty list of finite coefficients, not all zero;
+    ``reference_model_den`` the same, monic and stable (Hurwitz), of higher degree than the
+    numerator (a strictly proper model).
     """
     for key in ('dt', 'steer_limit', 'actuator_pole', 'speed'):
         _finite_number(cfg, key, positive=True)
-    for key in ('ds', 'plant_gain', 'kp', 'ki', 'initial_reference'):
+    for key in ('ds', 'plant_gain', 'kp', 'ki', 'initial_reference', 'check_delay'):
         _finite_number(cfg, key)
-    for key in ('plant_gain', 'kp', 'ki'):
+    for key in ('plant_gain', 'kp', 'ki', 'check_delay'):
         if cfg[key] < 0:
             raise ValueError(f'{key} must be >= 0; got {cfg[key]!r}')
     for key in ('measurement_limit', 'reference_limit'):

@@ -30,9 +30,10 @@ bad-input rule in :mod:`.discrete_rst`):
   state; a STALE measurement resets the controller (it restarts from rest).
 
 Start-up design check: the controller built from the parameters is closed with the plant model
-``check_plant`` (default ``identified``, the rig's Eq. 6 plant, with the actuator lag) --
-continuous and sampled closed-loop poles, gain and phase margins (:mod:`.design_check`). An
-unstable loop is refused with one line naming the poles and the plant (exit code 2) unless
+``check_plant`` (default ``identified``, the rig's Eq. 6 plant, with the actuator lag) and the
+transport delay ``check_delay`` -- continuous and sampled closed-loop poles, gain, phase and
+delay margins (:mod:`.design_check`). An unstable loop, or one whose delay margin is negative, is
+refused with one line naming the poles or the delay margin and the plant (exit code 2) unless
 ``allow_unstable_design`` is true (then a warning); the result is logged either way.
 
 Writable parameters (``ros2 param set``): ``stale_timeout`` and ``default_reference`` (applied at
@@ -128,6 +129,9 @@ PARAMS = [
           "plant model the design is checked against at start-up (closed-loop poles, margins; "
           "with the actuator lag): 'identified' (paper Eq. 6, the rig's default plant) or a "
           'vehicle preset name (at speed and ds)', '-'),
+    Param('check_delay', D['check_delay'],
+          'transport delay of the steer in the start-up check (the rig: 17 ms mean); a design '
+          'with a negative delay margin is refused', 's', 0.0, 1.0, read_only=True),
     Param('allow_unstable_design', D['allow_unstable_design'],
           'start even when the design is unstable on check_plant (a warning instead of the '
           'refusal)', '-'),
