@@ -77,11 +77,11 @@ LEGACY = {'lag_hz': 4.6, 'rate_limit': LEGACY_RATE_LIMIT_RAD_S, 'gear_ratio': 1.
           'enable_friction': False, 'enable_linkage_geometry': False, 'min_drive': 0.0,
           'enable_radio_frame': False}
 #: Earlier calibrations, each one set of overrides away (``config/servo_*.yaml`` for a rig):
-#: ``servo_7hz``: a 7 Hz loop, 60 deg / 0.30 s, no minimum drive, the transmitter's linear gain
-#: (full command reaches 13.6 deg at the wheel), a constant 17 ms delay -- its 4.6 Hz fit falls
-#: at 4 deg.  ``linear_4p6``: :data:`LEGACY`.
+#: ``servo_7hz``: a 7 Hz loop, 60 deg / 0.30 s (3.4907 rad/s, as the rig ran it), no minimum
+#: drive, the transmitter's linear gain (full command reaches 13.6 deg at the wheel), a constant
+#: 17 ms delay -- its 4.6 Hz fit falls at 4 deg.  ``linear_4p6``: :data:`LEGACY`.
 PRESETS = {
-    'servo_7hz': {'lag_hz': 7.0, 'rate_limit': math.radians(60.0) / 0.30, 'min_drive': 0.0,
+    'servo_7hz': {'lag_hz': 7.0, 'rate_limit': 3.4907, 'min_drive': 0.0,
                   'enable_radio_frame': False, 'enable_linkage_compensation': False},
     'linear_4p6': dict(LEGACY),
 }
