@@ -321,6 +321,11 @@ def main(argv=None) -> int:
         print(f"R exact, zeros = R's {pair} pair: S3/S2 worst {worst:.4f}, S4 "
               f'{mrc_polynomials(plant)[1][0]:.3f}, poles 0, 0, '
               f'{_fmt_roots(np.roots(plant.A[:-2]))}')
+    start = np.real(np.poly([-29.0, -14.66 + 11.41j, -14.66 - 11.41j]))
+    plant, worst = fit_minimax([25.79, 123.7, *start[1:]], actuator_pole=None)
+    print(f'type 2, three poles free, S4 >= 0: worst R/S3/S2 {worst:.4f} at S4 '
+          f'{mrc_polynomials(plant)[1][0]:.3f}; zeros {_fmt_roots(plant.zeros)}, poles 0, 0, '
+          f'{_fmt_roots(np.roots(plant.A[:-2]))}')
     for name, plant, e, s4 in family_table():
         worst = max(abs(e[k]) for k in RESIDUALS)
         t_worst = max(abs(e[f'T{i}']) for i in range(4))
