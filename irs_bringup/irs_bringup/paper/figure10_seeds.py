@@ -6,9 +6,9 @@ r"""Figure 10 at two step sizes and both anti-windup choices, with seed statisti
 Why: the arm noise makes single-run metrics depend on the noise seed (issue 12: 2 % settling
 times 1.41-1.55 s across seeds for one configuration, "not within 8 s" for another seed), and the
 paper describes no anti-windup although the choice decides the large-step results. So every
-case -- design x step x anti-windup -- is run for ``N`` seeds of the arm-sensor noise
-(``vehicle_sim`` parameter ``seed`` = 0 .. N-1) and each metric is reported as the median and
-the spread (min-max) over the seeds.
+case -- design x step x anti-windup -- is run for ``N`` seeds of the arm-sensor noise and the
+steering radio frames' phases (``vehicle_sim`` parameter ``seed`` = 0 .. N-1) and each metric is
+reported as the median and the spread (min-max) over the seeds.
 
 Cases: the three designs of Figure 10 (``figure10_*`` experiment files: MRC/RST with and without
 the actuator, PI Kp = 5, Ki = 3), steps 0.02 m (the linear range, docs/figure10.md) and 0.1 m
@@ -78,7 +78,7 @@ _EXPERIMENTS = {'mrc_with_actuator': 'figure10_mrc_with_actuator',
 
 def loop_config(design: str, step: float, anti_windup: str, seed: int, duration=None):
     """``(LoopConfig, duration)`` of the design's Figure 10 experiment file with the step [m],
-    the anti-windup choice and the arm-noise seed replaced.
+    the anti-windup choice and the seed (arm noise, radio-frame phases) replaced.
     """
     from ..run.experiment import load_experiment
     from ..run.offline import loop_config_from_experiment

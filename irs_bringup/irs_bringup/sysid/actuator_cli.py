@@ -16,12 +16,14 @@ Configured values come from the rig's parameters recorded in the bag (``actuator
 The fitted pole of a non-linear servo has no single configured value: the reference is the same
 fit on the configured actuator core (:class:`irs_vehicle_sim.actuator.SteeringActuator`) driven
 by the recorded command, i.e. what the rig's model predicts at that amplitude (the core has the
-rig's ``seed``, so its radio frame has the recorded run's phase).  The dead time is compared with
-``delay``, the slew rate of the largest steps with ``rate_limit / gear_ratio`` (the wheel-side
-limit at the centre; the linkage's local gain lowers it by a few % at large angles), the
-small-step bandwidth with the same fit on the configured core (the servo's minimum drive makes a
-small step faster than its proportional loop ``lag_hz``).  ``--png PREFIX`` writes ``PREFIX`` +
-``figure6_actuator_bode.png`` / ``figure7_actuator_steps.png`` (a directory prefix ends in /).
+rig's ``seed``, so its radio frame has the recorded run's phase).  The sweeps' dead time is
+compared with ``delay`` (the radio frame's mean), the slew rate of the largest steps with
+``rate_limit / gear_ratio`` (the wheel-side limit at the centre; the linkage's local gain lowers
+it by a few % at large angles), the smallest step's bandwidth and dead time with the same fit on
+the configured core (the servo's minimum drive makes a small step faster than its proportional
+loop ``lag_hz``; a step waits for the next radio frame, 0-20 ms by its phase).
+``--png PREFIX`` writes ``PREFIX`` + ``figure6_actuator_bode.png`` /
+``figure7_actuator_steps.png`` (a directory prefix ends in /).
 """
 from __future__ import annotations
 
@@ -188,8 +190,8 @@ def identify(runs) -> dict:
                                                    float(run.y[k - 1]), float(run.y[k_end - 1]))
         res['small_step'] = (small, tau, delay, tau_ci, delay_ci)
         y_cfg = simulate_configured(run)
-        res['small_step_tau_cfg'] = af.fit_step(run.t[k:k_end], y_cfg[k:k_end], small.t_step,
-                                                float(y_cfg[k - 1]), float(y_cfg[k_end - 1]))[0]
+        res['small_step_cfg'] = af.fit_step(run.t[k:k_end], y_cfg[k:k_end], small.t_step,
+                                            float(y_cfg[k - 1]), float(y_cfg[k_end - 1]))[:2]
     return res
 
 
@@ -208,11 +210,12 @@ def estimates(res) -> list:
         sr = res['step_results']
         small, tau, delay, tau_ci, delay_ci = res['small_step']
         lag = 1.0 / (2.0 * math.pi * tau)
-        lag_cfg = 1.0 / (2.0 * math.pi * res['small_step_tau_cfg'])
+        tau_cfg, delay_cfg = res['small_step_cfg']
         rows.append(Estimate(f'loop bandwidth ({math.degrees(abs(small.size)):.2g} deg step)',
-                             lag, 'Hz', lag * tau_ci / tau, lag_cfg, rel_tol=LAG_REL_TOL))
-        rows.append(Estimate('dead time (smallest step)', delay, 's', delay_ci,
-                             p.delay if p.enable_delay else 0.0, abs_tol=DELAY_ABS_TOL))
+                             lag, 'Hz', lag * tau_ci / tau, 1.0 / (2.0 * math.pi * tau_cfg),
+                             rel_tol=LAG_REL_TOL))
+        rows.append(Estimate('dead time (smallest step)', delay, 's', delay_ci, delay_cfg,
+                             abs_tol=DELAY_ABS_TOL))
         limited = [s for s in sr if s.linearity >= STRAIGHT]
         if limited:
             big = max(limited, key=lambda s: abs(s.size))
