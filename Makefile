@@ -8,7 +8,7 @@ UV := $(VENV)/bin/uv
 ENV_STAMP := $(VENV)/.irs-requirements.stamp
 LOCK := env/requirements.lock
 BUILD_STAMP := install/.irs-build.stamp
-PACKAGES := irs_msgs irs_common irs_models irs_sensing irs_treadmill irs_vehicle_sim irs_control irs_bringup
+PACKAGES := irs_msgs irs_common irs_models irs_sensing irs_treadmill irs_vehicle_sim irs_control irs_bag irs_bringup irs_sysid irs_studies irs_system_tests
 # The files whose change needs colcon again. Python modules are not among them: the ament_python
 # packages are installed with --symlink-install (develop mode), so edits to them are live.
 PACKAGE_FILES := $(shell find $(PACKAGES) -type f \( -name package.xml -o -name 'setup.*' \
@@ -20,7 +20,7 @@ PACKAGE_FILES := $(shell find $(PACKAGES) -type f \( -name package.xml -o -name 
 help:
 	@echo "make demo   set up (venv + colcon build) and run the Figure 10 demo"
 	@echo "make test   set up and run the whole test suite"
-	@echo "make figures  reproduce the paper's Figures 5-10 into docs/img (sysid figures)"
+	@echo "make figures  reproduce the paper's Figures 5-10 into docs/img (ONLY='treadmill actuator' for some parts)"
 	@echo "make build  set up only;  make clean  remove venv and build products"
 	@echo "make lock   re-resolve env/requirements.txt into the pinned env/requirements.lock"
 
@@ -68,7 +68,7 @@ $(BUILD_STAMP): $(ENV_STAMP) $(PACKAGE_FILES)
 	@touch $@
 
 demo: $(BUILD_STAMP)
-	./irs run irs_bringup experiment demo
+	./irs run irs_studies figure10
 
 # Two pytest-xdist workers (each with its own ROS domain), a test module per worker at a time (its
 # module fixtures run once); tests marked `exclusive` run alone (conftest.py).
@@ -77,8 +77,10 @@ test: $(BUILD_STAMP)
 	./irs exec python -m pytest -n $(TEST_WORKERS) --dist loadscope
 
 # The paper's Figures 5-10 through the graph: experiments, identification, PNGs in docs/img.
+# ONLY='treadmill vehicle' runs those parts only (make reads --options itself: hence a variable).
+ONLY ?=
 figures: $(BUILD_STAMP)
-	./irs run irs_bringup sysid figures
+	./irs run irs_studies figures --img-dir docs/img $(if $(strip $(ONLY)),--only $(ONLY))
 
 clean:
 	rm -rf $(VENV) build install log

@@ -1,4 +1,9 @@
-"""Test-run plumbing shared by every test directory: the machine lock of parallel runs.
+"""Test-run plumbing shared by every test directory: a ROS domain per run, the machine lock.
+
+Every test run claims its own ROS_DOMAIN_ID (:mod:`irs_system_tests.domains`; set here, before
+any rclpy context or child process starts), so concurrent runs on one machine do not see each
+other's topics; ``IRS_TEST_DOMAINS=81-89`` keeps the run to those ids, ``IRS_TEST_DOMAIN_FIXED``
+keeps the ROS_DOMAIN_ID of the environment.
 
 ``make test`` runs the suite on two pytest-xdist workers. Most tests wait on processes, DDS
 discovery and simulated runs more than they compute, so two at a time halve the wall time. A
@@ -16,6 +21,13 @@ from pathlib import Path
 import tempfile
 
 import pytest
+
+from irs_system_tests.domains import claim_domain
+
+if 'IRS_TEST_DOMAIN_FIXED' not in os.environ:
+    _domain, _domain_lock = claim_domain(os.getpid())   # held as long as this process lives
+    os.environ['ROS_DOMAIN_ID'] = str(_domain)
+os.environ.setdefault('ROS_AUTOMATIC_DISCOVERY_RANGE', 'LOCALHOST')
 
 
 def pytest_configure(config):

@@ -193,8 +193,10 @@ def _spin_briefly(node):
 def run(mode, clock, composed, seconds, steps=10**9, domain=None) -> dict:
     """One floor measurement; returns the plant's figures plus total CPU per hop [us]."""
     import tempfile
-    env = dict(os.environ, ROS_DOMAIN_ID=str(domain or 50 + os.getpid() % 40),
-               ROS_AUTOMATIC_DISCOVERY_RANGE='LOCALHOST')
+    if domain is None:
+        from common import domain as claim     # bench/common.py: the suite's allocator
+        domain = claim()
+    env = dict(os.environ, ROS_DOMAIN_ID=str(domain), ROS_AUTOMATIC_DISCOVERY_RANGE='LOCALHOST')
     stop_file = os.path.join(tempfile.mkdtemp(), 'stop')
     env['FLOOR_STOP_FILE'] = stop_file
     groups = [['plant', 'estimator', 'controller']] if composed else \

@@ -16,14 +16,19 @@ Sections (each a function below; results go to ``bench/results/<time>.json`` and
   bag, CPU per step per process;
 - ``lockstep``: Figure 10 in lock-step, process per node and composed: multiple of real time,
   CPU per step, and whether the two bags carry identical messages;
-- ``offline``: the offline cores (irs_bringup.paper.closed_loop) in steps/s against a vectorised
-  linear reference: the identified plant stepped by our core and by ``scipy.signal.dlsim``;
+- ``offline`` (bench/offline.py): the offline twin of the graph in steps/s against a
+  vectorised linear reference: the identified plant stepped by our core and by
+  ``scipy.signal.dlsim``;
 - ``replay``: ``bag play`` timing error at 1x and what the recorder keeps of 13 topics x 1 kHz
-  (irs_bringup.bag.bench_replay);
+  (replay);
 - ``sweep``: bench/sweep.py -- points/s of 12 points of the actuator x speed sweep serially and
   on 1 and 2 Dask workers, and 100 linear plants stepped at once (BatchLti) against dlsim;
 - ``soak`` (only with ``--only soak``, 10 min): ``soak_realtime`` process per node with
-  SCHED_FIFO 50 and the recorder on: misses, latency, CPU, and the messages the bag kept and lost.
+  SCHED_FIFO 50 and the recorder on: misses, latency, CPU, and the messages the bag kept and lost;
+- ``starvation`` (only with ``--only starvation``, about 8 min; bench/starvation.py): one process
+  of each real-time deployment stopped for 0.2-5 s: car kept, controlled stop or lost;
+- ``soak_hour`` (only with ``--only soak_hour [--soak-minutes N]``; bench/soak_hour.py): the
+  composed real-time graph with the recorder for an hour, memory per process every minute.
 
 Speed is measured here, never asserted in tests. Timing figures are noisy on a shared 2-core
 machine: compare ratios within one run (the floor is in the same JSON).
@@ -35,19 +40,16 @@ import os
 from pathlib import Path
 import sys
 import tempfile
-import time
 
 HERE = Path(__file__).resolve().parent
 sys.path.insert(0, str(HERE))
 
+from common import domain as _domain, write_results   # noqa: E402 (bench/ is on sys.path)
+from offline import offline  # noqa: E402,F401 (a section, called by name)
+
 SECTIONS = ('floor', 'realtime', 'lockstep', 'offline', 'replay', 'sweep')
 #: Sections run only when named with ``--only``.
-EXTRA_SECTIONS = ('soak',)
-
-
-def _domain(offset: int) -> None:
-    os.environ['ROS_DOMAIN_ID'] = str(150 + (os.getpid() + offset) % 60)
-    os.environ.setdefault('ROS_AUTOMATIC_DISCOVERY_RANGE', 'LOCALHOST')
+EXTRA_SECTIONS = ('soak', 'starvation', 'soak_hour')
 
 
 def floor(seconds: float) -> list:
@@ -74,7 +76,7 @@ def _floor_line(r) -> str:
 
 def _bag_figures(bag_dir) -> dict:
     """Per-topic message counts and rates, and the losses the recorder counted."""
-    from irs_bringup.bag.bag_reader import BagReader
+    from irs_bag.reader import BagReader
     with BagReader(bag_dir) as reader:
         custom = (reader.bag_metadata or {}).get('custom_data') or {}
         topics = {name: {'count': info.message_count, 'rate_hz': info.rate_hz}
@@ -83,8 +85,8 @@ def _bag_figures(bag_dir) -> dict:
 
 
 def _run_experiment(path_or_name, rt_priority=0, duration=None, runs_dir=None, composed=False):
-    from irs_bringup.run.experiment import load_experiment
-    from irs_bringup.run.experiment_runner import ExperimentRunner
+    from irs_bringup.experiment import load_experiment
+    from irs_bringup.experiment_runner import ExperimentRunner
     exp = load_experiment(path_or_name)
     if composed:
         exp = exp.composed()
@@ -153,7 +155,7 @@ def _messages(bag_dir) -> dict:
     message of the run's data.
     """
     from rclpy.serialization import deserialize_message
-    from irs_bringup.bag.bag_reader import BagReader
+    from irs_bag.reader import BagReader
     out = {}
     with BagReader(bag_dir) as reader:   # fields, not CDR bytes: padding bytes are arbitrary
         types = {name: _message_class(info.type) for name, info in reader.topics.items()}
@@ -186,56 +188,10 @@ def lockstep() -> list:
     return rows
 
 
-def offline_timings() -> dict:
-    """The offline Figure 10 closed loop, then the identified plant alone on its achieved steer:
-    our core stepped in Python against ``scipy.signal.dlsim``. Returns the steps, the times [s],
-    the steer and the largest |y_s| difference [m] (also used by ``bench/sweep.py``).
-    """
-    import numpy as np
-    from scipy import signal
-    from irs_bringup.paper.closed_loop import ClosedLoop
-    from irs_bringup.run.experiment import load_experiment
-    from irs_bringup.run.offline import loop_config_from_experiment
-    from irs_models.identified import IdentifiedPlant
-    exp = load_experiment('figure10_mrc_with_actuator')
-    loop = ClosedLoop(loop_config_from_experiment(exp))
-    t0 = time.perf_counter()
-    run = loop.run(exp.duration)
-    t_loop = time.perf_counter() - t0
-    n = int(round(exp.duration / 0.001))
-    steer = np.nan_to_num(np.asarray(run.get('steer_achieved', run.get('steer_cmd')), float))[:n]
-    plant = IdentifiedPlant()
-    t0 = time.perf_counter()
-    ys_core = np.empty(n)
-    for k in range(n):
-        ys_core[k] = plant.y_s
-        plant.step(float(steer[k]), 0.0, 0.001)
-    t_core = time.perf_counter() - t0
-    Ad, Bd = plant.discrete(0.001)
-    t0 = time.perf_counter()
-    _, ys_ref, _ = signal.dlsim((Ad, Bd, plant.C, plant.D, 0.001), steer[:, None])
-    t_ref = time.perf_counter() - t0
-    return {'n': n, 'steer': steer, 't_loop': t_loop, 't_core': t_core, 't_ref': t_ref,
-            'err': float(np.max(np.abs(ys_core - ys_ref[:, 0])))}
-
-
-def offline() -> list:
-    o = offline_timings()
-    n, t_loop, t_core, t_ref, err = o['n'], o['t_loop'], o['t_core'], o['t_ref'], o['err']
-    rows = [{'name': 'offline closed loop (all cores, Figure 10)', 'steps_per_s': n / t_loop},
-            {'name': 'identified plant, our core stepped in Python', 'steps_per_s': n / t_core},
-            {'name': 'identified plant, scipy.signal.dlsim (vectorised reference)',
-             'steps_per_s': n / t_ref, 'max_abs_difference_m': err}]
-    for r in rows:
-        print(f"{r['name']:60s} {r['steps_per_s']:12.0f} steps/s", flush=True)
-    print(f'    core vs dlsim: max |y_s difference| = {err:.2e} m', flush=True)
-    return rows
-
-
 def replay(seconds: float) -> list:
     import contextlib
     import io
-    from irs_bringup.bag import bench_replay
+    import replay as bench_replay    # bench/replay.py
     _domain(50)
     buf = io.StringIO()
     with contextlib.redirect_stdout(buf):
@@ -250,6 +206,18 @@ def replay(seconds: float) -> list:
              'recorded': r[2], 'drops_reported': r[3], 'duration_s': r[4]} for r in rows]
 
 
+def starvation() -> list:
+    import starvation as bench_starvation    # bench/starvation.py
+    rows = bench_starvation.starvation()
+    print(bench_starvation.table(rows), flush=True)
+    return rows
+
+
+def soak_hour(minutes: float) -> list:
+    import soak_hour as bench_soak            # bench/soak_hour.py
+    return [bench_soak.soak(minutes)]
+
+
 def sweep() -> list:
     import sweep as bench_sweep   # bench/sweep.py: points/s on 1 and 2 Dask workers, BatchLti
     return bench_sweep.sweep_rates(12, None) + bench_sweep.offline(100)
@@ -262,6 +230,8 @@ def main(argv=None) -> int:
     ap.add_argument('--only', nargs='+', choices=SECTIONS + EXTRA_SECTIONS, default=list(SECTIONS),
                     help='sections to run (default: all but soak, a 10-minute run)')
     ap.add_argument('--out', default=str(HERE / 'results'), help='folder for the JSON file')
+    ap.add_argument('--soak-minutes', type=float, default=60.0,
+                    help='length of the soak_hour run [min] (default 60)')
     a = ap.parse_args(argv)
     floor_s, rt_s, replay_s = (5.0, 20.0, 3.0) if a.quick else (10.0, 60.0, 5.0)
     results = {'started': datetime.datetime.now().isoformat(timespec='seconds'),
@@ -269,21 +239,11 @@ def main(argv=None) -> int:
     for section in a.only:
         print(f'== {section}', flush=True)
         fn = globals()[section]
-        args = {'floor': (floor_s,), 'realtime': (rt_s,), 'replay': (replay_s,)}.get(section, ())
+        args = {'floor': (floor_s,), 'realtime': (rt_s,), 'replay': (replay_s,),
+                'soak_hour': (a.soak_minutes,)}.get(section, ())
         results[section] = fn(*args)
     write_results(results, a.out)
     return 0
-
-
-def write_results(results: dict, out_dir, prefix: str = '') -> Path:
-    """Add the load average, write ``<out_dir>/<prefix><time>.json``, print its path."""
-    results['load_after'] = os.getloadavg()
-    out = Path(out_dir)
-    out.mkdir(parents=True, exist_ok=True)
-    path = out / f"{prefix}{datetime.datetime.now().strftime('%Y%m%d-%H%M%S')}.json"
-    path.write_text(json.dumps(results, indent=1, default=str))
-    print(f'results: {path}')
-    return path
 
 
 if __name__ == '__main__':

@@ -10,7 +10,7 @@ Parts (results printed and written to ``bench/results/sweep-<time>.json``):
   worker processes. The cluster's start-up and the workers' first imports are measured apart
   (one warm-up point per worker before the clock starts): points/s is the steady rate of
   ``client.map`` over the points, with the scenario scattered once.
-- ``offline``: steps/s of the offline closed loop (:class:`irs_bringup.paper.closed_loop
+- ``offline``: steps/s of the offline closed loop (:class:`irs_bringup.offline_twin.lateral_loop
   .ClosedLoop`, every core of the graph, Figure 10 scenario) against the linear plant alone:
   the identified plant of Eq. 6 stepped by our core (:class:`irs_models.identified
   .IdentifiedPlant`), by ``scipy.signal.dlsim``, and ``--systems`` of them at once by
@@ -31,8 +31,8 @@ HERE = Path(__file__).resolve().parent
 
 
 def _prep(points: int, duration: float | None):
-    from irs_bringup.sweep.runner import prepare
-    from irs_bringup.sweep.sweep_file import load_sweep
+    from irs_studies.sweep.runner import prepare
+    from irs_studies.sweep.sweep_file import load_sweep
     sweep, path = load_sweep('actuator_speed')
     prep = prepare(sweep, path)
     # every design at several actuator/speed points, not only the first design's corner
@@ -44,8 +44,8 @@ def _prep(points: int, duration: float | None):
 
 
 def sweep_rates(points: int, duration: float | None) -> list:
-    from irs_bringup.sweep.point import run_point
-    from irs_bringup.sweep.runner import make_client, run_sweep
+    from irs_studies.sweep.point import run_point
+    from irs_studies.sweep.runner import make_client, run_sweep
     prep = _prep(points, duration)
     rows = []
     t0 = time.perf_counter()
@@ -80,7 +80,7 @@ def offline(systems: int) -> list:
     from scipy import signal
     from irs_models.batch_lti import BatchLti
     from irs_models.identified import IdentifiedParams, identified_matrices
-    from run import offline_timings     # bench/run.py: the loop and the core against dlsim
+    from offline import offline_timings  # bench/offline.py: the loop and the core against dlsim
     o = offline_timings()
     n, steer, t_loop, t_core, t_ref = o['n'], o['steer'], o['t_loop'], o['t_core'], o['t_ref']
     gains = np.linspace(0.5, 2.0, systems) * IdentifiedParams().resolved_gain()
@@ -126,7 +126,7 @@ def main(argv=None) -> int:
     if 'offline' in a.only:
         print('== offline', flush=True)
         res['offline'] = offline(a.systems)
-    from run import write_results       # bench/run.py
+    from common import write_results     # bench/common.py
     write_results(res, a.out, prefix='sweep-')
     return 0
 

@@ -3,8 +3,8 @@ from pathlib import Path
 
 import yaml
 
-from irs_bringup.run.experiment import NODE_TOPICS
-from irs_bringup.run.param_docs import node_tables, render
+from irs_bringup.experiment import NODE_TOPICS
+from irs_bringup.param_docs import node_tables, render
 from irs_common.params import flatten
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -28,7 +28,7 @@ def test_every_parameter_has_a_description_and_a_unit():
 
 def test_parameters_doc_is_current():
     assert (ROOT / 'docs' / 'parameters.md').read_text() == render(), \
-        'run: ./irs exec python -m irs_bringup.run.param_docs'
+        'run: ./irs exec python -m irs_bringup.param_docs'
 
 
 def test_config_files_only_set_declared_parameters_with_valid_values():
@@ -56,14 +56,14 @@ NODE_CLASSES = {
     'reference_generator': 'irs_control.reference_generator_node:ReferenceGeneratorNode',
     'chassis_controller': 'irs_control.chassis_controller_node:ChassisControllerNode',
     'driver': 'irs_bringup.driver.driver_node:DriverNode',
-    'excitation': 'irs_bringup.sysid.excitation_node:ExcitationNode',
-    'recorder': 'irs_bringup.bag.recorder_node:Recorder',
+    'excitation': 'irs_sysid.excitation_node:ExcitationNode',
+    'recorder': 'irs_bag.recorder_node:Recorder',
 }
 RCLPY_PARAMETERS = {'use_sim_time', 'start_type_description_service'}
 
 
 def _all_tables():
-    from irs_bringup.bag.recorder_node import NODE_PARAMS as RECORDER
+    from irs_bag.recorder_node import NODE_PARAMS as RECORDER
     return [(node, table) for _pkg, node, table in node_tables()] + [('recorder', RECORDER)]
 
 

@@ -125,7 +125,7 @@ def test_an_independent_decoder_reads_the_same_values(type_name):
     """mcap_ros2's pure-Python CDR reader, given the type's .msg definition."""
     from mcap_ros2._dynamic import generate_dynamic
 
-    from irs_bringup.bag.msg_definitions import get_message_definition
+    from irs_bag.msg_definitions import get_message_definition
     cls = _class(type_name)
     decode = generate_dynamic(type_name, get_message_definition(type_name))[type_name]
     fast = cdr_serializer(cls)

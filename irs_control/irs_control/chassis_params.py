@@ -1,17 +1,18 @@
-"""Parameter table of the ``chassis_controller`` node (the torque car, issue 13).
+"""Parameter table of the ``chassis_controller`` node (the torque car).
 
 Defaults are the cores' (:mod:`.abs_control`, :mod:`.chassis_control`,
 :mod:`.torque_car_control`). Writable at run time are the driver's inputs the core reads at
 every step (speed target, brake and steer schedules) and the stale timeout; everything that
 builds the controllers is read-only.
 """
-from irs_common.params import Param
+from irs_common.params import Param, core_values
 
 from .abs_control import AbsParams
+from .abs_peak import PeakSeekParams
 from .chassis_control import ChassisParams
-from .torque_car_control import BRAKE_MODES, YAW_CONTROLS
+from .torque_car_control import ABS_REFERENCES, BRAKE_MODES, YAW_CONTROLS, TorqueCarConfig
 
-_A, _C = AbsParams(), ChassisParams()
+_A, _C, _P = AbsParams(), ChassisParams(), PeakSeekParams()
 
 
 def _one_of(name, choices):
@@ -26,7 +27,8 @@ PARAMS = [
     Param('dt', 0.001, 'control period = encoder sample period', 's', 1e-5, 1.0),
     Param('input_sync', True,
           'lock-step: answer an encoder sample only once the pose, velocity and belt speed of '
-          'the same stamp have arrived; false (real time): the newest of each', '-'),
+          'the same stamp have arrived; false (real time): the newest of each', '-',
+          node_only=True),
     Param('speed.target', 0.0, 'speed over the belt to hold; 0 = the measured belt speed (the '
           'car stays put on the treadmill); applied at the next step', 'm/s', 0.0, 5.0,
           writable=True),
@@ -40,9 +42,10 @@ PARAMS = [
           'hold to the end (a stop); applied at the next step', 's', -1e9, 1e9, writable=True),
     Param('brake.torque', 0.3, 'brake demand per wheel (a magnitude; clipped to torque_limit); '
           'applied at the next step', 'N m', 1e-6, 10.0, writable=True),
-    Param('brake.mode', 'abs', "'abs' (slip control), 'locked' (friction brakes lock every "
-          "wheel: the baseline) or 'open' (the demand, no ABS); applied at the next step", '-',
-          writable=True, validator=_one_of('brake.mode', BRAKE_MODES)),
+    Param('brake.mode', 'abs', "'abs' (slip control to abs.slip_target), 'abs_peak' (slip "
+          "control to the peak of an online Burckhardt fit per wheel), 'locked' (friction "
+          "brakes lock every wheel) or 'open' (the demand, no ABS); applied at the next step",
+          '-', writable=True, validator=_one_of('brake.mode', BRAKE_MODES)),
     Param('yaw_control', 'off', "yaw-rate control: 'off', 'rear_steer', 'differential' "
           "(left/right torque) or 'both'", '-', validator=_one_of('yaw_control', YAW_CONTROLS)),
     Param('yaw.bandwidth', _C.yaw_bandwidth, 'yaw-rate loop gain w_r', 'rad/s', 1e-6, 1e5),
@@ -58,16 +61,28 @@ PARAMS = [
           -0.99, -0.001),
     Param('abs.bandwidth', _A.bandwidth, 'ABS slip loop pole w_c', 'rad/s', 1e-6, 1e5),
     Param('abs.integral_gain', _A.integral_gain, 'ABS integral gain K_i', 'N m/s', 0.0, 1e5),
+    Param('abs.reference', 'wheels', "the ABS's speed: 'wheels' (encoders, applied torques and "
+          "belt speed, as a car has) or 'arm' (the arm's pose differentiated plus the belt "
+          'speed)', '-', validator=_one_of('abs.reference', ABS_REFERENCES)),
+    Param('abs.peak.slip_min', _P.slip_min, "smallest slip target of 'abs_peak' (a magnitude)",
+          '1', 0.001, 0.99),
+    Param('abs.peak.slip_max', _P.slip_max, "largest slip target of 'abs_peak' (a magnitude)",
+          '1', 0.001, 0.99),
+    Param('abs.peak.gain_threshold', _P.gain_threshold, "'abs_peak' moves its target only for "
+          'this predicted relative friction gain', '1', 0.0, 1.0),
+    Param('abs.peak.forgetting', _P.forgetting, "'abs_peak' fit's forgetting factor per sample "
+          '(0.98: 50 ms memory at 1 kHz)', '1', 0.5, 1.0),
     Param('abs.v_min', _A.v_min, 'speed below which ABS and the yaw reference stop', 'm/s', 1e-3,
           10.0),
     Param('torque_limit', _A.torque_limit, 'wheel torque limit (the hub motors)', 'N m', 1e-6,
           10.0),
     Param('stale_timeout', 0.05, 'encoder age after which zero torque and zero steer are '
-          'commanded (applied at once)', 's', 0.001, 10.0, writable=True),
+          'commanded (applied at once)', 's', 0.001, 10.0, writable=True, node_only=True),
     Param('future_tolerance', 0.5, 'inputs stamped further ahead of the node clock are dropped',
-          's', 0.0, 3600.0),
+          's', 0.0, 3600.0, node_only=True),
     Param('status_decimation', 10, 'publish chassis/status every this many steps (and on a '
-          'change of reason or braking); 0 = on changes only', '1', 0, 1_000_000),
+          'change of reason or braking); 0 = on changes only', '1', 0, 1_000_000,
+          node_only=True),
 ]
 
 #: run-time changes the node hands to the core: parameter -> TorqueCarConfig attribute
@@ -75,3 +90,10 @@ LIVE = {'speed.target': 'speed_target', 'brake.start_time': 'brake_start_time',
         'brake.duration': 'brake_duration',
         'brake.torque': 'brake_torque', 'brake.mode': 'brake_mode',
         'steer.amplitude': 'steer_amplitude', 'steer.start_time': 'steer_start_time'}
+
+
+def chassis_config(values: dict) -> TorqueCarConfig:
+    """The torque-car controller's configuration from the node's flat parameters (the node's,
+    or an experiment's for the offline twin), missing ones at their defaults.
+    """
+    return TorqueCarConfig.from_params(core_values(PARAMS, values, nested=False))

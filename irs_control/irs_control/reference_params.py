@@ -2,7 +2,7 @@
 
 Shared by the node and the offline closed loop, so both build the same reference.
 """
-from irs_common.params import Param
+from irs_common.params import Param, core_values, node_only
 
 from .reference import CONSOLE_LIMIT, from_dict
 
@@ -50,11 +50,10 @@ def signal_params(unit: str, limit: float, default_type: str = 'step',
 
 
 # The signal.* parameters are writable: the node rebuilds the signal at once (same time base).
-PARAMS = [
+PARAMS = [*signal_params('m', 1.0)] + node_only([
     Param('source', 'function',
           "'function' (signal below) or 'console' (console/lateral_position)", '-',
           read_only=True),
-    *signal_params('m', 1.0),
     Param(
         'console_limit',
         CONSOLE_LIMIT,
@@ -66,7 +65,7 @@ PARAMS = [
         read_only=True,
     ),
     Param('rate', 1000.0, 'publication rate without sim time', 'Hz', 0.1, 10000.0, read_only=True),
-]
+])
 
 def signal_from_params(p: dict):
     """Reference signal from the flat ``signal.*`` parameters.
@@ -79,3 +78,39 @@ def signal_from_params(p: dict):
     if kind == 'constant':
         return from_dict({'type': 'constant', 'value': p['signal.offset']})
     return from_dict({'type': kind, **{f: p[f'signal.{f}'] for f in _FIELDS[kind]}})
+
+
+def signal_range(p: dict) -> tuple[float, float]:
+    """``(low, high)``: the smallest and largest value the signal of the flat ``signal.*``
+    parameters ``p`` can take (constant: the offset; step: offset and offset + amplitude;
+    schedule: the offset and the values; square, sine, chirp: offset -+ amplitude).
+    """
+    kind = p['signal.type']
+    offset, amplitude = float(p['signal.offset']), float(p['signal.amplitude'])
+    values = [offset]
+    if kind == 'step':
+        values.append(offset + amplitude)
+    elif kind == 'schedule':
+        values += [float(v) for v in p['signal.values']]
+    elif kind != 'constant':
+        values += [offset - abs(amplitude), offset + abs(amplitude)]
+    return min(values), max(values)
+
+
+#: The largest lateral reference the generator publishes [m] (the controller's own limit is 2 m).
+REFERENCE_LIMIT = 1.0
+
+
+def reference_problem(values: dict):
+    """``None``, or why the generator's signal would leave +-``REFERENCE_LIMIT``."""
+    low, high = signal_range(values)
+    if low < -REFERENCE_LIMIT or high > REFERENCE_LIMIT:
+        return (f'the reference spans [{low:g}, {high:g}] m, beyond +-{REFERENCE_LIMIT:g} m')
+    return None
+
+
+def reference_signal(values: dict):
+    """The reference generator's signal from its flat parameters (the node's, or an
+    experiment's for the offline twin), missing ones at their defaults.
+    """
+    return signal_from_params(core_values(PARAMS, values, nested=False))

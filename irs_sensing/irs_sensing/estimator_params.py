@@ -1,11 +1,11 @@
 """Parameter table of the ``arm_pose_estimator`` node (defaults from the cores, units here)."""
-from dataclasses import asdict
+from dataclasses import asdict, dataclass
 import math
 
-from irs_common.params import Param, flatten, table_from_defaults
+from irs_common.params import Param, core_values, flatten, node_only, table_from_defaults
 from irs_models.arm_kinematics import ArmGeometry
 
-from .calibration import JointCalibration
+from .calibration import ArmCalibration, JointCalibration
 from .pose_estimator import PoseEstimatorParams
 
 INF = math.inf
@@ -61,6 +61,9 @@ NODE = [
         '-',
         read_only=True,
     ),
+]
+#: The node's own parameters: frames, stamp tolerance, publication rate.
+NODE += node_only([
     Param('frame_id', 'treadmill', 'frame of the published pose and sensor point', '-'),
     Param('child_frame_id', 'base_link', 'frame of the published velocity (car body)', '-'),
     Param(
@@ -82,7 +85,7 @@ NODE = [
         1_000_000,
         read_only=True,
     ),
-]
+])
 
 
 def estimator_parameter_table() -> list:
@@ -101,3 +104,24 @@ def estimator_parameter_table() -> list:
             defaults[f'calibration.{j}.{key}'] = value
             meta[f'calibration.{j}.{key}'] = _CAL[key]
     return NODE + table_from_defaults(defaults, meta, writable=('stale_timeout',))
+
+
+@dataclass(frozen=True)
+class EstimatorConfig:
+    """What the estimator's cores take: the input kind, the calibration, the estimator."""
+
+    input: str                      # 'angles' or 'raw' (volts/counts through ``calibration``)
+    calibration: ArmCalibration
+    params: PoseEstimatorParams
+
+
+def estimator_config(values: dict) -> EstimatorConfig:
+    """The cores' configuration from the node's flat parameters (the node's, or an
+    experiment's for the offline twin); ``ValueError`` names a bad value.
+    """
+    nested = core_values(estimator_parameter_table(), values)
+    kind = nested.pop('input')
+    if kind not in ('angles', 'raw'):
+        raise ValueError(f"input must be 'angles' or 'raw', got {kind!r}")
+    calibration = ArmCalibration.from_dict(nested.pop('calibration'))
+    return EstimatorConfig(kind, calibration, PoseEstimatorParams.from_ros_params(nested))

@@ -7,7 +7,7 @@ The node declares every entry with a descriptor; ``RigConfig.from_dict`` takes t
 import math
 from dataclasses import asdict
 
-from irs_common.params import table_from_defaults
+from irs_common.params import Param, core_values, node_only, table_from_defaults
 from irs_models.arm_kinematics import ArmGeometry
 from irs_models.constants import BELT_HALF_LENGTH, BELT_HALF_WIDTH
 
@@ -140,16 +140,29 @@ _TWO_TRACK = {
     'lr': ('m', 0.0, 1.0, 'c.g. to rear axle (irs_iwt: 0.15)'),
     'track': ('m', 0.0, 1.0, 'track width (irs_iwt: 0.17)'),
     'wheel_radius': ('m', 0.0, 1.0, 'effective rolling radius (irs_iwt: 0.033)'),
-    'c_f': ('N/rad', 0.0, INF, 'front axle cornering stiffness at the static load (irs_iwt)'),
-    'c_r': ('N/rad', 0.0, INF, 'rear axle cornering stiffness at the static load (irs_iwt)'),
+    'c_f': ('N/rad', 0.0, INF, 'front axle cornering stiffness at the static load (rubber '
+            '1:10 tyres, 4.95 /rad per unit load: irs_models.torque_car)'),
+    'c_r': ('N/rad', 0.0, INF, 'rear axle cornering stiffness at the static load (rubber '
+            '1:10 tyres, 5.72 /rad per unit load)'),
     'cg_height': ('m', 0.0, 1.0, 'c.g. height for the load transfer (assumed 0.04)'),
     'wheel_inertia': ('kg m^2', 0.0, INF,
                       'spin inertia of wheel, tyre and hub-motor rotor (assumed 5e-5)'),
     'rolling_resistance': ('1', 0.0, 1.0, 'rolling resistance coefficient f_r (assumed 0.02)'),
     'rr_speed': ('m/s', 0.0, INF, 'speed over which rolling resistance builds up (tanh)'),
     'c_kappa': ('1', 0.0, INF, 'tyre longitudinal slip stiffness per unit load (assumed 10)'),
-    'shape_c': ('1', 1.0, 2.0, 'tyre magic-formula shape C (1.41: sliding/peak 0.80)'),
-    'shape_e': ('1', -INF, 1.0, 'tyre magic-formula curvature E (< 1)'),
+    'peak_slip_x': ('1', 0.0, INF, 'tyre longitudinal slip of the force peak at mu_ref (TMeasy '
+                    's_M; 0.16)'),
+    'peak_slip_y': ('1', 0.0, INF, 'tyre lateral slip (tan of the slip angle) of the force peak '
+                    'at mu_ref (0.33: 18.3 deg)'),
+    'sliding_slip_x': ('1', 0.0, INF, 'tyre longitudinal slip from which the force slides '
+                       '(TMeasy s_S; 1.0: a locked wheel)'),
+    'sliding_slip_y': ('1', 0.0, INF, 'tyre lateral slip from which the force slides (1.0)'),
+    'sliding_ratio_x': ('1', 0.0, 1.0, 'tyre longitudinal sliding / peak force (0.65: '
+                        "Burckhardt's locked / peak)"),
+    'sliding_ratio_y': ('1', 0.0, 1.0, 'tyre lateral sliding / peak force (0.65)'),
+    'mu_ref': ('1', 0.0, 2.0, 'friction at which the tyre slips are given (0.8)'),
+    'slip_mu_exponent': ('1', 0.0, 1.0, 'tyre slips scale as (mu / mu_ref)^q (0.56: '
+                         "Burckhardt's peaks; 1 = Rill's)"),
     'relaxation_length': ('m', 0.0, 1.0, 'tyre longitudinal relaxation length sigma'),
     'v_low': ('m/s', 0.0, INF, 'slip regularisation speed near standstill'),
     'low_speed_damping': ('s/m', 0.0, INF,
@@ -221,3 +234,136 @@ def rig_parameter_table() -> list:
     return table_from_defaults(
         defaults, meta, read_only=('dt',),
         validators={'plant': _check_plant, 'surface.kind': _check_surface_kind})
+
+
+#: The node's own parameters: clock, inputs, topics and their rates (``node_only``: the
+#: offline twin of the graph leaves them out).
+NODE_PARAMS = node_only([
+    Param(
+        'clock_mode',
+        'realtime',
+        "'realtime' (wall timer, latest commands) or 'lockstep' "
+        '(publishes /clock, waits for the commands of each step)',
+        '-',
+        read_only=True,
+    ),
+    Param(
+        'lockstep_inputs',
+        ['steering'],
+        'inputs whose command for step k must arrive before '
+        "step k+1 in lockstep mode: any of 'steering', 'drive', 'driver', 'wheels' "
+        '(wheels: plant two_track only)',
+        '-',
+        read_only=True,
+    ),
+    Param(
+        'lockstep_resend_period',
+        1.0,
+        'wall time without progress after which the outputs of '
+        'the current step are published again (lockstep)',
+        's',
+        0.01,
+        3600.0,
+        writable=True,
+    ),
+    Param(
+        'command_timeout',
+        0.1,
+        'real time: a steering or drive command older than this is late and its last value is '
+        'held (rig/status SAFE_HOLDING) for up to stall_grace; a wheel torque command older '
+        'than this is stale (torques 0 N m); the driver speed is held',
+        's',
+        0.001,
+        3600.0,
+        writable=True,
+    ),
+    Param(
+        'stall_grace',
+        0.5,
+        'real time: a steering or drive command silent for longer than this (or a treadmill '
+        'fault) brings the rig to a controlled stop (steer 0, belt coasts, car speed follows '
+        'the belt; docs/safety.md); at least command_timeout (the larger of the two applies)',
+        's',
+        0.001,
+        3600.0,
+        writable=True,
+    ),
+    Param('future_tolerance', 0.5,
+          "commands stamped further ahead of the rig's time are dropped and counted as rejected",
+          's', 0.0, 3600.0, read_only=True),
+    Param('default_drive_voltage', 0.0,
+          'drive voltage used until the first drive command arrives (0 = belt coasts)', 'V', 0.0,
+          100.0),
+    Param('frame_id', 'treadmill', 'fixed frame of poses and points', '-'),
+    Param('child_frame_id', 'base_link', 'car body frame (ground-truth odometry)', '-'),
+    Param('publish_wheel_speeds', False,
+          'publish the four wheel speeds (independent-wheel-torque car encoders)', '-'),
+    Param(
+        'autostart',
+        True,
+        'start by itself: lock-step at once; real time once every input in '
+        'start_inputs has delivered a command (the car is held at its start pose until then). '
+        'false: wait for a call of the rig/start service (std_srvs/Trigger)',
+        '-',
+        read_only=True,
+    ),
+    Param(
+        'start_inputs',
+        ['steering', 'drive'],
+        "real time with autostart: inputs ('steering', "
+        "'drive', 'driver', 'wheels') that must have delivered a command before the car is "
+        "released; "
+        "[''] = none",
+        '-',
+        read_only=True,
+    ),
+    Param(
+        'ground_truth_decimation',
+        1,
+        'publish ground_truth/odom and ground_truth/sensor_point '
+        'every this many steps (0 = never)',
+        '1',
+        0,
+        1_000_000,
+        read_only=True,
+    ),
+    Param(
+        'belt_speed_decimation',
+        1,
+        'publish belt/speed every this many steps (the treadmill '
+        'regulator may run slower than the lateral loop)',
+        '1',
+        1,
+        1_000_000,
+        read_only=True,
+    ),
+    Param('actuator_state_decimation', 1,
+          'publish steering/state every this many steps (0 = never)', '1', 0, 1_000_000,
+          read_only=True),
+    Param('status_period', 0.1,
+          'rig/status is published on a change and at least this often (simulated time)', 's',
+          0.001, 3600.0, read_only=True),
+    Param(
+        'start_subscribers',
+        '',
+        'lock-step: before publishing step 0, wait until these of the '
+        "rig's topics have matched this many subscriptions ('topic=count,...'; the experiment "
+        'runner sets it), so no consumer misses the first step',
+        '-',
+        read_only=True,
+    ),
+    Param('max_steps', 0, 'stop stepping after this many steps (0 = run until shut down)', '1', 0,
+          2**62),
+])
+
+
+def vehicle_sim_parameter_table() -> list:
+    """Every parameter of the ``vehicle_sim`` node: its own, then the rig core's."""
+    return NODE_PARAMS + rig_parameter_table()
+
+
+def rig_config(values: dict) -> RigConfig:
+    """The rig core's configuration from the node's flat parameters (``vehicle_sim``'s, or an
+    experiment's for the offline twin): the table's defaults, without the node-only ones.
+    """
+    return RigConfig.from_dict(core_values(vehicle_sim_parameter_table(), values))

@@ -19,7 +19,7 @@ from irs_common.params import declare_table
 from irs_common.ticker import create_ticker
 from irs_msgs.msg import DriverCommand
 
-from .speed_profile import DRIVER_PARAMS as PARAMS, SpeedProfile
+from .speed_profile import DRIVER_PARAMS as PARAMS, speed_profile
 
 
 class DriverNode(Node):
@@ -28,8 +28,7 @@ class DriverNode(Node):
     def __init__(self, **node_options):
         super().__init__('driver', **node_options)
         self.p = declare_table(self, PARAMS)
-        self.profile = SpeedProfile(self.p['profile.times'], self.p['profile.speeds'],
-                                    self.p['profile.interpolation'])
+        self.profile = speed_profile(self.p)
         self.pub = self.create_publisher(DriverCommand, 'driver/command', qos.COMMAND_PUB)
         self.time_resets = 0
         self.ticker = create_ticker(self, self.p['rate'], self._publish, on_reset=self._on_reset)

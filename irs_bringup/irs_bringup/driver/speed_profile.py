@@ -7,7 +7,7 @@ first breakpoint it is ``v_0``, after the last ``v_n``.
 import bisect
 import math
 
-from irs_common.params import Param
+from irs_common.params import Param, core_values, node_only
 
 
 class SpeedProfile:
@@ -44,5 +44,14 @@ DRIVER_PARAMS = [
           read_only=True),
     Param('profile.interpolation', 'step', "'step' (hold) or 'linear' between breakpoints", '-',
           read_only=True),
-    Param('rate', 1000.0, 'publication rate without sim time', 'Hz', 0.1, 10000.0, read_only=True),
+    *node_only([Param('rate', 1000.0, 'publication rate without sim time', 'Hz', 0.1, 10000.0,
+                      read_only=True)]),
 ]
+
+
+def speed_profile(values: dict) -> SpeedProfile:
+    """The driver's profile from its flat parameters (the node's, or an experiment's for the
+    offline twin), missing ones at their defaults.
+    """
+    p = core_values(DRIVER_PARAMS, values, nested=False)
+    return SpeedProfile(p['profile.times'], p['profile.speeds'], p['profile.interpolation'])

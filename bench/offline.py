@@ -1,0 +1,50 @@
+"""Offline speed: the offline twin of the Figure 10 graph, and the identified plant against
+``scipy.signal.dlsim``. A section of ``bench/run.py``; ``bench/sweep.py`` uses the timings.
+"""
+import time
+
+
+def offline_timings() -> dict:
+    """The offline Figure 10 closed loop, then the identified plant alone on its achieved steer:
+    our core stepped in Python against ``scipy.signal.dlsim``. Returns the steps, the times [s],
+    the steer and the largest |y_s| difference [m] (also used by ``bench/sweep.py``).
+    """
+    import numpy as np
+    from scipy import signal
+    from irs_bringup.offline_twin.lateral_loop import ClosedLoop
+    from irs_bringup.experiment import load_experiment
+    from irs_bringup.offline_twin.from_experiment import loop_config_from_experiment
+    from irs_models.identified import IdentifiedPlant
+    exp = load_experiment('figure10_mrc_with_actuator')
+    loop = ClosedLoop(loop_config_from_experiment(exp))
+    t0 = time.perf_counter()
+    run = loop.run(exp.duration)
+    t_loop = time.perf_counter() - t0
+    n = int(round(exp.duration / 0.001))
+    steer = np.nan_to_num(np.asarray(run.get('steer_achieved', run.get('steer_cmd')), float))[:n]
+    plant = IdentifiedPlant()
+    t0 = time.perf_counter()
+    ys_core = np.empty(n)
+    for k in range(n):
+        ys_core[k] = plant.y_s
+        plant.step(float(steer[k]), 0.0, 0.001)
+    t_core = time.perf_counter() - t0
+    Ad, Bd = plant.discrete(0.001)
+    t0 = time.perf_counter()
+    _, ys_ref, _ = signal.dlsim((Ad, Bd, plant.C, plant.D, 0.001), steer[:, None])
+    t_ref = time.perf_counter() - t0
+    return {'n': n, 'steer': steer, 't_loop': t_loop, 't_core': t_core, 't_ref': t_ref,
+            'err': float(np.max(np.abs(ys_core - ys_ref[:, 0])))}
+
+
+def offline() -> list:
+    o = offline_timings()
+    n, t_loop, t_core, t_ref, err = o['n'], o['t_loop'], o['t_core'], o['t_ref'], o['err']
+    rows = [{'name': 'offline closed loop (all cores, Figure 10)', 'steps_per_s': n / t_loop},
+            {'name': 'identified plant, our core stepped in Python', 'steps_per_s': n / t_core},
+            {'name': 'identified plant, scipy.signal.dlsim (vectorised reference)',
+             'steps_per_s': n / t_ref, 'max_abs_difference_m': err}]
+    for r in rows:
+        print(f"{r['name']:60s} {r['steps_per_s']:12.0f} steps/s", flush=True)
+    print(f'    core vs dlsim: max |y_s difference| = {err:.2e} m', flush=True)
+    return rows

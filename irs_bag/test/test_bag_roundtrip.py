@@ -1,0 +1,461 @@
+"""Write real CDR messages with BagWriter, read them back with mcap, rosbags and BagReader."""
+
+import sys
+
+
+import json
+from pathlib import Path
+
+import numpy as np
+import pytest
+import yaml
+from mcap.reader import make_reader
+from mcap.stream_reader import StreamReader
+from mcap_ros2.decoder import DecoderFactory
+from rosbags.highlevel import AnyReader
+from rosbags.rosbag2 import Reader as RosbagsReader
+from rosbags.typesys import Stores, get_typestore
+
+from irs_bag import BagError, BagReader, validate
+from irs_bag.reader import deserialize, read_messages
+from irs_bag.writer import BagWriter, BagWriterError, qos_profiles_yaml
+from irs_bag.msg_definitions import get_message_definition, type_description_hash
+
+TS = get_typestore(Stores.ROS2_JAZZY)
+T0 = 1_750_000_000_000_000_000  # ns
+JS, POSE = 'sensor_msgs/msg/JointState', 'geometry_msgs/msg/PoseStamped'
+TWIST = 'geometry_msgs/msg/TwistStamped'
+
+
+def _stamp(t):
+    return TS.types['builtin_interfaces/msg/Time'](sec=t // 10**9, nanosec=t % 10**9)
+
+
+def _header(t, frame):
+    return TS.types['std_msgs/msg/Header'](stamp=_stamp(t), frame_id=frame)
+
+
+def make_joint_state(i, t):
+    rng = np.random.default_rng(i)
+    return TS.types[JS](header=_header(t, 'arm'), name=['theta1', 'theta2', 'theta3'],
+                        position=rng.normal(size=3), velocity=rng.normal(size=3),
+                        effort=np.zeros(0, dtype=np.float64))
+
+
+def make_pose(i, t):
+    rng = np.random.default_rng(10_000 + i)
+    g = TS.types
+    q = rng.normal(size=4)
+    q /= np.linalg.norm(q)
+    return g[POSE](header=_header(t, 'treadmill'), pose=g['geometry_msgs/msg/Pose'](
+        position=g['geometry_msgs/msg/Point'](x=float(rng.normal()), y=float(rng.normal()),
+                                             z=0.0),
+        orientation=g['geometry_msgs/msg/Quaternion'](x=q[0], y=q[1], z=q[2], w=q[3])))
+
+
+def make_twist(i, t):
+    g = TS.types
+    v = g['geometry_msgs/msg/Vector3']
+    return g[TWIST](header=_header(t, 'car'), twist=g['geometry_msgs/msg/Twist'](
+        linear=v(x=0.01 * i, y=0.0, z=0.0), angular=v(x=0.0, y=0.0, z=-0.001 * i)))
+
+
+def generate(n_ms=1500):
+    """1 kHz joint states, 500 Hz poses, 100 Hz twists: list of (topic, type, t, bytes, msg)."""
+    out = []
+    for k in range(n_ms):
+        t = T0 + k * 1_000_000 + 1234
+        m = make_joint_state(k, t)
+        out.append(('/arm/joint_states', JS, t, bytes(TS.serialize_cdr(m, JS)), m))
+        if k % 2 == 0:
+            m = make_pose(k, t)
+            out.append(('/car/pose', POSE, t, bytes(TS.serialize_cdr(m, POSE)), m))
+        if k % 10 == 0:
+            m = make_twist(k, t)
+            out.append(('/car/twist', TWIST, t, bytes(TS.serialize_cdr(m, TWIST)), m))
+    return out
+
+
+@pytest.fixture(scope='module')
+def recorded(tmp_path_factory):
+    msgs = generate()
+    bag = tmp_path_factory.mktemp('rt') / 'run1'
+    qos = qos_profiles_yaml(reliability='best_effort', depth=5)
+    with BagWriter(bag, chunk_size=16 * 1024) as w:
+        w.add_topic('/car/pose', POSE, offered_qos_profiles=qos)
+        w.add_metadata('experiment', {'file': 'experiments/lane_change.yaml', 'name': 'lc1'})
+        w.add_metadata('versions', {'git_commit': 'abc123', 'irs_bringup': '0.0.1'})
+        for topic, typ, t, data, _ in msgs:
+            w.write(topic, typ, data, t, publish_time_ns=t - 500)
+        w.record_drop('/arm/joint_states', 4)
+        w.record_drop('/never/declared', 2)
+        summary = w.close()
+    return bag, msgs, summary
+
+
+def test_layout_and_summary(recorded):
+    bag, msgs, summary = recorded
+    assert sorted(p.name for p in bag.iterdir()) == ['metadata.yaml', 'run1_0.mcap']
+    assert summary.message_count == len(msgs)
+    assert summary.topics['/arm/joint_states'].message_count == 1500
+    assert summary.topics['/car/pose'].message_count == 750
+    assert summary.topics['/car/twist'].message_count == 150
+    assert summary.topics['/arm/joint_states'].dropped == 4
+    assert summary.topics['/never/declared'].dropped == 2
+    assert summary.dropped_total == 6
+    assert summary.late_messages == 0
+    assert summary.chunk_count > 20
+    assert summary.start_time_ns == msgs[0][2] and summary.end_time_ns == msgs[-1][2]
+    assert summary.closed
+
+
+def test_mcap_library_reads_with_crc_validation(recorded):
+    bag, msgs, summary = recorded
+    path = bag / 'run1_0.mcap'
+    with open(path, 'rb') as f:
+        r = make_reader(f, validate_crcs=True)
+        header = r.get_header()
+        assert header.profile == 'ros2'
+        s = r.get_summary()
+        assert s.statistics.message_count == len(msgs)
+        assert s.statistics.chunk_count == summary.chunk_count == len(s.chunk_indexes)
+        assert all(ci.compression == 'zstd' for ci in s.chunk_indexes)
+        assert all(ci.message_index_offsets for ci in s.chunk_indexes)
+        schemas = {sc.name: sc for sc in s.schemas.values()}
+        assert set(schemas) == {JS, POSE, TWIST}
+        for name, sc in schemas.items():
+            assert sc.encoding == 'ros2msg'
+            assert sc.data.decode() == get_message_definition(name)
+        chans = {c.topic: c for c in s.channels.values()}
+        assert all(c.message_encoding == 'cdr' for c in chans.values())
+        assert chans['/car/pose'].metadata['offered_qos_profiles'] == qos_profiles_yaml(
+            reliability='best_effort', depth=5)
+        assert chans['/car/twist'].metadata['offered_qos_profiles'] == ''
+        assert chans['/arm/joint_states'].metadata['topic_type_hash'] == \
+            type_description_hash(JS)
+        got = [(c.topic, m.log_time, m.publish_time, m.data)
+               for _, c, m in r.iter_messages(log_time_order=True)]
+        names = [m.name for m in r.iter_metadata()]
+    # byte-identical, same order (log time, then write order)
+    assert got == [(tp, t, t - 500, d) for tp, _, t, d, _ in msgs]
+    assert names == ['experiment', 'versions', 'rosbag2']
+    # sequential read checks every chunk CRC and the data-section CRC; all CRCs are present
+    with open(path, 'rb') as f:
+        recs = list(StreamReader(f, validate_crcs=True, emit_chunks=True).records)
+    kinds = {}
+    for rec in recs:
+        kinds.setdefault(type(rec).__name__, []).append(rec)
+    assert all(c.uncompressed_crc != 0 for c in kinds['Chunk'])
+    assert kinds['DataEnd'][0].data_section_crc != 0
+    assert kinds['Footer'][0].summary_crc != 0
+    with open(path, 'rb') as f:
+        n = sum(1 for rec in StreamReader(f, validate_crcs=True).records
+                if type(rec).__name__ == 'Message')
+    assert n == len(msgs)
+
+
+def test_mcap_ros2_decoder_decodes_our_schemas(recorded):
+    bag, msgs, _ = recorded
+    with open(bag / 'run1_0.mcap', 'rb') as f:
+        r = make_reader(f, decoder_factories=[DecoderFactory()])
+        for (_, _, _, dec), (topic, typ, t, _, orig) in zip(
+                r.iter_decoded_messages(log_time_order=True), msgs):
+            if typ == JS:
+                assert list(dec.position) == list(orig.position)
+                assert dec.header.stamp.nanosec == orig.header.stamp.nanosec
+            elif typ == POSE:
+                assert dec.pose.orientation.w == orig.pose.orientation.w
+
+
+def test_metadata_yaml(recorded):
+    bag, msgs, _ = recorded
+    doc = yaml.safe_load((bag / 'metadata.yaml').read_text())
+    info = doc['rosbag2_bagfile_information']
+    assert info['version'] == 9
+    assert info['storage_identifier'] == 'mcap'
+    assert info['ros_distro'] == 'jazzy'
+    assert info['message_count'] == len(msgs)
+    assert info['starting_time']['nanoseconds_since_epoch'] == msgs[0][2]
+    assert info['duration']['nanoseconds'] == msgs[-1][2] - msgs[0][2]
+    assert info['compression_format'] == '' and info['compression_mode'] == ''
+    assert info['relative_file_paths'] == ['run1_0.mcap']
+    assert info['files'] == [{'path': 'run1_0.mcap',
+                              'starting_time': {'nanoseconds_since_epoch': msgs[0][2]},
+                              'duration': {'nanoseconds': msgs[-1][2] - msgs[0][2]},
+                              'message_count': len(msgs)}]
+    topics = {t['topic_metadata']['name']: t for t in info['topics_with_message_count']}
+    assert set(topics) == {'/arm/joint_states', '/car/pose', '/car/twist'}
+    assert topics['/car/pose']['message_count'] == 750
+    tm = topics['/arm/joint_states']['topic_metadata']
+    assert tm['type'] == JS and tm['serialization_format'] == 'cdr'
+    assert tm['offered_qos_profiles'] == []  # v9: a YAML list, empty when unknown
+    pose_qos = topics['/car/pose']['topic_metadata']['offered_qos_profiles']
+    assert [(q['reliability'], q['depth'], q['history']) for q in pose_qos] == [
+        ('best_effort', 5, 'keep_last')]
+    assert tm['type_description_hash'] == get_typestore(Stores.ROS2_JAZZY).hash_rihs01(JS)
+    custom = info['custom_data']
+    assert custom['irs.dropped_messages'] == '6'
+    assert json.loads(custom['irs.dropped_messages_per_topic']) == {
+        '/arm/joint_states': 4, '/never/declared': 2}
+    # same metadata embedded as the 'rosbag2' MCAP metadata record, as rosbag2 does
+    with BagReader(bag) as r:
+        rec = dict(r.metadata_records())['rosbag2']
+    assert yaml.safe_load(rec['serialized_metadata']) == info
+
+
+def test_rosbags_reader_opens_bag(recorded):
+    bag, msgs, _ = recorded
+    with RosbagsReader(bag) as r:
+        assert r.message_count == len(msgs)
+        conns = {c.topic: c for c in r.connections}
+        assert conns['/car/pose'].msgtype == POSE
+        assert conns['/car/pose'].msgdef.data == get_message_definition(POSE)
+        assert conns['/car/pose'].ext.offered_qos_profiles[0].depth == 5
+        assert conns['/arm/joint_states'].digest == type_description_hash(JS)
+        got = [(c.topic, t, bytes(raw)) for c, t, raw in r.messages()]
+    assert got == [(tp, t, d) for tp, _, t, d, _ in msgs]
+
+
+def test_rosbags_anyreader_uses_embedded_definitions(recorded):
+    """AnyReader builds its types from the definitions stored in the bag (empty default
+    store), deserializes every message equal to the original, and its RIHS01 hashes of those
+    types equal rosbags' built-in Jazzy hashes.
+    """
+    bag, msgs, _ = recorded
+    with AnyReader([bag], default_typestore=get_typestore(Stores.EMPTY)) as r:
+        jazzy = get_typestore(Stores.ROS2_JAZZY)
+        for typ in (JS, POSE, TWIST):
+            assert r.typestore.hash_rihs01(typ) == jazzy.hash_rihs01(typ)
+        it = iter(msgs)
+        n = 0
+        for conn, t, raw in r.messages():
+            topic, typ, t0, data, orig = next(it)
+            assert (conn.topic, t) == (topic, t0)
+            dec = r.deserialize(raw, conn.msgtype)
+            assert bytes(jazzy.serialize_cdr(dec, typ)) == data
+            n += 1
+    assert n == len(msgs)
+
+
+def test_bag_reader_iteration_and_filter(recorded):
+    bag, msgs, _ = recorded
+    with BagReader(bag) as r:
+        assert r.message_count == len(msgs)
+        assert r.profile == 'ros2'
+        topics = r.topics
+        assert topics['/car/twist'].message_count == 150
+        assert topics['/arm/joint_states'].rate_hz == pytest.approx(1000.0)
+        assert topics['/car/pose'].rate_hz == pytest.approx(500.0)
+        assert topics['/car/twist'].rate_hz == pytest.approx(100.0)
+        got = list(r.messages(topics=['/car/pose', '/car/twist']))
+        assert [(m.topic, m.type, m.log_time_ns, m.data) for m in got] == [
+            (tp, ty, t, d) for tp, ty, t, d, _ in msgs if tp != '/arm/joint_states']
+        m, dec = next(r.decoded('/car/pose'))
+        orig = msgs[1][4]
+        assert dec.pose.position.x == orig.pose.position.x
+        assert dec.header.frame_id == 'treadmill'
+    # a single .mcap file also works, and read_messages is the one-liner
+    assert sum(1 for _ in read_messages(bag / 'run1_0.mcap', '/car/twist')) == 150
+
+
+def test_validate_ok(recorded):
+    bag, msgs, _ = recorded
+    rep = validate(bag, strict=True)
+    assert rep.ok and rep.problems == []
+    assert rep.message_count == len(msgs)
+    assert rep.unordered_chunks == 0
+    assert rep.topic_counts == {'/arm/joint_states': 1500, '/car/pose': 750, '/car/twist': 150}
+    assert rep.metadata_names == ['experiment', 'versions', 'rosbag2']
+
+
+def test_validate_detects_metadata_yaml_mismatch(recorded, tmp_path):
+    bag, _, _ = recorded
+    copy = tmp_path / 'run1'
+    copy.mkdir()
+    (copy / 'run1_0.mcap').write_bytes((bag / 'run1_0.mcap').read_bytes())
+    doc = yaml.safe_load((bag / 'metadata.yaml').read_text())
+    doc['rosbag2_bagfile_information']['topics_with_message_count'][0]['message_count'] += 1
+    (copy / 'metadata.yaml').write_text(yaml.safe_dump(doc))
+    rep = validate(copy)
+    assert not rep.ok
+    assert any('metadata.yaml topic' in p for p in rep.problems)
+    with pytest.raises(BagError, match='invalid bag'):
+        validate(copy, strict=True)
+
+
+def test_validate_detects_flipped_byte_in_chunk(recorded, tmp_path):
+    bag, _, _ = recorded
+    data = bytearray((bag / 'run1_0.mcap').read_bytes())
+    with open(bag / 'run1_0.mcap', 'rb') as f:
+        ci = make_reader(f).get_summary().chunk_indexes[3]
+    data[ci.chunk_start_offset + ci.chunk_length - 10] ^= 0xFF
+    bad = tmp_path / 'bad.mcap'
+    bad.write_bytes(bytes(data))
+    rep = validate(bad)
+    assert not rep.ok
+    with pytest.raises(BagError) as ei:
+        list(BagReader(bad).messages())
+    assert '\n' not in str(ei.value)
+
+
+def test_out_of_order_within_chunk_is_sorted(tmp_path):
+    times = [T0 + d for d in (5, 1, 3, 2, 4, 0, 9, 7, 8, 6)]
+    payloads = []
+    with BagWriter(tmp_path / 'ooo', chunk_size=10**6) as w:
+        for i, t in enumerate(times):
+            m = make_twist(i, t)
+            b = bytes(TS.serialize_cdr(m, TWIST))
+            payloads.append((t, b))
+            w.write('/twist', TWIST, b, t)
+        s = w.close()
+    assert s.late_messages == 0
+    with open(tmp_path / 'ooo' / 'ooo_0.mcap', 'rb') as f:
+        file_order = [m.log_time for rec in [StreamReader(f).records] for m in rec
+                      if type(m).__name__ == 'Message']
+    assert file_order == sorted(times)
+    assert [m.data for m in read_messages(tmp_path / 'ooo')] == [
+        b for _, b in sorted(payloads, key=lambda p: p[0])]
+    assert validate(tmp_path / 'ooo').unordered_chunks == 0
+
+
+def test_late_message_after_flushed_chunk_is_counted_and_readable(tmp_path):
+    with BagWriter(tmp_path / 'late', chunk_size=10**6) as w:
+        for k in range(10):
+            w.write('/t', TWIST, bytes(TS.serialize_cdr(make_twist(k, T0 + k), TWIST)), T0 + k)
+        w.flush()
+        w.write('/t', TWIST, bytes(TS.serialize_cdr(make_twist(99, T0 + 3), TWIST)), T0 + 3)
+        s = w.close()
+    assert s.late_messages == 1 and s.chunk_count == 2
+    got = [m.log_time_ns for m in read_messages(tmp_path / 'late')]
+    assert got == sorted(got) and len(got) == 11
+    assert validate(tmp_path / 'late').ok
+
+
+@pytest.mark.parametrize('compression,expected', [('lz4', 'lz4'), ('none', ''), ('zstd', 'zstd')])
+def test_compressions(tmp_path, compression, expected):
+    msgs = generate(200)
+    with BagWriter(tmp_path / 'c', chunk_size=4096, compression=compression) as w:
+        for topic, typ, t, data, _ in msgs:
+            w.write(topic, typ, data, t)
+    with open(tmp_path / 'c' / 'c_0.mcap', 'rb') as f:
+        r = make_reader(f, validate_crcs=True)
+        assert {ci.compression for ci in r.get_summary().chunk_indexes} == {expected}
+        assert [m.data for _, _, m in r.iter_messages()] == [d for _, _, _, d, _ in msgs]
+    assert validate(tmp_path / 'c').ok
+
+
+def test_empty_bag(tmp_path):
+    with BagWriter(tmp_path / 'e') as w:
+        w.add_topic('/x', JS)
+    with RosbagsReader(tmp_path / 'e') as r:
+        assert r.message_count == 0
+    with BagReader(tmp_path / 'e') as r:
+        assert r.message_count == 0 and r.topics['/x'].message_count == 0
+    assert validate(tmp_path / 'e').ok
+
+
+def test_writer_errors(tmp_path):
+    (tmp_path / 'full').mkdir()
+    (tmp_path / 'full' / 'x').write_text('x')
+    with pytest.raises(BagWriterError, match='not empty'):
+        BagWriter(tmp_path / 'full')
+    with pytest.raises(BagWriterError, match='compression'):
+        BagWriter(tmp_path / 'a', compression='bz2')
+    with pytest.raises(BagWriterError, match='chunk_size'):
+        BagWriter(tmp_path / 'b', chunk_size=0)
+    w = BagWriter(tmp_path / 'c')
+    data = bytes(TS.serialize_cdr(make_twist(0, T0), TWIST))
+    w.write('/t', TWIST, data, T0)
+    with pytest.raises(BagWriterError, match='has type'):
+        w.write('/t', JS, data, T0)
+    with pytest.raises(BagWriterError, match='log_time_ns'):
+        w.write('/t', TWIST, data, -1)
+    with pytest.raises(BagWriterError, match='bytes'):
+        w.write('/t', TWIST, 'text', T0)
+    with pytest.raises(BagWriterError, match='must be str'):
+        w.add_metadata('params', {'gain': 1.5})
+    with pytest.raises(BagWriterError, match='reserved'):
+        w.add_metadata('rosbag2', {})
+    from irs_bag.msg_definitions import MessageDefinitionError
+    with pytest.raises(MessageDefinitionError):
+        w.write('/u', 'nope_msgs/msg/Nope', data, T0)
+    s = w.close()
+    assert s.message_count == 1
+    assert w.close() is s
+    with pytest.raises(BagWriterError, match='closed'):
+        w.write('/t', TWIST, data, T0)
+    assert validate(tmp_path / 'c').ok
+
+
+def test_deserialize_helper_errors():
+    with pytest.raises(BagError, match='cannot decode'):
+        deserialize(JS, get_message_definition(JS), b'\x00\x01\x00\x00\x01')
+
+
+def test_modules_do_not_import_rclpy():
+    import subprocess
+    code = (
+        'import sys; sys.path.insert(0, sys.argv[1]); '
+        'import irs_bag.writer, irs_bag.reader, irs_bag.info, '
+        'irs_bag.export, irs_bag.msg_definitions; '
+        'print("rclpy" in sys.modules)'
+    )
+    out = subprocess.run([sys.executable, '-c', code, str(Path(__file__).resolve().parents[1])],
+                         capture_output=True, text=True, check=True)
+    assert out.stdout.strip() == 'False'
+
+
+def _write_many(directory, background, n=3000):
+    """n joint states on one topic, log times out of order in places (every 7th message
+    1 ms early), small chunks (many chunk cuts), empty flushes between writes; returns the
+    written (log time, data) list.
+    """
+    written = []
+    with BagWriter(directory, chunk_size=8 * 1024, background=background) as w:
+        for i in range(n):
+            t = T0 + i * 1_000_000 - (1_000_000 if i % 7 == 0 else 0)
+            data = TS.serialize_cdr(make_joint_state(i, t), JS)
+            w.write('/arm/joint_states', JS, data, t)
+            written.append((t, bytes(data)))
+            if i == n // 2:
+                w.flush()
+                w.flush()   # an empty flush: the next messages must be written once
+    return written
+
+
+def test_background_writer_writes_the_same_bag_as_the_foreground_one(tmp_path):
+    """``background=True`` moves chunk writing to a thread: the bag holds the same messages
+    in the same order, with as many chunks, and passes the CRC checks of the mcap reader.
+    """
+    fg = _write_many(tmp_path / 'fg', background=False)
+    bg = _write_many(tmp_path / 'bg', background=True)
+    assert fg == bg
+    read = {}
+    for name in ('fg', 'bg'):
+        path = tmp_path / name / f'{name}_0.mcap'
+        with open(path, 'rb') as f:
+            reader = make_reader(f, validate_crcs=True)
+            read[name] = [(m.log_time, bytes(m.data)) for _, _, m in reader.iter_messages()]
+            chunks = len(reader.get_summary().chunk_indexes)
+        read[name + '_chunks'] = chunks
+        validate(tmp_path / name)
+    assert read['fg'] == read['bg'] == sorted(fg, key=lambda m: m[0])
+    assert read['fg_chunks'] == read['bg_chunks'] > 10
+
+
+def test_background_writer_reports_a_failed_write_on_the_next_call(tmp_path):
+    """An exception in the writer thread is not lost: the next write raises it as a
+    BagWriterError naming the bag.
+    """
+    w = BagWriter(tmp_path / 'bag', chunk_size=1024, background=True)
+    data = TS.serialize_cdr(make_joint_state(0, T0), JS)
+    w.write('/a', JS, data, T0)
+
+    def broken(**_kwargs):
+        raise OSError('disk full')
+    w._writer.add_message = broken
+    w.flush()
+    w._batches.put(None)        # let the thread finish its queue: the failure is now recorded
+    w._thread.join()
+    with pytest.raises(BagWriterError, match='writer thread failed: disk full'):
+        w.write('/a', JS, data, T0 + 1)

@@ -1,0 +1,406 @@
+"""Run an experiment: start every node as its own process, wait for the graph, run, shut down.
+
+Order of events:
+
+1. a run directory ``<runs>/<name>-<time>/`` with ``logs/`` (one log per node) and ``bag/``;
+2. the recorder (if the experiment records) and every node start through their ament-resolved
+   executables, with the experiment's parameter files and overrides plus the clock parameters;
+   nodes that share a ``process:`` name start together in one ``container`` process
+   (composition: one executor, the nodes still separate on topics);
+3. the runner waits until every node is in the graph and every topic has its expected
+   publishers and subscriptions (``experiment.expected_endpoints``), then calls ``rig/start``;
+4. it follows the run (the rig's ``rig/status``, 10 Hz of simulated time, in lock-step; wall
+   time in real time) with a progress line,
+   checking every process: if one dies the run stops, naming the node and its last output; if
+   the rig reports that the car left the belt, the run stops too;
+5. on completion or a stop request every node is stopped with SIGINT (then SIGTERM/SIGKILL per
+   process group, all at once: :func:`~.processes.stop_processes`), the recorder last so it
+   writes everything it received; no process is left behind.
+
+Stopping: SIGINT, SIGTERM or SIGHUP (or :meth:`ExperimentRunner.request_stop` from another
+thread) only sets a flag; every wait of the runner (graph, ``rig/start``, the run, the drain)
+spins in steps of 50 ms and checks it, so a stop starts within one step wherever the run is,
+start-up included. The nodes then get :data:`NODE_GRACE` s to stop, the recorder
+:data:`RECORDER_GRACE` s (it writes its bag's index), each SIGTERM then SIGKILL after that. A
+second signal kills every process group at once and ends the runner's process (exit 128 +
+signal). The result says which signal stopped the run (``RunResult.interrupted``).
+"""
+from dataclasses import dataclass, field
+import datetime
+import json
+import os
+from pathlib import Path
+import platform
+import signal
+import subprocess
+import threading
+import sys
+import time
+
+import rclpy
+from rclpy.context import Context
+from rclpy.signals import SignalHandlerOptions
+from diagnostic_msgs.msg import DiagnosticArray
+from std_srvs.srv import Trigger
+import yaml
+
+from irs_common import qos
+from irs_common.cli import SignalGuard, current_guard
+from irs_common.stamps import to_sec
+from irs_msgs.msg import RigStatus
+
+from .experiment import (Experiment, RIG_KEY, clock_overrides, expected_endpoints,
+                         new_run_dir, node_parameters, resolve_params_file)
+from .graph import make_watcher
+from .processes import NodeProcess, NodeSpec, kill_processes, stop_processes
+
+#: Seconds a node has to stop after SIGINT (then SIGTERM, 2 s later SIGKILL).
+NODE_GRACE = 5.0
+#: Seconds the recorder has to stop after SIGINT: it writes its bag's summary and index.
+RECORDER_GRACE = 15.0
+
+
+def _number(text: str):
+    try:
+        return int(text)
+    except ValueError:
+        return float(text)
+
+
+class ExperimentFailed(RuntimeError):
+    """A node died, the graph did not come up, or the run did not progress."""
+
+
+class _StopRequested(Exception):
+    """A signal or :meth:`ExperimentRunner.request_stop` asked the run to stop."""
+
+
+@dataclass
+class RunResult:
+    """What one run left: its directories, whether it completed, times and exit codes."""
+
+    run_dir: Path
+    bag_dir: Path | None
+    completed: bool
+    sim_time: float
+    wall_time: float
+    exit_codes: dict = field(default_factory=dict)
+    message: str = ''
+    timing: dict = field(default_factory=dict)   # real time: the rig's loop figures (rig/timing)
+    cpu: dict = field(default_factory=dict)      # process label -> CPU seconds used in the run
+    running_time: float = float('nan')           # wall time from rig/start to the end [s]
+    interrupted: int | None = None               # the signal that stopped the run, if any
+
+
+def _git_commit() -> str:
+    try:
+        return subprocess.run(['git', 'rev-parse', 'HEAD'], capture_output=True, text=True,
+                              cwd=Path(__file__).resolve().parent, timeout=5).stdout.strip()
+    except (OSError, subprocess.SubprocessError):
+        return ''
+
+
+def experiment_metadata(exp: Experiment) -> dict:
+    """String metadata for the bag: the experiment file, resolved parameters, versions, commit."""
+    import numpy
+    import scipy
+    params = {n.name: node_parameters(n) for n in exp.nodes}
+    return {'experiment_name': exp.name, 'experiment_file': str(exp.path or ''),
+            'experiment_yaml': exp.text, 'node_parameters': json.dumps(params, default=str),
+            'processes': json.dumps(exp.processes()),
+            'python': platform.python_version(), 'numpy': numpy.__version__,
+            'scipy': scipy.__version__, 'ros_distro': os.environ.get('ROS_DISTRO', 'jazzy'),
+            'rmw': os.environ.get('RMW_IMPLEMENTATION', ''), 'git_commit': _git_commit(),
+            'started': datetime.datetime.now().isoformat(timespec='seconds')}
+
+
+def _rig_dt(exp: Experiment) -> float:
+    rig = exp.node(*RIG_KEY)
+    return float(node_parameters(rig).get('dt', 0.001)) if rig else 0.001
+
+
+class ExperimentRunner:
+    """Runs one :class:`~irs_bringup.experiment.Experiment` (see module docstring)."""
+
+    def __init__(self, exp: Experiment, runs_dir='runs', log=print, graph_timeout=60.0,
+                 stall_timeout=30.0, progress=True, rt_priority=0):
+        self.exp = exp
+        self.run_dir = new_run_dir(runs_dir, exp.name)
+        self.log = log
+        self.graph_timeout = graph_timeout
+        self.stall_timeout = stall_timeout
+        self.progress = progress
+        self.procs = {}
+        self.members = {}    # container process label -> its node names
+        self.rt_priority = int(rt_priority)
+        self.dt = _rig_dt(exp)
+        self.phase = 'created'   # -> starting -> running -> stopping -> done (for observers)
+        self.stop_signal = None  # set by request_stop: the signal number (0: asked, no signal)
+
+    # ------------------------------------------------------------------ processes
+    def _specs(self):
+        specs = []
+        for entry in self.exp.nodes:
+            for ref in entry.params_files:
+                resolve_params_file(ref)  # fail early with a clear message
+            params = {**entry.params, **clock_overrides(self.exp, entry, self.dt)}
+            specs.append((getattr(entry, 'process', None),
+                          NodeSpec(entry.package, entry.executable, entry.name,
+                                   [str(resolve_params_file(r)) for r in entry.params_files],
+                                   params, entry.remaps)))
+        return specs
+
+    def _start_nodes(self, logs: Path, env, extra=()):
+        """One process per node, or one ``container`` per ``process:`` group."""
+        groups = {}
+        for process, spec in [*self._specs(), *extra]:
+            if process is None:
+                self.procs[spec.name] = NodeProcess(spec, logs, env=env)
+            else:
+                groups.setdefault(process, []).append(spec)
+        for process, specs in groups.items():
+            spec_file = logs / f'{process}.container.yaml'
+            spec_file.write_text(yaml.safe_dump({'nodes': [
+                {'package': s.package, 'executable': s.executable,
+                 'ros_args': s.ros_args(logs / f'{s.name}.params.yaml')} for s in specs]},
+                sort_keys=False))
+            container = NodeSpec('irs_bringup', 'container', args=[str(spec_file)])
+            self.procs[process] = NodeProcess(container, logs, env=env, label=process)
+            self.members[process] = [s.name for s in specs]
+
+    def _recorder_spec(self, bag_dir):
+        # No use_sim_time: the recorder logs receive times on the system clock either way, and
+        # without it it does not take /clock every step (unless /clock is recorded).
+        params = {'topics': list(self.exp.record_topics), 'output': str(bag_dir),
+                  'metadata': json.dumps(experiment_metadata(self.exp))}
+        return NodeSpec('irs_bag', 'recorder', 'recorder', params=params)
+
+    def _check_alive(self):
+        for name, proc in self.procs.items():
+            code = proc.poll()
+            if code is not None:
+                what = (f"process '{name}' (nodes {', '.join(self.members[name])})"
+                        if name in self.members else f"node '{name}'")
+                raise ExperimentFailed(f'{what} died (exit code {code}); its last output:\n'
+                                       f'{proc.tail(15)}')
+
+    def _stop_all(self) -> dict:
+        """Every node at once, then the recorder (module docstring); ``{label: exit code}``."""
+        nodes = [p for label, p in self.procs.items() if label != 'recorder']
+        codes = stop_processes(nodes, NODE_GRACE)
+        if 'recorder' in self.procs:
+            codes.update(stop_processes([self.procs['recorder']], RECORDER_GRACE))
+        return codes
+
+    def scheduling_report(self) -> str:
+        """Which node processes got SCHED_FIFO (``--rt-priority``): it needs root or
+        CAP_SYS_NICE, and a process that is refused runs at normal priority.
+        """
+        fifo = []
+        for label, proc in self.procs.items():
+            try:
+                if os.sched_getscheduler(proc.pid) == os.SCHED_FIFO:
+                    fifo.append(label)
+            except OSError:
+                pass
+        return (f'SCHED_FIFO priority {self.rt_priority} granted to {len(fifo)} of '
+                f'{len(self.procs)} processes' + (f' ({", ".join(sorted(fifo))})' if fifo else
+                                                  ' (needs root or CAP_SYS_NICE)'))
+
+    def _check_stop(self):
+        if self.stop_signal is not None:
+            raise _StopRequested()
+
+    def request_stop(self, signum: int = 0):
+        """Stop the run at its next check (within 50 ms of spinning); safe in a signal handler."""
+        if self.stop_signal is None:
+            self.stop_signal = int(signum)
+
+    def kill(self):
+        """SIGKILL to every node's process group (a second signal: no waiting)."""
+        kill_processes(list(self.procs.values()))
+
+    # ------------------------------------------------------------------ run
+    def run(self) -> RunResult:
+        """Run the experiment. In the main thread SIGINT, SIGTERM and SIGHUP stop it (module
+        docstring); elsewhere :meth:`request_stop` does.
+        """
+        if threading.current_thread() is not threading.main_thread():
+            return self._run()
+        outer = current_guard()
+        guard = SignalGuard()
+        guard.on_first = self.request_stop
+        guard.force_hooks.append(self.kill)
+        if outer is not None and outer.signum is not None:
+            self.request_stop(outer.signum)      # stopped before the run began
+        guard.install()
+        try:
+            return self._run()
+        finally:
+            guard.restore()
+            if outer is not None and self.stop_signal:
+                outer.signum = outer.signum or self.stop_signal
+
+    def _run(self) -> RunResult:
+        exp = self.exp
+        logs = self.run_dir / 'logs'
+        logs.mkdir(parents=True)
+        bag_dir = self.run_dir / 'bag' if exp.record_topics else None
+        context = Context()
+        # The runner's own signal handling (run): rclpy's handlers would shut the context down
+        # under the waits instead.
+        rclpy.init(context=context, signal_handler_options=SignalHandlerOptions.NO)
+        watcher = make_watcher('irs_experiment_runner', context=context)
+        t_wall0 = time.monotonic()
+        clock = {'t': 0.0}
+        cpu0 = {}
+        running = float('nan')
+        completed = False
+        message = ''
+        self.phase = 'starting'
+        try:
+            env = None
+            if self.rt_priority:
+                env = dict(os.environ, IRS_RT_PRIORITY=str(self.rt_priority))
+            extra = []
+            if bag_dir is not None and exp.record_process is not None:
+                extra.append((exp.record_process, self._recorder_spec(bag_dir)))
+            elif bag_dir is not None:
+                self.procs['recorder'] = NodeProcess(self._recorder_spec(bag_dir), logs)
+            self._check_stop()
+            self._start_nodes(logs, env, extra)
+            self.log(f'[experiment] {exp.name}: started {len(self.procs)} processes, '
+                     f'logs in {logs}')
+            self._wait_for_graph(watcher)
+            if self.rt_priority:
+                self.log(f'[experiment] {self.scheduling_report()}')
+            node = watcher.node
+            node.create_subscription(
+                RigStatus, 'rig/status', lambda m: clock.update(
+                    t=to_sec(m.header.stamp), complete=m.run_complete, rig=m), qos.STATUS)
+            node.create_subscription(
+                DiagnosticArray, 'rig/timing', lambda m: clock.update(
+                    timing={kv.key: _number(kv.value) for kv in m.status[0].values}), qos.STATUS)
+            self._start_rig(watcher)
+            cpu0 = {label: proc.cpu_seconds() for label, proc in self.procs.items()}
+            self.phase = 'running'
+            t_start = time.monotonic()
+            completed = self._follow(watcher, clock, t_start)
+            running = clock.get('done_at', time.monotonic()) - t_start
+            message = 'completed' if completed else 'stopped'
+        except (KeyboardInterrupt, _StopRequested):
+            if self.stop_signal is None:
+                self.stop_signal = signal.SIGINT     # a KeyboardInterrupt of the caller's own
+            how = signal.Signals(self.stop_signal).name if self.stop_signal else 'a stop request'
+            message = f'interrupted ({how})'
+            self.log(f'\n[experiment] {message}: shutting down')
+        except ExperimentFailed as exc:
+            message = str(exc)
+            self.log(f'\n[experiment] FAILED: {message}')
+        finally:
+            self.phase = 'stopping'
+            codes = self._stop_all()
+            watcher.node.destroy_node()
+            rclpy.try_shutdown(context=context)
+            self.phase = 'done'
+        sim_time = clock['t'] if exp.clock == 'lockstep' else time.monotonic() - t_wall0
+        timing = clock.get('timing', {})
+        if timing:
+            (self.run_dir / 'timing.json').write_text(json.dumps(timing, indent=1))
+            self.log(
+                '[experiment] real-time loop: {steps} steps, {miss_pct:.3f} % deadline misses, '
+                'latency p50 {latency_p50_ms:.3f} / p99 {latency_p99_ms:.3f} / max '
+                '{latency_max_ms:.3f} ms, {late_ticks} late ticks'.format(**timing)
+            )
+        cpu = {label: getattr(proc, 'cpu_at_stop', float('nan')) - cpu0.get(label, float('nan'))
+               for label, proc in self.procs.items()}   # CPU of the run itself, start-up excluded
+        return RunResult(self.run_dir, bag_dir, completed, sim_time, time.monotonic() - t_wall0,
+                         codes, message, timing, cpu, running,
+                         None if completed else self.stop_signal)
+
+    def _wait_for_graph(self, watcher):
+        names = [n for label in self.procs for n in self.members.get(label, [label])]
+        expected = expected_endpoints(self.exp)
+        deadline = time.monotonic() + self.graph_timeout
+
+        def ready():
+            self._check_stop()
+            self._check_alive()
+            if not {'/' + n for n in names} <= watcher.node_names():
+                return False
+            node = watcher.node
+            for topic, (pubs, subs) in expected.items():
+                if node.count_publishers(topic) < pubs or node.count_subscribers(topic) < subs:
+                    return False
+            return True
+
+        if not watcher.spin_until(ready, max(0.0, deadline - time.monotonic())):
+            missing = sorted({'/' + n for n in names} - watcher.node_names())
+            node = watcher.node
+            lacking = [
+                f'{t} ({node.count_publishers(t)}/{p} pub, {node.count_subscribers(t)}/{s} sub)'
+                for t, (p, s) in expected.items()
+                if node.count_publishers(t) < p or node.count_subscribers(t) < s
+            ]
+            raise ExperimentFailed(f'graph not up after {self.graph_timeout:.0f} s; missing nodes '
+                                   f'{missing}, unmatched topics {lacking}')
+        self.log(f'[experiment] graph up: {len(names)} nodes, {len(expected)} topics connected')
+
+    def _start_rig(self, watcher):
+        if self.exp.node(*RIG_KEY) is None:
+            return
+        client = watcher.node.create_client(Trigger, 'rig/start')
+        if not watcher.spin_until(lambda: self._check_stop() or client.service_is_ready(), 20.0):
+            raise ExperimentFailed('rig/start service not available')
+        future = client.call_async(Trigger.Request())
+        if not watcher.spin_until(lambda: self._check_stop() or future.done(), 20.0) \
+                or not future.result().success:
+            raise ExperimentFailed(
+                f'rig/start failed: {future.result() and future.result().message}'
+            )
+
+    def _follow(self, watcher, clock, t_start) -> bool:
+        exp = self.exp
+        last_t, last_change = -1.0, time.monotonic()
+        last_print = 0.0
+        end = exp.duration - 0.5 * self.dt
+        while True:
+            watcher.executor.spin_once(timeout_sec=0.05)
+            self._check_stop()
+            self._check_alive()
+            now = time.monotonic()
+            t = clock['t'] if exp.clock == 'lockstep' else now - t_start
+            if t != last_t:
+                last_t, last_change = t, now
+            elif exp.clock == 'lockstep' and now - last_change > self.stall_timeout:
+                raise ExperimentFailed(f'no progress for {self.stall_timeout:.0f} s at '
+                                       f't = {t:.3f} s (a lock-step input is missing)')
+            tty = sys.stdout.isatty()
+            if self.progress and now - last_print > (0.5 if tty else 10.0):
+                last_print = now
+                frac = min(1.0, t / exp.duration)
+                line = (f'[experiment] {exp.name} [{"#" * int(30 * frac):<30}] '
+                        f'{t:6.2f}/{exp.duration:.2f} s (wall {now - t_start:5.1f} s)')
+                sys.stdout.write('\r' + line if tty else line + '\n')
+                sys.stdout.flush()
+            rig = clock.get('rig')
+            if rig is not None and not rig.car_on_belt:
+                raise ExperimentFailed(f'the car left the belt ({rig.fault_text}) at '
+                                       f't = {t:.3f} s; the run is stopped')
+            rig_done = clock.get('complete') or (self.exp.node(*RIG_KEY) is None and t >= end)
+            if rig_done or (exp.clock == 'realtime' and t >= end + 5.0):
+                if self.progress and tty:
+                    sys.stdout.write('\n')
+                clock['done_at'] = time.monotonic()
+                self._drain(watcher)
+                return True
+
+    def _drain(self, watcher, seconds: float = 0.5):
+        """Every node has published all of the run (the rig saw the last step's answers); give
+        the messages still in flight to the recorder ``seconds`` of wall time before stopping.
+        """
+        deadline = time.monotonic() + seconds
+        while time.monotonic() < deadline:
+            watcher.executor.spin_once(timeout_sec=0.05)
+            self._check_stop()
+            self._check_alive()

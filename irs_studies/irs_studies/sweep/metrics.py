@@ -1,0 +1,105 @@
+r"""The metrics a sweep can compute per point (no rclpy).
+
+Simulation metrics (from the offline closed loop's record; :func:`simulation_metrics`):
+
+* the Figure 10 step metrics of :func:`irs_studies.figure10.report.run_metrics` (which calls
+  :mod:`irs_control.metrics`): ``rise_time`` [s], ``overshoot_percent`` [%], ``settling_time``
+  [s] (2 %, nan = not settled in the record), ``oscillation_count``, ``crossings_2pct``,
+  ``residual_oscillation`` [m], ``ise_vs_model`` [m^2 s] (against the reference model Bm/Am of
+  Eq. 21 driven by the same reference), ``ise_norm`` = ISE / step^2 [s], ``max_dev_rel`` [-],
+  ``peak_steer_cmd_deg``, ``peak_steer_achieved_deg`` [deg], ``time_at_limit`` [s];
+* ``off_belt`` [0/1]: the rig raised a fault (car off the belt or beyond the arm's reach) at any
+  sample;
+* ``settled`` [0/1]: the 2 % settling time is finite (the response came to rest near the step).
+
+Linear metrics (python-control, :func:`linear_metrics`) of the loop the point actually runs::
+
+    L(s) = C(s) Pa(s) P(s) e^{-s tau}
+    C = S/R (MRC/RST design of the point; R u = T u_c - S y)  or  (kp s + ki)/s (PI)
+    Pa = w_a/(s + w_a),  w_a = 2 pi lag_hz     (the rig's actuator lag, if enabled)
+    P  = the rig's lateral plant (Eq. 6 with the rig's gain, or its bicycle preset), steer -> y_s
+    tau = the rig's actuator delay [s] (if enabled)
+
+* ``stable`` [0/1]: every closed-loop pole of ``L/(1+L)`` with the delay as a 5th-order Pade
+  approximation (``control.pade``) has ``Re s < 0`` (continuous loop: the 1 kHz sampling,
+  backlash, rate limit and saturation are not in it -- the simulation metrics have them);
+* ``gain_margin_db`` [dB], ``phase_margin_deg`` [deg], ``crossover_hz`` [Hz] (gain crossover):
+  ``control.stability_margins`` of ``L`` as a frequency response (``control.frd``, 2000 points
+  from 0.01 to 1000 rad/s) with the delay exact; inf when there is no crossing.
+"""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+#: Metric name -> unit (the summary table's header).
+FIGURE10_METRICS = {
+    'rise_time': 's', 'overshoot_percent': '%', 'settling_time': 's',
+    'oscillation_count': '-', 'crossings_2pct': '-', 'residual_oscillation': 'm',
+    'ise_vs_model': 'm^2 s', 'ise_norm': 's', 'max_dev_rel': '-',
+    'peak_steer_cmd_deg': 'deg', 'peak_steer_achieved_deg': 'deg', 'time_at_limit': 's',
+}
+LINEAR_METRICS = {'stable': '0/1', 'gain_margin_db': 'dB', 'phase_margin_deg': 'deg',
+                  'crossover_hz': 'Hz'}
+METRICS = {**FIGURE10_METRICS, 'off_belt': '0/1', 'settled': '0/1', **LINEAR_METRICS}
+
+PADE_ORDER = 5
+OMEGA = np.logspace(-2, 3, 2000)   # [rad/s] frequency grid of the margins
+
+
+def simulation_metrics(run: dict) -> dict:
+    """Figure 10 metrics, ``off_belt`` and ``settled`` of one ClosedLoop record."""
+    from ..figure10.report import run_metrics
+    m = run_metrics(run)
+    out = {k: float(m[k]) for k in FIGURE10_METRICS}
+    out['off_belt'] = float(np.any(run['fault']))
+    out['settled'] = float(math.isfinite(out['settling_time']))
+    return out
+
+
+def _controller_tf(ctl_params: dict):
+    import control
+    from irs_control.controller_factory import make_controller
+    spec = make_controller(ctl_params)
+    if spec.design is None:
+        p = {'kp': 5.0, 'ki': 3.0, **ctl_params}
+        return control.tf([float(p['kp']), float(p['ki'])], [1.0, 0.0])
+    return control.tf(spec.design.S, spec.design.R)
+
+
+def _plant_tf(rig):
+    """Continuous steer -> y_s of the rig's plant (its own continuous matrices)."""
+    import control
+    p = rig.plant
+    return control.ss2tf(control.ss(p.A, p.B[:, :1], p.C, p.D[:, :1]))
+
+
+def linear_metrics(ctl_params: dict | None, rig) -> dict:
+    """``stable``, margins and crossover of the point's loop (module docstring); nan without a
+    controller.
+    """
+    nan = {k: math.nan for k in LINEAR_METRICS}
+    if ctl_params is None:
+        return nan
+    import control
+    C = _controller_tf(ctl_params)
+    P = _plant_tf(rig)
+    act = rig.act_front.params
+    G = C * P
+    if act.enable_lag:
+        wa = 2.0 * math.pi * act.lag_hz
+        G = G * control.tf([wa], [1.0, wa])
+    tau = float(act.delay) if act.enable_delay else 0.0
+    Gd = G
+    if tau > 0:
+        num, den = control.pade(tau, PADE_ORDER)
+        Gd = G * control.tf(num, den)
+    poles = control.poles(control.feedback(Gd, 1))
+    resp = G(1j * OMEGA) * np.exp(-1j * OMEGA * tau)
+    gm, pm, _sm, _wpc, wgc, _wms = control.stability_margins(control.frd(resp, OMEGA))
+    gm_db = 20.0 * math.log10(gm) if gm is not None and np.isfinite(gm) and gm > 0 else math.inf
+    return {'stable': float(np.all(np.real(poles) < 0.0)),
+            'gain_margin_db': float(gm_db),
+            'phase_margin_deg': float(pm) if np.isfinite(pm) else math.inf,
+            'crossover_hz': float(wgc) / (2.0 * math.pi) if np.isfinite(wgc) else math.nan}

@@ -1,0 +1,4 @@
+"""Install irs_studies as an ament_python package (all settings in setup.cfg)."""
+from setuptools import setup
+
+setup()

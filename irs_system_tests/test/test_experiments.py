@@ -1,0 +1,482 @@
+"""Whole experiments through the ROS graph (lock-step, recorded): every node its own process, or
+composed in one (``Experiment.composed``) where the test is about the result, not the processes.
+"""
+import os
+import signal
+import subprocess
+import threading
+
+import numpy as np
+import pytest
+import yaml
+
+from irs_bag import BagReader, validate
+from irs_bringup.experiment import ExperimentError, NodeEntry, load_experiment
+from irs_bringup.experiment_cli import main as experiment_main
+from irs_bringup.offline_twin.from_experiment import offline_run
+from irs_bringup.experiment_schema import ExperimentModel, NodeModel
+from irs_bringup.executables import resolve_executable
+from irs_bringup.experiment_runner import ExperimentRunner
+from irs_bringup.processes import wait_until
+from irs_studies.regulation_metrics import phase_metrics
+from irs_bag.run_series import series_by_stamp
+
+
+def test_treadmill_regulation_keeps_the_car_on_the_belt(tmp_path):
+    exp = load_experiment('treadmill_regulation').composed()
+    result = ExperimentRunner(exp, runs_dir=tmp_path, progress=False).run()
+    assert result.completed, result.message
+    assert result.exit_codes == {'graph': 0}, result.exit_codes
+    assert validate(result.bag_dir).ok
+    data = series_by_stamp(result.bag_dir)
+    stamps = np.array(sorted(data['x']))
+    t = stamps * 1e-9
+    x = np.array([data['x'][s] for s in stamps])
+    assert t[-1] == exp.duration and len(stamps) == round(exp.duration * 1000) + 1
+    # The graph gives the offline cores' numbers.
+    off = offline_run('treadmill_regulation')
+    assert np.max(np.abs(x - off['x'][np.round(t * 1000).astype(int)])) < 1e-9
+    phases = phase_metrics(t, x, 0.3, [0.5, 4.0])
+    for name, ph in zip(('speed-up 0 -> 1.2 m/s', 'slow-down 1.2 -> 0.6 m/s'), phases):
+        print(f"{name}: peak position error {ph['peak_error']:.3f} m, "
+              f"settled to +-2 cm after {ph['settling_time']:.2f} s")
+    up, down = phases
+    assert up['peak_error'] < 0.15 and up['settling_time'] < 2.5
+    # Slowing down relies on belt friction alone (the drive cannot brake): a larger excursion.
+    assert down['peak_error'] < 0.9 and down['settling_time'] < 8.0
+    assert np.all(np.abs(x) < 1.2192 - 0.15), 'the car must stay clear of the belt ends'
+    faults = [
+        s
+        for s in series_by_stamp(result.bag_dir, {'/treadmill/state': {'mode': 'mode'}})[
+            'mode'
+        ].values()
+        if s == 3
+    ]
+    assert not faults
+    # Every recorded topic carries every step's stamp t_0 .. t_N (N = duration / dt).
+    n_steps = round(exp.duration * 1000)
+    expected = set(range(0, (n_steps + 1) * 1_000_000, 1_000_000))
+    stamps, counts = {}, {}
+    with BagReader(result.bag_dir) as reader:
+        assert set(reader.topics) == set(exp.record_topics)
+        for m, msg in reader.decoded():
+            s = msg.clock if m.topic == '/clock' else msg.header.stamp
+            stamps.setdefault(m.topic, set()).add(s.sec * 1_000_000_000 + s.nanosec)
+            counts[m.topic] = counts.get(m.topic, 0) + 1
+    for topic in exp.record_topics:
+        assert stamps[topic] == expected, f'{topic}: {len(stamps[topic])} of {len(expected)} steps'
+        assert counts[topic] == len(expected), f'{topic}: {counts[topic] - len(expected)} repeated'
+
+
+def test_killing_a_node_ends_the_run_with_a_clear_message(tmp_path):
+    exp = load_experiment('figure10_mrc_with_actuator')
+    exp.duration = 60.0
+    runner = ExperimentRunner(exp, runs_dir=tmp_path, progress=False)
+    box = {}
+    thread = threading.Thread(target=lambda: box.setdefault('result', runner.run()))
+    thread.start()
+    assert wait_until(lambda: runner.phase in ('running', 'done'), 120.0)
+    assert runner.phase == 'running', 'the run must be under way when the node is killed'
+    victim = runner.procs['arm_pose_estimator']
+    pids = {name: p.pid for name, p in runner.procs.items()}
+    os.kill(victim.pid, signal.SIGKILL)
+    thread.join(120)
+    assert not thread.is_alive()
+    result = box['result']
+    assert not result.completed
+    assert "node 'arm_pose_estimator' died" in result.message
+    for name, pid in pids.items():
+        assert not _alive(pid), f'{name} (pid {pid}) left behind'
+
+
+def _alive(pid):
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return False
+    return True
+
+
+def test_the_car_leaving_the_belt_stops_the_run(tmp_path):
+    exp = load_experiment('treadmill_regulation')
+    exp.duration = 10.0
+    reg = exp.node('irs_treadmill', 'treadmill_regulator')
+    reg.params['enabled'] = False          # drive held at 0 V: the belt coasts down ...
+    rig = exp.node('irs_vehicle_sim', 'vehicle_sim')
+    rig.params.update({'u0': 1.2, 'belt_speed0': 1.2})   # ... under a car driving at 1.2 m/s
+    driver = exp.node('irs_bringup', 'driver')
+    driver.params.update({'profile.times': [0.0], 'profile.speeds': [1.2]})
+    result = ExperimentRunner(exp, runs_dir=tmp_path, progress=False).run()
+    assert not result.completed
+    assert 'the car left the belt (off_belt:front)' in result.message, result.message
+    assert result.sim_time < exp.duration
+    assert all(code == 0 for code in result.exit_codes.values()), result.exit_codes
+
+
+def _children_of_run(run_dir):
+    """PIDs of node processes whose command line names files in ``run_dir``."""
+    out = subprocess.run(['pgrep', '-f', str(run_dir)], capture_output=True, text=True).stdout
+    return [int(p) for p in out.split() if int(p) != os.getpid()]
+
+
+@pytest.mark.parametrize('sig', [signal.SIGTERM, signal.SIGKILL], ids=['SIGTERM', 'SIGKILL'])
+def test_stopping_the_runner_leaves_no_process_behind(tmp_path, sig):
+    exe = resolve_executable('irs_bringup', 'experiment')
+    log = open(tmp_path / 'runner.log', 'w')
+    runner = subprocess.Popen(
+        [exe, 'run', 'figure10_pi', '--no-plots', '--runs-dir', str(tmp_path)],
+        stdout=log,
+        stderr=subprocess.STDOUT,
+        start_new_session=True,
+    )
+    try:
+        assert wait_until(lambda: 'graph up' in (tmp_path / 'runner.log').read_text(), 120.0), \
+            (tmp_path / 'runner.log').read_text()
+        assert len(_children_of_run(tmp_path)) >= 6
+        runner.send_signal(sig)
+        runner.wait(60)
+        assert wait_until(lambda: not _children_of_run(tmp_path), 30.0), \
+            f'left behind: {_children_of_run(tmp_path)}'
+        if sig == signal.SIGTERM:
+            assert 'interrupted' in (tmp_path / 'runner.log').read_text()
+    finally:
+        for pid in _children_of_run(tmp_path):
+            os.kill(pid, signal.SIGKILL)
+        if runner.poll() is None:
+            runner.kill()
+
+
+# ---------------------------------------------------------------- experiment files: the schema
+# Fast tests (no graph): every malformed file gives one ExperimentError line
+# '<file>: <key>: <what is wrong>', and the CLI prints it as 'experiment: ...' with exit code 2.
+
+VALID = {
+    'name': 'schema_test', 'description': 'minimal', 'clock': 'lockstep', 'duration': 0.5,
+    'nodes': {
+        'vehicle_sim': {'package': 'irs_vehicle_sim', 'executable': 'vehicle_sim',
+                        'params_files': ['pkg://irs_vehicle_sim/config/rig.yaml'],
+                        'params': {'x0': 0.3}},
+        'treadmill_regulator': {'package': 'irs_treadmill', 'executable': 'treadmill_regulator',
+                                'params_files': ['pkg://irs_treadmill/config/treadmill.yaml']}},
+    'record': {'topics': ['/pose']}}
+
+
+def _doc(**changes):
+    """VALID with changes; keys are dotted paths, value DELETE removes the key."""
+    import copy
+    doc = copy.deepcopy(VALID)
+    for dotted, value in changes.items():
+        *parents, leaf = dotted.split('__')
+        target = doc
+        for part in parents:
+            target = target[part]
+        if value is DELETE:
+            del target[leaf]
+        else:
+            target[leaf] = value
+    return doc
+
+
+DELETE = object()
+VS = 'nodes__vehicle_sim__'
+
+BAD_FILES = {
+    'unknown executable': (_doc(**{VS + 'executable': 'vehicle_simm'}),
+                           'nodes.vehicle_sim.executable',
+                           "no executable 'vehicle_simm' in package 'irs_vehicle_sim' (it has: "),
+    'unknown package': (_doc(**{VS + 'package': 'irs_nothing'}), 'nodes.vehicle_sim.package',
+                        "package 'irs_nothing' is not in the ament index"),
+    'nodes a list': (_doc(nodes=['vehicle_sim']), 'nodes',
+                     "expected a valid dictionary, got ['vehicle_sim']"),
+    'node entry not a mapping': (_doc(nodes={'vehicle_sim': 'irs_vehicle_sim'}),
+                                 'nodes.vehicle_sim',
+                                 "expected a valid dictionary, got 'irs_vehicle_sim'"),
+    'node without executable': (_doc(**{VS + 'executable': DELETE}),
+                                'nodes.vehicle_sim.executable', 'required but missing'),
+    'unknown node key': (
+        _doc(**{VS + 'param': {}}),
+        'nodes.vehicle_sim.param',
+        'unknown key (expected one of: package, executable, params_files, params, '
+        'remaps, process)',
+    ),
+    'params a list': (_doc(**{VS + 'params': ['x0', 0.3]}), 'nodes.vehicle_sim.params',
+                      "expected a valid dictionary, got ['x0', 0.3]"),
+    'params nested': (_doc(**{VS + 'params': {'actuator_front': {'lag_hz': 4.0}}}),
+                      'nodes.vehicle_sim.params.actuator_front',
+                      'a nested mapping: give flat names (<name>.<key>: value)'),
+    'param without value': (
+        _doc(**{VS + 'params': {'x0': None}}),
+        'nodes.vehicle_sim.params.x0',
+        'a boolean, number, string or list of one of those expected, got None',
+    ),
+    'param empty list': (_doc(**{VS + 'params': {'lockstep_inputs': []}}),
+                         'nodes.vehicle_sim.params.lockstep_inputs',
+                         'an empty list cannot be passed'),
+    'param mixed list': (_doc(**{VS + 'params': {'lockstep_inputs': ['drive', 1]}}),
+                         'nodes.vehicle_sim.params.lockstep_inputs',
+                         "all elements of a list must have one type, got ['drive', 1]"),
+    'remaps a list': (_doc(**{VS + 'remaps': ['a:=b']}), 'nodes.vehicle_sim.remaps',
+                      'expected a valid dictionary'),
+    'remap to a number': (_doc(**{VS + 'remaps': {'pose': 3}}), 'nodes.vehicle_sim.remaps.pose',
+                          'expected a valid string, got 3'),
+    'params_files a string': (
+        _doc(**{VS + 'params_files': 'pkg://irs_vehicle_sim/config/rig.yaml'}),
+        'nodes.vehicle_sim.params_files',
+        'expected a valid list',
+    ),
+    'record a list': (_doc(record=['/pose']), 'record',
+                      "expected a valid dictionary, got ['/pose']"),
+    'record topics a string': (_doc(record={'topics': '/pose'}), 'record.topics',
+                               "expected a valid list, got '/pose'"),
+    'record unknown key': (_doc(record={'topic': ['/pose']}), 'record.topic',
+                           'unknown key (expected one of: topics, process)'),
+    'params file of an unknown package': (
+        _doc(**{VS + 'params_files': ['pkg://irs_nothing/config/rig.yaml']}),
+        'nodes.vehicle_sim.params_files[0]',
+        "'pkg://irs_nothing/config/rig.yaml': package 'irs_nothing' is not in the ament index",
+    ),
+    'missing params file': (_doc(**{VS + 'params_files': ['/nonexistent/rig.yaml']}),
+                            'nodes.vehicle_sim.params_files[0]',
+                            "parameter file '/nonexistent/rig.yaml' not found"),
+    'missing file in a package': (
+        _doc(**{VS + 'params_files': ['pkg://irs_vehicle_sim/config/no.yaml']}),
+        'nodes.vehicle_sim.params_files[0]',
+        'not found',
+    ),
+    'duration below one step': (_doc(duration=0.0001), 'duration',
+                                '0.0001 s is shorter than one rig step (dt = 0.001 s)'),
+    'duration below one step of the rig dt': (
+        _doc(duration=0.003, **{VS + 'params': {'dt': 0.004}}),
+        'duration',
+        'shorter than one rig step (dt = 0.004 s)',
+    ),
+    'duration true': (_doc(duration=True), 'duration', 'expected a number of seconds, got True'),
+    'duration a string': (_doc(duration='8 s'), 'duration',
+                          "expected a number of seconds, got '8 s'"),
+    'duration zero': (_doc(duration=0), 'duration',
+                      'expected a number of seconds greater than 0, got 0'),
+    'duration infinite': (_doc(duration=float('inf')), 'duration',
+                          'expected a finite number of seconds, got inf'),
+    'duration missing': (_doc(duration=DELETE), 'duration', 'required but missing'),
+    'name with ../': (_doc(name='../escape'), 'name', "'../escape' is not a plain name"),
+    'name with /': (_doc(name='a/b'), 'name', "'a/b' is not a plain name"),
+    'name with a space': (_doc(name='a b'), 'name', 'is not a plain name'),
+    'name a number': (_doc(name=10), 'name', 'expected a valid string, got 10'),
+    'clock unknown': (_doc(clock='fast'), 'clock',
+                      "expected 'lockstep' or 'realtime', got 'fast'"),
+    'unknown top-level key': (_doc(durration=1.0), 'durration',
+                              'unknown key (expected one of: name, description, clock, duration'),
+    'no nodes': (_doc(nodes={}), 'nodes', 'at least one entry expected, got {}'),
+    'two rigs': (_doc(nodes__rig2=dict(VALID['nodes']['vehicle_sim'])), 'nodes',
+                 "more than one vehicle_sim: ['vehicle_sim', 'rig2']"),
+    'bad node name': (_doc(nodes={'my-node': VALID['nodes']['vehicle_sim']}), 'nodes',
+                      'node names must be ROS names'),
+    'process not a plain name': (_doc(**{VS + 'process': '../p'}), 'nodes.vehicle_sim.process',
+                                 "'../p' is not a plain name for a process group"),
+    'process a list': (_doc(**{VS + 'process': ['a']}), 'nodes.vehicle_sim.process',
+                       'expected a valid string'),
+    'parameter of the wrong type': (
+        _doc(**{VS + 'params': {'x0': 'abc'}}),
+        'nodes.vehicle_sim.params.x0',
+        "parameter 'x0': got 'abc' (string), expected a finite double in [-1.2192, 1.2192]",
+    ),
+    'parameter out of range': (_doc(**{VS + 'params': {'x0': 5.0}}), 'nodes.vehicle_sim.params.x0',
+                               'got 5.0 (out of range)'),
+    'boolean for a double parameter': (_doc(**{VS + 'params': {'ds': True}}),
+                                       'nodes.vehicle_sim.params.ds', 'got True (boolean)'),
+    'misspelt parameter of a node with a whole table': (
+        _doc(nodes__treadmill_regulator__params={'enabeld': False}),
+        'nodes.treadmill_regulator.params.enabeld',
+        "'enabeld' is not a parameter (did you mean enabled",
+    ),
+}
+
+
+def _write(tmp_path, doc, name='exp.yaml'):
+    path = tmp_path / name
+    path.write_text(yaml.safe_dump(doc, sort_keys=False) if not isinstance(doc, str) else doc)
+    return path
+
+
+def test_schema_installed_experiments_load():
+    from irs_bringup.experiment import experiments_dir
+    names = ['figure10_mrc_with_actuator', 'figure10_mrc_without_actuator', 'figure10_pi',
+             'treadmill_regulation']
+    assert set(names) <= {p.stem for p in experiments_dir().glob('*.yaml')}
+    for name in names:
+        exp = load_experiment(name)
+        assert exp.name == name and exp.nodes and all(n.process is None for n in exp.nodes)
+
+
+def test_schema_the_valid_document_loads_with_its_values(tmp_path):
+    exp = load_experiment(
+        str(
+            _write(
+                tmp_path,
+                _doc(
+                    **{VS + 'process': 'rig_group',
+                       VS + 'params': {'x0': 0, 'lockstep_inputs': ['drive']}}
+                ),
+            )
+        )
+    )
+    rig = exp.node('irs_vehicle_sim', 'vehicle_sim')
+    assert (exp.name, exp.clock, exp.duration, exp.record_topics) == ('schema_test', 'lockstep',
+                                                                      0.5, ['/pose'])
+    assert rig == NodeEntry('vehicle_sim', 'irs_vehicle_sim', 'vehicle_sim',
+                            ['pkg://irs_vehicle_sim/config/rig.yaml'],
+                            {'x0': 0, 'lockstep_inputs': ['drive']}, {}, 'rig_group')
+    assert exp.node('irs_treadmill', 'treadmill_regulator').process is None
+    # one rig step is enough; an integer duration is a number
+    assert load_experiment(str(_write(tmp_path, _doc(duration=0.001)))).duration == 0.001
+    assert load_experiment(str(_write(tmp_path, _doc(duration=2)))).duration == 2.0
+    # empty sections (YAML null) are empty, a number list with ints is doubles
+    doc = _doc(record=None, **{VS + 'remaps': None, VS + 'params': {'x0': 0.3}})
+    assert load_experiment(str(_write(tmp_path, doc))).record_topics == []
+    assert NodeModel(package='p', executable='e', params={'poles': [1, 2.5]}).params == {
+        'poles': [1.0, 2.5]
+    }
+    assert 'process' in ExperimentModel.model_fields['nodes'].annotation.__args__[1].model_fields
+
+
+def test_composed_puts_every_node_and_the_recorder_in_one_process_and_leaves_the_file_alone(
+        tmp_path):
+    exp = load_experiment(str(_write(tmp_path, _doc(**{VS + 'process': 'rig_group'}))))
+    assert exp.processes() == {'vehicle_sim': 'rig_group', 'treadmill_regulator': None,
+                               'recorder': None}
+    together = exp.composed()
+    assert together.processes() == {'vehicle_sim': 'graph', 'treadmill_regulator': 'graph',
+                                    'recorder': 'graph'}
+    assert exp.composed('loop').record_process == 'loop'
+    # the loaded experiment is untouched, the rest of the copy is the same
+    assert exp.processes()['vehicle_sim'] == 'rig_group' and exp.record_process is None
+    assert [(n.name, n.params) for n in together.nodes] == [(n.name, n.params) for n in exp.nodes]
+    assert (together.name, together.duration, together.record_topics) == (
+        exp.name, exp.duration, exp.record_topics)
+    # without recording there is no recorder to place
+    quiet = load_experiment(str(_write(tmp_path, _doc(record=None))))
+    assert 'recorder' not in quiet.composed().processes()
+
+
+def test_composed_and_offline_exclude_each_other(capsys):
+    with pytest.raises(SystemExit) as info:
+        experiment_main(['run', 'figure10_pi', '--offline', '--composed'])
+    assert info.value.code == 2
+    assert 'pick one' in capsys.readouterr().err
+
+
+@pytest.mark.parametrize('case', sorted(BAD_FILES))
+def test_schema_bad_file_is_one_line_naming_file_key_and_problem(tmp_path, case):
+    doc, key, what = BAD_FILES[case]
+    path = _write(tmp_path, doc)
+    with pytest.raises(ExperimentError) as info:
+        load_experiment(str(path))
+    msg = str(info.value)
+    assert msg.startswith(f'{path}: {key}: ') and what in msg, msg
+    assert '\n' not in msg
+
+
+def test_schema_not_yaml_and_not_a_mapping(tmp_path):
+    for text, what in (('name: [unclosed\n', 'not valid YAML'),
+                       ('- a\n- b\n', "(top level): a mapping of keys expected, got ['a', 'b']")):
+        path = _write(tmp_path, text)
+        with pytest.raises(ExperimentError) as info:
+            load_experiment(str(path))
+        assert str(info.value).startswith(f'{path}: ') and what in str(info.value)
+        assert '\n' not in str(info.value)
+
+
+def test_schema_file_name_must_be_a_plain_name_without_name_key(tmp_path):
+    path = _write(tmp_path, _doc(name=DELETE), name='my exp.yaml')
+    with pytest.raises(ExperimentError, match=r"name: the file name 'my exp' is not a plain name"):
+        load_experiment(str(path))
+    assert (
+        load_experiment(str(_write(tmp_path, _doc(name=DELETE), name='plain-1.yaml'))).name
+        == 'plain-1'
+    )
+
+
+def test_schema_bad_parameter_in_a_params_file_names_that_file(tmp_path):
+    params = tmp_path / 'reg.yaml'
+    params.write_text('treadmill_regulator:\n  ros__parameters:\n    rate_hz: fast\n')
+    doc = _doc(nodes__treadmill_regulator__params_files=['pkg://irs_treadmill/config/treadmill.yaml',
+                                                         str(params)])
+    with pytest.raises(ExperimentError, match=r"nodes\.treadmill_regulator\.params_files\[1\]: "
+                                              r"parameter 'rate_hz': got 'fast' \(string\)"):
+        load_experiment(str(_write(tmp_path, doc)))
+    params.write_text('- not a parameter file\n')
+    with pytest.raises(
+        ExperimentError, match=r'params_files\[1\]: .*reg.yaml: expected <node name>'
+    ):
+        load_experiment(str(_write(tmp_path, doc)))
+
+
+@pytest.mark.parametrize('case', ['unknown executable', 'nodes a list', 'missing params file',
+                                  'params file of an unknown package', 'duration below one step',
+                                  'duration true', 'name with ../', 'parameter of the wrong type',
+                                  'record topics a string'])
+def test_schema_cli_prints_one_line_and_exits_2(tmp_path, capsys, case):
+    doc, key, what = BAD_FILES[case]
+    path = _write(tmp_path, doc)
+    for offline in ([], ['--offline']):
+        code = experiment_main(['run', str(path), '--runs-dir', str(tmp_path / 'runs'), *offline])
+        out, err = capsys.readouterr()
+        assert code == 2 and out == ''
+        assert err.startswith(f'experiment: error: {path}: {key}: ') and what in err, err
+        assert err.count('\n') == 1
+    assert not (tmp_path / 'runs').exists() and not (tmp_path.parent / 'escape').exists()
+
+
+def test_schema_offline_run_with_a_parameter_only_the_cores_check_is_one_line(tmp_path, capsys):
+    doc = _doc(
+        nodes__lateral_controller={'package': 'irs_control', 'executable': 'lateral_controller',
+                                   'params': {'mode': 'bogus'}}
+    )
+    path = _write(tmp_path, doc)
+    assert experiment_main(['run', str(path), '--offline']) == 2
+    _out, err = capsys.readouterr()
+    assert err == (f'experiment: error: {path}: nodes: the offline closed loop refuses a '
+                   "parameter: mode must be 'mrc' or 'pi', got 'bogus'\n")
+
+
+def test_schema_the_installed_command_prints_one_line_and_exits_2(tmp_path):
+    """Through the real executable (as `./irs run irs_bringup experiment run <file>`)."""
+    exe = resolve_executable('irs_bringup', 'experiment')
+    for case, extra in (('name with ../', []), ('parameter of the wrong type', ['--offline'])):
+        doc, key, what = BAD_FILES[case]
+        path = _write(tmp_path, doc)
+        res = subprocess.run([exe, 'run', str(path), '--runs-dir',
+                               str(tmp_path / 'runs'), *extra],
+                             capture_output=True, text=True, timeout=120)
+        assert res.returncode == 2, res.stderr
+        assert res.stderr.startswith(f'experiment: error: {path}: {key}: ') and what in res.stderr
+        assert res.stderr.count('\n') == 1 and 'Traceback' not in res.stderr
+
+
+def test_surface_section_becomes_the_rigs_surface_parameters(tmp_path):
+    """The torque car's road in a ``surface:`` section: the rig gets it as ``surface.*``;
+    the installed torque-car experiments use it.
+    """
+    doc = _doc(surface={'kind': 'split', 'mu_left': 0.8, 'mu_right': 0.3},
+               **{VS + 'params': {'plant': 'two_track'}})
+    rig = load_experiment(str(_write(tmp_path, doc))).node('irs_vehicle_sim', 'vehicle_sim')
+    assert rig.params == {'plant': 'two_track', 'surface.kind': 'split',
+                          'surface.mu_left': 0.8, 'surface.mu_right': 0.3}
+    low = load_experiment('torque_braking_abs_low').node('irs_vehicle_sim', 'vehicle_sim')
+    assert low.params['surface.kind'] == 'uniform' and low.params['surface.mu'] == 0.3
+
+
+@pytest.mark.parametrize('surface, rig_params, what', [
+    ({'kind': 'wet'}, {'plant': 'two_track'}, 'surface kind must be one of'),
+    ({'kind': 'split', 'mu': 0.3}, {'plant': 'two_track'}, "reads only ['mu_left', 'mu_right']"),
+    ({'kind': 'uniform', 'mu': 0.0}, {'plant': 'two_track'}, 'mu'),
+    ({'kind': 'uniform', 'mu': 0.3}, {}, 'only the torque car has tyres'),
+    ({'kind': 'uniform', 'mu': 0.3}, {'plant': 'two_track', 'surface.mu': 0.8},
+     'given here and as nodes.vehicle_sim.params'),
+])
+def test_surface_section_refused_in_one_line(tmp_path, surface, rig_params, what):
+    path = _write(tmp_path, _doc(surface=surface, **{VS + 'params': rig_params}))
+    with pytest.raises(ExperimentError) as info:
+        load_experiment(str(path))
+    msg = str(info.value)
+    assert msg.startswith(f'{path}: surface') and what in msg and '\n' not in msg, msg

@@ -1,0 +1,376 @@
+"""The ``recorder`` node records a lock-step rig at 1 kHz into a valid bag, loses nothing, exits 0
+on SIGINT, counts every message it really lost, and a SIGKILLed recorder leaves a bag whose
+complete chunks the tools read (with a warning) and ``bag recover`` turns into a valid bag.
+
+The rig (``vehicle_sim``, lock-step) publishes exactly one message per output topic per step
+(plus re-sends of the step-0 outputs while nobody answers); a responder in the test process
+answers each step's ``ground_truth/sensor_point`` with a ``steering/command`` of the same stamp,
+but only once the recorder has subscribed to everything and received step 0 on every rig topic.
+Completion is read from the recorder's own ``recorder/status`` counts, not from a sleep.
+"""
+import json
+import math
+import os
+import signal
+import subprocess
+
+import pytest
+
+from irs_bringup.executables import resolve_executable
+from irs_bringup.processes import NodeSpec, wait_until
+
+DT_NS = 1_000_000
+RIG_TOPICS = ['/clock', '/arm/joint_states', '/belt/speed', '/steering/state',
+              '/ground_truth/odom', '/ground_truth/sensor_point']
+CMD_TOPIC = '/steering/command'
+
+
+def stamp_ns(data: bytes) -> int:
+    """header.stamp (or Clock.clock) of a little-endian CDR message: int32 sec, uint32 nsec."""
+    import struct
+    sec, nsec = struct.unpack_from('<iI', data, 4)
+    return sec * 1_000_000_000 + nsec
+
+
+class StatusWatcher:
+    """Subscribes ``recorder/status`` (latched JSON) on the watcher node."""
+
+    def __init__(self, ros):
+        from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
+        from std_msgs.msg import String
+        self.last = None
+        ros.node.create_subscription(
+            String, '/recorder/status', self._on,
+            QoSProfile(depth=1, reliability=ReliabilityPolicy.RELIABLE,
+                       durability=DurabilityPolicy.TRANSIENT_LOCAL))
+
+    def _on(self, msg):
+        self.last = json.loads(msg.data)
+
+    def count(self, topic):
+        return 0 if self.last is None else self.last['messages'].get(topic, 0)
+
+
+class LockstepResponder:
+    """Answers each rig step with a steering command of the same stamp (once per stamp).
+
+    The step is answered when ``trigger`` (a stamped topic computed from the step's outputs,
+    e.g. the sensed ``/pose``) arrives, which paces the rig to the slowest node in the chain.
+    A trigger received before :meth:`enable` is answered by :meth:`enable`.
+    """
+
+    def __init__(self, ros, amplitude=0.05, trigger='/ground_truth/sensor_point',
+                 trigger_type=None):
+        from geometry_msgs.msg import PointStamped
+        from rosgraph_msgs.msg import Clock
+
+        from irs_common import qos
+        from irs_msgs.msg import SteeringCommand
+        self.SteeringCommand = SteeringCommand
+        self.enabled = False
+        self.answered = -1
+        self.pending = None
+        self.clock_ns = -1
+        self.amplitude = amplitude
+        self.pub = ros.node.create_publisher(SteeringCommand, CMD_TOPIC, qos.COMMAND)
+        self.trigger_sub = ros.node.create_subscription(
+            trigger_type or PointStamped, trigger, self._on_trigger, qos.SENSOR)
+        ros.node.create_subscription(Clock, '/clock', self._on_clock, qos.CLOCK)
+
+    def _on_clock(self, msg):
+        self.clock_ns = max(self.clock_ns, msg.clock.sec * 10**9 + msg.clock.nanosec)
+
+    def _on_trigger(self, msg):
+        stamp = msg.header.stamp.sec * 10**9 + msg.header.stamp.nanosec
+        if not self.enabled:
+            self.pending = stamp if self.pending is None else max(self.pending, stamp)
+            return
+        self._answer(stamp)
+
+    def enable(self):
+        self.enabled = True
+        if self.pending is not None:
+            self._answer(self.pending)
+
+    def _answer(self, stamp):
+        if stamp <= self.answered:
+            return
+        self.answered = stamp
+        cmd = self.SteeringCommand()
+        cmd.header.stamp.sec, cmd.header.stamp.nanosec = divmod(stamp, 10**9)
+        cmd.front_angle = self.amplitude * math.sin(2 * math.pi * stamp * 1e-9)
+        self.pub.publish(cmd)
+
+
+def rig_spec(max_steps, **extra):
+    return NodeSpec('irs_vehicle_sim', 'vehicle_sim', params={
+        'clock_mode': 'lockstep', 'max_steps': max_steps, 'lockstep_resend_period': 0.3,
+        **extra})
+
+
+def recorder_spec(out, topics, **params):
+    return NodeSpec('irs_bag', 'recorder', params={
+        'topics': topics, 'output': str(out), 'status_period': 0.1, **params})
+
+
+def record_lockstep(ros, launch, bag, max_steps, topics, responder=None, extra_nodes=(),
+                    extra_topics_ready=(), extra_topics_started=(), metadata=None,
+                    before_rig=None):
+    """Start recorder + rig, run ``max_steps`` lock-step steps, stop the recorder (SIGINT).
+
+    ``extra_topics_ready``: further (topic, minimal count) the recorder must have before the
+    run counts as complete; ``extra_topics_started``: topics that must have a first message
+    before the responder starts answering; ``extra_nodes`` start before the rig, and
+    ``before_rig(status)`` (if given) runs before the rig starts. Every node started here is
+    stopped before returning. Returns (exit code, recorder output, final status).
+    """
+    status = StatusWatcher(ros)
+    responder = responder or LockstepResponder(ros)
+    # a JSON string as a YAML single-quoted scalar, so that -p does not parse it as a mapping
+    # NodeSpec passes params through a YAML params file, so a JSON text stays a string
+    rec = launch(recorder_spec(bag, topics, metadata=json.dumps(metadata or {})))
+    others = [launch(spec) for spec in extra_nodes]
+    if before_rig is not None:
+        before_rig(status)
+    rig = launch(rig_spec(max_steps))
+    rig_topics = [t for t in topics if t in RIG_TOPICS]
+    # The recorder has subscribed to everything and the rig's step-0 outputs (re-sent every
+    # 0.3 s while nobody answers) reached it on every rig topic.
+    need_cmd_subs = 2 if CMD_TOPIC in topics else 1   # the rig (+ the recorder)
+    ros.spin_until(
+        lambda: rec.poll() is not None or rig.poll() is not None
+        or (all(status.count(t) >= 1 for t in [*rig_topics, *extra_topics_started])
+            and responder.pub.get_subscription_count() >= need_cmd_subs), 30.0)
+    assert rec.poll() is None and rig.poll() is None and all(
+        status.count(t) >= 1 for t in [*rig_topics, *extra_topics_started]), \
+        f'recorder not ready: {status.last}\n{rec.tail()}\n{rig.tail()}'
+    responder.enable()
+    last = max_steps * DT_NS
+    # The counts include step 0's re-sent copies, so they can be reached before the last step:
+    # the run is complete once the rig has published step max_steps (its /clock comes first,
+    # the outputs in the same callback; the recorder's final drain on stop takes what is still
+    # in flight) and the recorder has at least one message per step on every topic.
+    done = ros.spin_until(
+        lambda: (responder.clock_ns >= last
+                 and all(status.count(t) >= max_steps + 1 for t in rig_topics)
+                 and (CMD_TOPIC not in topics or status.count(CMD_TOPIC) >= max_steps + 1)
+                 and all(status.count(t) >= n for t, n in extra_topics_ready)),
+        90.0)
+    assert done, (f'run did not complete: clock {responder.clock_ns} / {last}, status '
+                  f'{status.last}\n{rig.tail()}')
+    code = rec.stop(timeout=15.0)
+    for proc in [rig, *others]:   # the graph is gone when this returns
+        proc.stop(timeout=15.0)
+    return code, rec.output(), status.last
+
+
+def test_recorder_lockstep_1khz_no_loss(ros, launch, tmp_path):
+    from rosbags.rosbag2 import Reader
+
+    from irs_bag import BagReader, validate
+
+    max_steps = 1500
+    bag = tmp_path / 'bag'
+    topics = RIG_TOPICS + [CMD_TOPIC]
+    meta = {'experiment': 'tests/test_recorder.py', 'git_commit': 'abc123'}
+    code, out, status = record_lockstep(ros, launch, bag, max_steps, topics, metadata=meta)
+    assert code == 0, out[-3000:]
+    assert 'Traceback' not in out, out[-3000:]
+    summary = [ln for ln in out.splitlines() if ln.startswith('recorder: closed')]
+    assert summary and 'dropped: 0' in summary[-1], out[-2000:]
+
+    rep = validate(bag)
+    assert rep.ok, rep.problems
+    with BagReader(bag) as r:
+        assert set(r.topics) == set(topics)
+        by_topic = {t: [] for t in topics}
+        for m in r.messages():
+            by_topic[m.topic].append(m)
+        custom = r.bag_metadata['custom_data']
+        assert custom['irs.dropped_messages'] == '0'
+        recs = dict(r.metadata_records())
+        assert recs['irs_experiment']['experiment'] == 'tests/test_recorder.py'
+        assert recs['irs_experiment']['git_commit'] == 'abc123'
+    for t in RIG_TOPICS:
+        msgs = by_topic[t]
+        stamps = [stamp_ns(m.data) for m in msgs]
+        # every step 0..max_steps exactly once, except re-sends of the step-0 outputs
+        assert sorted(set(stamps)) == [k * DT_NS for k in range(max_steps + 1)], t
+        assert len(stamps) - stamps.count(0) == max_steps, (t, len(stamps), stamps.count(0))
+        first0 = [m.data for m in msgs if stamp_ns(m.data) == 0]
+        assert all(d == first0[0] for d in first0), f'{t}: re-sent step 0 differs'
+        assert stamps[stamps.count(0):] == sorted(stamps[stamps.count(0):]), t
+        assert len(msgs) == status['messages'][t]
+    cmd_stamps = [stamp_ns(m.data) for m in by_topic[CMD_TOPIC]]
+    # the responder answers every step, the last one (max_steps) included
+    assert cmd_stamps == [k * DT_NS for k in range(max_steps + 1)]
+
+    with Reader(bag) as rb:
+        assert {c.topic for c in rb.connections} == set(topics)
+        assert rb.message_count == sum(len(v) for v in by_topic.values())
+
+
+def test_recorder_sigkill_leaves_recoverable_prefix(ros, launch, tmp_path):
+    from irs_bag import BagReader, BagError, recover, validate
+
+    bag = tmp_path / 'killed'
+    status = StatusWatcher(ros)
+    launch(NodeSpec('irs_vehicle_sim', 'vehicle_sim',
+                    params={'clock_mode': 'realtime', 'max_steps': 20000}))
+    rec = launch(recorder_spec(bag, ['/arm/joint_states', '/belt/speed'], flush_period=0.2))
+    assert ros.spin_until(lambda: status.last is not None and status.last['chunks'] >= 2
+                          and status.count('/arm/joint_states') > 200, 30.0), rec.tail()
+    os.killpg(rec.pid, signal.SIGKILL)
+    assert wait_until(lambda: rec.poll() is not None, 10.0)
+    assert rec.poll() == -signal.SIGKILL
+
+    with pytest.raises(BagError, match='recover'):
+        BagReader(bag)
+    got = recover(bag)
+    assert not got.complete and got.chunks >= 2
+    assert len(got) >= 2 and {m.topic for m in got} <= {'/arm/joint_states', '/belt/speed'}
+    assert any(name == 'irs_experiment' for name, _ in got.metadata)
+
+    bag_exe = resolve_executable('irs_bag', 'bag')
+    for cmd in (['info'], ['validate'], ['plots', '--out', str(tmp_path / 'plots')],
+                ['export', '--out', str(tmp_path / 'csv')]):
+        res = subprocess.run([bag_exe, *cmd[:1], str(bag), *cmd[1:]], capture_output=True,
+                             text=True, timeout=60)
+        assert res.returncode == 0, (cmd, res.stdout, res.stderr)
+        assert 'Traceback' not in res.stderr + res.stdout
+        lines = res.stderr.strip().splitlines()
+        assert len(lines) == 1 and 'warning' in lines[0] and 'unfinished' in lines[0], lines
+    res = subprocess.run([bag_exe, 'info', str(bag)], capture_output=True, text=True, timeout=60)
+    assert f'Messages:     {len(got)}' in res.stdout, res.stdout
+    res = subprocess.run([bag_exe, 'recover', str(bag), '--out', str(tmp_path / 'fixed')],
+                         capture_output=True, text=True, timeout=60)
+    assert res.returncode == 0 and len(res.stdout.strip().splitlines()) == 1, res
+    assert f'{len(got)} messages' in res.stdout, res.stdout
+    rep = validate(tmp_path / 'fixed')
+    assert rep.ok and rep.complete and rep.message_count == len(got), rep.problems
+    with BagReader(tmp_path / 'fixed') as r:
+        assert [m.data for m in r.messages()] == [m.data for m in got]
+
+
+def flood_a_frozen_recorder(ros, launch, bag, topic, pub_qos, frozen, **rec_params):
+    """Record ``topic`` (Int64 0, 1, 2, ...); once the recorder has taken a message, freeze it
+    (SIGSTOP) while ``frozen`` messages are published, thaw it, publish 20 more, and wait until
+    every message after the warm-up is recorded or counted as dropped. Returns the recorder,
+    the values in the bag, the bag's custom metadata, how many were published in all, and the
+    last warm-up message (the recorder may have missed the ones before it).
+    """
+    from std_msgs.msg import Int64
+
+    from irs_bag.reader import BagReader
+
+    status = StatusWatcher(ros)
+    rec = launch(recorder_spec(bag, [topic], flush_period=0.2, **rec_params))
+    pub = ros.node.create_publisher(Int64, topic, pub_qos)
+    sent = 0
+
+    def publish(n):
+        nonlocal sent
+        for _ in range(n):
+            pub.publish(Int64(data=sent))
+            sent += 1
+
+    # warm up until the recorder has taken a message (its sequence bookkeeping is running)
+    while not ros.spin_until(lambda: status.count(topic) >= 1, 0.2):
+        assert sent < 500 and rec.poll() is None, rec.tail()
+        publish(1)
+    first_kept = sent - 1            # at most the messages before this one may be unmatched
+    os.killpg(rec.pid, signal.SIGSTOP)
+    try:
+        publish(frozen)              # nobody takes them while the recorder is frozen
+    finally:
+        os.killpg(rec.pid, signal.SIGCONT)
+    publish(20)
+    total = sent
+    # every message after the warm-up is either recorded or counted as dropped
+    assert ros.spin_until(
+        lambda: status.last is not None and status.count(topic)
+        + status.last['dropped'].get(topic, 0) >= total - first_kept, 60.0), status.last
+    assert rec.stop(timeout=15.0) == 0, rec.tail()
+    with BagReader(bag) as r:
+        values = [m.data for _, m in r.decoded([topic])]
+        custom = dict(r.bag_metadata['custom_data'])
+    return rec, values, custom, total, first_kept
+
+
+def test_recorder_counts_a_real_loss(ros, launch, tmp_path):
+    """The recorder is stopped (SIGSTOP) while a publisher floods its topic (KEEP_LAST 10 on
+    both sides): messages are really lost. After SIGCONT the bag's drop count equals what was
+    published minus what was recorded, and the recorded values are exactly the ones it kept.
+    """
+    from rclpy.qos import HistoryPolicy, QoSProfile, ReliabilityPolicy
+
+    rec, values, custom, total, _ = flood_a_frozen_recorder(
+        ros, launch, tmp_path / 'lossy', '/flood', QoSProfile(
+            history=HistoryPolicy.KEEP_LAST, depth=10, reliability=ReliabilityPolicy.RELIABLE),
+        5000, qos_depth=10)          # the 10-deep queues overflow
+    dropped = json.loads(custom['irs.dropped_messages_per_topic'])
+    assert values == sorted(values) and values[-1] == total - 1, values[-5:]
+    published = total - values[0]     # published from the first recorded message on
+    lost = published - len(values)
+    print(f'published {published}, recorded {len(values)}, lost {lost}, reported {dropped}')
+    assert lost > 1000, 'the flood must really lose messages'
+    assert dropped == {'/flood': lost}
+    assert f'dropped: {lost}' in rec.output()
+
+
+def test_recorder_bad_output_is_a_configuration_error(tmp_path):
+    existing = tmp_path / 'full'
+    existing.mkdir()
+    (existing / 'x').write_text('x')
+    res = subprocess.run([resolve_executable('irs_bag', 'recorder'), '--ros-args',
+                          '-p', f'output:={existing}'], capture_output=True, text=True,
+                         timeout=60)
+    assert res.returncode == 2, res.stderr
+    assert 'not empty' in res.stderr and 'Traceback' not in res.stderr
+
+
+def test_lockstep_experiments_record_clock():
+    """/clock (published by the lock-step rig, recorded by the tests above) is in the record
+    list of every lock-step experiment, so `bag play` paces their bags by sim time; the
+    runner waits for the recorder's /clock subscription before step 0.
+    """
+    from irs_bringup.experiment import expected_endpoints, load_experiment
+    for name in ('figure10_mrc_with_actuator', 'figure10_mrc_without_actuator', 'figure10_pi',
+                 'treadmill_regulation'):
+        exp = load_experiment(name)
+        assert exp.clock == 'lockstep' and '/clock' in exp.record_topics, name
+        non_rig = sum(1 for e in exp.nodes if e.key != ('irs_vehicle_sim', 'vehicle_sim'))
+        assert expected_endpoints(exp)['/clock'] == (1, non_rig + 1), name
+
+
+def test_an_output_it_cannot_create_is_one_line_at_start_up(tmp_path):
+    """Before any topic appears: a bag directory under a file is refused at once, exit 2."""
+    blocker = tmp_path / 'a_file'
+    blocker.write_text('not a directory')
+    exe = resolve_executable('irs_bag', 'recorder')
+    res = subprocess.run([exe, '--ros-args', '-p', f'output:={blocker}/bag', '-p',
+                          "topics:=['/nothing/ever']"], capture_output=True, text=True,
+                         timeout=60)
+    assert res.returncode == 2, res.stdout + res.stderr
+    lines = [ln for ln in res.stderr.splitlines() if ln.strip()]
+    assert len(lines) == 1 and 'cannot create the bag directory' in lines[0], res.stderr
+    assert 'Traceback' not in res.stderr + res.stdout
+
+
+def test_a_frozen_recorder_loses_nothing_the_publishers_history_still_holds(ros, launch,
+                                                                            tmp_path):
+    """A recorder starved of CPU (here frozen with SIGSTOP) catches up without loss as long as
+    the publishers still hold what it missed: the IRS publisher profile keeps
+    ``PUBLISHER_HISTORY`` samples (5 s at 1 kHz) and the recorder subscribes as deep. 3000
+    messages (3 s of a 1 kHz stream) published while it is frozen are all in the bag, and no
+    loss is reported. With the old 100-deep publisher profile this test fails: the writer can
+    no longer repair what the frozen recorder missed.
+    """
+    from irs_common import qos
+
+    assert qos.PUBLISHER_HISTORY >= 3000
+    _, values, custom, total, first_kept = flood_a_frozen_recorder(
+        ros, launch, tmp_path / 'frozen', '/stream', qos.SENSOR_PUB, 3000)
+    assert values == list(range(values[0], total)), (len(values), values[:3], values[-3:])
+    assert values[0] <= first_kept
+    assert custom.get('irs.dropped_messages') == '0', custom
