@@ -6,8 +6,9 @@ simulation uses.
 
 The mapping names the controller (MRC/RST or PI), the design plant (steer [rad] -> sensor-point
 lateral displacement y_s [m]: the paper's Eq. 6, a preset's bicycle model or a custom
-polynomial pair; :func:`plant_polynomials`), the reference model, the observer and the
-anti-windup; :func:`make_controller` designs and discretises it.
+polynomial pair; :func:`plant_polynomials`), the reference model, the observer, the
+anti-windup and the start-up design check (``check_plant``, ``check_delay``: used by the node,
+not here); :func:`make_controller` designs and discretises it.
 """
 from dataclasses import dataclass
 
@@ -48,6 +49,7 @@ CONTROLLER_DEFAULTS = {
     'steer_limit': STEER_LIMIT,
     'anti_windup': 'back_calculation',
     'check_plant': 'identified',
+    'check_delay': 0.017,
     'allow_unstable_design': False,
 }
 
@@ -139,17 +141,18 @@ def check_controller_params(cfg: dict) -> None:
     arithmetic; raises ``ValueError`` with one sentence naming the parameter.
 
     Numbers: ``dt``, ``steer_limit``, ``actuator_pole``, ``speed`` positive and finite;
-    ``ds``, ``plant_gain`` (>= 0), ``kp``, ``ki`` (>= 0), the input bounds (> 0, inf allowed) and
-    ``initial_reference`` finite; ``anti_windup`` one of ``'back_calculation'``, ``'clip'`` (or a
-    bool, an alias). Reference model (MRC only): ``reference_model_num`` a non-empty
-    list of finite coefficients, not all zero; ``reference_model_den`` the same, monic and
-    stable (Hurwitz), of higher degree than the numerator (a strictly proper model).
+    ``ds``, ``plant_gain`` (>= 0), ``kp``, ``ki`` (>= 0), ``check_delay`` (>= 0), the input
+    bounds (> 0, inf allowed) and ``initial_reference`` finite; ``anti_windup`` one of
+    ``'back_calculation'``, ``'clip'`` (or a bool, an alias). Reference model (MRC
+    only): ``reference_model_num`` a non-empty list of finite coefficients, not all zero;
+    ``reference_model_den`` the same, monic and stable (Hurwitz), of higher degree than the
+    numerator (a strictly proper model).
     """
     for key in ('dt', 'steer_limit', 'actuator_pole', 'speed'):
         _finite_number(cfg, key, positive=True)
-    for key in ('ds', 'plant_gain', 'kp', 'ki', 'initial_reference'):
+    for key in ('ds', 'plant_gain', 'kp', 'ki', 'initial_reference', 'check_delay'):
         _finite_number(cfg, key)
-    for key in ('plant_gain', 'kp', 'ki'):
+    for key in ('plant_gain', 'kp', 'ki', 'check_delay'):
         if cfg[key] < 0:
             raise ValueError(f'{key} must be >= 0; got {cfg[key]!r}')
     for key in ('measurement_limit', 'reference_limit'):

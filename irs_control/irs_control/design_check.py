@@ -1,42 +1,40 @@
 r"""Start-up check of a lateral-controller design against a configured plant model (no rclpy).
 
 The paper's designs (Sec. 4-5) are computed on the identified plant of Eq. 6. Run on another
-plant -- e.g. the ``irs_2wd`` bicycle preset, whose zeros differ from Eq. 6 -- the same RST
-polynomials can give an unstable loop, and nothing would say so until the car leaves the belt.
-:func:`check_design` closes the loop of the controller the node built with the *check plant*
-and answers whether it is stable, with the poles and the margins.
+plant -- e.g. the ``irs_2wd`` bicycle preset -- the same RST polynomials can give an unstable
+loop, and nothing would say so until the car leaves the belt. :func:`check_design` closes the loop
+of the controller the node built with the *check plant* and the rig's transport delay, and answers
+whether it is stable, with the poles and the margins.
 
 Loop (steer [rad] -> sensor-point lateral displacement y_s [m], unity negative feedback)::
 
     P(s) = B(s)/A(s)          check plant, always with the actuator lag  p/(s + p)
     C(s) = S(s)/R(s)          MRC/RST feedback part (R u = T u_c - S y);  PI: (kp s + ki)/s
-    closed-loop poles         roots of  A R + B S = 0                    (continuous)
     L(s) = P(s) C(s)          loop transfer function of the margins
+    closed-loop poles         roots of  A R + B S = 0                    (continuous)
+    delay margin              min over gain crossovers w_i of PM_i / w_i, less the delay T_d
 
-Continuous closed loop: ``control.feedback(P, C)`` (python-control), its poles
-``control.poles``; margins: ``control.stability_margins(L)`` (gain margin [-] and phase margin
-[deg] with their crossover frequencies [rad/s]). The node runs the controller as its exact ZOH
-discretisation at ``dt`` (:mod:`.discrete_rst`; PI: forward-Euler integrator), so the check also
-closes the *sampled* loop: the plant discretised by ZOH at ``dt`` (``control.c2d``) with the
-controller's own discrete state space, in state-space form (well conditioned at 1 kHz, where
-every pole crowds ``z = 1``); its poles must lie inside the unit circle. A design is *stable*
-when every continuous pole has ``Re s < 0`` and every discrete pole ``|z| < 1``.
+Margins: ``control.stability_margins(L)`` (gain margin [-], phase margin [deg], crossovers
+[rad/s]); every gain crossover for the delay margin (``returnall``). The node runs the controller
+as its exact ZOH discretisation at ``dt`` (:mod:`.discrete_rst`; PI: forward-Euler integrator),
+so the check also closes the *sampled* loop: the plant discretised by ZOH at ``dt``
+(``control.c2d``), the transport delay as ``round(T_d / dt)`` samples (exact in the sampled loop),
+with the controller's own discrete state space; its poles must lie inside the unit circle. A
+design is *stable* when every continuous pole has ``Re s < 0``, the delay margin is positive and
+every pole of the sampled loop with the delay has ``|z| < 1``. The delay ``T_d`` is
+``check_delay`` (0.017 s: the paper's transmitter delay, the rig's mean); a design that is stable
+without it but not with it is refused like an unstable one.
 
-Not in the model: the actuator's 17 ms transmitter delay, backlash, rate limit and saturation
-(the paper's designs neglect them too); a design passing this check can still oscillate on the
-rig (docs/figure10.md), but one failing it cannot work at all.
+Not in the model: backlash, dead zone, slew limit and saturation (the paper's designs neglect
+them too); a design passing this check can still oscillate on the rig (docs/figure10.md), but one
+failing it cannot work at all.
 
 Check plant (``check_plant``; the design plant is ``plant``): ``'identified'`` = Eq. 6 with
 gain ``plant_gain`` (0 = the paper reconstruction b0 = 363.394, :mod:`irs_models.identified`) --
-the rig's default plant; ``'custom'`` = the controller's ``plant_num``/``plant_den`` (e.g. a
-vehicle model identified by ``sysid vehicle``); any other value names a preset of
-``irs_models/config/presets.yaml``, taken at the controller's ``speed`` and ``ds``
-(:func:`irs_models.bicycle.transfer_function`). The actuator lag pole is the controller's
-``actuator_pole`` (29 rad/s, Eq. 6).
-
-With the paper's designs (paper_design / controller_factory defaults): on Eq. 6 all three are
-stable; on ``irs_2wd`` at 1.2 m/s, ds = 0.33 m the MRC with the actuator has its rightmost pole
-at +0.60 +- 10.4j and the MRC without it at +1.09 +- 11.4j (unstable), the PI is stable.
+the rig's default plant; ``'custom'`` = the controller's ``plant_num``/``plant_den``; any other
+value names a preset of ``irs_models/config/presets.yaml``, taken at the controller's ``speed``
+and ``ds`` (:func:`irs_models.bicycle.transfer_function`). The actuator lag pole is the
+controller's ``actuator_pole`` (29 rad/s, Eq. 6).
 """
 from __future__ import annotations
 
@@ -51,7 +49,7 @@ from irs_models.identified import identified_plant
 from irs_models.presets import get_preset
 
 __all__ = ['DesignCheck', 'check_plant_polynomials', 'check_design', 'check_controller',
-           'require_stable']
+           'require_stable', 'delay_margin']
 
 
 @dataclass(frozen=True)
@@ -72,6 +70,14 @@ class DesignCheck:
         [deg] (inf when |L| never crosses 1).
     wcg, wcp : float
         Phase and gain crossover frequencies [rad/s].
+    delay : float
+        The transport delay T_d the check includes [s].
+    delay_margin : float
+        Further delay the loop tolerates beyond ``delay`` [s]: ``min_i PM_i / w_i - T_d`` over
+        the gain crossovers (inf without one; -inf when unstable without the delay). Negative:
+        unstable with the delay.
+    delayed_discrete_poles : numpy.ndarray
+        Closed-loop poles of the sampled loop with ``round(delay / dt)`` samples of delay.
     """
 
     plant: str
@@ -81,6 +87,9 @@ class DesignCheck:
     phase_margin: float
     wcg: float
     wcp: float
+    delay: float = 0.0
+    delay_margin: float = math.inf
+    delayed_discrete_poles: np.ndarray | None = None
 
     @property
     def max_real(self) -> float:
@@ -93,9 +102,26 @@ class DesignCheck:
         return float(np.max(np.abs(self.discrete_poles)))
 
     @property
-    def stable(self) -> bool:
-        """Every continuous pole in the open left half plane, every discrete one inside |z| = 1."""
+    def max_abs_z_delayed(self) -> float:
+        """Spectral radius of the sampled closed loop with the delay [-]."""
+        if self.delayed_discrete_poles is None:
+            return self.max_abs_z
+        return float(np.max(np.abs(self.delayed_discrete_poles)))
+
+    @property
+    def stable_without_delay(self) -> bool:
+        """Every continuous pole in the open left half plane, every discrete one inside |z| = 1
+        (the loop without the transport delay).
+        """
         return self.max_real < 0.0 and self.max_abs_z < 1.0
+
+    @property
+    def stable(self) -> bool:
+        """Stable without the delay, and with it: a positive delay margin and the sampled loop
+        with the delay inside |z| = 1.
+        """
+        return (self.stable_without_delay and self.delay_margin > 0.0
+                and self.max_abs_z_delayed < 1.0)
 
     def unstable_poles(self) -> np.ndarray:
         """Continuous closed-loop poles with ``Re s >= 0`` (upper half plane and real ones)."""
@@ -108,15 +134,24 @@ class DesignCheck:
             if abs(z.imag) <= 1e-9 * max(abs(z), 1.0):
                 return f'{z.real:+.3g}'
             return f'{z.real:+.3g} +- {abs(z.imag):.3g}j'
-        p = self.unstable_poles() if not self.stable else \
+        p = self.unstable_poles() if not self.stable_without_delay else \
             self.poles[np.argsort(-self.poles.real)][:3]
         shown = ', '.join(fmt(z) for z in p if z.imag >= -1e-9 * abs(z)) or 'none'
         gm = 'inf' if not math.isfinite(self.gain_margin) else f'{self.gain_margin:.3g}'
         pm = 'inf' if not math.isfinite(self.phase_margin) else f'{self.phase_margin:.3g} deg'
+        td = f'{1000 * self.delay:.3g} ms'
+        dm = ('inf' if math.isinf(self.delay_margin) and self.delay_margin > 0
+              else f'{1000 * self.delay_margin:+.3g} ms')
         if self.stable:
-            return (f"closed loop on plant '{self.plant}' stable: rightmost poles {shown} rad/s, "
-                    f'gain margin {gm}, phase margin {pm} (sampled loop |z| max '
-                    f'{self.max_abs_z:.6f})')
+            return (f"closed loop on plant '{self.plant}' stable with the {td} delay: rightmost "
+                    f'poles {shown} rad/s (without the delay), gain margin {gm}, phase margin '
+                    f'{pm}, delay margin {dm} (sampled loop with the delay |z| max '
+                    f'{self.max_abs_z_delayed:.6f})')
+        if self.stable_without_delay:
+            return (f"closed loop on plant '{self.plant}' UNSTABLE with the {td} transport "
+                    f'delay (stable without it: rightmost poles {shown} rad/s): delay margin '
+                    f'{dm}, phase margin {pm} at {self.wcp:.3g} rad/s, gain margin {gm} '
+                    f'(sampled loop with the delay |z| max {self.max_abs_z_delayed:.6f})')
         return (f"closed loop on plant '{self.plant}' UNSTABLE: poles {shown} rad/s "
                 f'(largest real part {self.max_real:+.3g} rad/s; sampled loop |z| max '
                 f'{self.max_abs_z:.6f}), gain margin {gm}, phase margin {pm}')
@@ -140,10 +175,28 @@ def check_plant_polynomials(plant: str, actuator_pole: float, plant_gain: float 
     return np.trim_zeros(np.asarray(num, float), 'f'), np.asarray(den, float)
 
 
-def check_design(B, A, R, S, controller_ss, dt: float, plant: str = '') -> DesignCheck:
+def delay_margin(loop, delay: float = 0.0) -> float:
+    """Further delay [s] the stable loop ``loop`` tolerates beyond ``delay``: the smallest
+    ``PM_i / w_i`` over its gain crossovers (phase margins in rad, in [0, 2 pi)), less ``delay``;
+    inf when ``|L|`` never crosses 1.
+    """
+    import control
+
+    _gm, pm, _sm, _wpc, wgc, _wms = control.stability_margins(loop, returnall=True)
+    pm, wgc = np.atleast_1d(pm), np.atleast_1d(wgc)
+    keep = np.isfinite(pm) & np.isfinite(wgc) & (wgc > 0.0)
+    if not np.any(keep):
+        return math.inf
+    tolerated = np.mod(np.radians(pm[keep]), 2.0 * math.pi) / wgc[keep]
+    return float(np.min(tolerated)) - float(delay)
+
+
+def check_design(B, A, R, S, controller_ss, dt: float, plant: str = '',
+                 delay: float = 0.0) -> DesignCheck:
     """Close the loop of plant ``B/A`` with feedback ``S/R`` (continuous) and, sampled at ``dt``
     [s], with the controller's discrete state space ``controller_ss = (Ad, Bd, Cd, Dd)`` from y
-    to u (the sign included: ``u = -S/R y``).
+    to u (the sign included: ``u = -S/R y``); ``delay`` [s] is the transport delay of the steer
+    (margins and the sampled loop with ``round(delay / dt)`` samples).
     """
     import control
 
@@ -157,14 +210,23 @@ def check_design(B, A, R, S, controller_ss, dt: float, plant: str = '') -> Desig
     K = control.ss(*controller_ss, dt)
     # u = K y and y = P u: a positive-feedback interconnection (K already carries the minus).
     zpoles = np.asarray(control.poles(control.feedback(Pd, K, sign=+1)), complex)
-    return DesignCheck(plant, poles, zpoles, float(gm), float(pm), float(wcg), float(wcp))
+    n = int(round(delay / dt))
+    zdelayed = zpoles
+    if n > 0:
+        z_n = control.ss(control.tf([1.0], [1.0] + [0.0] * n, dt))   # z^-n
+        zdelayed = np.asarray(control.poles(control.feedback(Pd * z_n, K, sign=+1)), complex)
+    stable0 = np.max(poles.real) < 0.0 and np.max(np.abs(zpoles)) < 1.0
+    dm = delay_margin(P * C, delay) if stable0 else -math.inf
+    return DesignCheck(plant, poles, zpoles, float(gm), float(pm), float(wcg), float(wcp),
+                       float(delay), dm, zdelayed)
 
 
 def check_controller(cfg: dict, controller, design=None) -> DesignCheck:
     """:func:`check_design` of a controller built by ``controller_factory.make_controller``.
 
     ``cfg`` holds the controller parameters (``mode``, ``kp``, ``ki``, ``dt``, ``actuator_pole``,
-    ``plant_gain``, ``speed``, ``ds`` and ``check_plant``); ``design`` is the MRC's RstDesign
+    ``plant_gain``, ``speed``, ``ds``, ``check_plant`` and ``check_delay``, 0 if absent);
+    ``design`` is the MRC's RstDesign
     (``None`` for the PI); ``controller`` the discrete controller (its ``linear_state_space()``).
     """
     plant = str(cfg['check_plant'])
@@ -178,21 +240,24 @@ def check_controller(cfg: dict, controller, design=None) -> DesignCheck:
         R, S = np.array([1.0, 0.0]), np.array([float(cfg['kp']), float(cfg['ki'])])
     else:
         R, S = np.asarray(design.R, float), np.asarray(design.S, float)
-    return check_design(B, A, R, S, controller.linear_state_space(), float(cfg['dt']), plant)
+    return check_design(B, A, R, S, controller.linear_state_space(), float(cfg['dt']), plant,
+                        float(cfg.get('check_delay', 0.0)))
 
 
 def require_stable(cfg: dict, controller, design=None, label: str = 'design'):
     """Run :func:`check_controller`; refuse an unstable loop unless ``allow_unstable_design``.
 
+    Unstable includes stable without the delay but not with it (a negative delay margin).
     Returns ``(check, message, ok)``: ``ok`` False means unstable but allowed (the caller warns
-    with ``message``). Raises ``ValueError`` with one line (which poles, which plant, how to
-    override) when the loop is unstable and ``cfg['allow_unstable_design']`` is false.
+    with ``message``). Raises ``ValueError`` with one line (which poles or which delay margin,
+    which plant, how to override) when the loop is unstable and ``cfg['allow_unstable_design']``
+    is false.
     """
     check = check_controller(cfg, controller, design)
     msg = f'{label}: {check.summary()}'
     if check.stable:
         return check, msg, True
     if not cfg.get('allow_unstable_design', False):
-        raise ValueError(f'{msg}; refusing to start (check_plant selects the plant model; '
-                         'allow_unstable_design:=true runs it anyway)')
+        raise ValueError(f'{msg}; refusing to start (check_plant selects the plant model, '
+                         'check_delay the delay; allow_unstable_design:=true runs it anyway)')
     return check, msg + ' -- running anyway (allow_unstable_design is true)', False

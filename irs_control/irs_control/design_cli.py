@@ -4,10 +4,14 @@ Usage::
 
     python -m irs_control.design_cli [--actuator-pole 29] [--gain 363.394]
                                      [--observer minimal|paper] [--plots DIR]
-                                     [--reconstruction]
+                                     [--reconstruction] [--check-plant identified]
+                                     [--check-delay 0.017]
 
 Prints R, S, T, Ao, B+, B- and the closed-loop poles for the design with the actuator and
-the design that neglects it (both on the identified plant of Eq. 6). ``--plots DIR``
+the design that neglects it (both on the identified plant of Eq. 6), and the start-up design
+check of each (:mod:`.design_check`: the 1 kHz controller closed with ``--check-plant`` and the
+transport delay ``--check-delay``; poles, margins, delay margin; the node refuses what it calls
+UNSTABLE). ``--plots DIR``
 writes ``bode_<case>.png`` and ``step_<case>.png`` (closed loop vs reference model; the
 step plots include the *true* plant -- with actuator -- driven by the design that neglects
 it, the paper's Fig. 10 middle-panel situation, simulated with the discrete controller at
@@ -20,10 +24,13 @@ import os
 
 import numpy as np
 
+from .controller_factory import CONTROLLER_DEFAULTS
+from .design_check import check_design, check_plant_polynomials
+from .discrete_rst import DiscreteRstController
 from .paper_design import (PAPER_ACTUATOR_POLE, PAPER_PLANT_GAIN, identified_plant,
                            paper_mrc_design, reconstruction_hypotheses)
 
-__all__ = ['main', 'format_poly', 'format_design']
+__all__ = ['main', 'format_poly', 'format_design', 'design_check_line']
 
 
 def format_poly(p, var: str = 's') -> str:
@@ -52,6 +59,19 @@ def format_design(name: str, d) -> str:
              f'closed-loop poles: {poles}',
              f'max |Gcl - Gm|/|Gm| (0.01..1000 rad/s): {d.closed_loop_freq_error():.2e}']
     return '\n'.join(lines)
+
+
+def design_check_line(d, check_plant: str, actuator_pole: float, gain: float,
+                      delay: float, dt: float = CONTROLLER_DEFAULTS['dt']) -> str:
+    """The start-up design check of design ``d`` run at ``dt`` [s] on ``check_plant`` with the
+    transport delay ``delay`` [s], as the node logs it (``REFUSED`` when it would not start).
+    """
+    B, A = check_plant_polynomials(check_plant, actuator_pole,
+                                   gain if check_plant == 'identified' else 0.0,
+                                   CONTROLLER_DEFAULTS['speed'], CONTROLLER_DEFAULTS['ds'])
+    ss = DiscreteRstController(d, dt=dt).linear_state_space()
+    chk = check_design(B, A, d.R, d.S, ss, dt, check_plant, delay)
+    return f"design check{'' if chk.stable else ' (REFUSED)'}: {chk.summary()}"
 
 
 def _plots(outdir, designs, actuator_pole, gain):
@@ -119,6 +139,10 @@ def main(argv=None) -> int:
     ap.add_argument('--plots', metavar='DIR', help='save Bode and step PNGs in DIR')
     ap.add_argument('--reconstruction', action='store_true',
                     help='print the Eq. 22 reconstruction hypotheses table')
+    ap.add_argument('--check-plant', default=CONTROLLER_DEFAULTS['check_plant'],
+                    help="plant of the design check: 'identified' (Eq. 6) or a preset name")
+    ap.add_argument('--check-delay', type=float, default=CONTROLLER_DEFAULTS['check_delay'],
+                    help='transport delay of the design check [s] (default 0.017)')
     args = ap.parse_args(argv)
     designs = {
         'with_actuator': paper_mrc_design(True, args.actuator_pole, args.gain),
@@ -126,6 +150,8 @@ def main(argv=None) -> int:
     }
     for key, d in designs.items():
         print(format_design(key, d))
+        print(design_check_line(d, args.check_plant, args.actuator_pole, args.gain,
+                                args.check_delay))
         print()
     if args.reconstruction:
         print('== Eq. 22 reconstruction (max relative R coefficient error) ==')

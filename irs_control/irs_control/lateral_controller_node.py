@@ -4,11 +4,12 @@ One control step per measurement of the sensor point's lateral displacement y [m
 (``lateral_position``, 1 kHz by default): the controller's steer [rad] goes out on
 ``steering/command`` stamped with the measurement's stamp, ``lateral/status`` carries the
 telemetry. With ``reference_sync`` (lock-step) a measurement waits for the reference of the same
-stamp, so the run does not depend on DDS delivery order. Bad, stale, future-stamped or
-out-of-order input gives zero steer or is dropped, never a non-finite command; an unstable design
-is refused at start-up (:mod:`.design_check`). The node exists so that the controller core runs
-in the graph unchanged; topics, the bad-input rule, the design check and the writable
-parameters: :class:`LateralControllerNode`.
+stamp, so the run does not depend on DDS delivery order. Bad, stale, future-stamped or out-of-order
+input gives zero steer or is dropped, never a non-finite command; an unstable design is refused at
+start-up, and so is a negative delay margin with the steer's transport delay ``check_delay``
+(:mod:`.design_check`). The node exists so that the controller core runs in the graph unchanged;
+topics, the bad-input rule, the design check and the writable parameters:
+:class:`LateralControllerNode`.
 """
 import math
 import time

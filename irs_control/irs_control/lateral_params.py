@@ -79,6 +79,9 @@ PARAMS = [
           "plant model the design is checked against at start-up (closed-loop poles, margins; "
           "with the actuator lag): 'identified' (paper Eq. 6, the rig's default plant) or a "
           'vehicle preset name (at speed and ds)', '-'),
+    Param('check_delay', D['check_delay'],
+          'transport delay of the steer in the start-up check (the rig: 17 ms mean); a design '
+          'with a negative delay margin is refused', 's', 0.0, 1.0, read_only=True),
     Param('allow_unstable_design', D['allow_unstable_design'],
           'start even when the design is unstable on check_plant (a warning instead of the '
           'refusal)', '-'),

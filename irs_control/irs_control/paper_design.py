@@ -22,11 +22,11 @@ Check: the design below reproduces the printed T to 3e-4 relative on every coeff
 
 The printed R (Eq. 22) is not reproduced *on Eq. 6's plant*
 -----------------------------------------------------------
-(What follows holds for designs on Eq. 6's poles. Freeing the design plant's poles and zeros
-together, :mod:`irs_control.paper_inverse` finds a plant -- not Eq. 6 -- that explains the printed
-R, S and T together to about 6 %, once S's s^1 coefficient is taken as a misprint; see
-docs/control_design.md.) Cancelling both zeros forces ``(s+2.4)(s+4.8)`` to divide R
-(Eq. 16), and the printed
+(What follows holds for designs on Eq. 6's poles. Freeing the design plant's poles and zeros,
+:mod:`irs_control.paper_inverse` finds two families of plants -- neither Eq. 6 -- that explain the
+printed R and S to 5.1 % or reproduce R exactly; no single design gives both, and S's s^1
+coefficient none with two integrators; see docs/control_design.md.) Cancelling both zeros
+forces ``(s+2.4)(s+4.8)`` to divide R (Eq. 16), and the printed
 ``R = s^4 + 44.9 s^3 + 707.2 s^2 + 3530.8 s + 6364.5`` has roots -19.0 +- 8.32j and
 -3.45 +- 1.70j, so Eq. 22 is inconsistent with Eqs. 16, 18 and 24 for any ``A``,
 ``Ao``, ``b0``. The design that the printed T, Ao, Am and the stated degree rule

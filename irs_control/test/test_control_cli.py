@@ -9,6 +9,14 @@ def test_cli_prints_designs(capsys):
                 'B+  =', 'B-  =', 'closed-loop poles'):
         assert key in out
     assert '2580.48' in out  # R(0) of the design with the actuator
+    assert out.count("design check: closed loop on plant 'identified' stable with the 17 ms "
+                     'delay') == 2 and 'delay margin +' in out
+
+
+def test_cli_design_check_refuses_on_irs_2wd(capsys):
+    assert main(['--check-plant', 'irs_2wd']) == 0
+    out = capsys.readouterr().out
+    assert out.count("design check (REFUSED): closed loop on plant 'irs_2wd' UNSTABLE") == 2
 
 
 def test_cli_reconstruction_and_plots(tmp_path, capsys):

@@ -153,3 +153,53 @@ def test_crossover_frequencies_are_where_the_margins_are_read():
     L = control.tf(B, A)
     assert abs(abs(control.evalfr(L, 1j * res.wcp)) - 1.0) < 1e-9
     assert abs(np.degrees(np.angle(control.evalfr(L, 1j * res.wcg))) + 180.0) < 1e-6
+
+
+# --------------------------------------------------------------------------- delay margin
+def test_a_design_stable_without_the_delay_is_refused_with_it():
+    """PI kp = 15 on irs_2wd: phase margin 9.8 deg at the crossover, tolerates 10.4 ms of delay;
+    the rig's 17 ms makes it unstable (the check without the delay passes it).
+    """
+    import control
+
+    cfg, spec, chk = _check('pi', 'irs_2wd', kp=15.0, check_delay=0.017)
+    free = check_controller({**cfg, 'check_delay': 0.0}, spec.controller, spec.design)
+    assert free.stable and free.stable_without_delay and free.delay_margin > 0.0
+    assert chk.stable_without_delay and not chk.stable
+    # the margin is the phase margin over the crossover, less the delay (read from the Bode)
+    B, A = check_plant_polynomials('irs_2wd', cfg['actuator_pole'], 0.0, cfg['speed'], cfg['ds'])
+    L = control.tf(B, A) * control.tf([15.0, 3.0], [1.0, 0.0])
+    phase = np.angle(control.evalfr(L, 1j * chk.wcp))
+    assert abs(abs(control.evalfr(L, 1j * chk.wcp)) - 1.0) < 1e-9
+    assert chk.delay_margin == pytest.approx((math.pi + phase) / chk.wcp - 0.017, rel=1e-9)
+    assert -0.010 < chk.delay_margin < 0.0
+    # the sampled loop with the delay as whole samples agrees: unstable with 17 ms, stable with
+    # 2 ms less than the tolerated delay, unstable with 2 ms more
+    assert chk.max_abs_z_delayed > 1.0 and free.max_abs_z_delayed < 1.0
+    tolerated = free.delay_margin
+    for extra, stable in ((-0.002, True), (0.002, False)):
+        c = check_controller({**cfg, 'check_delay': tolerated + extra}, spec.controller, None)
+        assert (c.max_abs_z_delayed < 1.0) == stable and c.stable == stable, extra
+    with pytest.raises(ValueError) as exc:
+        require_stable(cfg, spec.controller, spec.design, 'PI design')
+    msg = str(exc.value)
+    print(msg)
+    assert '\n' not in msg and msg.startswith("PI design: closed loop on plant 'irs_2wd' "
+                                              'UNSTABLE with the 17 ms transport delay')
+    assert f'delay margin {1000 * chk.delay_margin:+.3g} ms' in msg
+    assert 'check_delay' in msg and 'allow_unstable_design' in msg
+
+
+@pytest.mark.parametrize('name', list(DESIGNS))
+def test_paper_designs_on_eq6_keep_a_delay_margin(name):
+    cfg, _spec, chk = _check(name, 'identified')
+    assert chk.delay == 0.017 and chk.stable
+    assert chk.delay_margin > 0.05                      # 87-200 ms beyond the 17 ms
+    assert 'delay margin +' in chk.summary()
+
+
+def test_check_delay_is_validated():
+    with pytest.raises(ValueError, match='check_delay must be >= 0'):
+        make_controller({'check_delay': -0.01})
+    with pytest.raises(ValueError, match='check_delay must be a finite number'):
+        make_controller({'check_delay': math.nan})

@@ -311,7 +311,7 @@ def report(res: dict) -> str:
                      f'calls stable has a phase margin of {check.phase_margin:.2g} deg, '
                      f"{delay_phase_margin(res):.2g} deg with the rig's dead time")
     if res['spec'] is not None and not check.stable:
-        lines.append(f"[{res['plant']}] the design is UNSTABLE on the configured plant: not run")
+        lines.append(f"[{res['plant']}] the design is refused (not run): {check.summary()}")
     return '\n'.join(lines)
 
 
@@ -326,9 +326,12 @@ def plot_cycle(results: list, path) -> Path:
         f = res.get('following')
         name = res['plant'] if res['plant'] != 'identified' else 'identified (Eq. 6)'
         if f is None:
+            chk = res['check']
             why = ('design impossible' if res['spec'] is None else
-                   f"designed MRC unstable on this plant (max Re {res['check'].max_real:+.2f} "
-                   '1/s): not run')
+                   f'designed MRC unstable on this plant (max Re {chk.max_real:+.2f} 1/s): not run'
+                   if not chk.stable_without_delay else
+                   f'designed MRC refused: delay margin {1000 * chk.delay_margin:+.1f} ms with '
+                   f'the {1000 * chk.delay:.0f} ms transport delay: not run')
             ax.text(0.5, 0.5, why, ha='center', va='center', transform=ax.transAxes)
             ax.set_title(f'rig plant {name}')
             continue

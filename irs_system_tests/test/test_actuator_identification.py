@@ -3,10 +3,12 @@
 The rig is driven with steps on ``steering/command``; from ``steering/state`` (commanded vs
 achieved front steer) we identify the servo loop's time constant, the dead time, the rate limit
 at the wheel (horn slew limit / gear ratio), the backlash width and the saturation, and compare
-each with its parameter (5 % tolerance).  The friction dead zone and the linkage geometry are off
-here (the first offsets every settled angle, the second bends the saturation below 15 deg); the
-unit tests (irs_vehicle_sim/test/test_sim_actuator.py) hold them to their closed forms and
-tests/test_sysid_actuator.py identifies the whole servo from swept sines.
+each with its parameter (5 % tolerance).  The friction dead zone, the minimum drive, the linkage
+geometry and the radio frame are off here (the first offsets every settled angle, the second
+speeds up small errors, the third changes the gain at large angles, the last makes the dead time
+vary by a frame); the unit tests (irs_vehicle_sim/test/test_sim_actuator.py,
+test_sim_radio_link.py) hold them to their closed forms and test_sysid_actuator.py here
+identifies the whole servo from swept sines.
 """
 import math
 
@@ -42,7 +44,9 @@ def test_identified_actuator_matches_its_parameters(ros, launch):
                        'actuator_front.rate_limit': HORN_RATE, 'actuator_front.gear_ratio': GEAR,
                        'actuator_front.backlash': BACKLASH, 'actuator_front.limit': LIMIT,
                        'actuator_front.enable_friction': False,
-                       'actuator_front.enable_linkage_geometry': False}))
+                       'actuator_front.enable_linkage_geometry': False,
+                       'actuator_front.min_drive': 0.0,
+                       'actuator_front.enable_radio_frame': False}))
     rec = run_lockstep(ros, command, 3.6)
     stamps = sorted(rec['actuator'])
     t = np.array(stamps) * 1e-9

@@ -1,4 +1,4 @@
-"""Paper Figure 10 through the ROS graph in lock-step (issue 5): three designs on the rig.
+"""Paper Figure 10 through the ROS graph in lock-step: three designs on the rig.
 
 Identified plant with the actuator's lag, delay, backlash, rate limit and saturation on; arm noise
 on. The graph must reproduce the offline cores' numbers, and the designs must rank as the paper's
@@ -8,7 +8,8 @@ The bags must also stay the same to the bit across refactors: every recorded top
 messages are digested and compared with ``data/figure10_digests.json`` (beside this file),
 written from the commit named in that file. Regenerate it (only when a change of behaviour is
 intended) with ``IRS_WRITE_FIGURE10_DIGESTS=1 ./irs exec python -m pytest
-irs_system_tests/test/test_figure10_graph.py``.
+irs_system_tests/test/test_figure10_graph.py``: that run writes the file and then fails, saying
+so, so the write mode cannot pass a suite unnoticed; run the test again without the variable.
 """
 import hashlib
 import json
@@ -17,6 +18,7 @@ import subprocess
 from pathlib import Path
 
 import numpy as np
+import pytest
 from mcap.reader import make_reader
 from mcap_ros2.decoder import DecoderFactory
 
@@ -28,6 +30,8 @@ from irs_bag.run_series import lateral_run
 from irs_control.metrics import settling_time
 
 DIGESTS = Path(__file__).parent / 'data' / 'figure10_digests.json'
+#: set (to anything non-empty) to write DIGESTS from this run; the test then fails
+WRITE_ENV = 'IRS_WRITE_FIGURE10_DIGESTS'
 
 
 def topic_digests(bag_dir) -> dict:
@@ -90,8 +94,10 @@ def test_figure10_through_the_graph(tmp_path):
         assert np.max(np.abs(run['steer_cmd'][:n] - off['steer_cmd'])) < 1e-9, name
         runs[key] = run
         digests[name] = topic_digests(result.bag_dir)
-    if os.environ.get('IRS_WRITE_FIGURE10_DIGESTS'):
+    if os.environ.get(WRITE_ENV):
         write_digests(digests)
+        pytest.fail(f'{WRITE_ENV} is set: wrote the digests of this run to {DIGESTS} (nothing '
+                    'was compared); unset it and run the test again', pytrace=False)
     reference = json.loads(DIGESTS.read_text())
     for name, topics in reference['runs'].items():
         for topic, expected in topics.items():
@@ -104,8 +110,8 @@ def test_figure10_through_the_graph(tmp_path):
         metrics[k] for k in ('mrc_with_actuator', 'mrc_without_actuator', 'pi')
     )
     # MRC with the actuator follows the reference model best ...
-    assert with_act['ise_vs_model'] < without_act['ise_vs_model'] / 1.8   # README: 2x
-    assert with_act['ise_vs_model'] < pi['ise_vs_model'] / 25             # README: 30x
+    assert with_act['ise_vs_model'] < without_act['ise_vs_model'] / 4     # README: 7x
+    assert with_act['ise_vs_model'] < pi['ise_vs_model'] / 50             # README: 95x
     # ... neglecting the actuator is visibly less damped ...
     assert without_act['overshoot_percent'] > 1.5 * with_act['overshoot_percent']
     assert without_act['crossings_2pct'] > with_act['crossings_2pct']

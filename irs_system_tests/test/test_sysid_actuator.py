@@ -1,16 +1,17 @@
-"""sysid actuator through the graph: a short swept sine and two steps on the servo, recorded,
-then the CLI on the bags alone (dead time, pole, rate limit, Figures 6-7).
+"""sysid actuator through the graph: a short swept sine, a 1 deg step and a full swing on the
+servo, recorded, then the CLI on the bags alone (dead time, pole, rate limit, Figures 6-7).
 
-The sweep runs the servo with its non-linear elements off (no slew limit, dead zone, linkage
-geometry or backlash): a first-order lag of ``lag_hz`` behind the transport delay, so the fit
-has a known answer. The rig steps that lag exactly for a command held over each 1 ms step: the
-sampled response is the continuous one times the hold's ``exp(-j w dt/2) sinc(w dt/2)``, so the
-fit must find the configured pole and gain within the hold's droop, ``(w dt)^2/24 = 2.4e-4`` at
-the 12 Hz top (0.5 % allowed), and the dead time within 0.1 ms of the configured one plus half
-a step for the hold less the step by which ``steering/state`` reports its command late (the
-command stamped t_k acted over the step before t_k): ``delay - dt/2``. The steps run
-the servo as configured: the slew rate of the 10 deg step within 10 % of rate_limit /
-gear_ratio, the dead time within 3 ms of 17 ms (actuator_cli's tolerances).
+The sweep runs the servo with its non-linear elements off (no slew limit, dead zone, minimum drive,
+linkage geometry or backlash, no radio frame): a first-order lag of ``lag_hz`` behind the transport
+delay, so the fit has a known answer. The rig steps that lag exactly for a command held over each 1
+ms step: the sampled response is the continuous one times the hold's ``exp(-j w dt/2) sinc(w
+dt/2)``, so the fit must find the configured pole and gain within the hold's droop, ``(w dt)^2/24 =
+2.4e-4`` at the 12 Hz top (0.5 % allowed), and the dead time within 0.1 ms of the configured one
+plus half a step for the hold less the step by which ``steering/state`` reports its command late
+(the command stamped t_k acted over the step before t_k): ``delay - dt/2``. The steps run the servo
+as configured (radio frame on): the slew rate of the -15 -> +15 deg swing within 10 % of rate_limit
+/ gear_ratio, the dead time within 3 ms of the configured 17 ms, the mean of the radio frame's
+(actuator_cli's tolerances).
 """
 import math
 
@@ -28,6 +29,7 @@ LINEAR = {f'actuator_front.enable_{x}': False
           for x in ('rate_limit', 'friction', 'linkage_geometry', 'backlash', 'radio_frame',
                     'linkage_compensation')
           if f'enable_{x}' in ActuatorParams.__dataclass_fields__}
+LINEAR['actuator_front.min_drive'] = 0.0   # the amplifier's minimum drive: not a lag either
 
 
 def _linear(path):
@@ -49,8 +51,9 @@ def test_actuator_identified_from_bags_recorded_through_the_graph(tmp_path, caps
                  tmp_path / 'runs')
     steps = _run(cli.experiment_copy(
         'sysid_actuator_steps', exps, 'short',
-        {'signal.times': [0.2, 0.7], 'signal.values': [math.radians(1.0), math.radians(10.0)]},
-        duration=1.3), tmp_path / 'runs')
+        {'signal.times': [0.2, 0.7, 1.2],
+         'signal.values': [math.radians(1.0), math.radians(-15.0), math.radians(15.0)]},
+        duration=1.8), tmp_path / 'runs')
 
     res = cli.identify([cli.load_run(sweep), cli.load_run(steps)])
     rows = {e.name.split(' (')[0]: e for e in cli.estimates(res)}

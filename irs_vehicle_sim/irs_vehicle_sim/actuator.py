@@ -1,111 +1,97 @@
-"""Steering actuator of one axle: hobby servo (position loop in horn coordinates) + linkage.
+"""Steering actuator of one axle: radio link, hobby servo (in horn coordinates) and linkage.
 
-The paper (Sec. 3.3) identified the servo alone from the *servo* angle (its feedback
-potentiometer), commanded with "the reference actuator angle, which is a gain multiplied by the
-reference steer angle"; its frequency response depends on the amplitude (Fig. 6: first-order
-poles between 1 and 7 Hz) and large steps are rate limited "because of gearing and steering
-linkage friction" (Fig. 7).  This model makes that amplitude dependence emerge from the physics
-of a position servo driving the wheels through a linkage.  Angles: ``delta`` = road-wheel steer
-angle [rad], ``theta`` = servo-horn angle [rad]; ``N`` = ``gear_ratio`` [rad horn / rad steer].
+Signal flow, each element switchable (numbers and their sources: docs/vehicle_sim.md)::
 
-Element order (signal flow, each element can be switched off):
+    radio frame + latency (radio_link) -> |u| <= limit (the steer angle at the wheel)
+    -> horn reference theta_ref = asin(N sin u)   (the linkage's inverse; off: N u)
+    -> servo loop: dead zone e_f, minimum drive m, gain K = 2 pi lag_hz, slew limit Omega
+    -> linkage delta = asin(sin(theta) / N) -> backlash b -> achieved steer angle
 
-1. **Transmitter transport delay** ``T_d`` (paper Sec. 3.3: 0.017 +- 0.005 s, attributed to the
-   radio link and the receiver/servo electronics).  It acts on the *command*, so it comes
-   first.  Implemented as an exact FIFO of ``n = round(T_d / dt)`` samples: the delay is
-   **quantised to the step dt** (at 1 kHz, 0.017 s is exactly 17 samples).
-2. **Command saturation** ``|u| <= delta_max`` (default 15 deg = 0.2618 rad, the paper's hard
-   constraint on the front steer angle): the servo reference is clipped to the travel.
-3. **Servo reference in horn coordinates** ``theta_ref = N u`` (the paper's "gain multiplied by
-   the reference steer angle"; the transmitter maps linearly).
-4. **Servo position loop with friction and slew limit**, in horn coordinates.  A hobby servo is
-   a proportional position loop around a geared DC motor.  Quasi-statically (motor inertia
-   neglected) the horn speed is proportional to the net torque: loop torque ``k e`` (``e =
-   theta_ref - theta``) minus the Coulomb friction ``T_c`` of the gear train and the steering
-   linkage, so the horn moves only when ``|e| > e_f = T_c / k`` and then as a first-order loop
-   towards ``theta_ref -+ e_f`` (a dead zone on the error, the servo's deadband); the motor's
-   speed is bounded by its no-load/stall line, the **slew limit** ``Omega`` [rad/s of horn].
-   Exact ZOH of ``tau theta' = dz(e)`` (``tau = 1 / (2 pi lag_hz)``) with the limit on the
-   increment::
-
-       a = exp(-dt / tau),   target = theta_ref - sign(e) e_f   (theta held if |e| <= e_f)
-       theta_{k+1} = theta_k + clip((1 - a) (target - theta_k), -Omega dt, +Omega dt)
-
-   ``lag_hz`` is the *small-signal* loop bandwidth.  With the slew limit in horn coordinates the
-   wheel-side limit is ``Omega / N``: the loop saturates when ``|e| > Omega tau``, i.e. for steer
-   errors above ``Omega tau / N`` (defaults: 1.5 deg at the wheel), so sines of a few degrees
-   are already slew limited and the fitted first-order pole falls with the amplitude.
-5. **Linkage geometry** (servo horn -> steering arm through a drag link parallel to the axle;
-   horn radius r, steering-arm radius N r): equal link-end displacements ``r sin(theta) = N r
-   sin(delta)`` give ``delta = asin(sin(theta) / N)``, gain 1/N at the centre and slightly less
-   towards the end stops (15 deg command with N = 3: 13.63 deg).  Switched off: ``delta =
-   theta / N`` (a pure gain).  The servo state reported as ``servo`` is this wheel angle without
-   the play.
-6. **Gear / linkage backlash** (play element, total width ``b`` at the wheel; paper Sec. 4:
-   0.175 deg).  The wheel angle ``w`` follows ``s`` (step 5) only when the play is taken up::
-
-       w_{k+1} = s_{k+1} - b/2   if s_{k+1} - w_k >  b/2
-                 s_{k+1} + b/2   if s_{k+1} - w_k < -b/2
-                 w_k             otherwise
-
-   The output is the **achieved** wheel steer angle.
-
-The old model (a 4.6 Hz lag with a 6.98 rad/s limit on the wheel) is ``gear_ratio = 1``,
-``enable_friction = false``, ``enable_linkage_geometry = false`` and ``rate_limit = 6.981``:
-then steps 3-5 are the identity and the update is the one of the old model, to the bit.
+``delta`` [rad] is the road-wheel steer angle, ``theta`` [rad] the servo-horn angle, ``N`` =
+``gear_ratio``.  The servo loop is quasi-static (motor inertia neglected): outside the dead zone
+the horn moves at ``sign(e) min(Omega, m + K (|e| - e_f))``, ``e = theta_ref - theta``, and stops
+at the dead zone's edge.  Small errors therefore move at least at ``m`` (fast first-order fits,
+about 6.7 Hz at 1 deg), errors of a few degrees follow the proportional loop (its 4.4 Hz, the
+fits of 4.4-4.8 Hz at 5-8 deg) and large ones slew at ``Omega`` (2.8 Hz at 15 deg): the
+amplitude dependence of the paper's Fig. 6, with its 4.6 Hz (Eq. 6) where Figure 10 and the
+Fig. 8 sweep run (:mod:`.servo_fit` measures it).
 
 Timing: ``step(u_k, dt)`` consumes the command held over ``[t_k, t_k + dt)`` and returns the
-achieved angle at ``t_{k+1}``.  The chain is strictly proper (the loop output at ``t_{k+1}``
-depends on commands up to ``t_k``), so ``achieved`` read *before* ``step`` is the angle at
-``t_k``.
-
-Units: rad, s, rad/s, Hz.  No rclpy.
+achieved angle at ``t_{k+1}``; ``achieved`` read *before* ``step`` is the angle at ``t_k``.
+``PRESETS`` holds the earlier calibrations, one parameter set away.  Units: rad, s, rad/s, Hz.
+No rclpy.
 """
 
 from __future__ import annotations
 
 import math
-from collections import deque
 from dataclasses import dataclass
+
+import numpy as np
 
 from irs_models.constants import STEER_LIMIT_DEG
 
-__all__ = ['ActuatorParams', 'ActuatorState', 'SteeringActuator',
-           'DEFAULT_STEER_LIMIT_RAD', 'DEFAULT_RATE_LIMIT_RAD_S', 'DEFAULT_GEAR_RATIO',
-           'DEFAULT_FRICTION_DEADBAND_RAD', 'DEFAULT_LAG_HZ', 'LEGACY_RATE_LIMIT_RAD_S', 'LEGACY']
+from .radio_link import RadioLink
 
-#: Hard steer limit, 15 deg [rad] (paper Sec. 5: +-15 deg hard constraint).
+__all__ = ['ActuatorParams', 'ActuatorState', 'SteeringActuator', 'actuator_seed',
+           'DEFAULT_STEER_LIMIT_RAD', 'DEFAULT_RATE_LIMIT_RAD_S', 'DEFAULT_GEAR_RATIO',
+           'DEFAULT_FRICTION_DEADBAND_RAD', 'DEFAULT_LAG_HZ', 'DEFAULT_MIN_DRIVE_RAD_S',
+           'DEFAULT_RADIO_FRAME_S', 'LEGACY_RATE_LIMIT_RAD_S', 'LEGACY', 'PRESETS']
+
+#: Hard steer limit at the wheel, 15 deg [rad] (paper Sec. 5: +-15 deg on the steer angle).
 DEFAULT_STEER_LIMIT_RAD = math.radians(STEER_LIMIT_DEG)
-#: Small-signal bandwidth of the servo position loop [Hz].  The paper's first-order fits span
-#: 1-7 Hz with the amplitude (Sec. 3.3); friction, play and the slew limit can only slow a fit
-#: down, so the loop itself must be about 7 Hz.  The paper's 3.8 Hz (isolated servo) and 4.6 Hz
-#: (Eq. 6, in the car) are then fits at moderate amplitudes: this model fits about 4 Hz at 4 deg
-#: and 6 Hz at 2 deg (docs/vehicle_sim.md, measured with :mod:`irs_sysid.actuator_fit`).
-DEFAULT_LAG_HZ = 7.0
-#: Servo-horn angle per road-wheel steer angle [rad/rad].  Assumed, because the paper gives only
-#: "a gain": a standard hobby servo's +-45 deg of horn travel spans the paper's +-15 deg of steer
-#: (steering arm three times the horn radius).
+#: Bandwidth of the servo's proportional loop, K / (2 pi) [Hz].  Calibrated: the first-order
+#: fits at 5-8 deg of steer (where Figure 10's steer of 7.3 deg and the Fig. 8 sweep run) are the
+#: paper's 4.6 Hz to +-0.3 Hz (:mod:`.servo_fit`, docs/paper.md).  Eq. 6 prints the actuator
+#: pole as 29 rad/s (4.6 Hz).
+DEFAULT_LAG_HZ = 4.4
+#: Minimum drive of the servo amplifier [rad/s of horn]: the horn speed just outside the dead
+#: zone.  The amplifier of an analog hobby servo drives the motor with a pulse per frame
+#: stretched from the error pulse, at least long enough to break the motor's static friction
+#: (NE544-type amplifiers: pulse stretcher, dead band and trigger); so small errors close faster
+#: than the proportional loop alone.  Assumed mechanism, calibrated: first-order fits of about
+#: 6.7 Hz at 1 deg, the top of the paper's 1-7 Hz.  5 % of the slew rate.
+DEFAULT_MIN_DRIVE_RAD_S = 0.5
+#: Slew limit of the servo horn [rad/s of horn]: 60 deg in 0.11 s, 9.5 rad/s.  Calibrated with
+#: the loop gain: the fits fall from 4.4 Hz at 8 deg to 2.8 Hz at 15 deg.  With this loop a
+#: 60 deg horn step settles to 98 % in 0.16 s, within the no-load ratings of hobby servos
+#: (about 0.1-0.25 s / 60 deg at 4.8 V; 0.23 s for a Futaba S3003).
+DEFAULT_RATE_LIMIT_RAD_S = math.radians(60.0) / 0.11
+#: Servo-horn angle per road-wheel steer angle at the centre [rad/rad].  Assumed, because the
+#: paper gives only "a gain": a standard servo's +-45 deg of horn for the paper's +-15 deg of
+#: steer, 45 / 15; through the drag link the wheel's 15 deg needs 50.9 deg of horn.
 DEFAULT_GEAR_RATIO = 3.0
-#: Loaded slew limit of the servo horn [rad/s]: 60 deg in 0.30 s = 3.49 rad/s.  Assumed: a
-#: standard analog hobby servo is rated 0.15-0.23 s / 60 deg unloaded (e.g. Futaba S3003: 0.23 s
-#: at 4.8 V); the steering linkage's friction and the tyres' scrub on the rig slow it down along
-#: the motor's speed-torque line.  Chosen so that the fitted first-order pole falls to about
-#: 1 Hz at 15 deg of steer amplitude (paper Fig. 6: 1 Hz at the low end).  At the wheel:
-#: 3.49 / 3 = 1.16 rad/s (66.7 deg/s).
-DEFAULT_RATE_LIMIT_RAD_S = math.radians(60.0) / 0.30
-#: The old model's wheel-side limit, 60 deg / 0.15 s = 6.98 rad/s (unloaded hobby servo).
-LEGACY_RATE_LIMIT_RAD_S = math.radians(60.0) / 0.15
-#: Parameter overrides that give the old linear model (4.6 Hz lag, 6.98 rad/s on the wheel,
-#: no gearing, no friction, no linkage geometry); the update is then bit-identical to it.
-LEGACY = {'lag_hz': 4.6, 'rate_limit': LEGACY_RATE_LIMIT_RAD_S, 'gear_ratio': 1.0,
-          'enable_friction': False, 'enable_linkage_geometry': False}
 #: Half-width of the servo's dead zone in horn coordinates [rad] (Coulomb friction of gears and
-#: linkage over the loop stiffness, plus the servo amplifier's deadband).  Assumed 0.05 deg of
-#: horn: a digital servo's deadband of about 1 us of pulse width at 1000 us per 90 deg is
-#: 0.09 deg of horn (full width).  0.017 deg at the wheel, well below the paper's 0.175 deg
-#: backlash.  Wider dead zones (0.2 deg, an analog servo's 2-5 us) make the Figure 10 loops hunt
-#: around the set point (the plant has two integrators), which the paper does not show.
+#: linkage over the loop stiffness, plus the amplifier's dead band).  Assumed 0.05 deg of horn: a
+#: digital servo's dead band of about 1 us of pulse width at 1000 us per 90 deg is 0.09 deg of
+#: horn (full width); 0.017 deg at the wheel, well below the paper's 0.175 deg backlash.
 DEFAULT_FRICTION_DEADBAND_RAD = math.radians(0.05)
+#: Radio frame period [s]: the PPM frame of an 8-channel hobby transmitter, 8 channel pulses of
+#: at most 2 ms (plus gaps) and a sync gap, about 20 ms (20-22.5 ms by make).
+DEFAULT_RADIO_FRAME_S = 0.020
+#: The linear model's wheel-side limit, 60 deg / 0.15 s = 6.98 rad/s (unloaded hobby servo).
+LEGACY_RATE_LIMIT_RAD_S = math.radians(60.0) / 0.15
+#: Overrides that give the linear model (4.6 Hz lag, 6.98 rad/s on the wheel, no gearing,
+#: friction, minimum drive, linkage geometry or radio frame); bit-identical to it (tested).
+LEGACY = {'lag_hz': 4.6, 'rate_limit': LEGACY_RATE_LIMIT_RAD_S, 'gear_ratio': 1.0,
+          'enable_friction': False, 'enable_linkage_geometry': False, 'min_drive': 0.0,
+          'enable_radio_frame': False}
+#: Earlier calibrations, each one set of overrides away (``config/servo_*.yaml`` for a rig):
+#: ``servo_7hz``: a 7 Hz loop, 60 deg / 0.30 s (3.4907 rad/s, as the rig ran it), no minimum
+#: drive, the transmitter's linear gain (full command reaches 13.6 deg at the wheel), a constant
+#: 17 ms delay -- its 4.6 Hz fit falls at 4 deg.  ``linear_4p6``: :data:`LEGACY`.
+PRESETS = {
+    'servo_7hz': {'lag_hz': 7.0, 'rate_limit': 3.4907, 'min_drive': 0.0,
+                  'enable_radio_frame': False, 'enable_linkage_compensation': False},
+    'linear_4p6': dict(LEGACY),
+}
+
+
+def actuator_seed(rig_seed: int, side: str) -> tuple:
+    """Seed of one actuator's random stream (its radio-frame phase): ``(rig_seed, 1)`` for the
+    front, ``(rig_seed, 2)`` for the rear; apart from the arm noise's ``rig_seed`` stream.
+    """
+    return (int(rig_seed), {'front': 1, 'rear': 2}[side])
 
 
 @dataclass
@@ -115,28 +101,37 @@ class ActuatorParams:
     Attributes
     ----------
     lag_hz : float
-        Small-signal bandwidth of the servo position loop [Hz]; tau = 1 / (2 pi lag_hz).
-        Default 7 Hz (the top of the paper's 1-7 Hz; the old linear model used 4.6 Hz, Eq. 6).
+        Bandwidth of the servo's proportional loop K / (2 pi) [Hz] (the linear region).
     rate_limit : float
-        Slew limit of the servo horn [rad/s of horn]; the wheel-side limit is rate_limit /
-        gear_ratio.  Default 3.49 rad/s (60 deg / 0.30 s, loaded hobby servo, assumed).
+        Slew limit Omega of the servo horn [rad/s of horn]; at the wheel about Omega / N.
     delay : float
-        Transmitter transport delay [s], quantised to the step: round(delay / dt) samples.
+        Mean transport delay of the command [s] (paper: 0.017 +- 0.005 s).  Frame off: a FIFO
+        of round(delay / dt) samples; frame on: latency delay - radio_frame / 2 after the frame.
     backlash : float
-        Total width of the gear/linkage play at the wheel [rad].  Default 0.175 deg.
+        Total width of the gear/linkage play at the wheel [rad].  Default 0.175 deg (paper).
     limit : float
-        Symmetric hard saturation of the steer reference [rad].  Default 15 deg.
+        Hard limit of the steer angle at the wheel [rad], +-15 deg: the steer reference is
+        clipped to it and the end stops hold the wheel to it.
     gear_ratio : float
-        Servo-horn angle per steer angle N [rad/rad] (the paper's "gain").  Default 3.
+        Servo-horn angle per steer angle at the centre N [rad/rad].  Default 3.
     friction_deadband : float
-        Half-width of the servo's dead zone in horn coordinates [rad] (linkage Coulomb
-        friction over loop stiffness, plus amplifier deadband).  Default 0.05 deg.
+        Half-width e_f of the servo's dead zone in horn coordinates [rad].
+    min_drive : float
+        Horn speed m just outside the dead zone [rad/s of horn]; 0 = none.
+    radio_frame : float
+        Period of the transmitter's frame [s] (the command is sampled and held once a frame).
     enable_lag, enable_rate_limit, enable_delay, enable_backlash, enable_saturation : bool
         Switch each element; a disabled element is an identity.
     enable_friction : bool
-        Simulate the dead zone (off: the loop is linear up to the slew limit).
+        Simulate the dead zone.
     enable_linkage_geometry : bool
         Wheel angle asin(sin(theta) / N) (on) or theta / N (off).
+    enable_linkage_compensation : bool
+        Horn reference asin(N sin u), the linkage's inverse, so that the wheel statically holds
+        the steer command and the limit holds at the wheel (on); or the transmitter's gain N u
+        (off: full command reaches asin(sin(N limit) / N), 13.6 deg).  Only with the geometry.
+    enable_radio_frame : bool
+        Sample and hold the command once a radio frame, at a random phase (seeded).
     """
 
     lag_hz: float = DEFAULT_LAG_HZ
@@ -146,6 +141,8 @@ class ActuatorParams:
     limit: float = DEFAULT_STEER_LIMIT_RAD
     gear_ratio: float = DEFAULT_GEAR_RATIO
     friction_deadband: float = DEFAULT_FRICTION_DEADBAND_RAD
+    min_drive: float = DEFAULT_MIN_DRIVE_RAD_S
+    radio_frame: float = DEFAULT_RADIO_FRAME_S
     enable_lag: bool = True
     enable_rate_limit: bool = True
     enable_delay: bool = True
@@ -153,11 +150,13 @@ class ActuatorParams:
     enable_saturation: bool = True
     enable_friction: bool = True
     enable_linkage_geometry: bool = True
+    enable_linkage_compensation: bool = True
+    enable_radio_frame: bool = True
 
     def validate(self) -> None:
         """Raise ``ValueError`` if a parameter is not physically meaningful."""
         for name in ('lag_hz', 'rate_limit', 'delay', 'backlash', 'limit', 'gear_ratio',
-                     'friction_deadband'):
+                     'friction_deadband', 'min_drive', 'radio_frame'):
             if not math.isfinite(getattr(self, name)):
                 raise ValueError(f'{name} must be a finite number, got {getattr(self, name)!r}')
         checks = [
@@ -167,12 +166,17 @@ class ActuatorParams:
             (self.delay >= 0.0, f'delay must be a non-negative time in s, got {self.delay!r}'),
             (self.backlash >= 0.0,
              f'backlash must be a non-negative total play width in rad, got {self.backlash!r}'),
-            (self.limit > 0.0, f'limit must be a positive steer angle in rad, got {self.limit!r}'),
+            (0.0 < self.limit < 0.5 * math.pi,
+             f'limit must be a steer angle in (0, pi/2) rad, got {self.limit!r}'),
             (self.gear_ratio > 0.0,
              f'gear_ratio must be a positive horn/steer ratio, got {self.gear_ratio!r}'),
             (self.friction_deadband >= 0.0,
              'friction_deadband must be a non-negative horn angle in rad, got '
              f'{self.friction_deadband!r}'),
+            (self.min_drive >= 0.0,
+             f'min_drive must be a non-negative horn speed in rad/s, got {self.min_drive!r}'),
+            (self.radio_frame > 0.0 or not self.enable_radio_frame,
+             f'radio_frame must be a positive period in s, got {self.radio_frame!r}'),
         ]
         for ok, msg in checks:
             if not ok:
@@ -180,16 +184,47 @@ class ActuatorParams:
         if self.enable_linkage_geometry and self.gear_ratio < 1.0:
             raise ValueError('gear_ratio must be >= 1 with enable_linkage_geometry (the steering '
                              f'arm cannot be shorter than the horn), got {self.gear_ratio!r}')
+        if self.compensated and self.gear_ratio * math.sin(self.limit) >= 1.0:
+            raise ValueError(
+                f'gear_ratio * sin(limit) must be < 1 with enable_linkage_compensation (the horn '
+                f'cannot reach the wheel limit through the linkage), got {self.gear_ratio!r} * '
+                f'sin({self.limit!r})')
+        if self.framed and self.delay < 0.5 * self.radio_frame:
+            raise ValueError(f'delay must be at least half the radio frame with '
+                             f'enable_radio_frame ({0.5 * self.radio_frame!r} s: the mean wait '
+                             f'for a frame), got {self.delay!r}')
 
     @property
     def tau(self) -> float:
-        """Loop time constant tau = 1 / (2 pi lag_hz) [s]."""
+        """Loop time constant tau = 1 / (2 pi lag_hz) = 1 / K [s]."""
         return 1.0 / (2.0 * math.pi * self.lag_hz)
 
     @property
     def wheel_rate_limit(self) -> float:
         """Slew limit referred to the wheel, rate_limit / gear_ratio [rad/s] (at the centre)."""
         return self.rate_limit / self.gear_ratio
+
+    @property
+    def compensated(self) -> bool:
+        """True when the horn reference is the linkage's inverse asin(N sin u)."""
+        return self.enable_linkage_geometry and self.enable_linkage_compensation
+
+    @property
+    def framed(self) -> bool:
+        """True when the command passes the radio frame (frame and delay both on)."""
+        return self.enable_radio_frame and self.enable_delay
+
+    def horn_of(self, delta: float) -> float:
+        """Horn angle that holds the wheel at ``delta`` through the linkage [rad]."""
+        if self.enable_linkage_geometry:
+            return math.asin(max(-1.0, min(1.0, self.gear_ratio * math.sin(delta))))
+        return self.gear_ratio * delta
+
+    def wheel_of(self, theta: float) -> float:
+        """Wheel angle of the horn angle ``theta`` through the linkage [rad]."""
+        if self.enable_linkage_geometry:
+            return math.asin(math.sin(theta) / self.gear_ratio)
+        return theta / self.gear_ratio
 
 
 @dataclass
@@ -201,7 +236,7 @@ class ActuatorState:
     commanded : float
         Last raw command received [rad] (before delay and saturation).
     delayed : float
-        Command leaving the delay FIFO, after saturation [rad] (the steer reference).
+        Command leaving the radio link, after saturation [rad] (the steer reference).
     servo : float
         Servo angle referred to the wheel through the linkage, before the play [rad].
     achieved : float
@@ -224,36 +259,52 @@ class ActuatorState:
 
 
 class SteeringActuator:
-    """Fixed-step steering actuator: delay -> saturation -> servo loop -> linkage -> backlash.
+    """Fixed-step steering actuator (module docstring for the chain).
 
     Parameters
     ----------
     params : ActuatorParams, optional
         Actuator parameters (validated).
     initial_angle : float
-        Initial steer angle [rad] of servo and wheel; the delay FIFO is pre-filled with it.
+        Initial steer angle [rad] of servo and wheel; the radio link holds it at first.
+    seed : int or tuple of int
+        Seed of the radio frame's phase, drawn uniformly in ``[0, radio_frame)`` once
+        (:func:`actuator_seed` gives the rig's).
     """
 
-    def __init__(self, params: ActuatorParams | None = None, initial_angle: float = 0.0):
+    def __init__(self, params: ActuatorParams | None = None, initial_angle: float = 0.0,
+                 seed=0):
         self.params = params if params is not None else ActuatorParams()
         self.params.validate()
+        p = self.params
+        #: First frame instant of the radio link [s] (uniform in [0, radio_frame), seeded).
+        self.frame_phase = (float(np.random.default_rng(seed).uniform(0.0, p.radio_frame))
+                            if p.framed else 0.0)
         self._initial = float(initial_angle)
         self._dt: float | None = None
-        self._fifo: deque = deque()
+        self._link: RadioLink | None = None
         self._a = 0.0
+        self._horn_max = p.horn_of(p.limit)
         self.state = ActuatorState()
         self.reset(initial_angle)
 
     # ------------------------------------------------------------------ api
-    def reset(self, initial_angle: float | None = None) -> None:
-        """Reset all states to ``initial_angle`` [rad] (default: the constructor's)."""
+    def reset(self, initial_angle: float | None = None, keep_clock: bool = False) -> None:
+        """Reset all states to ``initial_angle`` [rad] (default: the constructor's).
+
+        ``keep_clock``: the radio frame's schedule runs on (a reset in the middle of a run);
+        otherwise the link's clock restarts with the first frame at ``frame_phase``.
+        """
         if initial_angle is not None:
             self._initial = float(initial_angle)
         a0 = self._initial
         self.state = ActuatorState(commanded=a0, delayed=a0, servo=a0, achieved=a0,
                                    horn=self._to_horn(a0))
-        self._dt = None
-        self._fifo = deque()
+        if keep_clock and self._link is not None:
+            self._link.reset(a0, keep_clock=True)
+        else:
+            self._dt = None
+            self._link = None
 
     @property
     def achieved(self) -> float:
@@ -262,26 +313,24 @@ class SteeringActuator:
 
     @property
     def delay_samples(self) -> int:
-        """Delay length in samples, round(delay / dt) (0 before the first step or if disabled)."""
-        return len(self._fifo)
+        """Length of the delay FIFO in samples, round(delay / dt) (0 before the first step, if
+        disabled, or with the radio frame).
+        """
+        return self._link.samples if self._link is not None else 0
 
     def _to_horn(self, delta: float) -> float:
         """Horn angle that holds the wheel at ``delta`` (inverse linkage) [rad]."""
         p = self.params
         if p.gear_ratio == 1.0 and not p.enable_linkage_geometry:
             return delta
-        if p.enable_linkage_geometry:
-            return math.asin(max(-1.0, min(1.0, p.gear_ratio * math.sin(delta))))
-        return p.gear_ratio * delta
+        return p.horn_of(delta)
 
     def _to_wheel(self, theta: float) -> float:
         """Wheel angle of the horn angle ``theta`` through the linkage [rad]."""
         p = self.params
-        if p.enable_linkage_geometry:
-            return math.asin(math.sin(theta) / p.gear_ratio)
-        if p.gear_ratio == 1.0:
+        if not p.enable_linkage_geometry and p.gear_ratio == 1.0:
             return theta
-        return theta / p.gear_ratio
+        return p.wheel_of(theta)
 
     def _configure(self, dt: float) -> None:
         if not (math.isfinite(dt) and dt > 0.0):
@@ -289,14 +338,51 @@ class SteeringActuator:
         p = self.params
         self._dt = dt
         self._a = math.exp(-dt / p.tau) if p.enable_lag else 0.0
-        n = int(round(p.delay / dt)) if p.enable_delay else 0
-        self._fifo = deque([self._initial] * n)
+        self._link = RadioLink(p.delay if p.enable_delay else 0.0, dt,
+                               p.radio_frame if p.framed else 0.0, self.frame_phase,
+                               self._initial)
+
+    def _reference(self, u: float) -> float:
+        """Servo reference in horn coordinates for the steer reference ``u`` [rad]."""
+        p = self.params
+        if p.compensated:
+            return math.asin(p.gear_ratio * math.sin(u))
+        return u if p.gear_ratio == 1.0 else p.gear_ratio * u
+
+    def _servo_increment(self, ref: float, horn: float):
+        """``(inc, limited, edge)``: the horn increment over one step toward ``ref`` (None in the
+        dead zone: the horn holds), whether the slew limit clipped it, the dead zone's edge.
+
+        Outside the dead zone the horn follows ``theta' = sign(e)(m + K(|e| - e_f))`` (exact
+        ZOH: a first-order approach to ``ref -+ e_f +- m/K``), clipped to the slew limit and
+        stopped at the dead zone's edge ``ref -+ e_f`` (the drive ends there).
+        """
+        p = self.params
+        err = ref - horn
+        edge = ref
+        if p.enable_friction and p.friction_deadband > 0.0:
+            if abs(err) <= p.friction_deadband:
+                return None, False, ref
+            edge = ref - math.copysign(p.friction_deadband, err)
+        target = edge
+        if p.min_drive > 0.0 and err != 0.0:
+            target = edge + math.copysign(p.min_drive * p.tau, err)
+        inc = (1.0 - self._a) * (target - horn)
+        limited = False
+        if p.enable_rate_limit:
+            rmax = p.rate_limit * self._dt
+            if abs(inc) > rmax:
+                inc = math.copysign(rmax, inc)
+                limited = True
+        if p.min_drive > 0.0 and abs(inc) > abs(edge - horn):
+            inc = edge - horn
+        return inc, limited, edge
 
     def step(self, command_rad: float, dt: float) -> float:
         """Advance one step of length ``dt`` [s] with ``command_rad`` [rad] held (ZOH).
 
         Returns the achieved wheel angle at the end of the step [rad].  ``dt`` must stay the same
-        between resets (the delay FIFO length depends on it).
+        between resets (the radio link's schedule depends on it).
         """
         if self._dt is None:
             self._configure(float(dt))
@@ -307,38 +393,29 @@ class SteeringActuator:
         st = self.state
         u = float(command_rad)
         st.commanded = u
-        # 1. transport delay (FIFO of n samples)
-        if self._fifo:
-            self._fifo.append(u)
-            u = self._fifo.popleft()
-        # 2. saturation of the steer reference
+        # 1. radio link: frame sampling and hold, latency (or the FIFO of the delay)
+        u = self._link.step(u)
+        # 2. saturation of the steer reference (a wheel angle)
         st.saturated = False
         if p.enable_saturation and abs(u) > p.limit:
             u = math.copysign(p.limit, u)
             st.saturated = True
         st.delayed = u
-        # 3. reference in horn coordinates: the transmitter's gain
-        ref = u if p.gear_ratio == 1.0 else p.gear_ratio * u
-        # 4. servo loop: dead zone (friction), exact first-order ZOH, slew limit on the increment
-        err = ref - st.horn
-        if p.enable_friction and p.friction_deadband > 0.0:
-            if abs(err) <= p.friction_deadband:
-                ref = st.horn
-            else:
-                ref = ref - math.copysign(p.friction_deadband, err)
-        inc = (1.0 - self._a) * (ref - st.horn)
-        st.rate_limited = False
-        if p.enable_rate_limit:
-            rmax = p.rate_limit * self._dt
-            if abs(inc) > rmax:
-                inc = math.copysign(rmax, inc)
-                st.rate_limited = True
-        if p.enable_lag or st.rate_limited:
+        # 3.-4. horn reference, servo loop
+        ref = self._reference(u)
+        inc, st.rate_limited, edge = self._servo_increment(ref, st.horn)
+        if inc is None:
+            pass                                   # inside the dead zone: the horn holds
+        elif p.enable_lag or st.rate_limited or p.min_drive > 0.0:
             st.horn = st.horn + inc
         else:
-            st.horn = ref  # exact pass-through (avoids s + (u - s) round-off)
+            st.horn = edge  # exact pass-through (avoids s + (u - s) round-off)
+        if p.enable_saturation and abs(st.horn) > self._horn_max:
+            st.horn = math.copysign(self._horn_max, st.horn)   # the end stops
         # 5. linkage: horn -> wheel
         st.servo = self._to_wheel(st.horn)
+        if p.enable_saturation and abs(st.servo) > p.limit:
+            st.servo = math.copysign(p.limit, st.servo)
         # 6. backlash (play) on the output
         if p.enable_backlash and p.backlash > 0.0:
             half = 0.5 * p.backlash

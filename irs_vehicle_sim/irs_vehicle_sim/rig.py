@@ -27,7 +27,7 @@ from irs_models.constants import SENSOR_DISTANCE
 from irs_models.identified import IdentifiedParams, IdentifiedPlant, quadratic_roots
 from irs_models.lateral_plant import BicyclePlant, LateralPlant
 
-from .actuator import ActuatorParams, ActuatorState, SteeringActuator
+from .actuator import ActuatorParams, ActuatorState, SteeringActuator, actuator_seed
 from .car_on_belt import CarParams, CarOnBelt, off_belt_edge, wheel_speeds
 from .arm_sensor import ArmSensorParams, ArmSensor
 from .belt import BeltParams, TreadmillBelt
@@ -398,8 +398,10 @@ class RigSimulation:
         self.config = config if config is not None else RigConfig()
         self.config.validate()
         c = self.config
-        self.act_front = SteeringActuator(copy.deepcopy(c.actuator_front))
-        self.act_rear = SteeringActuator(copy.deepcopy(c.actuator_rear))
+        self.act_front = SteeringActuator(copy.deepcopy(c.actuator_front),
+                                          seed=actuator_seed(c.seed, 'front'))
+        self.act_rear = SteeringActuator(copy.deepcopy(c.actuator_rear),
+                                         seed=actuator_seed(c.seed, 'rear'))
         self.torque_car: TorqueCarPlant | None = None
         if c.plant == 'identified':
             self.plant: LateralPlant | None = IdentifiedPlant(c.identified)
@@ -442,7 +444,8 @@ class RigSimulation:
         * the car is at its configured start (``x0``, ``y0``, heading 0, zero lateral and yaw
           velocities, forward speed ``u0``; the remembered speed command is ``u0``; the torque
           car's wheels rolling at ``u0 / R``, its encoders counting on);
-        * both steering actuators are at 0 rad with empty delay lines;
+        * both steering actuators are at 0 rad with empty delay lines (their radio frames run
+          on: the transmitter does not stop);
         * the latched fault (off-belt edge or arm reach) is cleared; it re-latches on the
           outputs formed here if the start pose itself is off the belt;
         * the time ``t_k`` and step counter are unchanged, the arm-noise stream continues (not
@@ -460,8 +463,8 @@ class RigSimulation:
         c = self.config
         if belt_speed is not None:
             self.belt.reset(float(belt_speed))   # validates the speed before anything changes
-        self.act_front.reset(0.0)
-        self.act_rear.reset(0.0)
+        self.act_front.reset(0.0, keep_clock=True)
+        self.act_rear.reset(0.0, keep_clock=True)
         if self.torque_car is not None:
             self.torque_car.restart(c.x0, c.y0, c.u0, self.time)
         else:

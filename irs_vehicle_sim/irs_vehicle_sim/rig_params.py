@@ -24,7 +24,8 @@ INF = math.inf
 # name: (unit, low, high, description)
 _RIG = {
     'dt': ('s', 1e-5, 0.05, 'fixed simulation step (1 kHz default)'),
-    'seed': ('1', 0, 2**31 - 1, 'seed of the arm-sensor noise generator'),
+    'seed': ('1', 0, 2**31 - 1,
+             "seed of the arm-sensor noise and of the steering radio frames' phases"),
     'plant': ('-', None, None,
               "plant: 'identified' (paper Eq. 6), 'bicycle' (physical preset) or 'two_track' "
               '(the torque car: wheel torques in, encoders out; the driver speed is ignored)'),
@@ -39,24 +40,36 @@ _RIG = {
 }
 _ACT = {
     'lag_hz': ('Hz', 0.01, 1000.0,
-               'small-signal bandwidth of the servo position loop (4.6 Hz: Eq. 6 vehicle fit)'),
+               "bandwidth K/(2 pi) of the servo's proportional loop (4.4 Hz: fits of 4.6 Hz at "
+               '5-8 deg)'),
     'rate_limit': ('rad/s', 0.0, INF,
                    'slew limit of the servo horn (at the wheel: rate_limit / gear_ratio)'),
-    'delay': ('s', 0.0, 1.0, 'transmitter transport delay (quantised to dt)'),
+    'delay': ('s', 0.0, 1.0,
+              'mean transport delay of the command (frame off: a FIFO quantised to dt)'),
     'backlash': ('rad', 0.0, 0.1, 'total width of the steering backlash (0.175 deg default)'),
-    'limit': ('rad', 0.0, math.pi / 2, 'hard steer saturation (15 deg default)'),
-    'enable_lag': ('-', None, None, 'simulate the first-order lag'),
+    'limit': ('rad', 0.0, math.pi / 2, 'hard limit of the steer angle at the wheel (15 deg)'),
+    'enable_lag': ('-', None, None, 'simulate the servo loop (off: the horn jumps to its target)'),
     'enable_rate_limit': ('-', None, None, 'simulate the rate limit'),
-    'enable_delay': ('-', None, None, 'simulate the transport delay'),
+    'enable_delay': ('-', None, None, 'simulate the transport delay (and the radio frame)'),
     'enable_backlash': ('-', None, None, 'simulate the backlash'),
-    'enable_saturation': ('-', None, None, 'simulate the saturation'),
+    'enable_saturation': ('-', None, None, 'simulate the saturation and the end stops'),
     'gear_ratio': ('rad/rad', 0.01, 100.0,
-                   "servo-horn angle per steer angle (the paper's reference gain)"),
+                   "servo-horn angle per steer angle at the centre (the paper's reference gain)"),
     'friction_deadband': ('rad', 0.0, 0.5,
                           'half-width of the servo dead zone in horn angle (linkage friction)'),
+    'min_drive': ('rad/s', 0.0, INF,
+                  "horn speed just outside the dead zone (the amplifier's minimum drive; "
+                  '0 = none)'),
+    'radio_frame': ('s', 0.0, 1.0, "period of the transmitter's frame (sample and hold)"),
     'enable_friction': ('-', None, None, 'simulate the friction dead zone of the servo loop'),
     'enable_linkage_geometry': ('-', None, None,
                                 'wheel = asin(sin(horn) / gear_ratio) (off: horn / gear_ratio)'),
+    'enable_linkage_compensation': ('-', None, None,
+                                    'horn reference asin(gear_ratio sin(u)): the wheel holds the '
+                                    'command, the limit holds at the wheel (off: gear_ratio u)'),
+    'enable_radio_frame': ('-', None, None,
+                           'sample and hold the command once a radio frame, random phase '
+                           '(seeded by seed)'),
 }
 _IDENT = {
     'gain': ('m/s^2/rad', 0.0, INF, 'K of the identified G(s); 0 = paper reconstruction'),

@@ -1,4 +1,6 @@
-"""Steering actuator vs closed forms: delay, loop, slew limit, gearing, linkage, friction, play."""
+"""Steering actuator vs closed forms: delay, loop, slew limit, gearing, linkage, friction, play,
+minimum drive, the wheel limit through the linkage.
+"""
 
 import math
 from collections import deque
@@ -8,7 +10,7 @@ import pytest
 from hypothesis import given, settings, strategies as st
 
 from irs_vehicle_sim.actuator import (ActuatorParams, SteeringActuator, DEFAULT_RATE_LIMIT_RAD_S,
-                                      LEGACY, LEGACY_RATE_LIMIT_RAD_S)
+                                      LEGACY, LEGACY_RATE_LIMIT_RAD_S, PRESETS)
 
 DT = 1e-3
 
@@ -17,7 +19,8 @@ def only(**enable):
     """Every element off but the ones given; gearing 1 (horn = wheel)."""
     flags = dict(enable_lag=False, enable_rate_limit=False, enable_delay=False,
                  enable_backlash=False, enable_saturation=False, enable_friction=False,
-                 enable_linkage_geometry=False, gear_ratio=1.0)
+                 enable_linkage_geometry=False, gear_ratio=1.0, min_drive=0.0,
+                 enable_radio_frame=False, enable_linkage_compensation=False)
     flags.update(enable)
     return flags
 
@@ -33,15 +36,16 @@ def run(act, cmds, dt=DT):
 
 def test_defaults_are_documented_values():
     p = ActuatorParams()
-    assert p.lag_hz == 7.0 and p.gear_ratio == 3.0
-    assert p.delay == 0.017
+    assert p.lag_hz == 4.4 and p.gear_ratio == 3.0 and p.min_drive == 0.5
+    assert p.delay == 0.017 and p.radio_frame == 0.020 and p.enable_radio_frame
+    assert p.enable_linkage_compensation
     assert p.backlash == pytest.approx(math.radians(0.175))
     assert p.limit == pytest.approx(0.2618, abs=1e-4)
-    assert DEFAULT_RATE_LIMIT_RAD_S == pytest.approx(math.radians(60) / 0.30)
+    assert DEFAULT_RATE_LIMIT_RAD_S == pytest.approx(math.radians(60) / 0.11)
     assert LEGACY_RATE_LIMIT_RAD_S == pytest.approx(6.981, abs=1e-3)
     assert p.friction_deadband == pytest.approx(math.radians(0.05))
     assert p.wheel_rate_limit == pytest.approx(DEFAULT_RATE_LIMIT_RAD_S / 3.0)
-    assert p.tau == pytest.approx(1 / (2 * math.pi * 7.0))
+    assert p.tau == pytest.approx(1 / (2 * math.pi * 4.4))
 
 
 def test_lag_step_exact_and_63_percent_at_tau():
@@ -87,7 +91,7 @@ def test_rate_limit_acts_in_horn_coordinates():
     p = ActuatorParams(**only(enable_lag=True, enable_rate_limit=True, gear_ratio=N),
                        rate_limit=R)
     act = SteeringActuator(p)
-    y = run(act, [0.2] * 30)
+    y = run(act, [0.3] * 30)
     k = np.arange(1, 11)
     np.testing.assert_allclose(y[:10], k * R / N * DT, rtol=1e-12)
     assert act.state.rate_limited
@@ -101,17 +105,20 @@ def test_rate_limit_acts_in_horn_coordinates():
 
 
 def test_large_steps_are_rate_limited_small_ones_not():
-    # default chain: over the 20-80 % part of a 10 deg step the horn slews at exactly its limit
-    # (the wheel at R cos(theta) / (N cos(delta)), the linkage's local gain); 0.5 deg: a lag
-    p = ActuatorParams()
-    for size_deg, limited in ((0.5, False), (10.0, True)):
-        act = SteeringActuator(p)
+    # default chain: over the 20-80 % part of a -15 -> +15 deg swing the horn slews at exactly
+    # its limit (the wheel at R cos(theta) / (N cos(delta)), the linkage's local gain); 0.5 deg
+    # is the loop: minimum drive and proportional part, no ramp
+    p = ActuatorParams(enable_radio_frame=False)
+    lim = p.limit
+    for start, size, limited in ((0.0, math.radians(0.5), False), (-lim, 2 * lim, True)):
+        act = SteeringActuator(p, initial_angle=start)
+        h0 = act.state.horn
         horn = []
         for _ in range(1500):
-            act.step(math.radians(size_deg), DT)
+            act.step(start + size, DT)
             horn.append(act.state.horn)
         horn = np.array(horn)
-        frac = horn / horn[-1]
+        frac = (horn - h0) / (horn[-1] - h0)
         mid = (frac > 0.2) & (frac < 0.8)
         slopes = np.diff(horn)[mid[1:]] / DT
         if limited:
@@ -119,6 +126,37 @@ def test_large_steps_are_rate_limited_small_ones_not():
         else:
             assert np.max(slopes) < 0.5 * p.rate_limit
             assert np.ptp(slopes) > 0.3 * np.max(slopes)  # exponential, not a ramp
+
+
+def test_minimum_drive_closed_form_and_stops_at_the_dead_zone_edge():
+    # outside the dead zone: theta' = m + K (e - e_f), i.e. an exact first-order approach to
+    # ref - e_f + m / K, ended at the dead zone's edge ref - e_f
+    e_f, m = math.radians(0.05), 0.5
+    p = ActuatorParams(**{**only(enable_lag=True, enable_friction=True),
+                          'friction_deadband': e_f, 'min_drive': m})
+    act = SteeringActuator(p)
+    ref = 0.02
+    y = run(act, [ref] * 400)
+    k = np.arange(1, 401)
+    target = ref - e_f + m * p.tau
+    free = target * (1 - np.exp(-k * DT / p.tau))
+    np.testing.assert_allclose(y, np.minimum(free, ref - e_f), rtol=1e-12, atol=1e-15)
+    assert y[-1] == pytest.approx(ref - e_f, abs=1e-15) and np.all(y <= ref - e_f)
+    # faster than the loop alone, which never reaches the edge
+    slow = run(SteeringActuator(ActuatorParams(**only(enable_lag=True, enable_friction=True),
+                                               friction_deadband=e_f)), [ref] * 400)
+    assert np.all(y[:100] > slow[:100]) and slow[-1] < ref - e_f
+
+
+def test_presets_apply_and_the_yaml_preset_matches():
+    import yaml
+    from pathlib import Path
+    for name, over in PRESETS.items():
+        ActuatorParams(**over).validate()
+    cfg = Path(__file__).parents[1] / 'config' / 'servo_7hz.yaml'
+    doc = yaml.safe_load(cfg.read_text())['vehicle_sim']['ros__parameters']
+    for side in ('actuator_front', 'actuator_rear'):
+        assert doc[side] == pytest.approx(PRESETS['servo_7hz'])
 
 
 def test_linkage_geometry_closed_form():
@@ -177,7 +215,7 @@ def test_full_chain_state_and_order():
     # approached from above: wheel lags the servo by half the play
     assert s.achieved == pytest.approx(s.servo + 0.5 * math.radians(0.175), abs=1e-12)
     p = act.params
-    assert s.horn == pytest.approx(-p.gear_ratio * p.limit + p.friction_deadband, abs=1e-9)
+    assert s.horn == pytest.approx(-p.horn_of(p.limit) + p.friction_deadband, abs=1e-9)
 
 
 class _OldActuator:
@@ -226,17 +264,17 @@ _finite = st.floats(min_value=-1e6, max_value=1e6, allow_nan=False)
 
 
 @settings(max_examples=60, deadline=None)
-@given(cmds=st.lists(_finite, min_size=1, max_size=300),
-       geometry=st.booleans(), friction=st.booleans(), ratio=st.floats(1.0, 5.0))
-def test_output_finite_and_within_limits_for_any_finite_input(cmds, geometry, friction, ratio):
+@given(cmds=st.lists(_finite, min_size=1, max_size=300), geometry=st.booleans(),
+       friction=st.booleans(), compensation=st.booleans(), ratio=st.floats(1.0, 3.8))
+def test_output_finite_and_within_limits_for_any_finite_input(cmds, geometry, friction,
+                                                              compensation, ratio):
     p = ActuatorParams(gear_ratio=ratio, enable_linkage_geometry=geometry,
-                       enable_friction=friction)
+                       enable_friction=friction, enable_linkage_compensation=compensation)
     act = SteeringActuator(p)
-    bound = p.limit + 0.5 * p.backlash + 1e-12
     for c in cmds:
         y = act.step(c, DT)
-        assert math.isfinite(y) and abs(y) <= bound
-        assert abs(act.state.horn) <= ratio * p.limit + 1e-12
+        assert math.isfinite(y) and abs(y) <= p.limit
+        assert abs(act.state.horn) <= p.horn_of(p.limit)
 
 
 def test_bad_params_and_dt_change():
@@ -250,6 +288,14 @@ def test_bad_params_and_dt_change():
         SteeringActuator(ActuatorParams(gear_ratio=0.5))
     with pytest.raises(ValueError, match='friction_deadband'):
         SteeringActuator(ActuatorParams(friction_deadband=-1e-3))
+    with pytest.raises(ValueError, match='min_drive'):
+        SteeringActuator(ActuatorParams(min_drive=-1.0))
+    with pytest.raises(ValueError, match='radio_frame'):
+        SteeringActuator(ActuatorParams(radio_frame=0.0))
+    with pytest.raises(ValueError, match='half the radio frame'):
+        SteeringActuator(ActuatorParams(delay=0.005))
+    with pytest.raises(ValueError, match='cannot reach the wheel limit'):
+        SteeringActuator(ActuatorParams(gear_ratio=4.0))
     act = SteeringActuator()
     act.step(0.0, DT)
     with pytest.raises(ValueError, match='constant'):

@@ -27,7 +27,11 @@ def test_two_runs_bit_identical_and_seed_matters():
         np.testing.assert_array_equal(a[k], b[k], err_msg=k)
     c = simulate({'seed': 1}, lane_keeper, 1.0)
     assert not np.array_equal(a['arm_angles'], c['arm_angles'])
-    np.testing.assert_array_equal(a['y_s'], c['y_s'])  # noise only enters the measurement
+    assert not np.array_equal(a['steer_front'], c['steer_front'])  # another radio-frame phase
+    no_frame = {'actuator_front.enable_radio_frame': False}
+    d0 = simulate(no_frame, lane_keeper, 1.0)
+    d1 = simulate({**no_frame, 'seed': 1}, lane_keeper, 1.0)
+    np.testing.assert_array_equal(d0['y_s'], d1['y_s'])  # else noise enters the measurement only
     assert a['time'].shape == (1001,) and a['front_steer_cmd'].shape == (1000,)
 
 
@@ -39,7 +43,8 @@ def test_timing_convention_and_actuator_delay():
         return RigInputs(0.1, 0.0, V_HOLD, 1.2)
 
     # without the play, which a slew-limited first move of the servo does not take up at once
-    r = simulate({'actuator_front.enable_backlash': False}, fn, 0.05)
+    r = simulate({'actuator_front.enable_backlash': False,
+                  'actuator_front.enable_radio_frame': False}, fn, 0.05)
     np.testing.assert_allclose(seen, np.arange(50) * 1e-3)
     # command applied from step 0; 17-sample delay: achieved first moves at t_18
     np.testing.assert_array_equal(r['steer_front'][:18], 0.0)

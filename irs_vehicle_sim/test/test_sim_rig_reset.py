@@ -46,10 +46,12 @@ def test_reset_to_start_clears_the_off_belt_fault_and_keeps_the_clock():
 
 def test_after_reset_to_start_the_car_moves_like_a_fresh_rig():
     """With the belt reset too, the car/belt dynamics after the reset equal a fresh rig's for
-    the same inputs (the clock and the arm-noise stream aside).
+    the same inputs (the clock, the arm-noise stream and the radio frame's schedule aside: the
+    frame is off here, it runs on through a reset).
     """
-    cfg = RigConfig.from_dict({'x0': 0.3, 'y0': 0.02})
-    rig, fresh = RigSimulation(cfg), RigSimulation(RigConfig.from_dict({'x0': 0.3, 'y0': 0.02}))
+    params = {'x0': 0.3, 'y0': 0.02, 'actuator_front.enable_radio_frame': False}
+    cfg = RigConfig.from_dict(params)
+    rig, fresh = RigSimulation(cfg), RigSimulation(RigConfig.from_dict(params))
     drive_off_the_left_edge(rig)
     rig.reset_to_start(belt_speed=cfg.belt_speed0)
     for k in range(300):
@@ -58,6 +60,17 @@ def test_after_reset_to_start_the_car_moves_like_a_fresh_rig():
         assert (a.x, a.y, a.psi, a.y_s, a.belt_speed, a.belt_speed_measured) == \
             (b.x, b.y, b.psi, b.y_s, b.belt_speed, b.belt_speed_measured)
         assert a.actuator_front == b.actuator_front and a.fault == b.fault
+
+
+def test_the_radio_frame_runs_on_through_a_reset():
+    rig = RigSimulation()
+    for _ in range(123):
+        rig.step(RigInputs(0.1, 0.0, V_HOLD, 1.2))
+    link = rig.act_front._link
+    nxt = link.next_frame_time()
+    rig.reset_to_start()
+    assert rig.act_front._link is link and link.next_frame_time() == nxt
+    assert rig.outputs.actuator_front.achieved == 0.0 and link.held == 0.0
 
 
 def test_reset_to_start_refuses_a_bad_belt_speed_without_changing_anything():

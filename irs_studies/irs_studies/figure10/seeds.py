@@ -7,9 +7,9 @@ Why: the arm noise makes single-run metrics depend on the noise seed (2 % settli
 times of 1.41-1.55 s across seeds for one configuration, not settled within 8 s for another
 seed), and the
 paper describes no anti-windup although the choice decides the large-step results. So every
-case -- design x step x anti-windup -- is run for ``N`` seeds of the arm-sensor noise
-(``vehicle_sim`` parameter ``seed`` = 0 .. N-1) and each metric is reported as the median and
-the spread (min-max) over the seeds.
+case -- design x step x anti-windup -- is run for ``N`` seeds of the arm-sensor noise and the
+steering radio frames' phases (``vehicle_sim`` parameter ``seed`` = 0 .. N-1) and each metric is
+reported as the median and the spread (min-max) over the seeds.
 
 Cases (three designs x steps 0.02 and 0.1 m x anti-windup ``back_calculation`` and ``clip``):
 :func:`seed_study`; metrics per run: :func:`irs_studies.figure10.report.run_metrics`; when a
@@ -55,7 +55,7 @@ _EXPERIMENTS = {'mrc_with_actuator': 'figure10_mrc_with_actuator',
 
 def loop_config(design: str, step: float, anti_windup: str, seed: int, duration=None):
     """``(LoopConfig, duration)`` of the design's Figure 10 experiment file with the step [m],
-    the anti-windup choice and the arm-noise seed replaced.
+    the anti-windup choice and the seed (arm noise, radio-frame phases) replaced.
     """
     from irs_bringup.experiment import load_experiment
     from irs_bringup.offline_twin.from_experiment import loop_config_from_experiment

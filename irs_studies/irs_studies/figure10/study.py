@@ -30,6 +30,7 @@ import numpy as np
 
 from irs_control.controller_factory import make_controller
 from irs_control.paper_design import identified_plant
+from irs_vehicle_sim.actuator import ActuatorParams
 
 from .report import (DEFAULT_CONTROLLERS, DEFAULT_STEP, RUN_NAMES, STEER_LIMIT,
                        model_metrics, run_metrics, simulate_offline)
@@ -44,11 +45,13 @@ STEPS = (0.01, 0.02, 0.05, 0.1, 0.2)
 
 
 def rig_params(lag=True, delay=False, backlash=False, saturation=False, rate_limit=False,
-               noise=False, lag_hz=None, friction=False, linkage=False) -> dict:
+               noise=False, lag_hz=None, friction=False, linkage=False, min_drive=False,
+               frame=False) -> dict:
     """Flat rig overrides with the given front-actuator elements and arm noise/ADC.
 
     The servo's gear ratio alone does not change the wheel's response (horn and reference scale
-    alike), so with friction, linkage and rate limit off the servo loop is the plain lag.
+    alike), so with friction, minimum drive, linkage and rate limit off the servo loop is the
+    plain lag; ``delay`` without ``frame`` is the constant 17 ms FIFO.
 
     Saturation: the controllers clip their command at ``steer_limit`` (15 deg, with anti-windup) in
     the paper's design, which makes the rig's saturation element redundant. In the conditions
@@ -62,28 +65,34 @@ def rig_params(lag=True, delay=False, backlash=False, saturation=False, rate_lim
          'actuator_front.enable_rate_limit': rate_limit,
          'actuator_front.enable_friction': friction,
          'actuator_front.enable_linkage_geometry': linkage,
+         'actuator_front.enable_radio_frame': frame,
          'arm.enable_noise': noise, 'arm.enable_quantization': noise}
+    if not min_drive:
+        p['actuator_front.min_drive'] = 0.0
     if lag_hz is not None:
         p['actuator_front.lag_hz'] = float(lag_hz)
     return p
 
 
+_SERVO = dict(rate_limit=True, friction=True, linkage=True, min_drive=True)
+_P = ActuatorParams()
 #: name -> (description, rig flags). Cumulative chain, then one-at-a-time on top of the lag.
 CONDITIONS = {
     'lag29': ('lag only, rig pole = design pole 29 rad/s (4.616 Hz)',
               dict(lag_hz=29.0 / (2 * math.pi))),
-    'lag': ('lag only (the servo loop, 7 Hz = 44.0 rad/s)', dict()),
-    '+delay': ('lag + 17 ms delay', dict(delay=True)),
+    'lag': (f'lag only (the servo loop, {_P.lag_hz:g} Hz = {2 * math.pi * _P.lag_hz:.1f} rad/s)',
+            dict()),
+    '+delay': ('lag + 17 ms delay (constant)', dict(delay=True)),
     '+backlash': ('lag + delay + 0.175 deg backlash', dict(delay=True, backlash=True)),
     '+saturation': ('lag + delay + backlash + 15 deg saturation',
                     dict(delay=True, backlash=True, saturation=True)),
-    '+rate': ('... + servo slew limit 1.16 rad/s at the wheel, friction dead zone, linkage '
-              '(all actuator, no arm noise)',
-              dict(delay=True, backlash=True, saturation=True, rate_limit=True, friction=True,
-                   linkage=True)),
+    '+rate': (f'... + servo slew limit {_P.wheel_rate_limit:.2f} rad/s at the wheel, minimum '
+              'drive, friction dead zone, linkage (constant delay, no arm noise)',
+              dict(delay=True, backlash=True, saturation=True, **_SERVO)),
+    '+frame': ('... + the radio frame (20 ms, seeded phase: all actuator, no arm noise)',
+               dict(delay=True, backlash=True, saturation=True, frame=True, **_SERVO)),
     'all': ('... + arm noise and 12-bit ADC (= default Figure 10 scenario)',
-            dict(delay=True, backlash=True, saturation=True, rate_limit=True, noise=True,
-                 friction=True, linkage=True)),
+            dict(delay=True, backlash=True, saturation=True, noise=True, frame=True, **_SERVO)),
     'lag+backlash': ('lag + backlash only', dict(backlash=True)),
     'lag+saturation': ('lag + 15 deg saturation only', dict(saturation=True)),
     'lag+rate': ('lag + rate limit only', dict(rate_limit=True)),
@@ -271,14 +280,15 @@ def _claims(R, poles):
         f'y is treated as held, ≈ dt/2 delay). '
         f'**{"Reproduced" if repro_a else "NOT reproduced"}** '
         'to the discretisation error.',
-        f'- Rig servo loop 7 Hz (44.0 rad/s, linear; the design assumes 29 rad/s): max dev/step = '
+        f'- Rig servo loop {_P.lag_hz:g} Hz ({2 * math.pi * _P.lag_hz:.1f} rad/s, linear; the '
+        f'design assumes 29 rad/s): max dev/step = '
         f'{alag["max_dev_rel"]:.2e}, ISE/step² = {alag["ise_norm"]:.2e} s.',
         '- Cumulative non-idealities at 0.02 m (max dev/step, ISE/step² [s], overshoot % vs '
         f'model {R[("lag", s0)]["model"]["overshoot_percent"]:.1f} %): '
         + '; '.join(
             f'{c}: {w(c)["max_dev_rel"]:.3f}, {w(c)["ise_norm"]:.2e}, '
             f'{w(c)["overshoot_percent"]:.1f} %'
-            for c in ('lag', '+delay', '+backlash', '+saturation', '+rate', 'all')
+            for c in ('lag', '+delay', '+backlash', '+saturation', '+rate', '+frame', 'all')
         )
         + '.',
         '- One at a time on top of the lag: '
