@@ -272,7 +272,8 @@ def test_make_controller_raises_only_value_errors():
     """
     outcomes = {'designed': 0, 'refused': 0}
 
-    @settings(max_examples=60, deadline=None)
+    # derandomized: the same 60 draws each run, so 'both happen' is a fact, not a chance
+    @settings(max_examples=60, deadline=None, derandomize=True)
     @given(polys=_design_polys())
     def check(polys):
         num, den, observer = polys
@@ -308,7 +309,8 @@ def test_design_rst_raises_only_value_errors():
     from irs_control.rst_design import RstDesignError, design_rst
     outcomes = {'designed': 0, 'refused': 0}
 
-    @settings(max_examples=60, deadline=None)
+    # derandomized: the same 60 draws each run, so 'both happen' is a fact, not a chance
+    @settings(max_examples=60, deadline=None, derandomize=True)
     @given(polys=_rst_polys())
     def check(polys):
         try:
