@@ -92,7 +92,7 @@ class Param:
     validator: Callable[[object], str | None] | None = None
     allow_empty: bool = False
     node_only: bool = False           # the node's own (clock, topics, rates): not the core's
-    realtime_default: object = None   # the default in real time (the message budget); None: default
+    realtime_default: object = None   # the default in real time (message budget); None: default
 
     def __post_init__(self):
         writable = self.writable
@@ -500,7 +500,8 @@ def _ptype(p: Param) -> int:
 
 def runs_in_real_time(node, table) -> bool:
     """Whether ``node`` runs in real time: its table's ``clock_mode`` (as its params files and
-    ``-p`` give it) is ``'realtime'``; for a table without ``clock_mode``, ``use_sim_time`` is false.
+    ``-p`` give it) is ``'realtime'``; for a table without ``clock_mode``: ``use_sim_time`` is
+    false.
     """
     clock = next((p for p in table if p.name == 'clock_mode'), None)
     if clock is not None:

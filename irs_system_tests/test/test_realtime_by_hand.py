@@ -2,8 +2,9 @@
 
 Every node is started from its installed executable with its parameter file (the rig also with
 ``irs_bringup/config/realtime.yaml``, its start pose), in the README's order, at the default
-1 kHz and the real-time message budget (the nodes' real-time defaults), with SCHED_FIFO priority 50 where permitted (``IRS_RT_PRIORITY``). The rig holds the car
-at its start pose until steering and drive commands arrive, so the order does not matter.
+1 kHz and the real-time message budget (the nodes' real-time defaults), with SCHED_FIFO
+priority 50 where permitted (``IRS_RT_PRIORITY``). The rig holds the car at its start pose until
+steering and drive commands arrive, so the order does not matter.
 Checked over 20 s of wall time: the car stays on the belt (rig/status and the ground truth), and
 the sensor point follows the reference's 0.02 m step.
 """
