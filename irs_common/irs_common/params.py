@@ -43,12 +43,6 @@ Parameters tell the truth
   section may legitimately carry parameters for other nodes. A node that declares several tables
   should pass them in one call (``declare_table(node, A + B)``), or ``check_unknown=False`` to
   all but the last call, so that names of a later table are not reported.
-* **Real time has its own defaults.** ``Param(..., realtime_default=v)`` is the value a node
-  running in real time takes when no params file or ``-p`` gives the parameter: the real-time
-  message budget (docs/architecture.md#message-budget), so a node started the plain ROS way fits
-  a small machine. A node runs in real time when its table's ``clock_mode`` is ``'realtime'``
-  (the rig), else when ``use_sim_time`` is false (lock-step graphs run every other node on
-  simulation time); lock-step nodes and the offline twin keep ``default``.
 """
 from dataclasses import dataclass, replace
 import difflib
@@ -500,8 +494,14 @@ def _ptype(p: Param) -> int:
 
 def runs_in_real_time(node, table) -> bool:
     """Whether ``node`` runs in real time: its table's ``clock_mode`` (as its params files and
-    ``-p`` give it) is ``'realtime'``; for a table without ``clock_mode``: ``use_sim_time`` is
-    false.
+    ``-p`` give it) is ``'realtime'`` (the rig); for a table without ``clock_mode``:
+    ``use_sim_time`` is false (lock-step graphs run every other node on simulation time).
+
+    Real time has its own defaults: :func:`declare_table` gives a parameter with a
+    ``realtime_default`` that no params file or ``-p`` sets that value when the node runs in real
+    time (its ``realtime`` argument; ``None``: this function). They are the real-time message
+    budget (docs/architecture.md#message-budget), so a node started the plain ROS way fits a
+    small machine; lock-step nodes and the offline twin keep ``default``.
     """
     clock = next((p for p in table if p.name == 'clock_mode'), None)
     if clock is not None:
@@ -524,8 +524,6 @@ def declare_table(node, table, on_change=None, *, strict: bool = False,
     (``strict``: ``ValueError``) unless ``check_unknown`` is false. ``check(values)`` (optional)
     judges the table as a whole (limits that depend on another parameter): it returns ``None``
     or a sentence; a sentence refuses a change (and, at start-up, raises ``ValueError``).
-    A parameter with a ``realtime_default`` that no override gives starts at that value when the
-    node runs in real time (``realtime``; ``None``: :func:`runs_in_real_time`).
     """
     writable = [p.name for p in table if p.writable]
     if writable and on_change is None:
