@@ -32,7 +32,11 @@ def render() -> str:
         '`yes`: those can be changed while the node runs (`ros2 param set`), are validated '
         '(type, range, finite, non-empty) and applied by the node. An integer is accepted '
         "for a double. Defaults here are the code's; each package's `config/*.yaml` is what "
-        'the experiments load.',
+        'the experiments load. A node that runs in real time (the rig with `clock_mode` '
+        '`realtime`, every other node with `use_sim_time` false) starts with the real-time '
+        'default a description gives (`real time: ... by default`) unless a params file or '
+        '`-p` sets the parameter: the real-time message budget '
+        '([architecture](architecture.md#message-budget)).',
         '',
     ]
     for package, node, table in node_tables():

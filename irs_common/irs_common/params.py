@@ -39,7 +39,8 @@ class Param:
     applied at start-up and to every change. Arrays must be non-empty unless ``allow_empty``.
     ``node_only`` parameters belong to the node (clock mode, frames, decimation, timeouts), not
     to its core: :func:`core_values` leaves them out, so the offline twin of the graph builds
-    its cores from the same table as the nodes.
+    its cores from the same table as the nodes. ``realtime_default`` (when not ``None``) replaces
+    ``default`` in a node that runs in real time (:func:`declare_table`); the description says it.
     """
 
     name: str
@@ -53,6 +54,7 @@ class Param:
     validator: Callable[[object], str | None] | None = None
     allow_empty: bool = False
     node_only: bool = False           # the node's own (clock, topics, rates): not the core's
+    realtime_default: object = None   # the default in real time (message budget); None: default
 
     def __post_init__(self):
         writable = self.writable
@@ -63,8 +65,14 @@ class Param:
         object.__setattr__(self, 'writable', bool(writable))
         object.__setattr__(self, 'read_only', not writable)
 
+    def text(self) -> str:
+        """The description, with the real-time default when the parameter has one."""
+        if self.realtime_default is None:
+            return self.description
+        return f'{self.description}; real time: {self.realtime_default!r} by default'
+
     def descriptor(self) -> ParameterDescriptor:
-        desc = ParameterDescriptor(description=f'{self.description} [{self.unit}]',
+        desc = ParameterDescriptor(description=f'{self.text()} [{self.unit}]',
                                    read_only=self.read_only)
         if self.low is not None or self.high is not None:
             low = -math.inf if self.low is None else self.low
@@ -452,8 +460,28 @@ def _ptype(p: Param) -> int:
             'double[]': ParameterType.PARAMETER_DOUBLE_ARRAY}[p.kind]
 
 
+def runs_in_real_time(node, table) -> bool:
+    """Whether ``node`` runs in real time: its table's ``clock_mode`` (as its params files and
+    ``-p`` give it) is ``'realtime'`` (the rig); for a table without ``clock_mode``:
+    ``use_sim_time`` is false (lock-step graphs run every other node on simulation time).
+
+    Real time has its own defaults: :func:`declare_table` gives a parameter with a
+    ``realtime_default`` that no params file or ``-p`` sets that value when the node runs in real
+    time (its ``realtime`` argument; ``None``: this function). They are the real-time message
+    budget (docs/architecture.md#message-budget), so a node started the plain ROS way fits a
+    small machine; lock-step nodes and the offline twin keep ``default``.
+    """
+    clock = next((p for p in table if p.name == 'clock_mode'), None)
+    if clock is not None:
+        override = getattr(node, '_parameter_overrides', {}).get(clock.name)
+        return (clock.default if override is None else override.value) == 'realtime'
+    if not node.has_parameter('use_sim_time'):
+        return True
+    return not node.get_parameter('use_sim_time').value
+
+
 def declare_table(node, table, on_change=None, *, strict: bool = False,
-                  check_unknown: bool = True, check=None) -> dict:
+                  check_unknown: bool = True, check=None, realtime: bool | None = None) -> dict:
     """Declare every parameter of ``table`` on ``node``; return ``{name: value}``.
 
     ``on_change(name, value)`` is called after a change of a writable parameter was accepted
@@ -517,12 +545,18 @@ def declare_table(node, table, on_change=None, *, strict: bool = False,
         )
     guard = ParameterGuard.of(node)
     overrides = getattr(node, '_parameter_overrides', {})
+    if realtime is None:
+        realtime = runs_in_real_time(node, table)
     values = {}
     for p in table:
         if p.default is None:
             raise ValueError(f'parameter {p.name}: a default is required to fix its type')
+        default = p.default
         try:
             p.coerce(p.default)
+            if p.realtime_default is not None:
+                real_time = p.coerce(p.realtime_default)
+                default = real_time if realtime else default
         except ValueError as exc:
             raise ValueError(f'default of {exc}') from None
         override = overrides.get(p.name)
@@ -534,7 +568,7 @@ def declare_table(node, table, on_change=None, *, strict: bool = False,
                                  'of several params files the last one wins)') from None
             overrides[p.name] = _parameter(override, p, value)   # e.g. 0 -> 0.0 for a double
         try:
-            node.declare_parameter(p.name, p.default, p.descriptor())
+            node.declare_parameter(p.name, default, p.descriptor())
         except Exception as exc:
             if type(exc).__module__ != 'rclpy.exceptions':
                 raise
@@ -596,7 +630,7 @@ def markdown_table(table) -> str:
         rng = '' if p.low is None and p.high is None else f'[{p.low}, {p.high}]'
         rw = 'yes' if p.writable else ''
         rows.append(
-            f'| `{p.name}` | `{p.default!r}` | {p.unit} | {rng} | {rw} | {p.description} |'
+            f'| `{p.name}` | `{p.default!r}` | {p.unit} | {rng} | {rw} | {p.text()} |'
         )
     return '\n'.join(rows)
 

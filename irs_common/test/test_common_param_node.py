@@ -281,3 +281,38 @@ def test_a_table_check_refuses_start_up_values_in_one_line(ctx):
     node = ctx('-p', 'gain:=4.0')
     with pytest.raises(ValueError, match="node 'params_test': x0 \\* gain = 2 exceeds 1"):
         _declare(node, check=_x0_times_gain)
+
+
+BUDGET = [Param('decimation', 1, 'publish every this many steps', '1', 1, 100,
+                realtime_default=10),
+          Param('sync', True, 'pair by stamp', '-', realtime_default=False)]
+
+
+@pytest.mark.parametrize('args, expected', [
+    ((), {'decimation': 10, 'sync': False}),                                  # real time
+    (('-p', 'use_sim_time:=true'), {'decimation': 1, 'sync': True}),          # lock-step
+    (('-p', 'decimation:=3'), {'decimation': 3, 'sync': False}),              # given wins
+    (('-p', 'use_sim_time:=true', '-p', 'sync:=false'), {'decimation': 1, 'sync': False}),
+])
+def test_a_node_in_real_time_starts_with_the_real_time_defaults(ctx, args, expected):
+    assert declare_table(ctx(*args), BUDGET) == expected
+
+
+@pytest.mark.parametrize('args, expected', [
+    ((), 10),                                          # clock_mode defaults to 'realtime'
+    (('-p', 'clock_mode:=lockstep'), 1),
+    # the rig publishes /clock itself: use_sim_time does not decide for a table with clock_mode
+    (('-p', 'clock_mode:=lockstep', '-p', 'use_sim_time:=false'), 1),
+    (('-p', 'clock_mode:=realtime', '-p', 'use_sim_time:=true'), 10),
+])
+def test_a_table_with_clock_mode_runs_in_real_time_by_its_clock_mode(ctx, args, expected):
+    table = [Param('clock_mode', 'realtime', 'clock', '-')] + BUDGET
+    assert declare_table(ctx(*args), table)['decimation'] == expected
+    assert declare_table(ctx(*args), BUDGET[:1], realtime=False)['decimation'] == 1
+
+
+def test_the_real_time_default_is_checked_and_described(ctx):
+    assert BUDGET[0].descriptor().description == \
+        'publish every this many steps; real time: 10 by default [1]'
+    with pytest.raises(ValueError, match="default of parameter 'n'"):
+        declare_table(ctx(), [Param('n', 1, 'n', '1', 1, 5, realtime_default=50)])

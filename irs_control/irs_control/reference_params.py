@@ -64,7 +64,8 @@ PARAMS = [*signal_params('m', 1.0)] + node_only([
         1.0,
         read_only=True,
     ),
-    Param('rate', 1000.0, 'publication rate without sim time', 'Hz', 0.1, 10000.0, read_only=True),
+    Param('rate', 100.0, 'publication rate without sim time (real time; with sim time: one '
+          'reference per /clock tick)', 'Hz', 0.1, 10000.0, read_only=True),
 ])
 
 def signal_from_params(p: dict):

@@ -84,6 +84,7 @@ NODE += node_only([
         1,
         1_000_000,
         read_only=True,
+        realtime_default=10,          # 100 Hz: the treadmill loop of the real-time budget
     ),
 ])
 

@@ -46,10 +46,13 @@ class Answers:
 
 
 def test_future_old_and_reset_stamps_at_estimator_controller_and_regulator(ros, launch):
-    launch(NodeSpec('irs_sensing', 'arm_pose_estimator'))
+    # every reading answered by the whole chain, belt speed paired by stamp (not the real-time
+    # budget of a node without sim time: pose every 10th reading, the latest belt speed)
+    launch(NodeSpec('irs_sensing', 'arm_pose_estimator', params={'pose_decimation': 1}))
     launch(NodeSpec('irs_control', 'lateral_controller', params={'stale_timeout': 10.0}))
     launch(NodeSpec('irs_treadmill', 'treadmill_regulator',
-                    params={'safety.stale_timeout': 10.0, 'state_decimation': 1}))
+                    params={'safety.stale_timeout': 10.0, 'state_decimation': 1,
+                            'sync_belt_speed': True}))
     node = ros.node
     # the chain: arm readings (and belt speeds) from the test -> estimator -> lateral_position,
     # pose, velocity -> controller and regulator

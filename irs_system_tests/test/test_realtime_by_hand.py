@@ -1,9 +1,10 @@
 """The real-time graph started by hand, node by node, as the README shows (no experiment runner).
 
-Every node is started from its installed executable with its parameter file and the real-time
-deployment file (``irs_bringup/config/realtime.yaml``), in the README's order, at the default
-1 kHz, with SCHED_FIFO priority 50 where permitted (``IRS_RT_PRIORITY``). The rig holds the car
-at its start pose until steering and drive commands arrive, so the order does not matter.
+Every node is started from its installed executable with its parameter file (the rig also with
+``irs_bringup/config/realtime.yaml``, its start pose), in the README's order, at the default
+1 kHz and the real-time message budget (the nodes' real-time defaults), with SCHED_FIFO
+priority 50 where permitted (``IRS_RT_PRIORITY``). The rig holds the car at its start pose until
+steering and drive commands arrive, so the order does not matter.
 Checked over 20 s of wall time: the car stays on the belt (rig/status and the ground truth), and
 the sensor point follows the reference's 0.02 m step.
 """
@@ -32,13 +33,13 @@ README_ORDER = [
     NodeSpec('irs_vehicle_sim', 'vehicle_sim',
              params_files=[share('irs_vehicle_sim', 'config/rig.yaml'), REALTIME]),
     NodeSpec('irs_sensing', 'arm_pose_estimator',
-             params_files=[share('irs_sensing', 'config/sensing.yaml'), REALTIME]),
+             params_files=[share('irs_sensing', 'config/sensing.yaml')]),
     NodeSpec('irs_treadmill', 'treadmill_regulator',
-             params_files=[share('irs_treadmill', 'config/treadmill.yaml'), REALTIME]),
+             params_files=[share('irs_treadmill', 'config/treadmill.yaml')]),
     NodeSpec('irs_control', 'lateral_controller',
-             params_files=[share('irs_control', 'config/lateral_controller.yaml'), REALTIME]),
+             params_files=[share('irs_control', 'config/lateral_controller.yaml')]),
     NodeSpec('irs_control', 'reference_generator',
-             params_files=[share('irs_control', 'config/reference_generator.yaml'), REALTIME],
+             params_files=[share('irs_control', 'config/reference_generator.yaml')],
              params={'signal.type': 'step', 'signal.amplitude': 0.02, 'signal.start_time': 2.0}),
 ]
 

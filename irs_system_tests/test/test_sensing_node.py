@@ -29,7 +29,8 @@ def joint_state(stamp_ns, angles):
 
 
 def test_angles_give_expected_pose_velocity_and_lateral_displacement(ros, launch):
-    launch(NodeSpec('irs_sensing', 'arm_pose_estimator', params={'ds': DS}))
+    # pose and velocity for every reading (without sim time the default is every 10th)
+    launch(NodeSpec('irs_sensing', 'arm_pose_estimator', params={'ds': DS, 'pose_decimation': 1}))
     node = ros.node
     got = {'pose': {}, 'velocity': {}, 'lateral': {}, 'status': []}
     pub = node.create_publisher(JointState, 'arm/joint_states', qos.SENSOR)

@@ -48,11 +48,11 @@ GRAPH = [
              params_files=[share('irs_vehicle_sim', 'config/rig.yaml'), REALTIME],
              params={'status_period': 0.01}),
     NodeSpec('irs_sensing', 'arm_pose_estimator',
-             params_files=[share('irs_sensing', 'config/sensing.yaml'), REALTIME]),
+             params_files=[share('irs_sensing', 'config/sensing.yaml')]),
     NodeSpec('irs_treadmill', 'treadmill_regulator',
-             params_files=[share('irs_treadmill', 'config/treadmill.yaml'), REALTIME]),
+             params_files=[share('irs_treadmill', 'config/treadmill.yaml')]),
     NodeSpec('irs_control', 'lateral_controller',
-             params_files=[share('irs_control', 'config/lateral_controller.yaml'), REALTIME]),
+             params_files=[share('irs_control', 'config/lateral_controller.yaml')]),
 ]
 END_CLEARANCE = 1.2192 - 0.225     # [m] |x| of the c.g. at which the car leaves a belt end
 

@@ -45,7 +45,8 @@ _META = {
                              'grace of a stalled pose input: the last drive stays in effect)'),
 }
 NODE = [
-    Param('rate_hz', 1000.0, 'control rate = pose rate', 'Hz', 1.0, 100000.0, read_only=True),
+    Param('rate_hz', 1000.0, 'control rate = pose rate', 'Hz', 1.0, 100000.0, read_only=True,
+          realtime_default=100.0),    # one step per pose at the estimator's pose_decimation
     Param(
         'use_velocity_input',
         True,
@@ -65,6 +66,7 @@ NODE += node_only([
         'and rig-synchronous sampling); false: latest belt speed',
         '-',
         read_only=True,
+        realtime_default=False,       # belt speed and pose come at their own times
     ),
     Param('future_tolerance', 0.5, 'poses stamped further ahead of the node clock are dropped',
           's', 0.0, 3600.0, read_only=True),

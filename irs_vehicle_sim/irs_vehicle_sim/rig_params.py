@@ -326,6 +326,7 @@ NODE_PARAMS = node_only([
         0,
         1_000_000,
         read_only=True,
+        realtime_default=10,          # 100 Hz: the real-time message budget
     ),
     Param(
         'belt_speed_decimation',
@@ -336,10 +337,11 @@ NODE_PARAMS = node_only([
         1,
         1_000_000,
         read_only=True,
+        realtime_default=10,          # 100 Hz: the treadmill loop of the real-time budget
     ),
     Param('actuator_state_decimation', 1,
           'publish steering/state every this many steps (0 = never)', '1', 0, 1_000_000,
-          read_only=True),
+          read_only=True, realtime_default=10),
     Param('status_period', 0.1,
           'rig/status is published on a change and at least this often (simulated time)', 's',
           0.001, 3600.0, read_only=True),
