@@ -1,0 +1,166 @@
+"""The driver interface between the hardware node's core and the rig's devices (no rclpy).
+
+:class:`RigIO` is all the core needs: analog inputs (three pots) and a counter (belt encoder)
+in, a servo pulse, an enable line and a drive set-point out. :class:`SerialModbusRig` is the
+rig: the IRSL board on a serial port (:mod:`.protocol`) and the drive on Modbus
+(:mod:`.drive_modbus`). Failures surface as :class:`LinkError` (board) or
+:class:`~.drive_modbus.DriveError` (drive); the core's supervisor turns them into the safe state.
+"""
+from __future__ import annotations
+
+import time
+from abc import ABC, abstractmethod
+from dataclasses import dataclass
+
+from . import protocol as P
+from .drive_modbus import DriveError, ModbusDrive
+
+__all__ = ['Reading', 'RigIO', 'LinkError', 'SerialModbusRig', 'DriveError']
+
+
+class LinkError(IOError):
+    """The board's link failed: port gone, wrong firmware, no answer (message says which)."""
+
+
+@dataclass(frozen=True)
+class Reading:
+    """One sample of the board: ADC counts of the three pots, the belt counter, the board's
+    sample index ``tick``, the sequence number of the last command it applied, status bits.
+    """
+
+    tick: int
+    ack: int
+    adc: tuple
+    belt: int
+    status: int
+    received: float       # time.monotonic() of arrival
+
+
+class RigIO(ABC):
+    """The devices of the rig (module docstring)."""
+
+    @abstractmethod
+    def start(self, triggered: bool) -> None:
+        """Open the devices; start the board's sampler (triggered: one sample per command)."""
+
+    @abstractmethod
+    def read(self, timeout: float) -> list:
+        """Readings received so far, waiting up to ``timeout`` [s] for the first."""
+
+    @abstractmethod
+    def write_board(self, seq: int, pulse_us: float, enable: bool) -> None:
+        """Servo pulse [us] and drive-enable line; ``seq`` = tick of the sample it answers."""
+
+    @abstractmethod
+    def write_drive(self, setpoint: int) -> None:
+        """Drive set-point register value."""
+
+    @abstractmethod
+    def drive_status(self) -> tuple:
+        """``(status word, belt speed [m/s])`` the drive reports."""
+
+    @property
+    @abstractmethod
+    def bad_frames(self) -> int:
+        """Frames from the board thrown away (CRC, version, length)."""
+
+    @abstractmethod
+    def close(self) -> None:
+        """Close the devices."""
+
+
+class SerialModbusRig(RigIO):
+    """IRSL board over pyserial + Modbus drive over pymodbus."""
+
+    def __init__(self, port: str, baud: int, drive: ModbusDrive, watchdog_ms: int = 25):
+        self.port_name = port
+        self.baud = baud
+        self.drive = drive
+        self.watchdog_ms = watchdog_ms
+        self.serial = None
+        self.parser = P.FrameParser()
+        self.info = None
+
+    def start(self, triggered: bool) -> None:
+        import serial
+        try:
+            self.serial = serial.Serial(self.port_name, self.baud, timeout=0)
+        except (serial.SerialException, OSError) as exc:
+            raise LinkError(f'board at {self.port_name}: cannot open ({exc})') from None
+        self.serial.reset_input_buffer()
+        self.parser = P.FrameParser()
+        self._write(P.encode(P.Hello(1 if triggered else 0, self.watchdog_ms, 1000)))
+        deadline = time.monotonic() + 1.0
+        while self.info is None or self.info.firmware != P.VERSION:
+            for msg in self._messages(max(0.0, deadline - time.monotonic())):
+                if isinstance(msg, P.Info):
+                    self.info = msg
+                elif isinstance(msg, P.Sample):
+                    self._early = [msg]
+            if time.monotonic() >= deadline:
+                raise LinkError(f'board at {self.port_name}: no INFO answer to HELLO in 1 s '
+                                '(not IRSL firmware, or a different baud rate)')
+        self.drive.start()
+
+    _early: list = []
+
+    def _write(self, data: bytes) -> None:
+        import serial
+        try:
+            self.serial.write(data)
+        except (serial.SerialException, OSError) as exc:
+            raise LinkError(f'board at {self.port_name}: write failed ({exc})') from None
+
+    def _messages(self, timeout: float) -> list:
+        import serial
+        deadline = time.monotonic() + timeout
+        while True:
+            try:
+                data = self.serial.read(4096)
+            except (serial.SerialException, OSError, TypeError) as exc:
+                raise LinkError(f'board at {self.port_name}: read failed ({exc})') from None
+            msgs = self.parser.feed(data) if data else []
+            if msgs or time.monotonic() >= deadline:
+                return msgs
+            self.serial.timeout = max(0.0, deadline - time.monotonic())
+            try:
+                data = self.serial.read(1)
+            except (serial.SerialException, OSError, TypeError) as exc:
+                raise LinkError(f'board at {self.port_name}: read failed ({exc})') from None
+            finally:
+                self.serial.timeout = 0
+            if data:
+                msgs = self.parser.feed(data)
+                if msgs:
+                    return msgs
+            elif time.monotonic() >= deadline:
+                return []
+
+    def read(self, timeout: float) -> list:
+        early, self._early = self._early, []
+        msgs = early + self._messages(0.0 if early else timeout)
+        now = time.monotonic()
+        return [Reading(m.tick, m.ack, m.adc, m.belt, m.status, now)
+                for m in msgs if isinstance(m, P.Sample)]
+
+    def write_board(self, seq: int, pulse_us: float, enable: bool) -> None:
+        ticks = int(round(pulse_us * 1e-6 / P.PULSE_TICK))
+        self._write(P.encode(P.Command(seq & 0xFFFF, ticks, P.DRIVE_ENABLE if enable else 0)))
+
+    def write_drive(self, setpoint: int) -> None:
+        self.drive.write_setpoint(setpoint)
+
+    def drive_status(self) -> tuple:
+        return self.drive.read()
+
+    @property
+    def bad_frames(self) -> int:
+        return self.parser.bad
+
+    def close(self) -> None:
+        if self.serial is not None:
+            try:
+                self.serial.close()
+            except OSError:
+                pass
+        self.drive.close()

@@ -1,0 +1,54 @@
+"""The wires between the emulated board and the emulated drive: a small shared-memory file.
+
+On the rig the board's drive-enable output runs to the drive's enable input, and the drive's
+output turns the belt whose encoder the board counts. Two emulator processes share these
+signals through a file of eight float64 slots (``mmap``, aligned 8-byte stores, one writer per
+slot), with each side's heartbeat (``time.monotonic``, one clock for all processes on Linux):
+a slot whose writer has stopped beating is read as its safe value (drive output 0 V).
+"""
+from __future__ import annotations
+
+import mmap
+import os
+import struct
+import time
+from pathlib import Path
+
+DRIVE_VOLTAGE, DRIVE_BEAT, ENABLE, BELT_SPEED, BOARD_BEAT = range(5)
+SLOTS = 8
+#: A side silent for longer than this is gone [s].
+STALE = 0.2
+
+
+class Wire:
+    """The shared signals; ``Wire(path)`` creates the file if needed."""
+
+    def __init__(self, path):
+        self.path = Path(path)
+        fd = os.open(self.path, os.O_RDWR | os.O_CREAT, 0o644)
+        try:
+            if os.fstat(fd).st_size < 8 * SLOTS:
+                os.ftruncate(fd, 8 * SLOTS)
+            self.mm = mmap.mmap(fd, 8 * SLOTS)
+        finally:
+            os.close(fd)
+
+    def get(self, slot: int) -> float:
+        return struct.unpack_from('<d', self.mm, 8 * slot)[0]
+
+    def set(self, slot: int, value: float) -> None:
+        struct.pack_into('<d', self.mm, 8 * slot, float(value))
+
+    def beat(self, slot: int) -> None:
+        self.set(slot, time.monotonic())
+
+    def alive(self, beat_slot: int, now: float | None = None) -> bool:
+        now = time.monotonic() if now is None else now
+        return now - self.get(beat_slot) <= STALE
+
+    def drive_voltage(self, now: float | None = None) -> float:
+        """The drive's output [V]; 0 V if the drive has stopped beating."""
+        return self.get(DRIVE_VOLTAGE) if self.alive(DRIVE_BEAT, now) else 0.0
+
+    def close(self):
+        self.mm.close()

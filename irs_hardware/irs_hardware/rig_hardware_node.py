@@ -1,0 +1,363 @@
+"""``rig_hardware`` node: the real rig on ``vehicle_sim``'s topics (thin wrapper of
+:mod:`.hardware_rig`).
+
+Publishes ``arm/joint_states`` (sensor_msgs/JointState, the three pot angles [rad]),
+``belt/speed`` (irs_msgs/BeltSpeed, encoder speed [m/s] and count) every board sample, with
+``vehicle_sim``'s types, frame and QoS (SENSOR_PUB); ``rig/status`` (irs_msgs/RigStatus:
+``fault_text`` is the latched fault, '' when none) on a change and every ``status_period``;
+``rig/diagnostics`` (diagnostic_msgs/DiagnosticArray: link, board and drive health) and
+``rig/timing`` (real time: deadline misses and loop latency, as ``vehicle_sim``) every second.
+Takes ``steering/command`` (front angle) and ``treadmill/drive`` (COMMAND QoS). Services
+``rig/start`` and ``rig/reset`` (std_srvs/Trigger; reset clears the latched fault once the
+devices answer again).
+
+Clock modes as ``vehicle_sim``: ``lockstep`` (the board in triggered mode: each step's commands,
+paired by stamp, go to the board and its answer is the next sample; /clock and every output
+stamped t_k = k dt) or ``realtime`` (the board samples at 1 kHz by itself; a reader thread
+publishes each sample stamped ``t_start + tick dt`` and sends each steering command at once).
+Stamps and stale commands are handled as in ``vehicle_sim`` (irs_common.stamp_gate), but a bad
+command latches the fault (:mod:`.hardware_rig`). On exit the outputs go to the safe state.
+"""
+from __future__ import annotations
+
+import math
+import threading
+import time
+
+from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
+from rclpy.node import Node
+from rosgraph_msgs.msg import Clock
+from sensor_msgs.msg import JointState
+from std_srvs.srv import Trigger
+
+from irs_common import qos
+from irs_common.input_checks import ThrottledWarner
+from irs_common.loop_timing import LoopTiming
+from irs_common.node_main import run_node
+from irs_common.params import declare_table
+from irs_common.stamp_gate import FUTURE, OLD, StampGate
+from irs_common.stamp_sync import StampSync
+from irs_common.stamps import from_ns, to_ns
+from irs_msgs.msg import BeltSpeed, RigStatus, SteeringCommand, TreadmillDriveCommand
+
+from .calibration import CalibrationError, load_calibration
+from .driver import DriveError, LinkError, SerialModbusRig
+from .drive_modbus import ModbusDrive
+from .hardware_params import NODE_PARAMS
+from .hardware_rig import HardwareConfig, HardwareRig
+
+ARM_JOINTS = ['arm_joint1', 'arm_joint2', 'arm_joint3']
+INPUTS = {'steering': ('steering/command', SteeringCommand),
+          'drive': ('treadmill/drive', TreadmillDriveCommand)}
+
+
+class RigHardwareNode(Node):
+    """See the module docstring."""
+
+    def __init__(self, **node_options):
+        super().__init__('rig_hardware', **node_options)
+        self.p = declare_table(self, NODE_PARAMS, on_change=self._on_parameter)
+        if self.p['clock_mode'] not in ('realtime', 'lockstep'):
+            raise ValueError(f"clock_mode must be 'realtime' or 'lockstep', got "
+                             f"{self.p['clock_mode']!r}")
+        self.lockstep = self.p['clock_mode'] == 'lockstep'
+        try:
+            cal = load_calibration(self.p['calibration'])
+        except CalibrationError as exc:
+            raise ValueError(str(exc)) from None
+        cfg = HardwareConfig(dt=self.p['dt'], link_timeout=self.p['link_timeout'],
+                             command_timeout=self.p['command_timeout'], u_max=self.p['u_max'])
+        drive = ModbusDrive(self.p['drive_host'], self.p['drive_port'],
+                            timeout=self.p['drive_timeout'],
+                            comm_timeout_ms=int(self.p['drive_comm_timeout'] * 1000))
+        io = SerialModbusRig(self.p['port'], self.p['baud'], drive,
+                             watchdog_ms=int(self.p['board_watchdog'] * 1000))
+        self.rig = HardwareRig(io, cal, cfg)
+        self.dt_ns = int(round(cfg.dt * 1e9))
+        self.lock = threading.RLock()
+        self.warner = ThrottledWarner(self.get_logger().warning, 1.0)
+        self.required = tuple(n for n in self.p['lockstep_inputs'] if n) if self.lockstep else ()
+        unknown = set(self.required) - set(INPUTS)
+        if unknown:
+            raise ValueError(f'lockstep_inputs: unknown input(s) {sorted(unknown)}; expected '
+                             f'some of {sorted(INPUTS)}')
+        self.sync = StampSync(self.required) if self.required else None
+        tol = int(round(self.p['future_tolerance'] * 1e9))
+        self.gates = {n: StampGate(tol) for n in INPUTS}
+        self.received_at = {}
+        self.pub_clock = self.create_publisher(Clock, '/clock', qos.CLOCK) if self.lockstep \
+            else None
+        self.pub_arm = self.create_publisher(JointState, 'arm/joint_states', qos.SENSOR_PUB)
+        self.pub_belt = self.create_publisher(BeltSpeed, 'belt/speed', qos.SENSOR_PUB)
+        self.pub_status = self.create_publisher(RigStatus, 'rig/status', qos.STATUS)
+        self.pub_diag = self.create_publisher(DiagnosticArray, 'rig/diagnostics', qos.STATUS)
+        self.pub_timing = None if self.lockstep else self.create_publisher(
+            DiagnosticArray, 'rig/timing', qos.STATUS)
+        self.timing = LoopTiming()
+        self.arm_sent = {}
+        self.last_steer_stamp = -1
+        for name, (topic, mtype) in INPUTS.items():
+            self.create_subscription(mtype, topic, lambda m, n=name: self._on_command(n, m),
+                                     qos.COMMAND)
+        self.create_service(Trigger, 'rig/start', self._on_start)
+        self.create_service(Trigger, 'rig/reset', self._on_reset)
+        self.started = False
+        self.complete = False
+        self.k = 0
+        self.tick0 = 0
+        self.stamp0_ns = 0
+        self.status_key = None
+        self.status_k = -10 ** 9
+        self.status_every = max(1, int(round(self.p['status_period'] / cfg.dt)))
+        self.drive_status = (None, math.nan)
+        self.reader = None
+        self.running = True
+        self.create_timer(1.0, self._slow_tick)
+        if self.p['autostart']:
+            self._start()
+        self.get_logger().info(f"rig_hardware up: {self.p['clock_mode']}, board "
+                               f"{self.p['port']}, drive {self.p['drive_host']}:"
+                               f"{self.p['drive_port']}, calibration {self.p['calibration']}")
+
+    # ---------------------------------------------------------------- start, reset, stop
+    def _start(self) -> str:
+        with self.lock:
+            if self.started:
+                return 'already running'
+            try:
+                self.rig.io.start(self.lockstep)
+            except (LinkError, DriveError) as exc:
+                return str(exc)
+            self.started = True
+            if self.lockstep:
+                self._publish_next(timeout=1.0)
+            else:
+                self.stamp0_ns = self.get_clock().now().nanoseconds
+                self.reader = threading.Thread(target=self._read_loop, daemon=True)
+                self.reader.start()
+            return ''
+
+    def _on_start(self, _req, resp):
+        why = self._start()
+        resp.success = not why
+        resp.message = why or f"started ({self.p['clock_mode']})"
+        return resp
+
+    def _on_reset(self, _req, resp):
+        with self.lock:
+            was = self.rig.fault
+            why = self.rig.reset(self.lockstep, time.monotonic())
+            if not why:
+                self.tick0 = None
+                self.received_at.clear()
+                if self.lockstep:
+                    self._publish_next(timeout=1.0)
+        resp.success = not why
+        resp.message = why or f'fault cleared (was: {was or "none"})'
+        self.get_logger().info(f'rig/reset: {resp.message}')
+        self._publish_status(force=True)
+        return resp
+
+    def _on_parameter(self, name, value):
+        self.p[name] = value
+        if name == 'command_timeout':
+            self.rig.cfg.command_timeout = value
+        elif name == 'link_timeout':
+            self.rig.cfg.link_timeout = value
+
+    def shutdown_safe(self):
+        """Outputs to the safe state (node exit)."""
+        self.running = False
+        with self.lock:
+            self.rig.trip('node exit', time.monotonic())
+            try:
+                self.rig.io.write_drive(0)
+            except DriveError:
+                pass
+            self.rig.io.close()
+
+    def destroy_node(self):
+        self.shutdown_safe()
+        return super().destroy_node()
+
+    # ---------------------------------------------------------------- inputs
+    def _on_command(self, name, msg):
+        value = msg.front_angle if name == 'steering' else msg.voltage
+        stamp = to_ns(msg.header.stamp)
+        now = time.monotonic()
+        with self.lock:
+            if not self.started:
+                return
+            if name in self.required:
+                current = self._stamp_ns()
+                if stamp < current or stamp - current > self.gates[name].future_tolerance_ns:
+                    return
+                for stamp_ns, values in self.sync.add(name, stamp, value):
+                    if stamp_ns == self._stamp_ns():
+                        self._lockstep_step(values, now)
+                return
+            now_ns = self._stamp_ns() if self.lockstep else self.get_clock().now().nanoseconds
+            verdict = self.gates[name].check(stamp, now_ns)
+            if verdict in (FUTURE, OLD):
+                return
+            self.received_at[name] = now
+            self._apply(name, value, now)
+            if name == 'steering' and not self.lockstep:
+                sent = self.arm_sent.pop(stamp, None)
+                if sent is not None:
+                    self.timing.add_latency(now - sent)
+                self.last_steer_stamp = max(self.last_steer_stamp, stamp)
+                seq = (stamp - self.stamp0_ns) // self.dt_ns + (self.tick0 or 0)
+                self.rig.write_outputs(seq, now)
+
+    def _apply(self, name, value, now):
+        if name == 'steering':
+            self.rig.command_steer(value, now)
+        else:
+            self.rig.command_drive(value, now)
+
+    # ---------------------------------------------------------------- lock-step
+    def _stamp_ns(self) -> int:
+        return self.stamp0_ns + self.k * self.dt_ns
+
+    def _lockstep_step(self, values, now):
+        if self.p['max_steps'] and self.k >= self.p['max_steps']:
+            if not self.complete:
+                self.complete = True
+                self.get_logger().info(f'run complete: {self.k} steps')
+                self._publish_status(force=True)
+            return
+        for name, value in values.items():
+            self._apply(name, value, now)
+        self.rig.write_outputs(self.rig.last_tick, now)
+        self._publish_next(timeout=1.0)
+
+    def _publish_next(self, timeout: float):
+        try:
+            readings = self.rig.io.read(timeout)
+        except LinkError as exc:
+            self.rig.trip(str(exc), time.monotonic())
+            readings = []
+        if not readings:
+            self.rig.trip('link lost: the board did not answer the step', time.monotonic())
+            self._publish_status(force=True)
+            return
+        self._on_reading(readings[-1])
+
+    # ---------------------------------------------------------------- real time
+    def _read_loop(self):
+        while self.running:
+            try:
+                readings = self.rig.io.read(0.005)
+            except LinkError as exc:
+                with self.lock:
+                    self.rig.trip(str(exc), time.monotonic())
+                    self._publish_status(force=True)
+                time.sleep(0.05)
+                continue
+            now = time.monotonic()
+            with self.lock:
+                for r in readings:
+                    self._on_reading(r)
+                if self.rig.ok and not self.rig.check_link(now):
+                    self._publish_status(force=True)
+                self._check_stale(now)
+
+    def _check_stale(self, now):
+        seen = self.received_at.get('steering')
+        if seen is not None and self.rig.ok and now - seen > self.rig.cfg.command_timeout:
+            self.rig.trip(f'steering command stale ({1e3 * (now - seen):.0f} ms > '
+                          f'{1e3 * self.rig.cfg.command_timeout:.0f} ms)', now)
+            self._publish_status(force=True)
+
+    # ---------------------------------------------------------------- outputs
+    def _on_reading(self, reading):
+        m = self.rig.measure(reading)
+        if self.tick0 is None:
+            self.tick0 = m.tick - self.k if self.lockstep else m.tick
+        if self.lockstep:
+            self.k = m.tick - self.tick0
+        else:
+            self.k = m.tick - self.tick0
+            if 'steering' in self.received_at:
+                self.timing.step(self.last_steer_stamp >= self._stamp_ns() - self.dt_ns)
+            if not self.rig.ok or reading.received - self.rig.board_time > 0.002:
+                # safe outputs while latched; else a keep-alive for the board's watchdog
+                self.rig.write_outputs(m.tick, reading.received, drive=self.rig.ok)
+        stamp = from_ns(self._stamp_ns())
+        if self.pub_clock is not None:
+            self.pub_clock.publish(Clock(clock=stamp))
+        js = JointState()
+        js.header.stamp = stamp
+        js.header.frame_id = self.p['frame_id']
+        js.name = ARM_JOINTS
+        js.position = [float(a) for a in m.angles]
+        if not self.lockstep:
+            self.arm_sent[self._stamp_ns()] = time.monotonic()
+        self.pub_arm.publish(js)
+        belt = BeltSpeed()
+        belt.header.stamp = stamp
+        belt.header.frame_id = self.p['frame_id']
+        belt.speed = float(m.belt_speed)
+        belt.encoder_count = int(m.belt_count)
+        self.pub_belt.publish(belt)
+        self._publish_status()
+
+    def _publish_status(self, force=False):
+        key = (self.rig.fault, self.complete)
+        if not force and key == self.status_key and self.k - self.status_k < self.status_every:
+            return
+        if self.rig.fault and key != self.status_key:
+            self.get_logger().error(f'rig fault (latched, outputs safe): {self.rig.fault}')
+        self.status_key, self.status_k = key, self.k
+        st = RigStatus()
+        st.header.stamp = from_ns(self._stamp_ns())
+        st.car_on_belt = True
+        st.fault_text = self.rig.fault
+        st.rejected_steer_count = self.rig.refused['steering']
+        st.rejected_drive_count = self.rig.refused['drive']
+        st.step = max(0, self.k)
+        st.run_complete = self.complete
+        self.pub_status.publish(st)
+
+    def _slow_tick(self):
+        if not self.started:
+            return
+        now = time.monotonic()
+        with self.lock:
+            self.drive_status = self.rig.check_drive(now)
+            if not self.rig.ok:
+                self._publish_status(force=True)
+            if len(self.arm_sent) > 2000:
+                self.arm_sent.clear()
+        self._publish_diagnostics()
+
+    def _publish_diagnostics(self):
+        io = self.rig.io
+        status, speed = self.drive_status
+        values = {'fault': self.rig.fault, 'faults': self.rig.faults,
+                  'bad_frames': io.bad_frames, 'lost_samples': self.rig.lost_samples,
+                  'tick': self.rig.last_tick, 'drive_status': status, 'drive_belt_speed': speed,
+                  'refused_steering': self.rig.refused['steering'],
+                  'refused_drive': self.rig.refused['drive']}
+        level = DiagnosticStatus.ERROR if self.rig.fault else DiagnosticStatus.OK
+        st = DiagnosticStatus(level=level, name='rig_hardware: devices', hardware_id='irs_rig',
+                              message=self.rig.fault or 'ok',
+                              values=[KeyValue(key=k, value=str(v)) for k, v in values.items()])
+        arr = DiagnosticArray(status=[st])
+        arr.header.stamp = self.get_clock().now().to_msg()
+        self.pub_diag.publish(arr)
+        if self.pub_timing is not None:
+            summary = self.timing.summary()
+            summary['lost_samples'] = self.rig.lost_samples
+            t = DiagnosticStatus(level=DiagnosticStatus.OK, name='rig_hardware: real-time loop',
+                                 hardware_id='irs_rig', message='',
+                                 values=[KeyValue(key=k, value=f'{v:.6g}' if isinstance(v, float)
+                                                  else str(v)) for k, v in summary.items()])
+            a = DiagnosticArray(status=[t])
+            a.header.stamp = arr.header.stamp
+            self.pub_timing.publish(a)
+
+
+def main(args=None):
+    return run_node(RigHardwareNode, args)
