@@ -35,5 +35,7 @@ NODE_PARAMS = [
           3600.0, read_only=True),
     Param('status_period', 0.1, 'rig/status at least this often', 's', 0.001, 3600.0,
           read_only=True),
+    Param('belt_speed_decimation', 1, 'publish belt/speed every this many samples', '1', 1,
+          1_000_000, read_only=True),
     Param('frame_id', 'treadmill', 'frame of the published measurements', '-', read_only=True),
 ]

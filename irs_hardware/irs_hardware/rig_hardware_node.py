@@ -45,6 +45,7 @@ from .driver import DriveError, LinkError, SerialModbusRig
 from .drive_modbus import ModbusDrive
 from .hardware_params import NODE_PARAMS
 from .hardware_rig import HardwareConfig, HardwareRig
+from .paths import resolve
 
 ARM_JOINTS = ['arm_joint1', 'arm_joint2', 'arm_joint3']
 INPUTS = {'steering': ('steering/command', SteeringCommand),
@@ -62,7 +63,7 @@ class RigHardwareNode(Node):
                              f"{self.p['clock_mode']!r}")
         self.lockstep = self.p['clock_mode'] == 'lockstep'
         try:
-            cal = load_calibration(self.p['calibration'])
+            cal = load_calibration(resolve(self.p['calibration']))
         except CalibrationError as exc:
             raise ValueError(str(exc)) from None
         cfg = HardwareConfig(dt=self.p['dt'], link_timeout=self.p['link_timeout'],
@@ -295,6 +296,9 @@ class RigHardwareNode(Node):
         if not self.lockstep:
             self.arm_sent[self._stamp_ns()] = time.monotonic()
         self.pub_arm.publish(js)
+        if self.k % self.p['belt_speed_decimation']:
+            self._publish_status()
+            return
         belt = BeltSpeed()
         belt.header.stamp = stamp
         belt.header.frame_id = self.p['frame_id']

@@ -33,6 +33,7 @@ import yaml
 
 from irs_common.params import flatten
 
+from ..paths import resolve
 from .board_core import BoardEmulator, BoardTruth, rig_config
 from .wire import Wire
 
@@ -40,7 +41,7 @@ from .wire import Wire
 def _rig_params(files, overrides) -> dict:
     values = {}
     for path in files or []:
-        doc = yaml.safe_load(Path(path).read_text()) or {}
+        doc = yaml.safe_load(resolve(path).read_text()) or {}
         for section in doc.values():
             values.update(flatten((section or {}).get('ros__parameters', {})))
     for item in overrides or []:
