@@ -46,6 +46,11 @@ _COMMAND = struct.Struct('<HHB')
 _WHEELS_CMD = struct.Struct('<4h')
 _SAMPLE = struct.Struct('<IH3HiB')
 _WHEELS_SAMPLE = struct.Struct('<4i')
+#: Payload lengths each type may have: a header with another (a garbled length byte) is
+#: refused at once instead of waiting for bytes that belong to the next frames.
+LENGTHS = {HELLO: {_HELLO.size}, INFO: {_INFO.size},
+           COMMAND: {_COMMAND.size, _COMMAND.size + _WHEELS_CMD.size},
+           SAMPLE: {_SAMPLE.size, _SAMPLE.size + _WHEELS_SAMPLE.size}}
 
 
 def crc16(data: bytes) -> int:
@@ -139,7 +144,8 @@ class FrameParser:
     """Byte stream -> messages; bad frames are counted (``bad``) and skipped.
 
     ``feed(data)`` returns the messages completed by ``data``. A frame with a wrong version, a
-    wrong CRC, an unknown type or a length its type does not have counts as one bad frame; the
+    wrong CRC, an unknown type or a length its type does not have (checked on the header, before
+    waiting for the rest) counts as one bad frame; the
     scan resumes one byte after its sync, so a sync pattern inside a garbled frame cannot hide
     the next good one. ``skipped`` counts bytes outside frames.
     """
@@ -166,7 +172,7 @@ class FrameParser:
             if len(buf) < 5:
                 return out
             length = buf[4]
-            if buf[2] != VERSION or length > MAX_PAYLOAD:
+            if buf[2] != VERSION or length not in LENGTHS.get(buf[3], ()):
                 self.bad += 1
                 del buf[:1]
                 continue
