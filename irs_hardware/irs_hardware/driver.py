@@ -88,6 +88,7 @@ class SerialModbusRig(RigIO):
         except (serial.SerialException, OSError) as exc:
             raise LinkError(f'board at {self.port_name}: cannot open ({exc})') from None
         self.serial.reset_input_buffer()
+        self.drive.start()                  # before HELLO: the board's watchdog runs from there
         self.parser = P.FrameParser()
         self._write(P.encode(P.Hello(1 if triggered else 0, self.watchdog_ms, 1000)))
         deadline = time.monotonic() + 1.0
@@ -100,7 +101,96 @@ class SerialModbusRig(RigIO):
             if time.monotonic() >= deadline:
                 raise LinkError(f'board at {self.port_name}: no INFO answer to HELLO in 1 s '
                                 '(not IRSL firmware, or a different baud rate)')
-        self.drive.start()
+        if not triggered:     # feed the watchdog before the first sample is even read
+            self._write(P.encode(P.Command(0, int(round(1500e-6 / P.PULSE_TICK)), 0)))
+
+    _early: list = []
+
+    def _write(self, data: bytes) -> None:
+        import serial
+        try:
+            self.serial.write(data)
+        except (serial.SerialException, OSError) as exc:
+            raise LinkError(f'board at {self.port_name}: write failed ({exc})') from None
+
+    def _messages(self, timeout: float) -> list:
+        """Messages of the bytes waiting, waiting up to ``timeout`` [s] for the first ones."""
+        import select
+        import serial
+        deadline = time.monotonic() + timeout
+        while True:
+            try:
+                data = self.serial.read(4096)
+            except (serial.SerialException, OSError, TypeError) as exc:
+                raise LinkError(f'board at {self.port_name}: read failed ({exc})') from None
+            msgs = self.parser.feed(data) if data else []
+            left = deadline - time.monotonic()
+            if msgs or left <= 0.0:
+                return msgs
+            try:
+                select.select([self.serial.fileno()], [], [], left)
+            except (OSError, ValueError, serial.SerialException) as exc:
+                raise LinkError(f'board at {self.port_name}: read failed ({exc})') from None
+
+    def read(self, timeout: float) -> list:
+        """Readings received so far, waiting up to ``timeout`` [s] for the first."""
+
+    @abstractmethod
+    def write_board(self, seq: int, pulse_us: float, enable: bool) -> None:
+        """Servo pulse [us] and drive-enable line; ``seq`` = tick of the sample it answers."""
+
+    @abstractmethod
+    def write_drive(self, setpoint: int) -> None:
+        """Drive set-point register value."""
+
+    @abstractmethod
+    def drive_status(self) -> tuple:
+        """``(status word, belt speed [m/s])`` the drive reports."""
+
+    @property
+    @abstractmethod
+    def bad_frames(self) -> int:
+        """Frames from the board thrown away (CRC, version, length)."""
+
+    @abstractmethod
+    def close(self) -> None:
+        """Close the devices."""
+
+
+class SerialModbusRig(RigIO):
+    """IRSL board over pyserial + Modbus drive over pymodbus."""
+
+    def __init__(self, port: str, baud: int, drive: ModbusDrive, watchdog_ms: int = 25):
+        self.port_name = port
+        self.baud = baud
+        self.drive = drive
+        self.watchdog_ms = watchdog_ms
+        self.serial = None
+        self.parser = P.FrameParser()
+        self.info = None
+
+    def start(self, triggered: bool) -> None:
+        import serial
+        try:
+            self.serial = serial.Serial(self.port_name, self.baud, timeout=0)
+        except (serial.SerialException, OSError) as exc:
+            raise LinkError(f'board at {self.port_name}: cannot open ({exc})') from None
+        self.serial.reset_input_buffer()
+        self.drive.start()                  # before HELLO: the board's watchdog runs from there
+        self.parser = P.FrameParser()
+        self._write(P.encode(P.Hello(1 if triggered else 0, self.watchdog_ms, 1000)))
+        deadline = time.monotonic() + 1.0
+        while self.info is None or self.info.firmware != P.VERSION:
+            for msg in self._messages(max(0.0, deadline - time.monotonic())):
+                if isinstance(msg, P.Info):
+                    self.info = msg
+                elif isinstance(msg, P.Sample):
+                    self._early = [msg]
+            if time.monotonic() >= deadline:
+                raise LinkError(f'board at {self.port_name}: no INFO answer to HELLO in 1 s '
+                                '(not IRSL firmware, or a different baud rate)')
+        if not triggered:     # feed the watchdog before the first sample is even read
+            self._write(P.encode(P.Command(0, int(round(1500e-6 / P.PULSE_TICK)), 0)))
 
     _early: list = []
 

@@ -114,6 +114,8 @@ class RigHardwareNode(Node):
         self.reader = None
         self.running = True
         self.create_timer(1.0, self._slow_tick)
+        if not self.lockstep:     # the drive's keep-alive, whatever the board link does
+            self.create_timer(0.02, self._drive_keepalive)
         if self.p['autostart']:
             self._start()
         self.get_logger().info(f"rig_hardware up: {self.p['clock_mode']}, board "
@@ -323,6 +325,14 @@ class RigHardwareNode(Node):
         st.step = max(0, self.k)
         st.run_complete = self.complete
         self.pub_status.publish(st)
+
+    def _drive_keepalive(self):
+        if self.started:
+            with self.lock:
+                now = time.monotonic()
+                if now - self.rig.setpoint_time >= self.rig.cfg.drive_keepalive:
+                    self.rig.write_outputs(None, now)
+                    self._publish_status()
 
     def _slow_tick(self):
         if not self.started:

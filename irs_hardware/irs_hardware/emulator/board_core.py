@@ -108,6 +108,7 @@ class BoardEmulator:
         self.enable = False
         self.pulse_ticks = self._centre_ticks()
         self.tripped = False
+        self.first_tick = 0
         self.bad_pending = False
         self.last_command = 0.0
         self.sample_times = {}        # tick -> time the sample was taken
@@ -139,6 +140,7 @@ class BoardEmulator:
         self.watchdog_s = msg.watchdog_ms * 1e-3
         self.tripped = False
         self.last_command = now
+        self.first_tick = self.tick_no
         info = P.Info(self.truth.firmware, self.truth.adc_bits, 3, self.truth.interval_us,
                       int(P.PULSE_TICK * 1e9), msg.watchdog_ms, 0)
         out = [P.encode(info)]
@@ -165,6 +167,8 @@ class BoardEmulator:
         """Free-running: one sampling interval (watchdog, physics step, SAMPLE)."""
         if not self.started or self.triggered:
             return []
+        if self.tick_no == self.first_tick:
+            self.last_command = max(self.last_command, now)   # the watchdog runs from sample 1
         self.check_watchdog(now)
         self._step(now)
         return self._emit(now)
