@@ -185,6 +185,14 @@ class HardwareRig:
         if errors and not self.fault:
             self.trip(errors[0], now)
 
+    def keep_drive_alive(self, now: float) -> None:
+        """Write the current set-point again (the drive's own watchdog); an error trips."""
+        try:
+            self.io.write_drive(self.outputs()[2])
+            self.setpoint_time = now
+        except DriveError as exc:
+            self.trip(str(exc), now)
+
     def check_drive(self, now: float) -> tuple:
         """Poll the drive: ``(status, belt speed)`` or trip on an error or a drive trip."""
         try:

@@ -114,8 +114,9 @@ class RigHardwareNode(Node):
         self.reader = None
         self.running = True
         self.create_timer(1.0, self._slow_tick)
-        if not self.lockstep:     # the drive's keep-alive, whatever the board link does
-            self.create_timer(0.02, self._drive_keepalive)
+        # the drive's keep-alive (its communication-loss stop), whatever the board link does;
+        # the same set-point again, so a lock-step run stays deterministic
+        self.create_timer(0.02, self._drive_keepalive)
         if self.p['autostart']:
             self._start()
         self.get_logger().info(f"rig_hardware up: {self.p['clock_mode']}, board "
@@ -331,7 +332,7 @@ class RigHardwareNode(Node):
             with self.lock:
                 now = time.monotonic()
                 if now - self.rig.setpoint_time >= self.rig.cfg.drive_keepalive:
-                    self.rig.write_outputs(None, now)
+                    self.rig.keep_drive_alive(now)
                     self._publish_status()
 
     def _slow_tick(self):
