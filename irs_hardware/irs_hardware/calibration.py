@@ -107,6 +107,8 @@ class ServoCalibration(_Strict):
 
 
 class BeltCalibration(_Strict):
+    """``s = n / counts_per_metre`` [m] of the belt encoder."""
+
     counts_per_metre: float = Field(gt=0.0, allow_inf_nan=False)
 
 

@@ -47,7 +47,7 @@ def _rig_params(files, overrides) -> dict:
     for item in overrides or []:
         key, sep, text = item.partition('=')
         if not sep:
-            raise ValueError(f"-p {item!r}: expected key=value")
+            raise ValueError(f'-p {item!r}: expected key=value')
         values[key.strip()] = yaml.safe_load(text)
     for key in [k for k in values if k not in _RIG_KEYS]:
         values.pop(key)       # the node's own parameters (clock_mode, ...) are not the rig's

@@ -22,8 +22,7 @@ from pymodbus.datastore import (ModbusDeviceContext, ModbusSequentialDataBlock,
 from pymodbus.server import ModbusTcpServer
 
 from ..calibration import SETPOINT_FULL_SCALE
-from ..drive_modbus import (COMM_TIMEOUT, CONTROL, ENABLE_LOW, RUN, RUNNING, SETPOINT, SPEED,
-                            STATUS, TRIPPED)
+from ..drive_modbus import (COMM_TIMEOUT, CONTROL, ENABLE_LOW, RUN, RUNNING, SETPOINT, TRIPPED)
 from .wire import BELT_SPEED, BOARD_BEAT, DRIVE_BEAT, DRIVE_VOLTAGE, ENABLE, Wire
 
 
