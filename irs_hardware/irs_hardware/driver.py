@@ -72,39 +72,46 @@ class RigIO(ABC):
 class SerialModbusRig(RigIO):
     """IRSL board over pyserial + Modbus drive over pymodbus."""
 
-    def __init__(self, port: str, baud: int, drive: ModbusDrive, watchdog_ms: int = 25):
+    def __init__(self, port: str, baud: int, drive: ModbusDrive, watchdog_ms: int = 25,
+                 safe_pulse_us: float = 1500.0):
         self.port_name = port
         self.baud = baud
         self.drive = drive
         self.watchdog_ms = watchdog_ms
+        self.safe_ticks = int(round(safe_pulse_us * 1e-6 / P.PULSE_TICK))
         self.serial = None
         self.parser = P.FrameParser()
         self.info = None
+        self.early = []            # samples that came with the INFO answer
 
     def start(self, triggered: bool) -> None:
+        """Drive: comm timeout, set-point 0, run; board: HELLO, INFO checked (1 s). The board's
+        watchdog arms with the first command the caller sends.
+        """
         import serial
+        self.drive.start()
         try:
             self.serial = serial.Serial(self.port_name, self.baud, timeout=0)
+            self.serial.reset_input_buffer()
         except (serial.SerialException, OSError) as exc:
             raise LinkError(f'board at {self.port_name}: cannot open ({exc})') from None
-        self.serial.reset_input_buffer()
-        self.drive.start()                  # before HELLO: the board's watchdog runs from there
         self.parser = P.FrameParser()
-        self._write(P.encode(P.Hello(1 if triggered else 0, self.watchdog_ms, 1000)))
+        self.info, self.early = None, []
+        self._write(P.encode(P.Hello(1 if triggered else 0, self.watchdog_ms, 1000,
+                                     self.safe_ticks)))
         deadline = time.monotonic() + 1.0
-        while self.info is None or self.info.firmware != P.VERSION:
+        while self.info is None:
             for msg in self._messages(max(0.0, deadline - time.monotonic())):
                 if isinstance(msg, P.Info):
                     self.info = msg
                 elif isinstance(msg, P.Sample):
-                    self._early = [msg]
-            if time.monotonic() >= deadline:
+                    self.early.append(msg)
+            if self.info is None and time.monotonic() >= deadline:
                 raise LinkError(f'board at {self.port_name}: no INFO answer to HELLO in 1 s '
                                 '(not IRSL firmware, or a different baud rate)')
-        if not triggered:     # feed the watchdog before the first sample is even read
-            self._write(P.encode(P.Command(0, int(round(1500e-6 / P.PULSE_TICK)), 0)))
-
-    _early: list = []
+        if self.info.firmware != P.VERSION:
+            raise LinkError(f'board at {self.port_name}: firmware {self.info.firmware}, the '
+                            f'host speaks IRSL {P.VERSION}')
 
     def _write(self, data: bytes) -> None:
         import serial
@@ -133,7 +140,7 @@ class SerialModbusRig(RigIO):
                 raise LinkError(f'board at {self.port_name}: read failed ({exc})') from None
 
     def read(self, timeout: float) -> list:
-        early, self._early = self._early, []
+        early, self.early = self.early, []
         msgs = early + self._messages(0.0 if early else timeout)
         now = time.monotonic()
         return [Reading(m.tick, m.ack, m.adc, m.belt, m.status, now)

@@ -9,9 +9,10 @@ over version, type, length and payload. A receiver scans for the sync bytes, che
 length and CRC, and counts every frame it throws away (:class:`FrameParser`): one garbled byte
 costs one frame, never the stream. Types (host -> board: 0x0*, board -> host: 0x8*):
 
-- ``HELLO`` (mode u8: 0 free-running sampler, 1 triggered; watchdog u16 [ms]; interval u16
-  [us]) -> ``INFO`` (firmware u16, adc_bits u8, channels u8, interval u16 [us], pulse tick u16
-  [ns], watchdog u16 [ms], wheel counters u8).
+- ``HELLO`` (mode u8: 0 free-running sampler, 1 triggered; watchdog u16 [ms], counted in
+  sampling intervals and armed by the first COMMAND; interval u16 [us]; safe pulse u16 [ticks of
+  0.5 us]: the servo's calibrated centre) -> ``INFO`` (firmware u16, adc_bits u8, channels u8,
+  interval u16 [us], pulse tick u16 [ns], watchdog u16 [ms], wheel counters u8).
 - ``COMMAND`` (seq u16, servo pulse u16 [ticks of 0.5 us], flags u8: bit 0 drive enable; with
   the torque car 4 x i16 wheel commands [per-mille of the motor drivers' range]).
 - ``SAMPLE`` (tick u32 [sampling intervals], ack u16 = seq of the last command applied,
@@ -40,7 +41,7 @@ DRIVE_ENABLE = 0x01
 FRAME_OVERHEAD = 7           # sync 2 + version + type + length + crc 2
 MAX_PAYLOAD = 64
 
-_HELLO = struct.Struct('<BHH')
+_HELLO = struct.Struct('<BHHH')
 _INFO = struct.Struct('<HBBHHHB')
 _COMMAND = struct.Struct('<HHB')
 _WHEELS_CMD = struct.Struct('<4h')
@@ -68,13 +69,18 @@ def frame(kind: int, payload: bytes) -> bytes:
 
 @dataclass(frozen=True)
 class Hello:
+    """Host -> board: start the sampler (module docstring)."""
+
     mode: int = 0              # 0 free-running, 1 triggered (one sample per command)
     watchdog_ms: int = 25
     interval_us: int = 1000
+    safe_pulse: int = 3000     # [ticks of PULSE_TICK] the pulse of the safe state
 
 
 @dataclass(frozen=True)
 class Info:
+    """Board -> host: the answer to HELLO (module docstring)."""
+
     firmware: int
     adc_bits: int
     channels: int
@@ -86,6 +92,8 @@ class Info:
 
 @dataclass(frozen=True)
 class Command:
+    """Host -> board: the outputs, answering the sample ``seq`` (module docstring)."""
+
     seq: int
     pulse_ticks: int
     flags: int = 0
@@ -94,6 +102,8 @@ class Command:
 
 @dataclass(frozen=True)
 class Sample:
+    """Board -> host: one sampling instant's inputs (module docstring)."""
+
     tick: int
     ack: int
     adc: tuple                   # 3 x counts
@@ -105,7 +115,8 @@ class Sample:
 def encode(msg) -> bytes:
     """The frame of a :class:`Hello`, :class:`Info`, :class:`Command` or :class:`Sample`."""
     if isinstance(msg, Hello):
-        return frame(HELLO, _HELLO.pack(msg.mode, msg.watchdog_ms, msg.interval_us))
+        return frame(HELLO, _HELLO.pack(msg.mode, msg.watchdog_ms, msg.interval_us,
+                                        msg.safe_pulse))
     if isinstance(msg, Info):
         return frame(INFO, _INFO.pack(msg.firmware, msg.adc_bits, msg.channels, msg.interval_us,
                                       msg.pulse_tick_ns, msg.watchdog_ms, msg.wheel_counters))

@@ -13,19 +13,25 @@ Inputs read: the arm angles with the simulated pots' noise but without the simul
 quantiser, through each pot (340 deg electrical, its mounting) and a 16-bit ADC over 5.12 V,
 and the belt encoder's count. Firmware behaviour: ``HELLO`` starts the sampler, free-running
 (:meth:`BoardEmulator.tick` every interval) or triggered (one step and one ``SAMPLE`` per
-``COMMAND``: lock-step, deterministic); the watchdog centres the servo and drops the enable
-line when no good command came for ``watchdog_ms`` (latched until the next ``HELLO``); a bad
-host frame sets a status bit. Faults on request: garble or drop outgoing frames.
+``COMMAND``: lock-step, deterministic; ``lockstep_delay`` D: the command answering sample k
+drives the servo from step k + D, the link's latency); the watchdog puts the outputs in the safe
+state (the HELLO's safe pulse, enable line low) when ``watchdog_ms / interval`` samples in a row
+went out without a good command, armed by the first command after HELLO and latched until the
+next HELLO: counted in the sampler's ticks, as a firmware counts them in its timer interrupt, so
+a stall of the emulator's process is no tick. A bad host frame sets a status bit. Faults on
+request: garble or drop outgoing frames.
 """
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field
+from collections import deque
+from dataclasses import dataclass
 
+from irs_common.loop_timing import LoopTiming
 from irs_vehicle_sim.rig import RigConfig, RigInputs, RigSimulation
 
 from .. import protocol as P
-from .wire import ENABLE, BELT_SPEED, BOARD_BEAT, Wire
+from .wire import BELT_SPEED, BOARD_BEAT, DRIVE_VOLTAGE, ENABLE, Wire
 
 
 @dataclass
@@ -79,20 +85,31 @@ def rig_config(params: dict | None) -> RigConfig:
 
 @dataclass
 class BoardStats:
+    """Counters of the emulated board (its status file reports them)."""
+
     samples: int = 0
     commands: int = 0
     bad_host_frames: int = 0
     dropped: int = 0
     garbled: int = 0
     watchdog_trips: int = 0
-    latencies: list = field(default_factory=list)   # ADC sample -> command applied [s]
 
 
 class BoardEmulator:
-    """See the module docstring. ``wire`` may be None (no drive: 0 V)."""
+    """See the module docstring. ``wire`` may be None (no drive: 0 V).
+
+    ``timing`` (free-running): per sample, whether the command in force when it is taken answers
+    a sample at most ``deadline`` intervals older (the loop's deadline, :data:`DEADLINE`), and
+    the latency from taking sample k to applying the command answering it [s].
+    """
+
+    #: Samples within which the answer to a sample must be in force: the link's two frames
+    #: take 1.36 ms at 1 Mbaud with 0.5 ms of USB latency each, so the answer to sample k is
+    #: applied in step k + 1 when the host answers in 0.64 ms; sample k + 2 is the deadline.
+    DEADLINE = 2
 
     def __init__(self, config: RigConfig, truth: BoardTruth | None = None,
-                 wire: Wire | None = None, driver=None):
+                 wire: Wire | None = None, driver=None, lockstep_delay: int = 0):
         self.truth = truth or BoardTruth()
         self.sim = RigSimulation(config)
         self.dt = config.dt
@@ -100,24 +117,37 @@ class BoardEmulator:
         self.driver = driver
         self.parser = P.FrameParser()
         self.stats = BoardStats()
+        self.timing = LoopTiming()
         self.started = False
         self.triggered = False
-        self.watchdog_s = 0.025
+        self.watchdog_ticks = 25
+        self.armed = False
+        self.since_command = 0
         self.tick_no = 0
         self.ack = 0
         self.enable = False
-        self.pulse_ticks = self._centre_ticks()
+        self.safe_pulse = self._centre_ticks()
+        self.pulse_ticks = self.safe_pulse
+        self.delayed = deque([self.pulse_ticks] * lockstep_delay)
         self.tripped = False
-        self.first_tick = 0
         self.bad_pending = False
-        self.last_command = 0.0
-        self.sample_times = {}        # tick -> time the sample was taken
+        self.safe_at = 0.0            # time the outputs last turned safe (None while not)
+        self.sample_times = {}        # tick & 0xFFFF -> time the sample was taken
         self.garble_next = 0
         self.drop_next = 0
         self.jig = None               # (x, y, psi): the arm held on a calibration jig
 
     def _centre_ticks(self) -> int:
         return int(round(self.truth.servo_centre_us * 1e-6 / P.PULSE_TICK))
+
+    def _set_outputs(self, pulse_ticks: int, enable: bool, now: float) -> None:
+        """Servo pulse and enable line; ``safe_at`` follows the safe state's start."""
+        self.pulse_ticks, self.enable = pulse_ticks, enable
+        safe = not enable and pulse_ticks == self.safe_pulse
+        if not safe:
+            self.safe_at = None
+        elif self.safe_at is None:
+            self.safe_at = now
 
     # ---------------------------------------------------------------- host frames
     def receive(self, data: bytes, now: float) -> list:
@@ -137,10 +167,12 @@ class BoardEmulator:
     def _hello(self, msg: P.Hello, now: float) -> list:
         self.started = True
         self.triggered = msg.mode == 1
-        self.watchdog_s = msg.watchdog_ms * 1e-3
+        self.watchdog_ticks = max(1, round(msg.watchdog_ms * 1000 / self.truth.interval_us))
+        self.armed = False
+        self.since_command = 0
         self.tripped = False
-        self.last_command = now
-        self.first_tick = self.tick_no
+        self.safe_pulse = msg.safe_pulse
+        self._set_outputs(self.safe_pulse, False, now)
         info = P.Info(self.truth.firmware, self.truth.adc_bits, 3, self.truth.interval_us,
                       int(P.PULSE_TICK * 1e9), msg.watchdog_ms, 0)
         out = [P.encode(info)]
@@ -150,13 +182,14 @@ class BoardEmulator:
 
     def _command(self, msg: P.Command, now: float) -> list:
         self.stats.commands += 1
-        self.pulse_ticks = msg.pulse_ticks
-        self.enable = bool(msg.flags & P.DRIVE_ENABLE) and not self.tripped
+        if not self.tripped:
+            self._set_outputs(msg.pulse_ticks, bool(msg.flags & P.DRIVE_ENABLE), now)
         self.ack = msg.seq
-        self.last_command = now
+        self.armed = True
+        self.since_command = 0
         sent = self.sample_times.pop(msg.seq, None)
         if sent is not None:
-            self.stats.latencies.append(now - sent)
+            self.timing.add_latency(now - sent)
         if self.triggered:
             self._step(now)
             return self._emit(now)
@@ -167,34 +200,48 @@ class BoardEmulator:
         """Free-running: one sampling interval (watchdog, physics step, SAMPLE)."""
         if not self.started or self.triggered:
             return []
-        if self.tick_no == self.first_tick:
-            self.last_command = max(self.last_command, now)   # the watchdog runs from sample 1
-        self.check_watchdog(now)
+        if self.armed:
+            self.since_command += 1
+            self.check_watchdog(now)
         self._step(now)
+        if self.armed:
+            self.timing.step(((self.tick_no - self.ack) & 0xFFFF) <= self.DEADLINE)
         return self._emit(now)
 
     def check_watchdog(self, now: float) -> bool:
-        if self.started and not self.tripped and now - self.last_command > self.watchdog_s:
+        """Trip (safe outputs, latched) once ``watchdog_ticks`` samples had no command."""
+        if not self.tripped and self.since_command >= self.watchdog_ticks:
             self.tripped = True
             self.stats.watchdog_trips += 1
-            self.pulse_ticks = self._centre_ticks()
-            self.enable = False
+            self._set_outputs(self.safe_pulse, False, now)
             self._publish_wire(now)
         return self.tripped
 
     def pulse_us(self) -> float:
+        """The servo pulse in force [us]."""
         return self.pulse_ticks * P.PULSE_TICK * 1e6
 
     def drive_voltage(self, now: float) -> float:
+        """The drive's output [V] reaching the belt: 0 V while the enable line is low; in
+        triggered mode the wire's value as it stands (the host's Modbus write is answered
+        before its COMMAND), else 0 V once the drive has stopped beating.
+        """
         if not self.enable or self.wire is None:
             return 0.0
+        if self.triggered:
+            return self.wire.get(DRIVE_VOLTAGE)
         return self.wire.drive_voltage(now)
 
     def _step(self, now: float):
         t = self.sim.time
         speed = self.driver(t) if self.driver is not None else self.sim.config.u0
-        self.sim.step(RigInputs(front_steer=self.truth.steer(self.pulse_us()),
-                                drive_voltage=self.drive_voltage(now), speed_cmd=speed))
+        pulse = self.pulse_ticks
+        if self.triggered and self.delayed:
+            self.delayed.append(pulse)
+            pulse = self.delayed.popleft()
+        steer = self.truth.steer(pulse * P.PULSE_TICK * 1e6)
+        self.sim.step(RigInputs(front_steer=steer, drive_voltage=self.drive_voltage(now),
+                                speed_cmd=speed))
         self.tick_no += 1
         self._publish_wire(now)
 
@@ -211,6 +258,7 @@ class BoardEmulator:
         return self.sim.arm.measure_tuple(*self.jig)
 
     def sample(self) -> P.Sample:
+        """The SAMPLE of the present instant (clears the bad-host-frame bit)."""
         status = ((P.WATCHDOG_TRIPPED if self.tripped else 0)
                   | (P.BAD_HOST_FRAME if self.bad_pending else 0))
         self.bad_pending = False

@@ -3,16 +3,21 @@
     board_emulator --link /tmp/irs_board [--rig-params rig.yaml] [-p x0=0.3 ...]
                    [--wire /dev/shm/irs_wire] [--control /tmp/irs_board.ctl]
                    [--status /tmp/irs_board.json] [--baud 1000000] [--usb-latency 0.0005]
-                   [--driver 0:0,0.5:1.2,4:0.6]
+                   [--driver 0:0,0.5:1.2,4:0.6] [--rt-priority 60] [--lockstep-delay 2]
 
 ``--link`` is a symbolic link to the pty's device, opened by the host as it opens
 ``/dev/ttyACM0``. The link's timing is emulated in the free-running mode: each frame reaches
-the other side ``bytes x 10 / baud`` (8N1) plus ``usb-latency`` after it is sent. Triggered
-mode (lock-step) answers at once. ``--control`` is a Unix datagram socket taking ``garble N``,
-``drop N`` (the next N samples), ``silence S`` (the cable cut for S seconds: nothing in or out),
+the other side ``bytes x 10 / baud`` (8N1) plus ``usb-latency`` after it is sent; the sampler
+runs at SCHED_FIFO ``--rt-priority`` where permitted (a board's timer interrupt is hard real
+time; a late wake-up skips the missed intervals, counted as ``loop_misses``, and the emulated
+world waits meanwhile). Triggered mode (lock-step) answers at once and applies each command
+``--lockstep-delay`` steps later (the link's latency in whole samples). ``--control`` is a
+Unix datagram socket taking ``garble N``, ``drop N`` (the next N samples), ``silence S`` (the
+cable cut for S seconds: nothing in or out),
 ``jig X Y PSI`` / ``jig off`` (the arm on a calibration jig at that pose [m, m, rad]) and
 ``stop``; ``--status`` is rewritten every 50 ms with the board's state as JSON (servo pulse,
-enable line, watchdog, counts, loop timing, ADC-sample-to-command latency percentiles).
+enable line, ``safe_at``: the ``time.monotonic()`` the outputs last turned safe, watchdog,
+counts, loop misses, ADC-sample-to-servo latency and deadline misses).
 ``--driver`` is the car's speed profile ``t:v,...`` [s:m/s], held between breakpoints.
 """
 from __future__ import annotations
@@ -26,6 +31,7 @@ import socket
 import sys
 import time
 import tty
+from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
@@ -35,10 +41,16 @@ from irs_common.params import flatten
 
 from ..paths import resolve
 from .board_core import BoardEmulator, BoardTruth, rig_config
+from .sched import set_fifo
 from .wire import Wire
 
 
 def _rig_params(files, overrides) -> dict:
+    """The rig's parameters of ``vehicle_sim`` parameter files and ``key=value`` overrides (the
+    node's own parameters, clock_mode and the like, left out).
+    """
+    from irs_vehicle_sim.rig_params import rig_parameter_table
+    keys = {p.name for p in rig_parameter_table()}
     values = {}
     for path in files or []:
         doc = yaml.safe_load(resolve(path).read_text()) or {}
@@ -49,12 +61,7 @@ def _rig_params(files, overrides) -> dict:
         if not sep:
             raise ValueError(f'-p {item!r}: expected key=value')
         values[key.strip()] = yaml.safe_load(text)
-    for key in [k for k in values if k not in _RIG_KEYS]:
-        values.pop(key)       # the node's own parameters (clock_mode, ...) are not the rig's
-    return values
-
-
-_RIG_KEYS = None
+    return {k: v for k, v in values.items() if k in keys}
 
 
 def _driver(text):
@@ -109,8 +116,7 @@ class Link:
             self.link_path.unlink()
 
 
-def main(argv=None) -> int:
-    global _RIG_KEYS
+def _arguments(argv):
     ap = argparse.ArgumentParser(prog='board_emulator', description=__doc__.split('\n')[0])
     ap.add_argument('--link', required=True, type=Path)
     ap.add_argument('--rig-params', action='append', default=[])
@@ -121,17 +127,32 @@ def main(argv=None) -> int:
     ap.add_argument('--baud', type=int, default=1_000_000)
     ap.add_argument('--usb-latency', type=float, default=0.0005)
     ap.add_argument('--driver', default='')
-    args = ap.parse_args(argv)
+    ap.add_argument('--rt-priority', type=int, default=0)
+    ap.add_argument('--lockstep-delay', type=int, default=0)
+    return ap.parse_args(argv)
+
+
+def board_from_args(argv, wire=None) -> BoardEmulator:
+    """The emulated board the command line ``argv`` describes (its rig, driver and lock-step
+    delay; ``--link`` and the other I/O arguments are parsed but not opened). ``ValueError``
+    or ``OSError`` names a bad argument or file. The offline twin builds the board of an
+    experiment's ``devices`` entry with this.
+    """
+    args = _arguments(argv)
+    config = rig_config(_rig_params(args.rig_params, args.params))
+    if not 0 <= args.lockstep_delay <= 1000:
+        raise ValueError(f'--lockstep-delay {args.lockstep_delay}: expected 0..1000 steps')
+    return BoardEmulator(config, BoardTruth(), wire, _driver(args.driver), args.lockstep_delay)
+
+
+def main(argv=None) -> int:
+    args = _arguments(argv)
     try:
-        from irs_vehicle_sim.rig_params import rig_parameter_table
-        _RIG_KEYS = {p.name for p in rig_parameter_table()}
-        config = rig_config(_rig_params(args.rig_params, args.params))
-        driver = _driver(args.driver)
+        board = board_from_args(argv, Wire(args.wire) if args.wire else None)
     except (ValueError, OSError) as exc:
         print(f'board_emulator: {exc}', file=sys.stderr)
         return 2
-    wire = Wire(args.wire) if args.wire else None
-    board = BoardEmulator(config, BoardTruth(), wire, driver)
+    config = board.sim.config
     link = Link(args.link, args.baud, args.usb_latency)
     ctl = None
     if args.control:
@@ -140,107 +161,141 @@ def main(argv=None) -> int:
         ctl = socket.socket(socket.AF_UNIX, socket.SOCK_DGRAM)
         ctl.bind(str(args.control))
         ctl.setblocking(False)
-    running = [True]
-    signal.signal(signal.SIGTERM, lambda *_: running.__setitem__(0, False))
-    signal.signal(signal.SIGINT, lambda *_: running.__setitem__(0, False))
-    print(f'board_emulator: {args.link} -> {link.slave_name}, rig dt {config.dt} s', flush=True)
+    loop = BoardLoop(board, link, ctl, args.status)
+    signal.signal(signal.SIGTERM, lambda *_: loop.stop())
+    signal.signal(signal.SIGINT, lambda *_: loop.stop())
+    note = set_fifo(args.rt_priority)
+    print(f'board_emulator: {args.link} -> {link.slave_name}, rig dt {config.dt} s, {note}',
+          flush=True)
     try:
-        _loop(board, link, ctl, args.status, running)
+        loop.run()
     finally:
         if args.status:
-            _write_status(board, args.status, {})
+            loop.write_status()
         link.close()
         if args.control and args.control.exists():
             args.control.unlink()
     return 0
 
 
-def _control(board, ctl, state, now):
-    try:
-        text = ctl.recv(256).decode(errors='replace').split()
-    except BlockingIOError:
-        return
-    if not text:
-        return
-    verb, arg = text[0], (text[1] if len(text) > 1 else '1')
-    if verb == 'garble':
-        board.garble_next += int(arg)
-    elif verb == 'drop':
-        board.drop_next += int(arg)
-    elif verb == 'silence':
-        state['silent_until'] = now + float(arg)
-    elif verb == 'jig':
-        board.jig = None if arg == 'off' else tuple(float(v) for v in text[1:4])
-    elif verb == 'stop':
-        state['stop'] = True
+@dataclass
+class BoardLoop:
+    """The emulator's event loop: the pty, the control socket, the sampler's ticks."""
 
+    board: BoardEmulator
+    link: Link
+    ctl: socket.socket | None
+    status_path: Path | None
+    running: bool = True
+    silent_until: float = 0.0
+    misses: int = 0
+    ticks: int = 0
+    next_tick: float | None = None
+    next_status: float = 0.0
+    fds: list = field(default_factory=list)
 
-def _loop(board: BoardEmulator, link: Link, ctl, status_path, running):
-    interval = board.dt
-    state = {'silent_until': 0.0, 'misses': 0, 'ticks': 0}
-    next_tick = None
-    next_status = 0.0
-    fds = [link.master] + ([ctl] if ctl else [])
-    while running[0] and not state.get('stop'):
+    def stop(self):
+        self.running = False
+
+    def run(self):
+        self.fds = [self.link.master] + ([self.ctl] if self.ctl else [])
+        while self.running:
+            ready = self._wait()
+            now = time.monotonic()
+            if self.ctl in ready:
+                self._control(now)
+            if self.link.master in ready:
+                self._host_bytes(now)
+            self._deliver(now)
+            self._sample(now)
+            if self.status_path and now >= self.next_status:
+                self.next_status = now + 0.05
+                self.write_status()
+
+    def _wait(self) -> list:
         now = time.monotonic()
-        waits = [now + 0.01]
-        if next_tick is not None:
-            waits.append(next_tick)
+        link = self.link
+        waits = [now + 0.01] + ([self.next_tick] if self.next_tick is not None else [])
         waits += [d for d, _ in link.outgoing[:1]] + [d for d, _ in link.incoming[:1]]
-        timeout = max(0.0, min(waits) - now)
-        ready, _, _ = select.select(fds, [], [], timeout)
-        now = time.monotonic()
-        silent = now < state['silent_until']
-        if ctl in ready:
-            _control(board, ctl, state, now)
-        if link.master in ready:
-            data = link.read()
-            if data and not silent:
-                if board.triggered or not board.started:
-                    for frame in board.receive(data, now):
-                        link.write(frame)
-                else:
-                    link.incoming.append((now + link.delay(len(data)), data))
+        return select.select(self.fds, [], [], max(0.0, min(waits) - now))[0]
+
+    def _control(self, now):
+        try:
+            text = self.ctl.recv(256).decode(errors='replace').split()
+        except BlockingIOError:
+            return
+        if not text:
+            return
+        verb, arg = text[0], (text[1] if len(text) > 1 else '1')
+        if verb == 'garble':
+            self.board.garble_next += int(arg)
+        elif verb == 'drop':
+            self.board.drop_next += int(arg)
+        elif verb == 'silence':
+            self.silent_until = now + float(arg)
+        elif verb == 'jig':
+            self.board.jig = None if arg == 'off' else tuple(float(v) for v in text[1:4])
+        elif verb == 'stop':
+            self.running = False
+
+    def _host_bytes(self, now):
+        data = self.link.read()
+        if not data or now < self.silent_until:
+            return
+        if self.board.triggered or not self.board.started:
+            for frame in self.board.receive(data, now):
+                self.link.write(frame)
+        else:
+            self.link.incoming.append((now + self.link.delay(len(data)), data))
+
+    def _deliver(self, now):
+        link = self.link
         while link.incoming and link.incoming[0][0] <= now:
             _, data = link.incoming.pop(0)
-            for frame in board.receive(data, now):
+            for frame in self.board.receive(data, now):
                 link.write(frame)
-        if board.started and not board.triggered:
-            if next_tick is None:
-                next_tick = now
-            if now >= next_tick:
-                late = int((now - next_tick) / interval)
-                if late:
-                    state['misses'] += late
-                    next_tick += late * interval    # the sampler skips what it missed
-                state['ticks'] += 1
-                for frame in board.tick(now):
-                    if not silent:
-                        link.outgoing.append((now + link.delay(len(frame)), frame))
-                next_tick += interval
         while link.outgoing and link.outgoing[0][0] <= now:
             link.write(link.outgoing.pop(0)[1])
-        if status_path and now >= next_status:
-            next_status = now + 0.05
-            _write_status(board, status_path, state)
 
+    def _sample(self, now):
+        board = self.board
+        if not board.started or board.triggered:
+            self.next_tick = None
+            return
+        if self.next_tick is None:
+            self.next_tick = now
+        if now < self.next_tick:
+            return
+        interval = board.dt
+        late = int((now - self.next_tick) / interval)
+        if late:
+            self.misses += late
+            board.timing.late_ticks += late
+            self.next_tick += late * interval   # the sampler skips what it missed
+        self.ticks += 1
+        for frame in board.tick(now):
+            if now >= self.silent_until:
+                self.link.outgoing.append((now + self.link.delay(len(frame)), frame))
+        self.next_tick += interval
 
-def _write_status(board: BoardEmulator, path: Path, state: dict):
-    lat = np.array(board.stats.latencies[-100000:]) * 1e3
-    s = board.stats
-    doc = {'pulse_us': board.pulse_us(), 'enable': board.enable, 'tripped': board.tripped,
-           'started': board.started, 'triggered': board.triggered, 'tick': board.tick_no,
-           'samples': s.samples, 'commands': s.commands, 'bad_host_frames': s.bad_host_frames,
-           'dropped': s.dropped, 'garbled': s.garbled, 'watchdog_trips': s.watchdog_trips,
-           'loop_misses': state.get('misses', 0), 'loop_ticks': state.get('ticks', 0),
-           'time': board.sim.time, 'belt_speed': board.sim.outputs.belt_speed,
-           'y_s': board.sim.outputs.y_s, 'x': board.sim.outputs.x,
-           'steer_achieved': board.sim.outputs.actuator_front.achieved,
-           'latency_ms': ({f'p{q}': float(np.percentile(lat, q)) for q in (50, 99, 100)}
-                          if lat.size else {})}
-    tmp = path.with_suffix('.tmp')
-    tmp.write_text(json.dumps(doc))
-    os.replace(tmp, path)
+    def write_status(self):
+        """The board's state as JSON (module docstring), replaced atomically."""
+        board, s = self.board, self.board.stats
+        doc = {'pulse_us': board.pulse_us(), 'enable': board.enable, 'tripped': board.tripped,
+               'safe_at': board.safe_at, 'started': board.started,
+               'triggered': board.triggered, 'tick': board.tick_no, 'samples': s.samples,
+               'commands': s.commands, 'bad_host_frames': s.bad_host_frames,
+               'dropped': s.dropped, 'garbled': s.garbled, 'watchdog_trips': s.watchdog_trips,
+               'loop_misses': self.misses, 'loop_ticks': self.ticks, 'time': board.sim.time,
+               'belt_speed': board.sim.outputs.belt_speed,
+               'belt_position': board.sim.belt.position,
+               'belt_count': int(board.sim.belt.encoder.count), 'y_s': board.sim.outputs.y_s,
+               'x': board.sim.outputs.x,
+               'steer_achieved': board.sim.outputs.actuator_front.achieved,
+               'timing': board.timing.summary()}
+        tmp = self.status_path.with_suffix('.tmp')
+        tmp.write_text(json.dumps(doc))
+        os.replace(tmp, self.status_path)
 
 
 if __name__ == '__main__':

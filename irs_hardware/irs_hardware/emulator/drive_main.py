@@ -1,6 +1,7 @@
 """``drive_emulator``: the treadmill's drive as a Modbus TCP server (pymodbus), a process.
 
     drive_emulator --port 5020 --wire /dev/shm/irs_wire [--volts-full-scale 12.7]
+                   [--rt-priority 60]
 
 Serves the register map of :mod:`irs_hardware.drive_modbus` on 127.0.0.1. Its output voltage
 ``V = setpoint / 10000 x volts_full_scale`` while running and not tripped goes onto the wire
@@ -22,8 +23,10 @@ from pymodbus.datastore import (ModbusDeviceContext, ModbusSequentialDataBlock,
 from pymodbus.server import ModbusTcpServer
 
 from ..calibration import SETPOINT_FULL_SCALE
+from .sched import set_fifo
 from ..drive_modbus import (COMM_TIMEOUT, CONTROL, ENABLE_LOW, RUN, RUNNING, SETPOINT, TRIPPED)
-from .wire import BELT_SPEED, BOARD_BEAT, DRIVE_BEAT, DRIVE_VOLTAGE, ENABLE, Wire
+from .wire import (BELT_SPEED, BOARD_BEAT, DRIVE_BEAT, DRIVE_VOLTAGE, DRIVE_ZERO_AT, ENABLE,
+                   Wire)
 
 
 class DriveState:
@@ -54,12 +57,16 @@ class DriveState:
         return min(SETPOINT_FULL_SCALE, self.hr[SETPOINT]) / SETPOINT_FULL_SCALE * self.full_scale
 
     def output(self):
+        """The output on the wire (the communication-loss stop checked first) and the beat."""
         now = time.monotonic()
         timeout = self.hr[COMM_TIMEOUT] * 1e-3
         if timeout > 0 and now - self.last_request > timeout and not self.tripped:
             self.tripped = True
         if self.wire is not None:
-            self.wire.set(DRIVE_VOLTAGE, self.voltage())
+            volts = self.voltage()
+            if volts == 0.0 and self.wire.get(DRIVE_VOLTAGE) != 0.0:
+                self.wire.set(DRIVE_ZERO_AT, now)
+            self.wire.set(DRIVE_VOLTAGE, volts)
             self.wire.set(DRIVE_BEAT, now)
 
     def inputs(self) -> list:
@@ -121,9 +128,11 @@ def main(argv=None) -> int:
     ap.add_argument('--port', type=int, default=5020)
     ap.add_argument('--wire', type=Path)
     ap.add_argument('--volts-full-scale', type=float, default=12.7)
+    ap.add_argument('--rt-priority', type=int, default=0, help='SCHED_FIFO priority (0: none)')
     args = ap.parse_args(argv)
     state = DriveState(Wire(args.wire) if args.wire else None, args.volts_full_scale)
-    print(f'drive_emulator: Modbus TCP on 127.0.0.1:{args.port}', flush=True)
+    note = set_fifo(args.rt_priority)
+    print(f'drive_emulator: Modbus TCP on 127.0.0.1:{args.port}, {note}', flush=True)
     try:
         asyncio.run(_serve(state, args.port))
     except KeyboardInterrupt:

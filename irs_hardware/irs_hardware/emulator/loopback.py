@@ -15,8 +15,11 @@ from .wire import Wire
 
 
 class LoopbackIO(RigIO):
-    def __init__(self, board: BoardEmulator, wire_path):
+    """The board's and the drive's cores behind the :class:`RigIO` calls (module docstring)."""
+
+    def __init__(self, board: BoardEmulator, wire_path=None, safe_pulse_us: float = 1512.0):
         self.board = board
+        self.safe_ticks = int(round(safe_pulse_us * 1e-6 / P.PULSE_TICK))
         self.wire = Wire(wire_path)
         board.wire = self.wire
         self.drive = DriveState(self.wire, 12.7)
@@ -36,7 +39,7 @@ class LoopbackIO(RigIO):
             self.pending += self.parser.feed(frame)
 
     def start(self, triggered: bool) -> None:
-        self._to_board(P.encode(P.Hello(1 if triggered else 0, 25, 1000)))
+        self._to_board(P.encode(P.Hello(1 if triggered else 0, 25, 1000, self.safe_ticks)))
         self.pending = [m for m in self.pending if isinstance(m, P.Sample)]
         self._drive_write(COMM_TIMEOUT, 0)
         self._drive_write(CONTROL, RUN)

@@ -5,6 +5,8 @@ output turns the belt whose encoder the board counts. Two emulator processes sha
 signals through a file of eight float64 slots (``mmap``, aligned 8-byte stores, one writer per
 slot), with each side's heartbeat (``time.monotonic``, one clock for all processes on Linux):
 a slot whose writer has stopped beating is read as its safe value (drive output 0 V).
+``DRIVE_ZERO_AT`` is the ``time.monotonic()`` the drive's output last fell to 0 V (tests time
+the safe state with it).
 """
 from __future__ import annotations
 
@@ -14,16 +16,19 @@ import struct
 import time
 from pathlib import Path
 
-DRIVE_VOLTAGE, DRIVE_BEAT, ENABLE, BELT_SPEED, BOARD_BEAT = range(5)
+DRIVE_VOLTAGE, DRIVE_BEAT, ENABLE, BELT_SPEED, BOARD_BEAT, DRIVE_ZERO_AT = range(6)
 SLOTS = 8
 #: A side silent for longer than this is gone [s].
 STALE = 0.2
 
 
 class Wire:
-    """The shared signals; ``Wire(path)`` creates the file if needed."""
+    """The shared signals; ``Wire(path)`` creates the file if needed, ``Wire()`` is in-process."""
 
-    def __init__(self, path):
+    def __init__(self, path=None):
+        if path is None:                   # in-process: anonymous memory
+            self.path, self.mm = None, mmap.mmap(-1, 8 * SLOTS)
+            return
         self.path = Path(path)
         fd = os.open(self.path, os.O_RDWR | os.O_CREAT, 0o644)
         try:
