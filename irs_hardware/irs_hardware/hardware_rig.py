@@ -7,20 +7,23 @@ calibration (NaN where a pot reads a rail: wiper off its track or broken), the b
 ``(s_k - s_{k-w}) / (w dt)`` [m/s].
 
 Commands: the steer angle [rad] is clipped to the +-15 deg limit and turned into a pulse by the
-servo calibration; the drive voltage [V] into the drive's set-point. A command that is not
-finite, a steer beyond ``steer_reject`` or a voltage outside [0, u_max] is refused.
+servo calibration; the drive voltage [V] into the drive's set-point, sent on a change and every
+``drive_keepalive`` (the drive's communication-loss stop). A command that is not finite, a steer
+beyond ``steer_reject`` or a voltage outside [0, u_max] is refused.
 
 Supervisor: the first of these latches a fault (:attr:`HardwareRig.fault`, its reason kept):
 a refused command; the link silent for ``link_timeout`` (real time) or a read or write error;
 a garbled frame from the board (CRC), or the board reporting a bad host frame or its own
 watchdog; a stale steering command (real time, ``command_timeout`` after the first); the
 drive's Modbus failing or reporting a trip. While latched, every output is the safe one: servo
-at the calibrated centre, enable line low, drive set-point 0 (:meth:`HardwareRig.outputs`), and
-:meth:`HardwareRig.reset` clears it only once the devices answer again.
+at the calibrated centre, enable line low (the board first: it stops the belt whatever the
+drive does), drive set-point 0 (:meth:`HardwareRig.outputs`), and :meth:`HardwareRig.reset`
+clears it only once the devices answer again.
 """
 from __future__ import annotations
 
 import math
+import threading
 from collections import deque
 from dataclasses import dataclass
 
@@ -36,18 +39,22 @@ STEER_LIMIT = math.radians(STEER_LIMIT_DEG)
 
 @dataclass
 class HardwareConfig:
-    dt: float = 1e-3                       # board sampling interval [s]
+    """The core's constants (SI; :mod:`.hardware_params` documents each)."""
+
+    dt: float = 1e-3                       # [s] the board's sampling interval
     link_timeout: float = 0.02             # [s] no sample for this long: link lost
     command_timeout: float = 0.1           # [s] steering older than this: stale (real time)
-    steer_reject: float = math.radians(30.0)
+    steer_reject: float = math.radians(30.0)   # [rad]
     u_max: float = 12.7                    # [V] drive range
     belt_window: int = 10                  # [samples]
     drive_keepalive: float = 0.1           # [s] rewrite the set-point at least this often
-    adc_full_scale: int = 65535            # a pot at 0 or this reads a rail
+    adc_full_scale: int = 65535            # [counts] a pot at 0 or this reads a rail
 
 
 @dataclass(frozen=True)
 class Measurement:
+    """What one board reading measures (module docstring)."""
+
     tick: int
     angles: tuple          # [rad], NaN where the pot reads a rail
     belt_speed: float      # [m/s]
@@ -75,6 +82,9 @@ class HardwareRig:
         self.bad_seen = 0
         self.last_reading_time = None
         self.board_time = -math.inf        # last write to the board
+        self.answered = 0                  # seq of the sample the last steering answered
+        self.commands_sent = 0
+        self.drive_io = threading.RLock()  # one request at a time on the drive's link
 
     # ---------------------------------------------------------------- supervisor
     @property
@@ -82,12 +92,15 @@ class HardwareRig:
         return not self.fault
 
     def trip(self, reason: str, now: float) -> None:
-        """Latch ``reason`` (the first one is kept) and put the outputs in the safe state."""
+        """Latch ``reason`` (the first one is kept) and put the outputs in the safe state: the
+        board first (its enable line stops the belt whatever the drive does), then the drive.
+        """
         if not self.fault:
             self.fault, self.fault_time = reason, now
             self.faults += 1
         self.steer, self.voltage = 0.0, 0.0
-        self.write_outputs(None, now)
+        self.write_board(None, now)
+        self.send_drive(0, now)            # an error here changes nothing: already latched
 
     def reset(self, triggered: bool, now: float) -> str:
         """Clear the latched fault after restarting the devices; '' or why it cannot."""
@@ -162,44 +175,72 @@ class HardwareRig:
         return (self.cal.servo.pulse_us(self.steer), True,
                 self.cal.drive.setpoint(self.voltage))
 
-    def write_outputs(self, seq, now: float, drive: bool = True) -> None:
-        """Send the outputs (drive: only on a change or every ``drive_keepalive``); a device
-        error trips the fault (and the other device still gets its safe output).
+    def write_outputs(self, seq, now: float) -> None:
+        """Lock-step: the drive's set-point (when due, :meth:`drive_due`), then the board; the
+        drive answers before the board steps, so the step is deterministic. An error trips.
         """
-        pulse, enable, setpoint = self.outputs()
-        errors = []
-        if drive and (setpoint != self.setpoint_sent
-                      or now - self.setpoint_time >= self.cfg.drive_keepalive):
-            try:
-                self.io.write_drive(setpoint)
-                self.setpoint_sent, self.setpoint_time = setpoint, now
-            except DriveError as exc:
-                errors.append(str(exc))
+        setpoint = self.drive_due(now)
+        if setpoint is not None:
+            error = self.send_drive(setpoint, now)
+            if error:
+                self.trip(error, now)
+        self.write_board(seq, now)
+
+    def write_board(self, seq, now: float) -> None:
+        """Servo pulse and enable line to the board, answering sample ``seq`` (None: the last
+        answered one, a keep-alive); a link error trips the fault.
+        """
+        pulse, enable, _ = self.outputs()
         if seq is None:
-            seq = self.last_tick if self.last_tick is not None else 0
+            seq = self.answered
+        else:
+            self.answered = seq
         try:
             self.io.write_board(seq, pulse, enable)
             self.board_time = now
+            self.commands_sent += 1
         except LinkError as exc:
-            errors.append(str(exc))
-        if errors and not self.fault:
-            self.trip(errors[0], now)
+            if not self.fault:
+                self.trip(str(exc), now)
 
-    def keep_drive_alive(self, now: float) -> None:
-        """Write the current set-point again (the drive's own watchdog); an error trips."""
-        try:
-            self.io.write_drive(self.outputs()[2])
-            self.setpoint_time = now
-        except DriveError as exc:
-            self.trip(str(exc), now)
+    def drive_due(self, now: float):
+        """The set-point to send now (changed, or ``drive_keepalive`` since the last), or None."""
+        setpoint = self.outputs()[2]
+        if setpoint != self.setpoint_sent or now - self.setpoint_time >= self.cfg.drive_keepalive:
+            return setpoint
+        return None
 
-    def check_drive(self, now: float) -> tuple:
-        """Poll the drive: ``(status, belt speed)`` or trip on an error or a drive trip."""
-        try:
-            status, speed = self.io.drive_status()
-        except DriveError as exc:
-            self.trip(str(exc), now)
+    def send_drive(self, setpoint: int, now: float) -> str:
+        """Write the set-point, one request at a time (threads may share the drive); '' or the
+        error, for the caller to trip on.
+        """
+        with self.drive_io:
+            try:
+                self.io.write_drive(setpoint)
+            except DriveError as exc:
+                return str(exc)
+            self.setpoint_sent, self.setpoint_time = setpoint, now
+            return ''
+
+    def read_drive(self):
+        """``(status word, belt speed [m/s])`` of the drive, or the error's text."""
+        with self.drive_io:
+            try:
+                return self.io.drive_status()
+            except DriveError as exc:
+                return str(exc)
+
+    def drive_verdict(self, answer, now: float) -> tuple:
+        """Trip on :meth:`read_drive`'s error or a drive trip; ``(status, speed)``."""
+        if isinstance(answer, str):
+            if self.ok:
+                self.trip(answer, now)
             return None, math.nan
+        status, speed = answer
         if status & TRIPPED and self.ok:
             self.trip('the drive tripped (communication loss)', now)
         return status, speed
+
+    def check_drive(self, now: float) -> tuple:
+        """Poll the drive: ``(status, belt speed)``; trip on an error or a drive trip."""
+        return self.drive_verdict(self.read_drive(), now)

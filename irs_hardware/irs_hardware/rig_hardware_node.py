@@ -5,18 +5,20 @@ Publishes ``arm/joint_states`` (sensor_msgs/JointState, the three pot angles [ra
 ``belt/speed`` (irs_msgs/BeltSpeed, encoder speed [m/s] and count) every board sample, with
 ``vehicle_sim``'s types, frame and QoS (SENSOR_PUB); ``rig/status`` (irs_msgs/RigStatus:
 ``fault_text`` is the latched fault, '' when none) on a change and every ``status_period``;
-``rig/diagnostics`` (diagnostic_msgs/DiagnosticArray: link, board and drive health) and
-``rig/timing`` (real time: deadline misses and loop latency, as ``vehicle_sim``) every second.
-Takes ``steering/command`` (front angle) and ``treadmill/drive`` (COMMAND QoS). Services
-``rig/start`` and ``rig/reset`` (std_srvs/Trigger; reset clears the latched fault once the
-devices answer again).
+``rig/diagnostics`` (diagnostic_msgs/DiagnosticArray: link, board and drive health, the fault's
+``time.monotonic()``) every second and at once on a fault, and ``rig/timing`` (real time:
+deadline misses and loop latency, as ``vehicle_sim``) every second. Takes ``steering/command``
+(front angle) and ``treadmill/drive`` (COMMAND QoS). Services ``rig/start`` and ``rig/reset``
+(std_srvs/Trigger; reset clears the latched fault once the devices answer again).
 
 Clock modes as ``vehicle_sim``: ``lockstep`` (the board in triggered mode: each step's commands,
-paired by stamp, go to the board and its answer is the next sample; /clock and every output
-stamped t_k = k dt) or ``realtime`` (the board samples at 1 kHz by itself; a reader thread
-publishes each sample stamped ``t_start + tick dt`` and sends each steering command at once).
-Stamps and stale commands are handled as in ``vehicle_sim`` (irs_common.stamp_gate), but a bad
-command latches the fault (:mod:`.hardware_rig`). On exit the outputs go to the safe state.
+paired by stamp, go to the drive and then the board, whose answer is the next sample; /clock
+and every output stamped t_k = k dt; the step is published again after
+``lockstep_resend_period`` without progress) or ``realtime`` (the board samples at 1 kHz by
+itself; a reader thread publishes each sample stamped ``t_start + tick dt`` and the steering
+command goes to the board at once; a drive thread writes the set-point every ``drive_period``,
+off the 1 kHz path). Bad and stale commands latch the fault (:mod:`.hardware_rig`); on exit the
+outputs go to the safe state.
 """
 from __future__ import annotations
 
@@ -31,7 +33,6 @@ from sensor_msgs.msg import JointState
 from std_srvs.srv import Trigger
 
 from irs_common import qos
-from irs_common.input_checks import ThrottledWarner
 from irs_common.loop_timing import LoopTiming
 from irs_common.node_main import run_node
 from irs_common.params import declare_table
@@ -43,8 +44,8 @@ from irs_msgs.msg import BeltSpeed, RigStatus, SteeringCommand, TreadmillDriveCo
 from .calibration import CalibrationError, load_calibration
 from .driver import DriveError, LinkError, SerialModbusRig
 from .drive_modbus import ModbusDrive
-from .hardware_params import NODE_PARAMS
-from .hardware_rig import HardwareConfig, HardwareRig
+from .hardware_params import hardware_config, NODE_PARAMS
+from .hardware_rig import HardwareRig
 from .paths import resolve
 
 ARM_JOINTS = ['arm_joint1', 'arm_joint2', 'arm_joint3']
@@ -62,21 +63,9 @@ class RigHardwareNode(Node):
             raise ValueError(f"clock_mode must be 'realtime' or 'lockstep', got "
                              f"{self.p['clock_mode']!r}")
         self.lockstep = self.p['clock_mode'] == 'lockstep'
-        try:
-            cal = load_calibration(resolve(self.p['calibration']))
-        except CalibrationError as exc:
-            raise ValueError(str(exc)) from None
-        cfg = HardwareConfig(dt=self.p['dt'], link_timeout=self.p['link_timeout'],
-                             command_timeout=self.p['command_timeout'], u_max=self.p['u_max'])
-        drive = ModbusDrive(self.p['drive_host'], self.p['drive_port'],
-                            timeout=self.p['drive_timeout'],
-                            comm_timeout_ms=int(self.p['drive_comm_timeout'] * 1000))
-        io = SerialModbusRig(self.p['port'], self.p['baud'], drive,
-                             watchdog_ms=int(self.p['board_watchdog'] * 1000))
-        self.rig = HardwareRig(io, cal, cfg)
-        self.dt_ns = int(round(cfg.dt * 1e9))
+        self.rig = self._make_rig()
+        self.dt_ns = int(round(self.p['dt'] * 1e9))
         self.lock = threading.RLock()
-        self.warner = ThrottledWarner(self.get_logger().warning, 1.0)
         self.required = tuple(n for n in self.p['lockstep_inputs'] if n) if self.lockstep else ()
         unknown = set(self.required) - set(INPUTS)
         if unknown:
@@ -102,30 +91,50 @@ class RigHardwareNode(Node):
                                      qos.COMMAND)
         self.create_service(Trigger, 'rig/start', self._on_start)
         self.create_service(Trigger, 'rig/reset', self._on_reset)
-        self.started = False
-        self.complete = False
-        self.k = 0
-        self.tick0 = 0
-        self.stamp0_ns = 0
-        self.status_key = None
-        self.status_k = -10 ** 9
-        self.status_every = max(1, int(round(self.p['status_period'] / cfg.dt)))
+        self.started = self.complete = False
+        self.k = self.tick0 = self.stamp0_ns = 0
+        self.status_key, self.status_k = None, -10 ** 9
+        self.status_every = max(1, int(round(self.p['status_period'] / self.p['dt'])))
         self.drive_status = (None, math.nan)
-        self.reader = None
+        self.last_outputs = []
+        self.last_progress = time.monotonic()
+        self.threads = []
         self.running = True
         self.create_timer(1.0, self._slow_tick)
-        # the drive's keep-alive (its communication-loss stop), whatever the board link does;
-        # the same set-point again, so a lock-step run stays deterministic
-        self.create_timer(0.02, self._drive_keepalive)
+        if self.lockstep:      # the drive's keep-alive (its communication-loss stop)
+            self.create_timer(0.02, self._lockstep_keepalive)
+            self.create_timer(0.05, self._lockstep_resend)
         if self.p['autostart']:
-            self._start()
+            why = self._start()
+            if why:
+                self.get_logger().error(f'not started: {why}')
         self.get_logger().info(f"rig_hardware up: {self.p['clock_mode']}, board "
                                f"{self.p['port']}, drive {self.p['drive_host']}:"
-                               f"{self.p['drive_port']}, calibration {self.p['calibration']}")
+                               f"{self.p['drive_port']}, calibration "
+                               f"{self.p['calibration'] or '(none)'}")
+
+    def _make_rig(self):
+        """The core on its devices, or None without a calibration file (start refused)."""
+        if not self.p['calibration']:
+            return None
+        try:
+            cal = load_calibration(resolve(self.p['calibration']))
+        except CalibrationError as exc:
+            raise ValueError(str(exc)) from None
+        drive = ModbusDrive(self.p['drive_host'], self.p['drive_port'],
+                            timeout=self.p['drive_timeout'],
+                            comm_timeout_ms=int(self.p['drive_comm_timeout'] * 1000))
+        io = SerialModbusRig(self.p['port'], self.p['baud'], drive,
+                             watchdog_ms=int(round(self.p['board_watchdog'] * 1000)),
+                             safe_pulse_us=cal.servo.centre_us)
+        return HardwareRig(io, cal, hardware_config(self.p))
 
     # ---------------------------------------------------------------- start, reset, stop
     def _start(self) -> str:
         with self.lock:
+            if self.rig is None:
+                return ('no calibration: set the parameter calibration to the file '
+                        '`calibrate` wrote (docs/hardware.md)')
             if self.started:
                 return 'already running'
             try:
@@ -134,12 +143,34 @@ class RigHardwareNode(Node):
                 return str(exc)
             self.started = True
             if self.lockstep:
-                self._publish_next(timeout=1.0)
-            else:
-                self.stamp0_ns = self.get_clock().now().nanoseconds
-                self.reader = threading.Thread(target=self._read_loop, daemon=True)
-                self.reader.start()
+                self._begin_lockstep()
+                return ''
+            self.stamp0_ns = self.get_clock().now().nanoseconds
+            for target in (self._read_loop, self._drive_loop):
+                self.threads.append(threading.Thread(target=target, daemon=True))
+                self.threads[-1].start()
             return ''
+
+    def _begin_lockstep(self):
+        """Publish step 0 once ``start_subscribers`` are matched (at most 10 s)."""
+        waits = {}
+        pubs = {'/clock': self.pub_clock, 'arm/joint_states': self.pub_arm,
+                'belt/speed': self.pub_belt, 'rig/status': self.pub_status}
+        for item in filter(None, self.p['start_subscribers'].split(',')):
+            topic, _, count = item.partition('=')
+            key = topic.strip() if topic.strip() == '/clock' else topic.strip().lstrip('/')
+            if key in pubs and count.strip().isdigit():
+                waits[key] = (pubs[key], int(count))
+        t0 = time.monotonic()
+
+        def begin():
+            if any(pub.get_subscription_count() < n for pub, n in waits.values()) \
+                    and time.monotonic() - t0 < 10.0:
+                return
+            self.destroy_timer(timer)
+            with self.lock:
+                self._publish_next(timeout=1.0)
+        timer = self.create_timer(0.01, begin)
 
     def _on_start(self, _req, resp):
         why = self._start()
@@ -149,8 +180,11 @@ class RigHardwareNode(Node):
 
     def _on_reset(self, _req, resp):
         with self.lock:
-            was = self.rig.fault
-            why = self.rig.reset(self.lockstep, time.monotonic())
+            if not self.started:
+                why, was = 'not started', ''
+            else:
+                was = self.rig.fault
+                why = self.rig.reset(self.lockstep, time.monotonic())
             if not why:
                 self.tick0 = None
                 self.received_at.clear()
@@ -159,25 +193,24 @@ class RigHardwareNode(Node):
         resp.success = not why
         resp.message = why or f'fault cleared (was: {was or "none"})'
         self.get_logger().info(f'rig/reset: {resp.message}')
-        self._publish_status(force=True)
+        if self.started:
+            self._publish_status(force=True)
         return resp
 
     def _on_parameter(self, name, value):
         self.p[name] = value
-        if name == 'command_timeout':
-            self.rig.cfg.command_timeout = value
-        elif name == 'link_timeout':
-            self.rig.cfg.link_timeout = value
+        if self.rig is not None and hasattr(self.rig.cfg, name):
+            setattr(self.rig.cfg, name, value)
 
     def shutdown_safe(self):
         """Outputs to the safe state (node exit)."""
         self.running = False
+        for thread in self.threads:
+            thread.join(timeout=1.0)
+        if self.rig is None or not self.started:
+            return
         with self.lock:
             self.rig.trip('node exit', time.monotonic())
-            try:
-                self.rig.io.write_drive(0)
-            except DriveError:
-                pass
             self.rig.io.close()
 
     def destroy_node(self):
@@ -193,16 +226,10 @@ class RigHardwareNode(Node):
             if not self.started:
                 return
             if name in self.required:
-                current = self._stamp_ns()
-                if stamp < current or stamp - current > self.gates[name].future_tolerance_ns:
-                    return
-                for stamp_ns, values in self.sync.add(name, stamp, value):
-                    if stamp_ns == self._stamp_ns():
-                        self._lockstep_step(values, now)
+                self._lockstep_input(name, stamp, value, now)
                 return
             now_ns = self._stamp_ns() if self.lockstep else self.get_clock().now().nanoseconds
-            verdict = self.gates[name].check(stamp, now_ns)
-            if verdict in (FUTURE, OLD):
+            if self.gates[name].check(stamp, now_ns) in (FUTURE, OLD):
                 return
             self.received_at[name] = now
             self._apply(name, value, now)
@@ -211,8 +238,8 @@ class RigHardwareNode(Node):
                 if sent is not None:
                     self.timing.add_latency(now - sent)
                 self.last_steer_stamp = max(self.last_steer_stamp, stamp)
-                seq = (stamp - self.stamp0_ns) // self.dt_ns + (self.tick0 or 0)
-                self.rig.write_outputs(seq, now)
+                self.rig.write_board((stamp - self.stamp0_ns) // self.dt_ns + (self.tick0 or 0),
+                                     now)
 
     def _apply(self, name, value, now):
         if name == 'steering':
@@ -224,17 +251,23 @@ class RigHardwareNode(Node):
     def _stamp_ns(self) -> int:
         return self.stamp0_ns + self.k * self.dt_ns
 
-    def _lockstep_step(self, values, now):
-        if self.p['max_steps'] and self.k >= self.p['max_steps']:
-            if not self.complete:
-                self.complete = True
-                self.get_logger().info(f'run complete: {self.k} steps')
-                self._publish_status(force=True)
+    def _lockstep_input(self, name, stamp, value, now):
+        current = self._stamp_ns()
+        if stamp < current or stamp - current > self.gates[name].future_tolerance_ns:
             return
-        for name, value in values.items():
-            self._apply(name, value, now)
-        self.rig.write_outputs(self.rig.last_tick, now)
-        self._publish_next(timeout=1.0)
+        for stamp_ns, values in self.sync.add(name, stamp, value):
+            if stamp_ns != self._stamp_ns():
+                continue
+            if self.p['max_steps'] and self.k >= self.p['max_steps']:
+                if not self.complete:
+                    self.complete = True
+                    self.get_logger().info(f'run complete: {self.k} steps')
+                    self._publish_status(force=True)
+                return
+            for key, val in values.items():
+                self._apply(key, val, now)
+            self.rig.write_outputs(self.rig.last_tick, now)
+            self._publish_next(timeout=1.0)
 
     def _publish_next(self, timeout: float):
         try:
@@ -242,11 +275,27 @@ class RigHardwareNode(Node):
         except LinkError as exc:
             self.rig.trip(str(exc), time.monotonic())
             readings = []
+        self.last_progress = time.monotonic()
         if not readings:
             self.rig.trip('link lost: the board did not answer the step', time.monotonic())
             self._publish_status(force=True)
             return
         self._on_reading(readings[-1])
+
+    def _lockstep_keepalive(self):
+        with self.lock:
+            now = time.monotonic()
+            if self.started and self.rig.drive_due(now) is not None:
+                self.rig.send_drive(self.rig.outputs()[2], now)
+
+    def _lockstep_resend(self):
+        with self.lock:
+            if (not self.started or self.complete or not self.last_outputs or
+                    time.monotonic() - self.last_progress < self.p['lockstep_resend_period']):
+                return
+            for pub, msg in self.last_outputs:
+                pub.publish(msg)
+            self.last_progress = time.monotonic()
 
     # ---------------------------------------------------------------- real time
     def _read_loop(self):
@@ -267,6 +316,23 @@ class RigHardwareNode(Node):
                     self._publish_status(force=True)
                 self._check_stale(now)
 
+    def _drive_loop(self):
+        """Real time: the set-point when due (a change, the keep-alive) every ``drive_period``
+        and the drive's status every second, the Modbus requests outside the node's lock.
+        """
+        next_poll = time.monotonic() + 1.0
+        while self.running:
+            time.sleep(self.p['drive_period'])
+            now = time.monotonic()
+            with self.lock:
+                setpoint = self.rig.drive_due(now)
+            if setpoint is not None and self.rig.send_drive(setpoint, now):
+                with self.lock:
+                    self._publish_status(force=True)
+            if now >= next_poll:
+                next_poll = now + 1.0
+                self.drive_status = self.rig.check_drive(now)
+
     def _check_stale(self, now):
         seen = self.received_at.get('steering')
         if seen is not None and self.rig.ok and now - seen > self.rig.cfg.command_timeout:
@@ -279,35 +345,28 @@ class RigHardwareNode(Node):
         m = self.rig.measure(reading)
         if self.tick0 is None:
             self.tick0 = m.tick - self.k if self.lockstep else m.tick
-        if self.lockstep:
-            self.k = m.tick - self.tick0
-        else:
-            self.k = m.tick - self.tick0
+        self.k = m.tick - self.tick0
+        if not self.lockstep:
             if 'steering' in self.received_at:
                 self.timing.step(self.last_steer_stamp >= self._stamp_ns() - self.dt_ns)
-            if not self.rig.ok or reading.received - self.rig.board_time > 0.002:
-                # safe outputs while latched; else a keep-alive for the board's watchdog
-                self.rig.write_outputs(m.tick, reading.received, drive=self.rig.ok)
+            if reading.received - self.rig.board_time > 0.002:
+                self.rig.write_board(None, reading.received)   # the board watchdog's keep-alive
         stamp = from_ns(self._stamp_ns())
+        outputs = []
         if self.pub_clock is not None:
-            self.pub_clock.publish(Clock(clock=stamp))
-        js = JointState()
-        js.header.stamp = stamp
-        js.header.frame_id = self.p['frame_id']
-        js.name = ARM_JOINTS
-        js.position = [float(a) for a in m.angles]
+            outputs.append((self.pub_clock, Clock(clock=stamp)))
+        js = JointState(name=ARM_JOINTS, position=[float(a) for a in m.angles])
+        js.header.stamp, js.header.frame_id = stamp, self.p['frame_id']
+        outputs.append((self.pub_arm, js))
+        if self.k % self.p['belt_speed_decimation'] == 0:
+            belt = BeltSpeed(speed=float(m.belt_speed), encoder_count=int(m.belt_count))
+            belt.header.stamp, belt.header.frame_id = stamp, self.p['frame_id']
+            outputs.append((self.pub_belt, belt))
         if not self.lockstep:
             self.arm_sent[self._stamp_ns()] = time.monotonic()
-        self.pub_arm.publish(js)
-        if self.k % self.p['belt_speed_decimation']:
-            self._publish_status()
-            return
-        belt = BeltSpeed()
-        belt.header.stamp = stamp
-        belt.header.frame_id = self.p['frame_id']
-        belt.speed = float(m.belt_speed)
-        belt.encoder_count = int(m.belt_count)
-        self.pub_belt.publish(belt)
+        for pub, msg in outputs:
+            pub.publish(msg)
+        self.last_outputs = outputs
         self._publish_status()
 
     def _publish_status(self, force=False):
@@ -316,55 +375,45 @@ class RigHardwareNode(Node):
             return
         if self.rig.fault and key != self.status_key:
             self.get_logger().error(f'rig fault (latched, outputs safe): {self.rig.fault}')
+            self._publish_diagnostics()
         self.status_key, self.status_k = key, self.k
-        st = RigStatus()
+        st = RigStatus(car_on_belt=True, fault_text=self.rig.fault,
+                       rejected_steer_count=self.rig.refused['steering'],
+                       rejected_drive_count=self.rig.refused['drive'], step=max(0, self.k),
+                       run_complete=self.complete)
         st.header.stamp = from_ns(self._stamp_ns())
-        st.car_on_belt = True
-        st.fault_text = self.rig.fault
-        st.rejected_steer_count = self.rig.refused['steering']
-        st.rejected_drive_count = self.rig.refused['drive']
-        st.step = max(0, self.k)
-        st.run_complete = self.complete
         self.pub_status.publish(st)
-
-    def _drive_keepalive(self):
-        if self.started:
-            with self.lock:
-                now = time.monotonic()
-                if now - self.rig.setpoint_time >= self.rig.cfg.drive_keepalive:
-                    self.rig.keep_drive_alive(now)
-                    self._publish_status()
 
     def _slow_tick(self):
         if not self.started:
             return
-        now = time.monotonic()
         with self.lock:
-            self.drive_status = self.rig.check_drive(now)
+            if self.lockstep:
+                self.drive_status = self.rig.check_drive(time.monotonic())
             if not self.rig.ok:
                 self._publish_status(force=True)
             if len(self.arm_sent) > 2000:
                 self.arm_sent.clear()
-        self._publish_diagnostics()
+            self._publish_diagnostics()
 
     def _publish_diagnostics(self):
-        io = self.rig.io
+        io, rig = self.rig.io, self.rig
         status, speed = self.drive_status
-        values = {'fault': self.rig.fault, 'faults': self.rig.faults,
-                  'bad_frames': io.bad_frames, 'lost_samples': self.rig.lost_samples,
-                  'tick': self.rig.last_tick, 'drive_status': status, 'drive_belt_speed': speed,
-                  'refused_steering': self.rig.refused['steering'],
-                  'refused_drive': self.rig.refused['drive']}
-        level = DiagnosticStatus.ERROR if self.rig.fault else DiagnosticStatus.OK
+        values = {'fault': rig.fault, 'fault_time': rig.fault_time, 'faults': rig.faults,
+                  'bad_frames': io.bad_frames, 'lost_samples': rig.lost_samples,
+                  'tick': rig.last_tick, 'drive_status': status, 'drive_belt_speed': speed,
+                  'refused_steering': rig.refused['steering'],
+                  'refused_drive': rig.refused['drive']}
+        level = DiagnosticStatus.ERROR if rig.fault else DiagnosticStatus.OK
         st = DiagnosticStatus(level=level, name='rig_hardware: devices', hardware_id='irs_rig',
-                              message=self.rig.fault or 'ok',
+                              message=rig.fault or 'ok',
                               values=[KeyValue(key=k, value=str(v)) for k, v in values.items()])
         arr = DiagnosticArray(status=[st])
         arr.header.stamp = self.get_clock().now().to_msg()
         self.pub_diag.publish(arr)
         if self.pub_timing is not None:
-            summary = self.timing.summary()
-            summary['lost_samples'] = self.rig.lost_samples
+            summary = {**self.timing.summary(), 'lost_samples': rig.lost_samples,
+                       'bad_frames': io.bad_frames, 'commands_sent': rig.commands_sent}
             t = DiagnosticStatus(level=DiagnosticStatus.OK, name='rig_hardware: real-time loop',
                                  hardware_id='irs_rig', message='',
                                  values=[KeyValue(key=k, value=f'{v:.6g}' if isinstance(v, float)
