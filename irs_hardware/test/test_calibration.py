@@ -1,5 +1,6 @@
-"""Calibration: fits recover known constants, the shipped emulated calibration is what the
-procedure gives on the emulators, bad files get one sentence.
+"""Calibration: fits recover known constants, the belt procedure finds the emulated encoder's
+counts per metre, the shipped emulated calibration is what the procedure gives on the
+emulators, bad files get one sentence.
 """
 import math
 from pathlib import Path
@@ -7,10 +8,11 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from irs_hardware.calibrate_cli import calibrate_belt
 from irs_hardware.calibration import (CalibrationError, fit_belt, fit_pots, fit_servo,
                                       load_calibration)
-from irs_hardware.emulator.board_core import BoardTruth
-from irs_hardware.emulator.jig import calibrate_emulated
+from irs_hardware.emulator.board_core import BoardEmulator, BoardTruth, rig_config
+from irs_hardware.emulator.jig import belt_operator, board_reader, calibrate_emulated
 
 CAL = Path(__file__).resolve().parents[1] / 'config' / 'calibration_emulated.yaml'
 
@@ -60,3 +62,19 @@ def test_a_bad_file_is_one_sentence(tmp_path, text, words):
     with pytest.raises(CalibrationError, match=words) as err:
         load_calibration(path)
     assert '\n' not in str(err.value)
+
+
+def test_the_belt_procedure_finds_the_encoders_counts_per_metre():
+    board = BoardEmulator(rig_config({}))
+    mark, travel = belt_operator(board, travel=1.5)
+    cal = calibrate_belt(board_reader(board), mark, travel)
+    truth = 1.0 / board.sim.belt.params.distance_per_count
+    # the belt at rest at both marks: the counts differ from travel x truth by under one count
+    assert abs(cal.counts_per_metre - truth) <= 1.0 / travel()
+    assert travel() > 1.5
+
+
+def test_the_belt_procedure_refuses_a_belt_that_did_not_move():
+    board = BoardEmulator(rig_config({}))
+    with pytest.raises(CalibrationError, match='needs a travel > 0 m and counts'):
+        calibrate_belt(board_reader(board), lambda which: None, 2.0)
