@@ -39,7 +39,8 @@ import yaml
 
 RIG_KEY = ('irs_vehicle_sim', 'vehicle_sim')
 #: The rigs: the simulator and the hardware node (docs/hardware.md), one per experiment.
-RIG_KEYS = (RIG_KEY, ('irs_hardware', 'rig_hardware'))
+HARDWARE_RIG_KEY = ('irs_hardware', 'rig_hardware')
+RIG_KEYS = (RIG_KEY, HARDWARE_RIG_KEY)
 
 #: Topics each node executable publishes and subscribes (relative names), used to wait until the
 #: graph is connected and documented in docs/architecture.md.
