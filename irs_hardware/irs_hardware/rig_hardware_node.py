@@ -99,15 +99,16 @@ class RigHardwareNode(Node):
         self.last_outputs = []
         self.last_progress = time.monotonic()
         self.threads = []
+        self.generation = 0          # rig/reset reopens the devices: reads before it are void
         self.running = True
         self.create_timer(1.0, self._slow_tick)
         if self.lockstep:      # the drive's keep-alive (its communication-loss stop)
             self.create_timer(0.02, self._lockstep_keepalive)
             self.create_timer(0.05, self._lockstep_resend)
         if self.p['autostart']:
-            why = self._start()
-            if why:
-                self.get_logger().error(f'not started: {why}')
+            # from the first spin, not the constructor: the loop starts once the process is
+            # built and its objects frozen (node_main), so no start-up pause feeds the board late
+            self.autostart_timer = self.create_timer(0.01, self._autostart)
         self.get_logger().info(f"rig_hardware up: {self.p['clock_mode']}, board "
                                f"{self.p['port']}, drive {self.p['drive_host']}:"
                                f"{self.p['drive_port']}, calibration "
@@ -151,6 +152,12 @@ class RigHardwareNode(Node):
                 self.threads[-1].start()
             return ''
 
+    def _autostart(self):
+        self.destroy_timer(self.autostart_timer)
+        why = self._start()
+        if why:
+            self.get_logger().error(f'not started: {why}')
+
     def _begin_lockstep(self):
         """Publish step 0 once ``start_subscribers`` are matched (at most 10 s)."""
         waits = {}
@@ -186,10 +193,14 @@ class RigHardwareNode(Node):
                 was = self.rig.fault
                 why = self.rig.reset(self.lockstep, time.monotonic())
             if not why:
+                self.generation += 1
                 self.tick0 = None
                 self.received_at.clear()
                 if self.lockstep:
                     self._publish_next(timeout=1.0)
+                else:                  # stamps go on from now
+                    self.stamp0_ns = self.get_clock().now().nanoseconds
+                    self.k = 0
         resp.success = not why
         resp.message = why or f'fault cleared (was: {was or "none"})'
         self.get_logger().info(f'rig/reset: {resp.message}')
@@ -300,13 +311,15 @@ class RigHardwareNode(Node):
     # ---------------------------------------------------------------- real time
     def _read_loop(self):
         while self.running:
+            generation = self.generation
             try:
                 readings = self.rig.io.read(0.005)
             except LinkError as exc:
                 with self.lock:
-                    self.rig.trip(str(exc), time.monotonic())
-                    self._publish_status(force=True)
-                time.sleep(0.05)
+                    if generation == self.generation:    # not the port a reset closed
+                        self.rig.trip(str(exc), time.monotonic())
+                        self._publish_status(force=True)
+                time.sleep(0.05 if generation == self.generation else 0.0)
                 continue
             now = time.monotonic()
             with self.lock:
@@ -326,12 +339,16 @@ class RigHardwareNode(Node):
             now = time.monotonic()
             with self.lock:
                 setpoint = self.rig.drive_due(now)
-            if setpoint is not None and self.rig.send_drive(setpoint, now):
+            error = self.rig.send_drive(setpoint, now) if setpoint is not None else ''
+            if error:
                 with self.lock:
+                    self.rig.trip(error, time.monotonic())
                     self._publish_status(force=True)
             if now >= next_poll:
                 next_poll = now + 1.0
-                self.drive_status = self.rig.check_drive(now)
+                answer = self.rig.read_drive()
+                with self.lock:
+                    self.drive_status = self.rig.drive_verdict(answer, time.monotonic())
 
     def _check_stale(self, now):
         seen = self.received_at.get('steering')
