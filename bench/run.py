@@ -23,6 +23,8 @@ Sections (each a function below; results go to ``bench/results/<time>.json`` and
   (replay);
 - ``sweep``: bench/sweep.py -- points/s of 12 points of the actuator x speed sweep serially and
   on 1 and 2 Dask workers, and 100 linear plants stepped at once (BatchLti) against dlsim;
+- ``hil`` (bench/hil.py): real time at 1 kHz through the emulated board's link and drive, next
+  to ``vehicle_sim`` in the same run: deadline misses, ADC-sample-to-servo latency, frames lost;
 - ``soak`` (only with ``--only soak``, 10 min): ``soak_realtime`` process per node with
   SCHED_FIFO 50 and the recorder on: misses, latency, CPU, and the messages the bag kept and lost.
 
@@ -42,8 +44,9 @@ sys.path.insert(0, str(HERE))
 
 from common import domain as _domain, write_results   # noqa: E402 (bench/ is on sys.path)
 from offline import offline  # noqa: E402,F401 (a section, called by name)
+from hil import hil  # noqa: E402,F401 (a section, called by name)
 
-SECTIONS = ('floor', 'realtime', 'lockstep', 'offline', 'replay', 'sweep')
+SECTIONS = ('floor', 'realtime', 'lockstep', 'offline', 'replay', 'sweep', 'hil')
 #: Sections run only when named with ``--only``.
 EXTRA_SECTIONS = ('soak',)
 
@@ -221,7 +224,8 @@ def main(argv=None) -> int:
     for section in a.only:
         print(f'== {section}', flush=True)
         fn = globals()[section]
-        args = {'floor': (floor_s,), 'realtime': (rt_s,), 'replay': (replay_s,)}.get(section, ())
+        args = {'floor': (floor_s,), 'realtime': (rt_s,), 'replay': (replay_s,),
+                'hil': (rt_s / 2,)}.get(section, ())
         results[section] = fn(*args)
     write_results(results, a.out)
     return 0

@@ -83,6 +83,7 @@ class HardwareRig:
         self.last_reading_time = None
         self.board_time = -math.inf        # last write to the board
         self.answered = 0                  # seq of the sample the last steering answered
+        self.stopped = False
         self.commands_sent = 0
         self.drive_io = threading.RLock()  # one request at a time on the drive's link
 
@@ -168,9 +169,17 @@ class HardwareRig:
         if self.ok:
             self.voltage = value
 
+    def stop(self, now: float) -> None:
+        """The run is over: the safe outputs from now on, without a fault."""
+        self.stopped = True
+        self.write_board(None, now)
+        self.send_drive(0, now)
+
     def outputs(self) -> tuple:
-        """``(pulse [us], enable, set-point)`` now: the safe ones while a fault is latched."""
-        if not self.ok:
+        """``(pulse [us], enable, set-point)`` now: the safe ones while a fault is latched or
+        once stopped.
+        """
+        if not self.ok or self.stopped:
             return self.cal.servo.centre_us, False, 0
         return (self.cal.servo.pulse_us(self.steer), True,
                 self.cal.drive.setpoint(self.voltage))

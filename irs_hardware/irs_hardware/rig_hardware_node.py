@@ -364,6 +364,11 @@ class RigHardwareNode(Node):
             self.tick0 = m.tick - self.k if self.lockstep else m.tick
         self.k = m.tick - self.tick0
         if not self.lockstep:
+            if self.p['max_steps'] and self.k >= self.p['max_steps'] and not self.complete:
+                self.complete = True          # the run is over: safe outputs, no fault
+                self.rig.stop(reading.received)
+                self.get_logger().info(f'run complete: {self.k} steps')
+                self._publish_status(force=True)
             if 'steering' in self.received_at:
                 self.timing.step(self.last_steer_stamp >= self._stamp_ns() - self.dt_ns)
             if reading.received - self.rig.board_time > 0.002:
@@ -430,7 +435,8 @@ class RigHardwareNode(Node):
         self.pub_diag.publish(arr)
         if self.pub_timing is not None:
             summary = {**self.timing.summary(), 'lost_samples': rig.lost_samples,
-                       'bad_frames': io.bad_frames, 'commands_sent': rig.commands_sent}
+                       'bad_frames': io.bad_frames, 'commands_sent': rig.commands_sent,
+                       'faults': rig.faults}
             t = DiagnosticStatus(level=DiagnosticStatus.OK, name='rig_hardware: real-time loop',
                                  hardware_id='irs_rig', message='',
                                  values=[KeyValue(key=k, value=f'{v:.6g}' if isinstance(v, float)

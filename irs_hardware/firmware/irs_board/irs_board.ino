@@ -3,19 +3,21 @@
 // (irs_hardware/emulator/board_core.py) implements the same behaviour and is what the tests run.
 //
 // Frames: A5 5A | version | type | length | payload | crc16 (CRC-16/CCITT-FALSE, LE).
-// HELLO(mode, watchdog_ms, interval_us) -> INFO; COMMAND(seq, pulse ticks 0.5 us, flags) ;
-// SAMPLE(tick, ack, adc[3], belt, status) every interval (free-running) or per COMMAND
-// (triggered). Watchdog: no good COMMAND for watchdog_ms -> servo centre, enable low, latched
-// until the next HELLO.
+// HELLO(mode, watchdog_ms, interval_us, safe pulse ticks) -> INFO; COMMAND(seq, pulse ticks
+// 0.5 us, flags); SAMPLE(tick, ack, adc[3], belt, status) every interval (free-running) or per
+// COMMAND (triggered). Watchdog, counted in samples and armed by the first COMMAND after HELLO:
+// watchdog_ms / interval samples in a row without a good COMMAND -> the safe pulse, enable
+// low, latched until the next HELLO.
 #include <SPI.h>
 
 const uint8_t VERSION = 1, HELLO = 0x01, COMMAND = 0x02, INFO = 0x81, SAMPLE = 0x82;
 const uint8_t PIN_CS = 10, PIN_ENABLE = 7, PIN_ENC_A = 2, PIN_ENC_B = 3;
-const uint16_t CENTRE_TICKS = 3000;          // 1500 us at 0.5 us per tick
+uint16_t safeTicks = 3000;                    // the HELLO's safe pulse (1500 us until then)
 volatile int32_t beltCount = 0;
-uint32_t tick = 0, lastCommandUs = 0, intervalUs = 1000, watchdogUs = 25000, nextSampleUs = 0;
+uint32_t tick = 0, intervalUs = 1000, nextSampleUs = 0;
+uint16_t watchdogTicks = 25, sinceCommand = 0;
 uint16_t ack = 0;
-bool started = false, triggered = false, tripped = false, badHostFrame = false;
+bool started = false, triggered = false, tripped = false, armed = false, badHostFrame = false;
 uint8_t rx[80];
 uint8_t rxLen = 0;
 
@@ -57,7 +59,7 @@ uint16_t readAdc(uint8_t ch) {                 // ADS8688 manual channel select,
 
 void setPulse(uint16_t ticks) { OCR1A = ticks; }   // Timer1 fast PWM, TOP = 40000 (20 ms)
 
-void safeState() { setPulse(CENTRE_TICKS); digitalWrite(PIN_ENABLE, LOW); }
+void safeState() { setPulse(safeTicks); digitalWrite(PIN_ENABLE, LOW); }
 
 void sendSample() {
   uint8_t p[17];
@@ -70,18 +72,20 @@ void sendSample() {
 }
 
 void handle(uint8_t type, const uint8_t *p, uint8_t n) {
-  if (type == HELLO && n == 5) {
+  if (type == HELLO && n == 7) {
     triggered = p[0] == 1;
-    watchdogUs = 1000UL * (p[1] | (p[2] << 8));
     intervalUs = p[3] | (p[4] << 8);
-    started = true; tripped = false; lastCommandUs = micros(); nextSampleUs = micros();
+    watchdogTicks = max(1UL, 1000UL * (p[1] | (p[2] << 8)) / intervalUs);
+    safeTicks = p[5] | (p[6] << 8);
+    started = true; tripped = false; armed = false; sinceCommand = 0; nextSampleUs = micros();
+    safeState();
     uint8_t info[11] = {1, 0, 16, 3, (uint8_t)(intervalUs & 0xFF), (uint8_t)(intervalUs >> 8),
                         244, 1, p[1], p[2], 0};
     sendFrame(INFO, info, 11);
     if (triggered) sendSample();
   } else if (type == COMMAND && (n == 5 || n == 13) && started) {
     ack = p[0] | (p[1] << 8);
-    lastCommandUs = micros();
+    armed = true; sinceCommand = 0;
     if (!tripped) {
       setPulse(p[2] | (p[3] << 8));
       digitalWrite(PIN_ENABLE, (p[4] & 1) ? HIGH : LOW);
@@ -123,12 +127,12 @@ void setup() {
 void loop() {
   pollSerial();
   uint32_t now = micros();
-  if (started && !triggered && !tripped && now - lastCommandUs > watchdogUs) {
-    tripped = true;
-    safeState();
-  }
   if (started && !triggered && (int32_t)(now - nextSampleUs) >= 0) {
     nextSampleUs += intervalUs;
+    if (armed && !tripped && ++sinceCommand >= watchdogTicks) {
+      tripped = true;
+      safeState();
+    }
     tick++;
     sendSample();
   }

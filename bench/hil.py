@@ -1,0 +1,91 @@
+"""Real time at 1 kHz through the emulated link, next to the simulated rig in the same run.
+
+    ./irs exec flock /tmp/irs_bench.lock python bench/run.py --only hil [--quick]
+    ./irs exec flock /tmp/irs_bench.lock python bench/hil.py --seconds 30 --rounds 2
+
+A section of ``bench/run.py``. Rounds of two real-time runs of the Figure 10 graph, process per
+node, SCHED_FIFO 50 (the lab's deployment), interleaved so that both see the same machine:
+``realtime_figure10`` (``vehicle_sim``) and ``realtime_hil_figure10`` (``rig_hardware`` on the
+emulated board, free-running on its pty at SCHED_FIFO 60 with 1 Mbaud and 0.5 ms of USB latency
+per frame, and the emulated drive on Modbus). Per run:
+
+- host side (``rig/timing``, both rigs alike): deadline misses (the answer to a sample not in
+  before the next one is handled), loop latency p50/p99/max (arm sample published -> steering
+  command received by the rig), CPU per step;
+- the hardware's own figures: from the board (its status file) the latency from taking the ADC
+  sample to applying the servo pulse that answers it (p50/p99/max: the link both ways and the
+  host) and the board's deadline misses (the answer not in force when sample k + 2 is taken,
+  ``BoardEmulator.DEADLINE``), the emulator's late wake-ups; frames lost: samples the board sent
+  that the host never read (tick gaps), frames thrown away (CRC) either way, commands the host
+  wrote that the board did not apply; latched faults.
+"""
+import argparse
+import json
+import sys
+from pathlib import Path
+
+HERE = Path(__file__).resolve().parent
+sys.path.insert(0, str(HERE))
+
+RUNS = ('realtime_figure10', 'realtime_hil_figure10')
+
+
+def _board(run_dir) -> dict:
+    path = Path(run_dir) / 'board.json'
+    return json.loads(path.read_text()) if path.exists() else {}
+
+
+def hil_row(label: str, r) -> dict:
+    """One run's row (the real-time figures, and the board's for the hardware run)."""
+    from run import _realtime_row     # bench/run.py: the real-time rows of every section
+    row = _realtime_row(label, r)
+    board = _board(r.run_dir)
+    if not board:
+        return row
+    t = r.timing
+    b = board['timing']
+    row['board'] = {
+        'sample_to_servo_ms': {q: b[f'latency_{q}_ms'] for q in ('p50', 'p99', 'max')},
+        'deadline_misses': b['deadline_misses'], 'deadline_miss_pct': b['miss_pct'],
+        'loop_misses': board['loop_misses'], 'samples_sent': board['samples'],
+        'samples_lost': int(t.get('lost_samples', 0)),
+        'bad_frames_to_host': int(t.get('bad_frames', 0)),
+        'bad_frames_to_board': board['bad_host_frames'],
+        'commands_sent': int(t.get('commands_sent', 0)), 'commands_applied': board['commands'],
+        'watchdog_trips': board['watchdog_trips'], 'faults': int(t.get('faults', 0))}
+    x = row['board']
+    print(f"    board: sample -> servo p50/p99/max {x['sample_to_servo_ms']['p50']:.2f}/"
+          f"{x['sample_to_servo_ms']['p99']:.2f}/{x['sample_to_servo_ms']['max']:.1f} ms, "
+          f"deadline (k + 2) misses {x['deadline_miss_pct']:.2f} %, late wake-ups "
+          f"{x['loop_misses']}; frames: {x['samples_lost']} of {x['samples_sent']} samples "
+          f"lost, {x['bad_frames_to_host']}/{x['bad_frames_to_board']} garbled (in/out), "
+          f"{x['commands_sent'] - x['commands_applied']} of {x['commands_sent']} commands "
+          f"not applied; {x['faults']} faults", flush=True)
+    return row
+
+
+def hil(seconds: float, rounds: int = 1) -> list:
+    from common import domain
+    from run import _run_experiment
+    rows = []
+    for _ in range(rounds):
+        for name in RUNS:
+            domain(60 + len(rows))
+            r = _run_experiment(name, 50, seconds)
+            rows.append(hil_row(f'{name} SCHED_FIFO', r))
+    return rows
+
+
+def main(argv=None) -> int:
+    from common import write_results
+    ap = argparse.ArgumentParser(description=__doc__.split('\n')[0])
+    ap.add_argument('--seconds', type=float, default=30.0)
+    ap.add_argument('--rounds', type=int, default=2)
+    ap.add_argument('--out', default=str(HERE / 'results'))
+    a = ap.parse_args(argv)
+    write_results({'hil': hil(a.seconds, a.rounds)}, a.out, prefix='hil-')
+    return 0
+
+
+if __name__ == '__main__':
+    sys.exit(main())
