@@ -1,10 +1,10 @@
 """Real time at 1 kHz through the emulated link, next to the simulated rig in the same run.
 
     ./irs exec flock /tmp/irs_bench.lock python bench/run.py --only hil [--quick]
-    ./irs exec flock /tmp/irs_bench.lock python bench/hil.py --seconds 30 --rounds 2
 
-A section of ``bench/run.py``. Rounds of two real-time runs of the Figure 10 graph, process per
-node, SCHED_FIFO 50 (the lab's deployment), interleaved so that both see the same machine:
+A section of ``bench/run.py`` (its run and row functions are passed in). Rounds of two
+real-time runs of the Figure 10 graph, process per node, SCHED_FIFO 50 (the lab's deployment),
+interleaved so that both see the same machine:
 ``realtime_figure10`` (``vehicle_sim``) and ``realtime_hil_figure10`` (``rig_hardware`` on the
 emulated board, free-running on its pty at SCHED_FIFO 60 with 1 Mbaud and 0.5 ms of USB latency
 per frame, and the emulated drive on Modbus). Per run:
@@ -19,13 +19,8 @@ per frame, and the emulated drive on Modbus). Per run:
   that the host never read (tick gaps), frames thrown away (CRC) either way, commands the host
   wrote that the board did not apply; latched faults.
 """
-import argparse
 import json
-import sys
 from pathlib import Path
-
-HERE = Path(__file__).resolve().parent
-sys.path.insert(0, str(HERE))
 
 RUNS = ('realtime_figure10', 'realtime_hil_figure10')
 
@@ -35,10 +30,9 @@ def _board(run_dir) -> dict:
     return json.loads(path.read_text()) if path.exists() else {}
 
 
-def hil_row(label: str, r) -> dict:
-    """One run's row (the real-time figures, and the board's for the hardware run)."""
-    from run import _realtime_row     # bench/run.py: the real-time rows of every section
-    row = _realtime_row(label, r)
+def hil_row(label: str, r, realtime_row) -> dict:
+    """One run's row (``realtime_row``'s figures, and the board's for the hardware run)."""
+    row = realtime_row(label, r)
     board = _board(r.run_dir)
     if not board:
         return row
@@ -64,28 +58,15 @@ def hil_row(label: str, r) -> dict:
     return row
 
 
-def hil(seconds: float, rounds: int = 1) -> list:
+def hil(seconds: float, run_experiment, realtime_row, rounds: int = 2) -> list:
+    """``rounds`` of the two runs, ``seconds`` each; ``run_experiment(name, rt_priority,
+    seconds)`` and ``realtime_row(label, result)`` are bench/run.py's.
+    """
     from common import domain
-    from run import _run_experiment
     rows = []
     for _ in range(rounds):
         for name in RUNS:
             domain(60 + len(rows))
-            r = _run_experiment(name, 50, seconds)
-            rows.append(hil_row(f'{name} SCHED_FIFO', r))
+            r = run_experiment(name, 50, seconds)
+            rows.append(hil_row(f'{name} SCHED_FIFO', r, realtime_row))
     return rows
-
-
-def main(argv=None) -> int:
-    from common import write_results
-    ap = argparse.ArgumentParser(description=__doc__.split('\n')[0])
-    ap.add_argument('--seconds', type=float, default=30.0)
-    ap.add_argument('--rounds', type=int, default=2)
-    ap.add_argument('--out', default=str(HERE / 'results'))
-    a = ap.parse_args(argv)
-    write_results({'hil': hil(a.seconds, a.rounds)}, a.out, prefix='hil-')
-    return 0
-
-
-if __name__ == '__main__':
-    sys.exit(main())

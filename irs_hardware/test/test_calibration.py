@@ -75,6 +75,6 @@ def test_the_belt_procedure_finds_the_encoders_counts_per_metre():
 
 
 def test_the_belt_procedure_refuses_a_belt_that_did_not_move():
-    board = BoardEmulator(rig_config({}))
+    board = BoardEmulator(rig_config({'belt_speed0': 0.0}))
     with pytest.raises(CalibrationError, match='needs a travel > 0 m and counts'):
         calibrate_belt(board_reader(board), lambda which: None, 2.0)
