@@ -32,6 +32,7 @@ import socket
 import sys
 import time
 import tty
+from collections import deque
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -80,7 +81,15 @@ def _driver(text):
 
 
 class Link:
-    """The pty and its emulated timing (frames delivered after their due time)."""
+    """The pty and its emulated timing (frames delivered after their due time).
+
+    Frames the pty does not take at once (a host that reads late: the pty holds about 4 kB) wait
+    in order, never cut; beyond :attr:`BACKLOG` frames the oldest waiting ones are dropped whole,
+    as a USB endpoint's packets are (``dropped``): the host sees a gap in the sample ticks, never
+    a garbled frame.
+    """
+
+    BACKLOG = 64
 
     def __init__(self, link_path: Path, baud: int, usb_latency: float):
         self.master, slave = os.openpty()
@@ -96,6 +105,8 @@ class Link:
         self.usb_latency = usb_latency
         self.outgoing = []                  # (due, bytes)
         self.incoming = []
+        self.tx = deque()                   # frames waiting for room in the pty
+        self.dropped = 0
 
     def delay(self, n: int) -> float:
         return n * self.byte_time + self.usb_latency
@@ -107,10 +118,27 @@ class Link:
             return b''
 
     def write(self, data: bytes) -> None:
-        try:
-            os.write(self.master, data)
-        except OSError:
-            pass
+        self.tx.append(bytes(data))
+        while len(self.tx) > self.BACKLOG + 1:
+            del self.tx[1]                  # the head may be half written: keep it whole
+            self.dropped += 1
+        self.flush()
+
+    def flush(self) -> None:
+        """As much of the waiting frames as the pty takes now."""
+        while self.tx:
+            head = self.tx[0]
+            try:
+                n = os.write(self.master, head)
+            except BlockingIOError:
+                return
+            except OSError:                 # no reader end: the frames go nowhere
+                self.tx.clear()
+                return
+            if n < len(head):
+                self.tx[0] = head[n:]
+                return
+            self.tx.popleft()
 
     def close(self):
         if self.link_path.is_symlink():
@@ -259,6 +287,7 @@ class BoardLoop:
                 link.write(frame)
         while link.outgoing and link.outgoing[0][0] <= now:
             link.write(link.outgoing.pop(0)[1])
+        link.flush()
 
     def _sample(self, now):
         board = self.board
@@ -289,6 +318,7 @@ class BoardLoop:
                'triggered': board.triggered, 'tick': board.tick_no, 'samples': s.samples,
                'commands': s.commands, 'bad_host_frames': s.bad_host_frames,
                'dropped': s.dropped, 'garbled': s.garbled, 'watchdog_trips': s.watchdog_trips,
+               'link_dropped': self.link.dropped,
                'loop_misses': self.misses, 'loop_ticks': self.ticks, 'time': board.sim.time,
                'belt_speed': board.sim.outputs.belt_speed,
                'belt_position': board.sim.belt.position,
