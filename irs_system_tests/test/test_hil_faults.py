@@ -9,14 +9,14 @@ timeout 20 ms, board watchdog 25 ms), but ``command_timeout``: no controller run
 one steering command the test sends stays in force.
 
 Bounds [s] from the injection, the sum of the mechanism's own times plus ``SLACK`` (10 ms)
-for scheduling and the node's 5 ms read wait:
-- board killed: the pty hangs up (a read error) or, first, the 20 ms link timeout latches, and
-  the drive's set-point 0 follows in one Modbus request (timeout 50 ms): latched 0.02 + SLACK,
-  drive at 0 V 0.07 + SLACK;
+for scheduling:
+- board killed: the pty hangs up (a read error) or, first, the link timeout (20 ms, checked
+  after each read wait of at most 5 ms) latches, and the drive's set-point 0 follows in one
+  Modbus request (timeout 50 ms): latched 0.025 + SLACK, drive at 0 V 0.075 + SLACK;
 - one garbled frame from the board: the next sample (1 ms) and the link (0.74 ms) to the latch,
   the safe command back (0.62 ms): both 0.003 + SLACK;
 - the link silent for 50 ms: the board's watchdog (25 samples) makes it safe, the host's link
-  timeout (20 ms) latches: 0.025 + SLACK, 0.02 + SLACK;
+  timeout (20 ms + the 5 ms read wait) latches: both 0.025 + SLACK;
 - a NaN steering command: refused on arrival (latched within ``DELIVERY`` of its
   publication), the safe command reaches the board in one frame (0.62 ms): 0.001 + SLACK
   after the latch;
@@ -48,11 +48,11 @@ SLACK = 0.01
 DELIVERY = 0.1
 #: fault -> (the latched fault's words (any of), latched within [s] of the injection, safe
 #: within [s], of the injection or of the latch, where)
-BOUNDS = {'board killed': (('board at', 'link lost'), 0.02 + SLACK, 0.07 + SLACK, 'injection',
-                           'drive'),
+BOUNDS = {'board killed': (('board at', 'link lost'), 0.025 + SLACK, 0.075 + SLACK,
+                           'injection', 'drive'),
           'garbled frame': (('garbled frame',), 0.003 + SLACK, 0.003 + SLACK, 'injection',
                             'board'),
-          'link silent 50 ms': (('link lost',), 0.02 + SLACK, 0.025 + SLACK, 'injection',
+          'link silent 50 ms': (('link lost',), 0.025 + SLACK, 0.025 + SLACK, 'injection',
                                 'board'),
           'NaN command': (('steer command nan',), DELIVERY, 0.001 + SLACK, 'latch', 'board'),
           'Modbus server gone': (('drive at',), 0.11 + SLACK, 0.11 + SLACK, 'injection',
