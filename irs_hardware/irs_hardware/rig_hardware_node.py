@@ -15,13 +15,14 @@ Clock modes as ``vehicle_sim``: ``lockstep`` (the board in triggered mode: each 
 paired by stamp, go to the drive and then the board, whose answer is the next sample; /clock
 and every output stamped t_k = k dt; the step is published again after
 ``lockstep_resend_period`` without progress) or ``realtime`` (the board samples at 1 kHz by
-itself; a reader thread publishes each sample stamped ``t_start + tick dt`` and the steering
-command goes to the board at once; a drive thread writes the set-point every ``drive_period``,
-off the 1 kHz path). Bad and stale commands latch the fault (:mod:`.hardware_rig`); on exit the
-outputs go to the safe state.
+itself; a reader thread hands each sample to the executor, which publishes it stamped
+``t_start + tick dt``, and the steering command goes to the board at once; a drive thread
+writes the set-point every ``drive_period``, off the 1 kHz path). Bad and stale commands latch
+the fault (:mod:`.hardware_rig`); on exit the outputs go to the safe state.
 """
 from __future__ import annotations
 
+import collections
 import math
 import threading
 import time
@@ -99,6 +100,9 @@ class RigHardwareNode(Node):
         self.last_outputs = []
         self.last_progress = time.monotonic()
         self.threads = []
+        self.pending = collections.deque()      # real time: samples read, not yet published
+        self.samples_ready = None if self.lockstep else self.create_guard_condition(
+            self._on_samples)
         self.generation = 0          # rig/reset reopens the devices: reads before it are void
         self.running = True
         self.create_timer(1.0, self._slow_tick)
@@ -310,6 +314,9 @@ class RigHardwareNode(Node):
 
     # ---------------------------------------------------------------- real time
     def _read_loop(self):
+        """Real time: read the board, hand the samples to the executor (its guard condition:
+        every callback of a composed process stays on one thread), watch the link.
+        """
         while self.running:
             generation = self.generation
             try:
@@ -322,12 +329,20 @@ class RigHardwareNode(Node):
                 time.sleep(0.05 if generation == self.generation else 0.0)
                 continue
             now = time.monotonic()
+            if readings:
+                self.pending.extend(readings)
+                self.samples_ready.trigger()
             with self.lock:
-                for r in readings:
-                    self._on_reading(r)
+                if readings:
+                    self.rig.last_reading_time = now
                 if self.rig.ok and not self.rig.check_link(now):
                     self._publish_status(force=True)
                 self._check_stale(now)
+
+    def _on_samples(self):
+        with self.lock:
+            while self.pending:
+                self._on_reading(self.pending.popleft())
 
     def _drive_loop(self):
         """Real time: the set-point when due (a change, the keep-alive) every ``drive_period``
