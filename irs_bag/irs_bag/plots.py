@@ -34,7 +34,7 @@ from irs_models.constants import BELT_HALF_LENGTH, BELT_HALF_WIDTH
 
 from .reader import BagError, open_bag, reading
 
-__all__ = ['make_plots', 'load_series', 'main', 'NoPlottableTopics', 'BELT_LENGTH',
+__all__ = ['make_plots', 'plot_series', 'load_series', 'main', 'NoPlottableTopics', 'BELT_LENGTH',
            'BELT_WIDTH']
 
 BELT_LENGTH = 2 * BELT_HALF_LENGTH    # [m] 8 ft
@@ -143,10 +143,6 @@ def make_plots(bag_path, out_dir) -> List[Path]:
     NoPlottableTopics
         None of the plotted topics is in the bag.
     """
-    import matplotlib
-    matplotlib.use('Agg')
-    import matplotlib.pyplot as plt
-
     data = load_series(bag_path)
     if not data:
         raise NoPlottableTopics(
@@ -155,7 +151,18 @@ def make_plots(bag_path, out_dir) -> List[Path]:
             + ', '.join(sorted({s for v in SERIES.values() for s, _, _ in v}))
             + ')'
         )
-    t0 = min(xs[0] for xs, _ in data.values() if xs)
+    return plot_series(data, out_dir)
+
+
+def plot_series(data, out_dir) -> List[Path]:
+    """The plots of :func:`make_plots` from ``{label: (t [s], values)}`` (the labels of
+    :data:`SERIES`, as :func:`load_series` returns them; the offline twin's runs give the same).
+    """
+    import matplotlib
+    matplotlib.use('Agg')
+    import matplotlib.pyplot as plt
+
+    t0 = min(xs[0] for xs, _ in data.values() if len(xs))
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
     written: List[Path] = []

@@ -31,58 +31,108 @@ import sys
 
 import yaml
 
+from irs_common.cli import (BUG_HINT, EXIT_BUG, InputError, Interrupted, SignalGuard,
+                            did_you_mean, one_line)
+
 GROUP = 'irs_components'
 
 
-class ContainerError(ValueError):
-    """The spec file is unreadable or names an unknown node."""
+class ContainerError(InputError):
+    """The spec file is unreadable, names an unknown node, or two nodes of one name."""
+
+
+def _entry_point(package: str, executable: str):
+    """The entry point of ``package/executable`` in :data:`GROUP` (its module not imported)."""
+    for ep in entry_points(group=GROUP, name=executable):
+        if ep.value.split('.')[0] == package:
+            return ep
+    known = [f'{ep.value.split(".")[0]}/{ep.name}' for ep in entry_points(group=GROUP)]
+    raise ContainerError(did_you_mean(f'{package}/{executable}', known, 'composable node'))
 
 
 def component_class(package: str, executable: str):
     """The Node subclass registered as ``executable`` by ``package`` (entry points)."""
-    for ep in entry_points(group=GROUP, name=executable):
-        if ep.value.split('.')[0] == package:
-            return ep.load()
-    known = sorted(f'{ep.value.split(".")[0]}/{ep.name}' for ep in entry_points(group=GROUP))
-    raise ContainerError(f"no composable node '{package}/{executable}'; known: {known}")
+    return _entry_point(package, executable).load()
+
+
+def _node_name(executable: str, ros_args: list) -> str:
+    """The node's name: its ``-r __node:=<name>`` remap, else the executable's name (every IRS
+    node is named after its executable).
+    """
+    for i, arg in enumerate(ros_args[:-1]):
+        if arg in ('-r', '--remap') and ros_args[i + 1].startswith('__node:='):
+            return ros_args[i + 1].split(':=', 1)[1]
+    return executable
 
 
 def load_spec(path) -> list:
-    """``[(package, executable, ros_args)]`` from a spec file (module docstring)."""
+    """``[(package, executable, ros_args)]`` from a spec file (module docstring); every node
+    registered in :data:`GROUP`, no two with one name.
+    """
     try:
         doc = yaml.safe_load(Path(path).read_text())
-    except (OSError, yaml.YAMLError) as exc:
-        raise ContainerError(f'{path}: {exc}') from None
+    except (OSError, UnicodeDecodeError, yaml.YAMLError) as exc:
+        raise ContainerError(f'{path}: {" ".join(str(exc).split())}') from None
     nodes = doc.get('nodes') if isinstance(doc, dict) else None
     if not isinstance(nodes, list) or not nodes:
         raise ContainerError(f'{path}: expected a non-empty list under nodes:')
-    out = []
+    out, names = [], {}
     for i, entry in enumerate(nodes):
         if not isinstance(entry, dict) or not {'package', 'executable'} <= set(entry):
             raise ContainerError(f'{path}: nodes[{i}] needs package and executable')
         args = entry.get('ros_args') or []
         if not isinstance(args, list):
             raise ContainerError(f'{path}: nodes[{i}].ros_args must be a list')
-        out.append((str(entry['package']), str(entry['executable']), [str(a) for a in args]))
+        package, executable = str(entry['package']), str(entry['executable'])
+        args = [str(a) for a in args]
+        try:
+            _entry_point(package, executable)
+        except ContainerError as exc:
+            raise ContainerError(f'{path}: nodes[{i}]: {exc}') from None
+        name = _node_name(executable, args)
+        if name in names:
+            raise ContainerError(f"{path}: nodes[{i}] and nodes[{names[name]}] are both named "
+                                 f"'{name}': give one another name (ros_args: -r __node:=...)")
+        names[name] = i
+        out.append((package, executable, args))
     return out
 
 
+class _Factory:
+    """Builds one node of the spec: its class loaded when called (in ``run_nodes``)."""
+
+    def __init__(self, package, executable, ros_args):
+        self.package, self.executable = package, executable
+        self.ros_args = ['--ros-args', *ros_args]
+
+    def __call__(self):
+        return component_class(self.package, self.executable)(cli_args=self.ros_args)
+
+
 def main(argv=None) -> int:
-    from irs_common.node_main import run_nodes
-    argv = sys.argv[1:] if argv is None else argv
-    own = argv[:argv.index('--ros-args')] if '--ros-args' in argv else argv
-    parser = argparse.ArgumentParser(prog='container', description=__doc__,
-                                     formatter_class=argparse.RawDescriptionHelpFormatter)
-    parser.add_argument('spec', help='YAML file listing the nodes and their --ros-args')
-    args = parser.parse_args(own)
+    guard = SignalGuard().install()      # a signal from the first line on: no traceback
     try:
-        nodes = [(component_class(pkg, exe), ros) for pkg, exe, ros in load_spec(args.spec)]
-    except ContainerError as exc:
-        print(f'[FATAL] container: {exc}', file=sys.stderr)
-        return 2
-    factories = [lambda cls=cls, ros=ros: cls(cli_args=['--ros-args', *ros]) for cls, ros in nodes]
+        argv = sys.argv[1:] if argv is None else argv
+        own = argv[:argv.index('--ros-args')] if '--ros-args' in argv else argv
+        parser = argparse.ArgumentParser(prog='container', description=__doc__,
+                                         formatter_class=argparse.RawDescriptionHelpFormatter)
+        parser.add_argument('spec', help='YAML file listing the nodes and their --ros-args')
+        args = parser.parse_args(own)
+        try:
+            factories = [_Factory(*node) for node in load_spec(args.spec)]
+        except ContainerError as exc:
+            print(f'[FATAL] container: {exc}', file=sys.stderr)
+            return 2
+        from irs_common.node_main import run_nodes
+    except Interrupted:
+        guard.restore()
+        return 0
+    except Exception as exc:  # noqa: BLE001 -- the catch-all of the container's own start
+        print(f'[FATAL] container: internal error: {type(exc).__name__}: {one_line(exc)[:300]}; '
+              f'{BUG_HINT}', file=sys.stderr)
+        return EXIT_BUG
     global_ros_args = argv[len(own):]        # '--ros-args ...' for every node, e.g. a log level
-    return run_nodes(factories, args=['container', *global_ros_args])
+    return run_nodes(factories, args=['container', *global_ros_args], guard=guard)
 
 
 if __name__ == '__main__':

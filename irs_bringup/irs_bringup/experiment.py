@@ -29,13 +29,15 @@ for ``realtime`` ``clock_mode: realtime``.
 
 Deployment is the file's choice (``process:``), and :meth:`Experiment.composed` (the runner's
 ``--composed``) overrides it: every node and the recorder in one ``container`` process. Lock-step
-bags are the same to the bit either way (``tests/test_deployments.py``).
+bags are the same to the bit either way (``irs_system_tests/test/test_deployments.py``).
 """
 from dataclasses import dataclass, field, replace
 import math
 from pathlib import Path
 
 import yaml
+
+from irs_common.cli import InputError, did_you_mean
 
 RIG_KEY = ('irs_vehicle_sim', 'vehicle_sim')
 #: The rigs: the simulator and the hardware node (docs/hardware.md), one per experiment.
@@ -47,8 +49,8 @@ RIG_KEYS = (RIG_KEY, HARDWARE_RIG_KEY)
 NODE_TOPICS = {
     ('irs_vehicle_sim', 'vehicle_sim'): {
         'pub': ['/clock', 'arm/joint_states', 'belt/speed', 'steering/state', 'ground_truth/odom',
-                'ground_truth/sensor_point', 'rig/status', 'rig/timing'],
-        'sub': ['steering/command', 'treadmill/drive', 'driver/command']},
+                'ground_truth/sensor_point', 'rig/status', 'rig/timing', 'treadmill/reset'],
+        'sub': ['steering/command', 'treadmill/drive', 'driver/command', 'treadmill/state']},
     ('irs_hardware', 'rig_hardware'): {
         'pub': ['/clock', 'arm/joint_states', 'belt/speed', 'rig/status', 'rig/diagnostics',
                 'rig/timing'],
@@ -91,7 +93,7 @@ def node_topics(entry) -> dict:
     return io
 
 
-class ExperimentError(ValueError):
+class ExperimentError(InputError):
     """The experiment file is missing, unreadable or inconsistent (message says what and where)."""
 
 
@@ -155,6 +157,34 @@ class Experiment:
             out['recorder'] = self.record_process
         return out
 
+    def with_duration(self, duration: float) -> 'Experiment':
+        """A copy that runs ``duration`` s instead (``experiment run --duration``); one
+        :class:`ExperimentError` line unless it is a finite number of at least one rig step.
+        """
+        if isinstance(duration, bool) or not isinstance(duration, (int, float)) \
+                or not math.isfinite(duration) or duration <= 0:
+            raise ExperimentError(f'--duration: a finite number of seconds > 0 expected, '
+                                  f'got {duration!r}')
+        exp = replace(self, duration=float(duration))
+        problems = _duration_problems(exp)
+        if problems:
+            raise ExperimentError(f'--duration: {problems[0][1]}')
+        return exp
+
+
+def new_run_dir(runs_dir, name: str) -> Path:
+    """``<runs_dir>/<name>-<YYYYmmdd-HHMMSS>``, with ``-2``, ``-3`` ... if that exists
+    (absolute; not created).
+    """
+    import datetime
+    stamp = datetime.datetime.now().strftime('%Y%m%d-%H%M%S')
+    base = Path(runs_dir).resolve()
+    path, n = base / f'{name}-{stamp}', 1
+    while path.exists():
+        n += 1
+        path = base / f'{name}-{stamp}-{n}'
+    return path
+
 
 def experiments_dir() -> Path:
     """``share/irs_bringup/config/experiments`` of the installed package."""
@@ -171,8 +201,8 @@ def find_experiment(name_or_path: str) -> Path:
         return p
     candidate = experiments_dir() / f'{name_or_path}.yaml'
     if not candidate.is_file():
-        names = ', '.join(sorted(x.stem for x in experiments_dir().glob('*.yaml')))
-        raise ExperimentError(f"no experiment '{name_or_path}'; installed: {names}")
+        names = [x.stem for x in experiments_dir().glob('*.yaml')]
+        raise ExperimentError(did_you_mean(name_or_path, names, 'experiment', 'experiment list'))
     return candidate
 
 

@@ -71,6 +71,10 @@ HANDOVER_BUDGET_NS = 5_000_000
 #: that falls due waits at most one slice: 0.2 ms, a fifth of a 1 kHz period.
 BACKGROUND_SLICE_NS = 200_000
 
+#: The slow chore of one ``spin_once`` (module docstring): none, services and clients, or the
+#: QoS event handlers.
+_NONE, _SLOW, _EVENTS = 0, 1, 2
+
 
 class _Entities:
     """The waitable entities of a set of nodes, gathered once per change."""
@@ -163,39 +167,69 @@ class LeanExecutor(Executor):
             raise ExternalShutdownException()
         ents = self._entities
         if ents is None:
-            ents = self._entities = _Entities(self.get_nodes(), (self._guard, self._sigint_gc),
-                                              self._context)
-            if self._bus is not None:
-                self._bus.rebuild(self.get_nodes())
+            ents = self._gather()
         ws = ents.wait_set
         timeout_ns = timeout_sec_to_nsec(timeout_sec)
         if self._bus is not None and (self._bus.queue or self._bus.background):
             timeout_ns = 0          # handovers are waiting: only poll for what else is ready
         now_ns = time.monotonic_ns()
-        # At most one slow chore per spin_once (module docstring), the most overdue: services
-        # and clients, or the QoS event handlers, or the graph lookup of the in-process routes.
-        slow = events = False
+        chore = self._pick_chore(now_ns)
+        timeout_ns = self._capped_timeout(timeout_ns, now_ns)
+        if not self._fill(ws, ents, chore):
+            return
+        ws.wait(timeout_ns)
+        if self._is_shutdown:
+            return
+        if not self._context.ok():
+            raise ExternalShutdownException()
+        try:
+            self._dispatch(ws, ents, chore == _EVENTS)
+        except InvalidHandle:
+            self._entities = None   # a callback destroyed an entity that was ready too
+
+    def _gather(self):
+        """Gather the entity lists of every node (and the in-process routes) again."""
+        ents = self._entities = _Entities(self.get_nodes(), (self._guard, self._sigint_gc),
+                                          self._context)
+        if self._bus is not None:
+            self._bus.rebuild(self.get_nodes())
+        return ents
+
+    def _pick_chore(self, now_ns: int) -> int:
+        """At most one slow chore per spin_once (module docstring), the most overdue: services
+        and clients (``_SLOW``), or the QoS event handlers (``_EVENTS``), or the graph lookup of
+        the in-process routes (done here); ``_NONE`` when none is due.
+        """
         late_slow = now_ns - self._next_slow_ns
         late_events = now_ns - self._next_event_ns
         late_graph = now_ns - self._next_graph_ns if self._bus is not None else -1
-        if max(late_slow, late_events, late_graph) >= 0:
-            if late_slow >= late_events and late_slow >= late_graph:
-                slow = True
-                self._next_slow_ns = now_ns + self._slow_period_ns
-            elif late_events >= late_graph:
-                events = True
-                self._next_event_ns = now_ns + self._event_period_ns
-            else:
-                self._next_graph_ns = now_ns + self._graph_period_ns
-                self._bus.refresh()
-        # Never wait longer than the slow period: the slow entities must get their turn, and a
-        # signal's stop flag (node_main) is only seen when the wait returns -- a Python signal
-        # handler cannot run while the main thread is inside rcl_wait.
+        if max(late_slow, late_events, late_graph) < 0:
+            return _NONE
+        if late_slow >= late_events and late_slow >= late_graph:
+            self._next_slow_ns = now_ns + self._slow_period_ns
+            return _SLOW
+        if late_events >= late_graph:
+            self._next_event_ns = now_ns + self._event_period_ns
+            return _EVENTS
+        self._next_graph_ns = now_ns + self._graph_period_ns
+        self._bus.refresh()
+        return _NONE
+
+    def _capped_timeout(self, timeout_ns: int, now_ns: int) -> int:
+        """Never wait longer than the next chore is due: the slow entities must get their turn,
+        and a signal's stop flag (node_main) is only seen when the wait returns -- a Python
+        signal handler cannot run while the main thread is inside rcl_wait.
+        """
         due_ns = min(self._next_slow_ns, self._next_event_ns)
         if self._bus is not None:
             due_ns = min(due_ns, self._next_graph_ns)
         left = max(due_ns - now_ns, 0)   # never negative: rcl_wait takes that as "forever"
-        timeout_ns = left if timeout_ns < 0 else min(timeout_ns, left)
+        return left if timeout_ns < 0 else min(timeout_ns, left)
+
+    def _fill(self, ws, ents, chore: int) -> bool:
+        """Refill the wait set: the 1 kHz entities always, the chore's entities when due.
+        False if an entity was destroyed since the gather (gather again next time).
+        """
         try:
             ws.clear_entities()
             for h in ents.sub_handles:
@@ -204,60 +238,57 @@ class LeanExecutor(Executor):
                 ws.add_timer(h)
             for h in ents.guard_handles:
                 ws.add_guard_condition(h)
-            if slow:
+            if chore == _SLOW:
                 for s in ents.services:
                     ws.add_service(s.handle)
                 for c in ents.clients:
                     ws.add_client(c.handle)
-            elif events:
+            elif chore == _EVENTS:
                 for wt in ents.waitables:
                     wt.add_to_wait_set(ws)
         except InvalidHandle:
-            self._entities = None   # an entity was destroyed since the gather: gather again
-            return
-        ws.wait(timeout_ns)
-        if self._is_shutdown:
-            return
-        if not self._context.ok():
-            raise ExternalShutdownException()
+            self._entities = None
+            return False
+        return True
+
+    def _dispatch(self, ws, ents, events: bool) -> None:
+        """Run what is ready. Messages before timers: a periodic step (the real-time rig's
+        tick) then acts on every command that had arrived by the time it woke.
+        """
         ready_timers = ws.get_ready_entities('timer')
-        ready_subs = ws.get_ready_entities('subscription')
-        ready_srvs = ws.get_ready_entities('service')
-        ready_clis = ws.get_ready_entities('client')
+        for ptr in ws.get_ready_entities('subscription'):
+            sub = ents.sub_by_ptr.get(ptr)
+            if sub is not None:
+                self._drain(sub)
+        for ptr in ready_timers:
+            tmr = ents.timer_by_ptr.get(ptr)
+            if tmr is not None and tmr.handle.is_timer_ready():
+                tmr.handle.call_timer()
+                tmr.callback()
+        self._dispatch_slow(ws, ents, events)
+        if self._bus is not None:
+            self._bus.deliver(self._handover_budget_ns, BACKGROUND_SLICE_NS)
+
+    def _dispatch_slow(self, ws, ents, events: bool) -> None:
+        """Services, clients, guard conditions and (when their chore is due) waitables."""
+        for ptr in ws.get_ready_entities('service'):
+            srv = ents.service_by_ptr.get(ptr)
+            if srv is not None:
+                request, header = srv.handle.service_take_request(srv.srv_type.Request)
+                if header is not None:
+                    srv.send_response(srv.callback(request, srv.srv_type.Response()), header)
+        for ptr in ws.get_ready_entities('client'):
+            cli = ents.client_by_ptr.get(ptr)
+            if cli is not None:
+                self._take_response(cli)
         ready_gcs = ws.get_ready_entities('guard_condition')
-        ready_waitables = [wt for wt in ents.waitables if wt.is_ready(ws)] if events else ()
-        try:
-            # Messages before timers: a periodic step (the real-time rig's tick) then acts on
-            # every command that had arrived by the time it woke, not on the previous ones.
-            for ptr in ready_subs:
-                sub = ents.sub_by_ptr.get(ptr)
-                if sub is not None:
-                    self._drain(sub)
-            for ptr in ready_timers:
-                tmr = ents.timer_by_ptr.get(ptr)
-                if tmr is not None and tmr.handle.is_timer_ready():
-                    tmr.handle.call_timer()
-                    tmr.callback()
-            for ptr in ready_srvs:
-                srv = ents.service_by_ptr.get(ptr)
-                if srv is not None:
-                    request, header = srv.handle.service_take_request(srv.srv_type.Request)
-                    if header is not None:
-                        srv.send_response(srv.callback(request, srv.srv_type.Response()), header)
-            for ptr in ready_clis:
-                cli = ents.client_by_ptr.get(ptr)
-                if cli is not None:
-                    self._take_response(cli)
-            if ready_gcs:
-                for gc in ents.guards:
-                    if gc.handle.pointer in ready_gcs and gc.callback is not None:
-                        gc.callback()
-            for wt in ready_waitables:
+        if ready_gcs:
+            for gc in ents.guards:
+                if gc.handle.pointer in ready_gcs and gc.callback is not None:
+                    gc.callback()
+        if events:
+            for wt in [wt for wt in ents.waitables if wt.is_ready(ws)]:
                 _run_coroutine(wt.execute(wt.take_data()))
-            if self._bus is not None:
-                self._bus.deliver(self._handover_budget_ns, BACKGROUND_SLICE_NS)
-        except InvalidHandle:
-            self._entities = None   # a callback destroyed an entity that was ready too
 
     @staticmethod
     def _drain(sub):

@@ -141,7 +141,8 @@ class ThrottledWarner:
 
     ``warn(key, text, now)`` calls ``log(text)`` (with `` (N more suppressed)`` appended when
     messages were dropped since the last one) if ``key`` was not logged within ``period`` s
-    before ``now`` [s], and returns True when it logged. ``now`` is the caller's clock (sim or
+    before ``now`` [s], and returns True when it logged. ``once``/``end`` report a persisting
+    condition once per episode instead of once a ``period``. ``now`` is the caller's clock (sim or
     wall time); a clock that jumps back logs again at once.
     """
 
@@ -149,6 +150,7 @@ class ThrottledWarner:
     period: float = 1.0
     _last: dict = field(default_factory=dict)
     _suppressed: dict = field(default_factory=dict)
+    _episodes: dict = field(default_factory=dict)
 
     def warn(self, key: str, text: str, now: float) -> bool:
         last = self._last.get(key)
@@ -163,3 +165,36 @@ class ThrottledWarner:
     def suppressed(self, key: str) -> int:
         """Messages for ``key`` dropped since it was last logged."""
         return self._suppressed.get(key, 0)
+
+    def once(self, key: str, text: str, now: float) -> bool:
+        """Log ``text`` at the start of an *episode* of ``key`` only (a condition that persists,
+        such as every reading rejected while the car is off the belt), counting the later
+        calls until :meth:`end` closes it; episodes that start more often than once a
+        ``period`` (a condition that flaps) are throttled as :meth:`warn`. True when it logged.
+        """
+        if key in self._episodes:
+            self._episodes[key] += 1
+            return False
+        self._episodes[key] = 0
+        return self.warn(key, f'{text} (reported once while it lasts)', now)
+
+    def end(self, key: str, log_end: Callable[[str], object], text: str, now: float) -> bool:
+        """Close the episode of ``key`` if one is open: ``log_end(text)`` with the episode's
+        count, throttled like :meth:`warn`. True when it logged.
+        """
+        n = self._episodes.pop(key, None)
+        if n is None:
+            return False
+        last = self._last.get(key + '/end')
+        if last is not None and 0.0 <= now - last < self.period:
+            return False
+        self._last[key + '/end'] = now
+        log_end(f'{text} ({n + 1} in the episode)')
+        return True
+
+    def forget_episodes(self) -> None:
+        """Close every open episode without a log line (a reset that restarts the reports)."""
+        self._episodes.clear()
+
+    def in_episode(self, key: str) -> bool:
+        return key in self._episodes

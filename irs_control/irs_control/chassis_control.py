@@ -1,7 +1,7 @@
 """Integrated chassis control of the torque car: yaw-rate tracking and speed (ROS-free).
 
 Yaw-rate reference: the steady-state yaw rate of the linear bicycle model (irs_models.bicycle,
-the ``irs_iwt`` preset's car) for the driver's front steer at the current speed::
+the torque car of irs_models.torque_car) for the driver's front steer at the current speed::
 
     [v_y, r]_ss = -A_2^{-1} B_2 [delta_f, 0]^T,   r_ref = r_ss(V = max(v_hat, v_min))
 
@@ -49,7 +49,6 @@ car), steer limit 0.2618 rad (irs_models.constants),
 
 from __future__ import annotations
 
-import functools
 import math
 from dataclasses import dataclass, field
 
@@ -64,11 +63,10 @@ __all__ = ['ChassisParams', 'ChassisController', 'ChassisOutput', 'MIXES']
 MIXES = ('rear_steer', 'differential', 'both')
 
 
-@functools.lru_cache(maxsize=1)
 def _default_car() -> BicycleParams:
-    from irs_models.presets import get_preset
+    from irs_models.torque_car import torque_car_bicycle
 
-    return get_preset('irs_iwt').params   # frozen dataclass: safe to share
+    return torque_car_bicycle()   # frozen dataclass: safe to share
 
 
 @dataclass
@@ -78,7 +76,7 @@ class ChassisParams:
     Attributes
     ----------
     car : BicycleParams
-        The car (default: the ``irs_iwt`` preset).
+        The car (default: irs_models.torque_car, the ``irs_iwt`` preset on rubber tyres).
     yaw_bandwidth, yaw_integral : float
         w_r [rad/s], w_ri [1/s].
     differential_bandwidth : float

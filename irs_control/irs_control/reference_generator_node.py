@@ -18,7 +18,9 @@ base (irs_common.ticker); the signal is a function of that time and the console 
 time state, so nothing else is reset. A bad ``/clock`` (negative) is dropped by
 irs_common.sim_time.
 
-Writable parameters (``ros2 param set``): ``signal.*``; the signal is rebuilt at once.
+Writable parameters (``ros2 param set``): ``signal.*``; the signal is rebuilt at once. A signal
+whose range (:func:`.reference_params.signal_range`) leaves +-1 m is refused, at start-up and
+for every change.
 """
 import time
 
@@ -34,7 +36,7 @@ from irs_common.ticker import create_ticker
 from irs_msgs.msg import LateralReference
 
 from .reference import console_reference
-from .reference_params import PARAMS, reference_signal
+from .reference_params import PARAMS, reference_problem, reference_signal
 
 
 class ReferenceGeneratorNode(Node):
@@ -42,7 +44,8 @@ class ReferenceGeneratorNode(Node):
 
     def __init__(self, **node_options):
         super().__init__('reference_generator', **node_options)
-        self.p = declare_table(self, PARAMS, on_change=self._on_parameter)
+        self.p = declare_table(self, PARAMS, on_change=self._on_parameter,
+                               check=reference_problem)
         if self.p['source'] not in ('function', 'console'):
             raise ValueError(f"source must be 'function' or 'console', got {self.p['source']!r}")
         self.signal = reference_signal(self.p)

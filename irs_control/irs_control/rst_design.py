@@ -188,6 +188,29 @@ def select_cancelled_zeros(zeros, cancel='stable', zeta_min: float = 0.5,
     return np.array(canc, dtype=complex), np.array(kept, dtype=complex)
 
 
+def _checked_polynomials(A, B, Am, Bm, Ao):
+    """The design's polynomials as arrays; :class:`RstDesignError` naming the first that is
+    not a polynomial, not monic (A, Am, Ao), improper (B/A) or not Hurwitz (Am, Ao).
+    """
+    try:
+        A, B, Am, Bm, Ao = (require_polynomial(name, p) for name, p in
+                            (('A', A), ('B', B), ('Am', Am), ('Bm', Bm), ('Ao', Ao)))
+    except ValueError as exc:
+        raise RstDesignError(str(exc)) from None
+    for name, p in (('A', A), ('Am', Am), ('Ao', Ao)):
+        if abs(p[0] - 1.0) > 1e-12:
+            raise RstDesignError(f'{name} must be monic (leading coefficient 1); got {p[0]}.')
+    if degree(B) > degree(A):
+        raise RstDesignError('The plant B/A must be proper (deg B <= deg A).')
+    for name, p in (('Am', Am), ('Ao', Ao)):
+        if not is_hurwitz(p):
+            raise RstDesignError(
+                f'{name} has roots {np.roots(p)} that are not in the open left half plane; '
+                'the closed-loop poles it places would be unstable.'
+            )
+    return A, B, Am, Bm, Ao
+
+
 def design_rst(B, A, Bm, Am, Ao, cancel='stable', zeta_min: float = 0.5,
                sigma_min: float = 0.1, coprime_tol: float = 1e-6,
                absorb_zeros: bool = False, verify_rtol: float = 1e-9) -> RstDesign:
@@ -220,22 +243,7 @@ def design_rst(B, A, Bm, Am, Ao, cancel='stable', zeta_min: float = 0.5,
     ------
     RstDesignError
     """
-    try:
-        A, B, Am, Bm, Ao = (require_polynomial(name, p) for name, p in
-                            (('A', A), ('B', B), ('Am', Am), ('Bm', Bm), ('Ao', Ao)))
-    except ValueError as exc:
-        raise RstDesignError(str(exc)) from None
-    for name, p in (('A', A), ('Am', Am), ('Ao', Ao)):
-        if abs(p[0] - 1.0) > 1e-12:
-            raise RstDesignError(f'{name} must be monic (leading coefficient 1); got {p[0]}.')
-    if degree(B) > degree(A):
-        raise RstDesignError('The plant B/A must be proper (deg B <= deg A).')
-    for name, p in (('Am', Am), ('Ao', Ao)):
-        if not is_hurwitz(p):
-            raise RstDesignError(
-                f'{name} has roots {np.roots(p)} that are not in the open left half plane; '
-                'the closed-loop poles it places would be unstable.'
-            )
+    A, B, Am, Bm, Ao = _checked_polynomials(A, B, Am, Bm, Ao)
 
     zeros = np.roots(B) if degree(B) > 0 else np.array([], dtype=complex)
     canc, kept = select_cancelled_zeros(zeros, cancel, zeta_min, sigma_min)

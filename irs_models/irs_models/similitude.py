@@ -35,7 +35,12 @@ is the dimensionless understeer gradient ``Pi_us = K_us V^2 / L = Pi2/Pi3 - Pi1/
 Speed scaling: Pi3 and Pi4 are the only speed-dependent groups, both ``prop. 1/V^2``, so matching
 them at fixed tyre stiffness per unit mass ``C/m`` gives ``V_scale = V_full sqrt(L_scale /
 L_full) sqrt((C/m)_scale / (C/m)_full)``: speed scales with the square root of length (Froude
-scaling when ``C/m`` is the same, as for tyres whose stiffness is proportional to load).
+scaling when ``C/m`` is the same, as for tyres whose stiffness is proportional to load); times
+then scale with ``sqrt(L)`` and poles in rad/s with ``1/sqrt(L)``. The paper's own comparison,
+the 1:10 car at 1.2 m/s against full-size cars at 12 m/s by their poles in rad/s, is the other
+scaling, **equal L/V** (:func:`equal_time_speed`): the time scale ``L/V`` is the same, so
+dimensionless and rad/s poles compare alike, and Pi3, Pi4 match only if ``C/m`` scales with
+``L``. :func:`dimensionless_roots` gives poles and zeros as ``s L / V``.
 
 Best-matching speed
 -------------------
@@ -56,7 +61,8 @@ import numpy as np
 from .bicycle import BicycleParams
 
 __all__ = ['PiGroups', 'pi_groups', 'mismatch', 'best_speed', 'SpeedMatch',
-           'dimensionless_step', 'MATCHED_GROUPS']
+           'dimensionless_step', 'dimensionless_roots', 'equal_time_speed', 'froude_speed',
+           'MATCHED_GROUPS']
 
 #: The groups the mismatch compares (log ratios).
 MATCHED_GROUPS = ('pi1', 'pi3', 'pi4', 'pi5')
@@ -149,3 +155,25 @@ def dimensionless_step(p: BicycleParams, speed: float, tau_end: float = 20.0, n:
     C = np.array([[0.0, L / speed, 0.0, 0.0], [1.0 / speed, 0.0, 0.0, 0.0]])
     _, y, _ = lsim((A, B[:, :1], C, np.zeros((2, 1))), np.ones_like(t), t)
     return tau, y[:, 0], y[:, 1]
+
+
+def froude_speed(full_speed: float, scale_length: float, full_length: float) -> float:
+    """Froude-similar speed [m/s] of a car of ``scale_length`` [m]: ``V_full sqrt(L_s / L_f)``
+    (equal ``V^2 / (g L)``; similar when ``C/m`` is the same).
+    """
+    return full_speed * math.sqrt(scale_length / full_length)
+
+
+def equal_time_speed(full_speed: float, scale_length: float, full_length: float) -> float:
+    """Speed [m/s] at which a car of ``scale_length`` [m] has the full-size car's time scale
+    ``L/V``: ``V_full L_s / L_f`` (poles in rad/s then compare as dimensionless ones).
+    """
+    return full_speed * scale_length / full_length
+
+
+def dimensionless_roots(roots, length: float, speed: float) -> np.ndarray:
+    """Poles or zeros ``s`` [1/s] on the car's time scale: ``s L / V`` [-] (complex)."""
+    if not (math.isfinite(length) and length > 0 and math.isfinite(speed) and speed > 0):
+        raise ValueError(f'length and speed must be positive finite [m], [m/s], got '
+                         f'{length!r} and {speed!r}')
+    return np.asarray(roots, dtype=complex) * (length / speed)

@@ -13,11 +13,17 @@ first-order lag and a dead time (the paper's model of the servo)::
     G(j w) = K p / (j w + p) * exp(-j w T),   p = 2 pi f_p
 
 by :func:`scipy.optimize.least_squares` on the complex log ratio ``log(G / H)`` (real part: log
-magnitude error, imaginary part: phase error [rad], so both panels of a Bode plot weigh alike),
-points weighted by ``sqrt(gamma^2)``.  One dead time ``T`` is shared by all amplitudes (it is a
-transport delay, the same at any amplitude); gain ``K_i`` and pole ``f_p,i`` are per amplitude.
-95 % confidence half-widths: ``1.96 sqrt(diag((J^T J)^-1) s^2)`` with ``s^2`` the residual
-variance (``J`` the Jacobian at the optimum), the usual linearised least-squares interval.
+magnitude error, imaginary part: phase error [rad], so both panels of a Bode plot weigh alike).
+One dead time ``T`` is shared by all amplitudes (it is a transport delay, the same at any
+amplitude); gain ``K_i`` and pole ``f_p,i`` are per amplitude.  Each band is weighted by
+``sqrt(gamma^2)`` and has at least ``min_bins`` bins (narrower log bands are merged with the
+next).
+
+95 % confidence half-widths from the heteroscedasticity-consistent sandwich over the bands
+(:func:`.intervals.grouped_sandwich`, Student's t): right whatever the weights, if the bands'
+errors are independent (one FFT of a record that starts and ends at rest: neighbouring bands
+share no bin) and the linearisation holds (errors small against the parameters); the noise may
+have any colour.  Coverage measured: ``irs_sysid/test/test_sysid_actuator_fit.py``.
 
 Time domain (Fig. 7).  Steps are found as jumps of the command.  For each: its size, the dead
 time (from the jump to the first sample where the response has moved by more than
@@ -37,11 +43,11 @@ import numpy as np
 from scipy.fft import rfft, rfftfreq
 from scipy.optimize import least_squares
 
+from .intervals import grouped_sandwich, half_widths, student95
+
 __all__ = ['FrequencyResponse', 'FirstOrderFit', 'StepResult', 'first_order_delay',
            'frequency_response', 'fit_first_order_delay', 'find_steps', 'analyse_step',
            'fit_step']
-
-Z95 = 1.959963984540054  # two-sided 95 % quantile of the standard normal
 
 
 @dataclass
@@ -52,12 +58,36 @@ class FrequencyResponse:
     h : ndarray       complex response, achieved / commanded [rad/rad]
     coherence : ndarray   magnitude-squared coherence in [0, 1]
     amplitude : float     command amplitude of the excitation [rad]
+    bins : ndarray    FFT bins in each band (None: unknown)
+    spread : tuple    per band, the bins' frequencies [Hz] and their share of the command's
+                      power (None: unknown)
     """
 
     f: np.ndarray
     h: np.ndarray
     coherence: np.ndarray
     amplitude: float = math.nan
+    bins: np.ndarray | None = None
+    spread: tuple | None = None
+
+    def band_average(self, response, keep=None) -> np.ndarray:
+        """What the estimate measures of a system whose response is ``response(f)`` (complex,
+        f [Hz]): each band's ``sum G(f_k) |U_k|^2 / sum |U_k|^2`` (noise-free ``Y_k = G_k U_k``
+        in the H1 ratio), or ``G`` at the band frequencies without :attr:`spread`. ``keep``:
+        a mask of the bands.
+        """
+        keep = np.ones(self.f.size, bool) if keep is None else np.asarray(keep)
+        if self.spread is None:
+            return response(self.f[keep])
+        return np.array([np.dot(w, response(fk)) for (fk, w), k in zip(self.spread, keep) if k])
+
+    def weights(self) -> np.ndarray:
+        """Per-band weights of the fit, ``sqrt(gamma^2)``: a band the servo's non-linearity or
+        the noise makes incoherent counts less.  Not the inverse standard deviation of a band's
+        estimate, which on a noise-free, slew-limited servo would follow the distortion and fit
+        the low bands at the cost of the roll-off; the intervals do not rest on the weights.
+        """
+        return np.sqrt(self.coherence)
 
 
 @dataclass
@@ -107,8 +137,9 @@ def first_order_delay(f, gain: float, pole_hz: float, delay: float) -> np.ndarra
 
 
 def frequency_response(t, u, y, f_lo: float, f_hi: float, bands: int = 40,
-                       amplitude: float = math.nan) -> FrequencyResponse:
-    """H1 estimate achieved/commanded in ``bands`` log-spaced bands of ``[f_lo, f_hi]`` [Hz].
+                       amplitude: float = math.nan, min_bins: int = 3) -> FrequencyResponse:
+    """H1 estimate achieved/commanded in ``bands`` log-spaced bands of ``[f_lo, f_hi]`` [Hz]
+    (bands of fewer than ``min_bins`` FFT bins merged with the next).
 
     One FFT of the whole record (:func:`scipy.fft.rfft`, means removed; a swept sine excites
     each frequency once, so segment averaging would only cut the record), then the H1 ratio
@@ -116,8 +147,9 @@ def frequency_response(t, u, y, f_lo: float, f_hi: float, bands: int = 40,
 
         H = sum(Y conj(U)) / sum(|U|^2),   gamma^2 = |sum(Y conj(U))|^2 / (sum|U|^2 sum|Y|^2)
 
-    at the power-weighted mean frequency of the band.  Bands without a bin are left out.
-    Raises ``ValueError`` for unusable input.
+    at the power-weighted mean frequency of the band (the fit compares a model averaged over
+    the band the same way, :meth:`FrequencyResponse.band_average`).  A last band short of
+    ``min_bins`` is left out.  Raises ``ValueError`` for unusable input.
     """
     t = np.asarray(t, dtype=float)
     u = np.asarray(u, dtype=float)
@@ -135,9 +167,13 @@ def frequency_response(t, u, y, f_lo: float, f_hi: float, bands: int = 40,
     uf = rfft(u - u.mean())
     yf = rfft(y - y.mean())
     edges = np.geomspace(f_lo, f_hi, bands + 1)
-    fs, hs, cs = [], [], []
-    for lo, hi in zip(edges[:-1], edges[1:]):
+    fs, hs, cs, ns, spread = [], [], [], [], []
+    lo = edges[0]
+    for hi in edges[1:]:
         sel = (f >= lo) & (f < hi)
+        if np.count_nonzero(sel) < max(1, min_bins):
+            continue                      # too few bins: the band grows into the next
+        lo = hi
         puu = float(np.sum(np.abs(uf[sel]) ** 2))
         if puu <= 0.0:
             continue
@@ -146,20 +182,20 @@ def frequency_response(t, u, y, f_lo: float, f_hi: float, bands: int = 40,
         fs.append(float(np.sum(f[sel] * np.abs(uf[sel]) ** 2)) / puu)
         hs.append(puy / puu)
         cs.append(abs(puy) ** 2 / (puu * pyy) if pyy > 0.0 else 0.0)
+        ns.append(int(np.count_nonzero(sel)))
+        spread.append((f[sel], np.abs(uf[sel]) ** 2 / puu))
     if not fs:
         raise ValueError(f'no frequency of the estimate lies in [{f_lo}, {f_hi}] Hz')
-    return FrequencyResponse(np.array(fs), np.array(hs), np.array(cs), amplitude)
+    return FrequencyResponse(np.array(fs), np.array(hs), np.array(cs), amplitude,
+                             np.array(ns), tuple(spread))
 
 
-def _ci(jac: np.ndarray, resid: np.ndarray) -> np.ndarray:
-    """95 % half-widths of the parameters from the Jacobian at the least-squares optimum."""
-    dof = max(1, resid.size - jac.shape[1])
-    s2 = float(resid @ resid) / dof
-    try:
-        cov = np.linalg.inv(jac.T @ jac) * s2
-    except np.linalg.LinAlgError:
-        return np.full(jac.shape[1], math.nan)
-    return Z95 * np.sqrt(np.clip(np.diag(cov), 0.0, None))
+def _ci_bands(jac: np.ndarray, resid: np.ndarray, groups) -> np.ndarray:
+    """95 % half-widths from :func:`.intervals.grouped_sandwich` over the bands (the real and
+    imaginary residual of one band a group), Student's t.
+    """
+    cov, dof = grouped_sandwich(jac, resid, groups)
+    return student95(dof) * np.sqrt(np.clip(np.diag(cov), 0.0, None))
 
 
 def fit_first_order_delay(responses, delay0: float = 0.02, min_coherence: float = 0.5,
@@ -167,7 +203,7 @@ def fit_first_order_delay(responses, delay0: float = 0.02, min_coherence: float 
     """Fit ``K_i p_i / (s + p_i) exp(-s T)`` to every response, ``T`` shared (or fixed).
 
     ``responses``: a :class:`FrequencyResponse` or a list of them.  Points with coherence below
-    ``min_coherence`` are left out; the others are weighted by ``sqrt(coherence)``.
+    ``min_coherence`` are left out; the others are weighted by :meth:`FrequencyResponse.weights`.
     """
     if isinstance(responses, FrequencyResponse):
         responses = [responses]
@@ -176,7 +212,7 @@ def fit_first_order_delay(responses, delay0: float = 0.02, min_coherence: float 
         keep = (r.coherence >= min_coherence) & np.isfinite(r.h) & (np.abs(r.h) > 0.0)
         if np.count_nonzero(keep) < 3:
             raise ValueError('fewer than 3 usable frequencies (coherence too low or no data)')
-        data.append((r.f[keep], r.h[keep], np.sqrt(r.coherence[keep])))
+        data.append((r.f[keep], r.h[keep], r.weights()[keep], r, keep))
     n = len(data)
     free_delay = fixed_delay is None
 
@@ -189,19 +225,23 @@ def fit_first_order_delay(responses, delay0: float = 0.02, min_coherence: float 
     def resid(x):
         gains, poles, delay = unpack(x)
         out = []
-        for (f, h, w), k, p in zip(data, gains, poles):
-            r = np.log(first_order_delay(f, k, p, delay) / h)
+        for (_f, h, w, fr, keep), k, p in zip(data, gains, poles):
+            g = fr.band_average(lambda fk: first_order_delay(fk, k, p, delay), keep)
+            r = np.log(g / h)
             r = r.real + 1j * np.angle(np.exp(1j * r.imag))  # phase error wrapped to (-pi, pi]
             out.append(w * r.real)
             out.append(w * r.imag)
         return np.concatenate(out)
 
-    g0 = [math.log(max(1e-6, float(np.median(np.abs(h[:3]))))) for _, h, _ in data]
+    g0 = [math.log(max(1e-6, float(np.median(np.abs(h[:3]))))) for _, h, *_ in data]
     p0 = [math.log(3.0)] * n
     x0 = np.array(g0 + p0 + ([delay0] if free_delay else []))
     sol = least_squares(resid, x0, method='lm', x_scale='jac')
     gains, poles, delay = unpack(sol.x)
-    ci = _ci(sol.jac, sol.fun)
+    sizes = [f.size for f, *_ in data]
+    offsets = np.cumsum([0] + [2 * m for m in sizes[:-1]])
+    groups = [(o + i, o + m + i) for o, m in zip(offsets, sizes) for i in range(m)]
+    ci = _ci_bands(sol.jac, sol.fun, groups)
     # log-parameters: half-width on the parameter by the delta method, d exp(x) = exp(x) dx
     return FirstOrderFit(gains=gains, poles_hz=poles, delay=float(delay),
                          gains_ci95=gains * ci[:n], poles_ci95=poles * ci[n:2 * n],
@@ -263,7 +303,9 @@ def fit_step(t, y, t_step: float, y0: float, y1: float, tau0: float = 0.03,
     """First-order + dead-time fit of one step response (the paper's time-domain fit).
 
     ``y(t) = y0 + (y1 - y0) (1 - exp(-(t - t_step - T) / tau))`` for ``t > t_step + T``; returns
-    ``(tau, T, tau_ci95, T_ci95)`` [s].  ``t``, ``y`` are the samples after the step.
+    ``(tau, T, tau_ci95, T_ci95)`` [s].  ``t``, ``y`` are the samples after the step.  The
+    intervals model the residual as an autoregressive process (:mod:`.intervals`): a step's
+    noise and the servo's unmodelled detail are correlated from sample to sample.
     """
     t = np.asarray(t, dtype=float) - t_step
     y = np.asarray(y, dtype=float)
@@ -275,6 +317,6 @@ def fit_step(t, y, t_step: float, y0: float, y1: float, tau0: float = 0.03,
 
     sol = least_squares(lambda x: (model(x) - y) / abs(y1 - y0),
                         np.array([math.log(tau0), delay0]), method='trf', x_scale=[1.0, 0.01])
-    ci = _ci(sol.jac, sol.fun)
+    ci, _noise = half_widths(sol.jac, sol.fun)
     tau = math.exp(sol.x[0])
     return tau, float(sol.x[1]), tau * ci[0], float(ci[1])

@@ -1,6 +1,6 @@
 """``sysid cycle``: identify the rig's plant, design the MRC on the model, run it, compare.
 
-    ./irs run irs_bringup sysid cycle [--plant identified irs_2wd ...] [--runs-dir runs/cycle]
+    ./irs run irs_sysid sysid cycle [--plant identified irs_2wd ...] [--runs-dir runs/cycle]
                                       [--offline] [--input achieved|command] [--png cycle.png]
 
 Per plant (the rig's ``vehicle_sim`` configured with it: ``identified`` = Eq. 6, or a bicycle
@@ -42,6 +42,8 @@ import math
 from pathlib import Path
 
 import numpy as np
+
+from irs_common.cli import InputError, RunFailed
 
 from . import vehicle_fit as vf
 from .common import save_figure
@@ -95,7 +97,7 @@ def _experiment(name: str, plant: str, controller: dict | None = None):
         try:
             get_preset(plant)
         except KeyError as exc:
-            raise ValueError(f'--plant: {exc.args[0]}') from None
+            raise InputError(f'--plant: {exc.args[0]}') from None
         rig.params.update({'plant': 'bicycle', 'bicycle.preset': plant})
     if controller:
         exp.node('irs_control', 'lateral_controller').params.update(controller)
@@ -111,7 +113,7 @@ def _run_experiment(exp, runs_dir: Path, offline: bool) -> dict:
         from irs_bringup.experiment_runner import ExperimentRunner
         res = ExperimentRunner(exp, runs_dir=runs_dir, progress=False).run()
         if not res.completed or res.bag_dir is None:
-            raise RuntimeError(f'{exp.name} did not complete: {res.message}')
+            raise RunFailed(f'{exp.name} did not complete: {res.message}')
         out = load_run(res.bag_dir)
         out['bag'] = str(res.bag_dir)
         return out
@@ -351,7 +353,7 @@ def run(args) -> int:
     names = set(list_presets()) | {'identified'}
     for p in args.plant:
         if p not in names:
-            raise ValueError(f"--plant: unknown plant {p!r}; 'identified' or one of "
+            raise InputError(f"--plant: unknown plant {p!r}; 'identified' or one of "
                              f'{", ".join(sorted(names - {"identified"}))}')
     results = []
     for p in args.plant:

@@ -7,10 +7,10 @@ No rclpy: arrays in, estimates out. The model is the rig's belt (:mod:`irs_vehic
 
 with ``V`` the belt speed [m/s] and ``u`` the drive voltage [V].
 
-Drive (Eq. 2, :func:`fit_drive`): every step **up** of the command from a settled speed ``V0``
-gives, after the delay, ``V(t) = V_ss + (V0 - V_ss) exp(-a (t - t_s - T_d))`` with
-``V_ss = b U / a``, ``U`` the new voltage, ``t_s`` the step time. ``a`` [1/s], ``b`` [m/s^2/V]
-and ``T_d`` [s] are fitted jointly over all step-ups by nonlinear least squares
+Drive (Eq. 2, :func:`fit_drive`): every step **up** of the command from a speed ``V0`` gives,
+after the delay, ``V(t) = V_ss + (V0 - V_ss) exp(-a (t - t_s - T_d))`` with ``V_ss = b U / a``,
+``U`` the new voltage, ``t_s`` the step time. ``a`` [1/s], ``b`` [m/s^2/V], ``T_d`` [s] and one
+``V0`` per step are fitted jointly over all step-ups by nonlinear least squares
 (``scipy.optimize.least_squares``), as the paper fitted the gain by least squares and the pole
 from the step responses. ``T_d`` is the delay *seen in the measured speed*: the drive's transport
 delay plus the encoder estimate's lag (``(window_samples/2 + delay_samples) dt``, 6 ms at the
@@ -21,19 +21,19 @@ is ``V(t) = (V0 + k) exp(-c (t - t0)) - k``, i.e. ``ln(V + k)`` is linear in ``t
 ``-c``. The paper's "iterative, linear-regression search": an outer scalar search over ``k``
 (``scipy.optimize.minimize_scalar``, bounded) and, for each ``k``, a linear regression of
 ``ln(V + k)`` on ``t`` (``numpy.linalg.lstsq``: one intercept per coast-down, one common slope
-``-c``); the outer search minimises the squared speed error of the regressed curves.
+``-c``); the outer search minimises the squared speed error of the regressed curves. Its
+optimum starts a final ``least_squares`` on the speed error itself, whose optimum is reported
+(the log-regression weighs the slow end of a coast more than its noise warrants).
 
-Confidence: 95 % half-widths ``1.96 sqrt(diag(s^2 (J^T J)^-1))`` from the Jacobian of a final
-``least_squares`` on the same model (for the coast, started at the search's optimum). The
-measurement error is encoder quantisation seen through a moving window, i.e. correlated over
-``window_samples`` steps, so these intervals are optimistic by about ``sqrt(window_samples)``;
-:func:`fit_drive` and :func:`fit_coast` therefore thin the series to one sample per
-``decimate`` steps (default 10: one window) before fitting.
+Confidence: 95 % half-widths from the Jacobian of the final ``least_squares``, with the residual
+modelled as an autoregressive process within each step or coast (:mod:`.intervals`): the
+encoder's quantisation seen through a moving window and any slow noise are correlated in time,
+and a white-noise interval is then wrong by several times. The series are thinned to one sample
+per ``decimate`` steps (default 10: one encoder window) before fitting.
 
-Tolerances the identification is held to (tests, at the rig's defaults: 1 ms steps, encoder of
-77.9 um per count, 10-step window), all relative: ``a`` 3 %, ``b`` 3 %, ``T_d`` 10 %,
-``B/J`` 5 %, ``F/B`` 10 % (``F/B`` is the hardest: it is the intercept of a deceleration that is
-nearly proportional to ``V + F/B`` over the measured speeds).
+Tolerances the identification is held to: the tests derive them from the noise of their data
+(``irs_sysid/test/test_sysid_treadmill_fit.py``); the graph test holds the rig's defaults
+(1 ms steps, encoder of 77.9 um per count, 10-step window) to the CLI's ``TOLERANCES``.
 """
 from __future__ import annotations
 
@@ -42,11 +42,10 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.optimize import least_squares, minimize_scalar
 
+from .intervals import P_MAX, Z95, half_widths
+
 __all__ = ['Segment', 'segments', 'DriveFit', 'fit_drive', 'CoastFit', 'fit_coast',
            'simulate_belt', 'driver_profile', 'Z95']
-
-#: two-sided 95 % normal quantile
-Z95 = 1.959963984540054
 
 
 @dataclass(frozen=True)
@@ -84,18 +83,6 @@ def segments(t, u, tol: float = 1e-9) -> list[Segment]:
     return out
 
 
-def _covariance_ci(res) -> np.ndarray:
-    """95 % half-widths of a ``least_squares`` result's parameters (NaN when singular)."""
-    J = res.jac
-    dof = max(1, J.shape[0] - J.shape[1])
-    s2 = 2.0 * res.cost / dof
-    try:
-        cov = np.linalg.inv(J.T @ J) * s2
-    except np.linalg.LinAlgError:
-        return np.full(J.shape[1], np.nan)
-    return Z95 * np.sqrt(np.clip(np.diag(cov), 0.0, None))
-
-
 def _settled_speed(t, v, t_end, span=0.1):
     """Median speed over the ``span`` s before ``t_end`` (the speed a step starts from)."""
     m = (t >= t_end - span) & (t < t_end)
@@ -104,7 +91,11 @@ def _settled_speed(t, v, t_end, span=0.1):
 
 @dataclass(frozen=True)
 class DriveFit:
-    """Eq. 2 identified: pole ``a`` [1/s], gain ``b`` [m/s^2/V], delay ``T_d`` [s], 95 % CIs."""
+    """Eq. 2 identified: pole ``a`` [1/s], gain ``b`` [m/s^2/V], delay ``T_d`` [s], 95 % CIs.
+
+    ``steps`` holds ``(t_s, V0, U, t_end)`` of every step used, ``V0`` as fitted; ``noise_ar``
+    the AR coefficients of the residual model behind the intervals (:mod:`.intervals`).
+    """
 
     a: float
     b: float
@@ -114,6 +105,7 @@ class DriveFit:
     delay_ci: float
     rms: float            # residual RMS [m/s]
     steps: tuple          # (t_s, V0, U, t_end) of every step used
+    noise_ar: tuple = ()
 
     @property
     def dc_gain(self) -> float:
@@ -122,17 +114,18 @@ class DriveFit:
 
 
 def _step_response(params, steps, t_list):
-    a, b, td = params
+    """Eq. 2's step responses; ``params = (a, b, T_d, V0_1, ..., V0_n)``."""
+    a, b, td, *v0s = params
     out = []
-    for (ts, v0, uu, _te), t in zip(steps, t_list):
+    for (ts, _v0, uu, _te), v0, t in zip(steps, v0s, t_list):
         vss = b * uu / a
         tau = np.clip(t - ts - td, 0.0, None)
         out.append(vss + (v0 - vss) * np.exp(-a * tau))
     return out
 
 
-def fit_drive(t, v, u, decimate: int = 10, settle: float = 1.0,
-              guess=(3.0, 2.0, 0.03)) -> DriveFit:
+def fit_drive(t, v, u, decimate: int = 10, settle: float = 2.0,
+              guess=(3.0, 2.0, 0.03), noise_order: int = P_MAX) -> DriveFit:
     """Fit ``a``, ``b``, ``T_d`` to every step up of ``u`` (module docstring).
 
     Parameters
@@ -142,9 +135,14 @@ def fit_drive(t, v, u, decimate: int = 10, settle: float = 1.0,
     decimate : int
         Keep one sample in ``decimate`` (the encoder window) for the fit.
     settle : float
-        Longest stretch after each step used [s] (the response is settled well before 1 s).
+        Longest stretch after each step used [s] (the response settles within 1 s; the
+        settled part fixes the gain and tells the slow part of the noise from the response).
     guess : tuple
-        Start of the search ``(a [1/s], b [m/s^2/V], T_d [s])``.
+        Start of the search ``(a [1/s], b [m/s^2/V], T_d [s])``; each ``V0`` starts at the
+        median speed of the 0.1 s before its step.
+    noise_order : int
+        Largest order of the residual's AR model behind the intervals (:mod:`.intervals`);
+        0: a white residual assumed.
 
     Raises
     ------
@@ -166,21 +164,28 @@ def fit_drive(t, v, u, decimate: int = 10, settle: float = 1.0,
     if not steps:
         raise ValueError('no step up of the drive voltage to fit the drive (Eq. 2) to')
     data = np.concatenate(v_list)
+    ends = np.cumsum([len(x) for x in t_list])
+    bounds = list(zip(np.r_[0, ends[:-1]], ends))
 
     def residuals(p):
         return np.concatenate(_step_response(p, steps, t_list)) - data
 
-    res = least_squares(residuals, guess, bounds=([1e-3, 1e-3, 0.0], [1e3, 1e3, 1.0]),
-                        x_scale=[1.0, 1.0, 0.01], method='trf')
-    ci = _covariance_ci(res)
-    a, b, td = res.x
-    return DriveFit(float(a), float(b), float(td), *map(float, ci),
-                    float(np.sqrt(np.mean(res.fun ** 2))), tuple(steps))
+    n = len(steps)
+    res = least_squares(residuals, [*guess, *(s[1] for s in steps)],
+                        bounds=([1e-3, 1e-3, 0.0] + [-np.inf] * n, [1e3, 1e3, 1.0] + [np.inf] * n),
+                        x_scale=[1.0, 1.0, 0.01] + [0.1] * n, method='trf')
+    ci, noise = half_widths(res.jac, res.fun, bounds, noise_order)
+    a, b, td, *v0s = res.x
+    steps = tuple((ts, float(v0), uu, te) for (ts, _v, uu, te), v0 in zip(steps, v0s))
+    return DriveFit(float(a), float(b), float(td), *map(float, ci[:3]),
+                    float(np.sqrt(np.mean(res.fun ** 2))), steps, tuple(noise.phi))
 
 
 @dataclass(frozen=True)
 class CoastFit:
-    """Eq. 1 friction identified: ``B/J`` [1/s], ``F/B`` [m/s], 95 % CIs, the coasts used."""
+    """Eq. 1 friction identified: ``B/J`` [1/s], ``F/B`` [m/s], 95 % CIs, the coasts used;
+    ``noise_ar`` the AR coefficients of the residual model behind the intervals.
+    """
 
     b_over_j: float
     f_over_b: float
@@ -188,6 +193,7 @@ class CoastFit:
     f_over_b_ci: float
     rms: float             # residual RMS [m/s]
     coasts: tuple          # (t0, V0 fitted, t_end) of every coast-down used
+    noise_ar: tuple = ()
 
 
 def _coast_data(t, v, u, skip, v_min, decimate):
@@ -227,7 +233,7 @@ def _coast_model(intercepts, c, k, coasts):
 
 
 def fit_coast(t, v, u, skip: float = 0.15, v_min: float = 0.1, decimate: int = 10,
-              k_bounds=(1e-4, 10.0)) -> CoastFit:
+              k_bounds=(1e-4, 10.0), noise_order: int = P_MAX) -> CoastFit:
     """Fit ``B/J`` and ``F/B`` to every coast-down (module docstring).
 
     Parameters
@@ -244,6 +250,8 @@ def fit_coast(t, v, u, skip: float = 0.15, v_min: float = 0.1, decimate: int = 1
         Keep one sample in ``decimate``.
     k_bounds : tuple
         Search interval of ``F/B`` [m/s].
+    noise_order : int
+        Largest order of the residual's AR model behind the intervals; 0: white.
 
     Raises
     ------
@@ -268,17 +276,20 @@ def fit_coast(t, v, u, skip: float = 0.15, v_min: float = 0.1, decimate: int = 1
     k = float(np.exp(best.x))
     intercepts, c = _regress(coasts, k)
 
-    # Confidence from the Jacobian of the same model at the optimum (least_squares, one step).
+    # The search's optimum of the log-regressions refined to the least-squares optimum of the
+    # speed error (the estimate the interval belongs to), the interval from its Jacobian.
     def residuals(p):
         cc, kk, *lnv0 = p
         return np.concatenate(_coast_model(lnv0, cc, kk, coasts)) - data
 
     res = least_squares(residuals, [c, k, *intercepts], method='lm')
-    ci = _covariance_ci(res)
+    ends = np.cumsum([len(tc) for tc, _ in coasts])
+    ci, noise = half_widths(res.jac, res.fun, list(zip(np.r_[0, ends[:-1]], ends)), noise_order)
+    c, k, *intercepts = res.x
     coast_info = tuple((float(tc[0]), float(np.exp(lv) - k), float(tc[-1]))
                        for (tc, _), lv in zip(coasts, intercepts))
-    return CoastFit(float(c), k, float(ci[0]), float(ci[1]),
-                    float(np.sqrt(np.mean(res.fun ** 2))), coast_info)
+    return CoastFit(float(c), float(k), float(ci[0]), float(ci[1]),
+                    float(np.sqrt(np.mean(res.fun ** 2))), coast_info, tuple(noise.phi))
 
 
 def simulate_belt(u, dt: float, params, v0: float = 0.0, measured: bool = False):

@@ -1,16 +1,20 @@
 r"""``sysid vehicle <bag>``: the car's open loop from a closed-loop sweep (paper Sec. 4, Fig. 8-9).
 
-    ./irs run irs_bringup experiment run sysid_vehicle_sweep      # 13.5 s lock-step, recorded
-    ./irs run irs_bringup experiment run sysid_vehicle_step       # 4 s, a 0.02 m step
-    ./irs run irs_bringup sysid vehicle runs/sysid_vehicle_sweep-<t>/bag \
+    ./irs run irs_bringup experiment run sysid_vehicle_sweep      # 16.5 s lock-step, recorded
+    ./irs run irs_bringup experiment run sysid_vehicle_step       # 8 s, a 0.02 m step
+    ./irs run irs_sysid sysid vehicle runs/sysid_vehicle_sweep-<t>/bag \
         [--step-bag runs/sysid_vehicle_step-<t>/bag] [--png out/vehicle]
 
-From the sweep bag (``lateral/reference`` r, ``steering/command`` u, ``lateral_position`` y, and
-``steering/state`` for the achieved steer) two identifications (:mod:`.vehicle_fit`):
+Both experiments run under the paper's PI (Kp = 5, Ki = 3), a loop made from no model of the
+plant: the plant is identified first and designs rest on it afterwards, the paper's order
+(Sec. 4-5). From the sweep bag (``lateral/reference`` r, ``steering/command`` u,
+``lateral_position`` y, and ``steering/state`` for the achieved steer) two identifications
+(:mod:`.vehicle_fit`):
 
 1. **the paper's**: ``S_ry/S_ru`` from the steer *command*, the actuator "simply modeled as a
    4.6 Hz first order lag" plus the transmitter delay configured in the rig (read from the
-   bag's metadata), the Eq. 6 structure fitted;
+   bag's metadata) and half a sample (the command is held over its step), the Eq. 6 structure
+   fitted;
 2. **from the achieved steer** (``S_ry/S_r delta``, the servo's own angle): the vehicle alone,
    with no actuator assumption -- what is left when the actuator is not the paper's lag
    (the rig's amplitude-dependent servo is slew limited at these amplitudes).
@@ -28,6 +32,8 @@ import math
 from pathlib import Path
 
 import numpy as np
+
+from irs_common.cli import InputError, RunFailed
 
 from . import vehicle_fit as vf
 from .common import save_figure
@@ -50,7 +56,8 @@ def add_arguments(parser) -> None:
     parser.add_argument('--lag-hz', type=float,
                         help=f'actuator lag [Hz] of the paper fit (default {vf.PAPER_LAG_HZ})')
     parser.add_argument('--delay', type=float,
-                        help="actuator dead time [s] of the paper fit (default: the bag's rig)")
+                        help="actuator dead time [s] of the paper fit (default: the bag's rig, "
+                             'plus half a sample for the hold)')
 
 
 # ------------------------------------------------------------------ bag reading
@@ -63,13 +70,13 @@ def bag_parameters(bag) -> dict:
         with BagReader(bag) as reader:
             records = reader.metadata_records()
     except BagError as exc:
-        raise ValueError(str(exc)) from None
+        raise InputError(str(exc)) from None
     for _name, md in records:
         if 'node_parameters' in md:
             try:
                 return json.loads(md['node_parameters'])
             except ValueError:
-                raise ValueError(f'{bag}: unreadable node_parameters metadata') from None
+                raise InputError(f'{bag}: unreadable node_parameters metadata') from None
     return {}
 
 
@@ -81,19 +88,19 @@ def load_run(bag) -> dict:
     from irs_bag.run_series import lateral_run
 
     if not Path(bag).exists():
-        raise ValueError(f'{bag}: no such bag')
+        raise InputError(f'{bag}: no such bag')
     try:
         run = lateral_run(bag)
     except BagError as exc:
-        raise ValueError(str(exc)) from None
+        raise InputError(str(exc)) from None
     for key in ('reference', 'steer_cmd', 'y_measured'):
         if key not in run:
-            raise ValueError(f'{bag}: the bag has no {key} series (record /lateral/reference, '
+            raise InputError(f'{bag}: the bag has no {key} series (record /lateral/reference, '
                              '/steering/command, /lateral_position)')
     ok = np.isfinite(run['reference']) & np.isfinite(run['steer_cmd']) & \
         np.isfinite(run['y_measured'])
     if ok.sum() < 64:
-        raise ValueError(f'{bag}: only {int(ok.sum())} samples with reference, steer command '
+        raise InputError(f'{bag}: only {int(ok.sum())} samples with reference, steer command '
                          'and measurement')
     out = {k: v[ok] for k, v in run.items()}
     out['params'] = bag_parameters(bag)
@@ -104,7 +111,7 @@ def _rate(t) -> float:
     dt = np.diff(t)
     fs = 1.0 / float(np.median(dt))
     if not np.allclose(dt, dt[0], rtol=1e-6, atol=1e-9):
-        raise ValueError('the samples are not equally spaced (a lock-step run is)')
+        raise InputError('the samples are not equally spaced (a lock-step run is)')
     return fs
 
 
@@ -118,12 +125,13 @@ def identify(run: dict, band=None, coherence_min: float = vf.COHERENCE_MIN, lag_
     configured = vf.configured_vehicle(rig) if rig else None
     if band is None:
         if ref.get('signal.type') != 'chirp':
-            raise ValueError('the bag says no chirp band (reference_generator signal.type is '
+            raise InputError('the bag says no chirp band (reference_generator signal.type is '
                              f"{ref.get('signal.type')!r}): give --band F0 F1")
         band = (float(ref['signal.f0']), float(ref['signal.f1']))
     a = 2 * math.pi * (lag_hz if lag_hz is not None else vf.PAPER_LAG_HZ)
-    d = delay if delay is not None else (configured.delay if configured else 0.0)
     fs = _rate(run['time'])
+    d = delay if delay is not None else \
+        (configured.delay if configured else 0.0) + 0.5 / fs     # the hold: half a sample
     r, u, y = run['reference'], run['steer_cmd'], run['y_measured']
     fr = vf.closed_loop_frequency_response(r, u, y, fs, band, coherence_min=coherence_min)
     fit = vf.fit_open_loop(fr, a, d)
@@ -147,7 +155,7 @@ def reports(ident: dict) -> list:
     fit, conf = ident['fit'], ident['configured']
     m = fit.model
     out = [(f'Open loop from the steer command, actuator = {m.actuator_pole / (2 * math.pi):.2f}'
-            f" Hz lag + {1000 * m.delay:.0f} ms (the paper's method; {fit.points} points, "
+            f" Hz lag + {1000 * m.delay:.1f} ms (the paper's method; {fit.points} points, "
             f'{ident["band"][0]:g}-{ident["band"][1]:g} Hz, RMS log error '
             f'{fit.rms_log_error:.3f})',
             vf.vehicle_estimates(fit, _configured_as(conf, m.actuator_pole, m.delay),
@@ -182,7 +190,7 @@ def step_comparison(step_run: dict, model: vf.PlantModel, configured=None) -> di
     """
     rst = controller_polynomials(step_run.get('params', {}))
     if rst is None:
-        raise ValueError('the step bag does not say which controller ran (no metadata)')
+        raise InputError('the step bag does not say which controller ran (no metadata)')
     t, r, y = step_run['time'], step_run['reference'], step_run['y_measured']
     out = {'t': t, 'r': r, 'y': y, 'y_model': vf.closed_loop_response(model, *rst, t, r)}
     out['rms_model'] = float(np.sqrt(np.mean((out['y_model'] - y) ** 2)))
@@ -243,7 +251,7 @@ def plot_bode(ident: dict, path) -> Path:
     z, p = fmt_roots(m.zeros), fmt_roots(m.poles)
     ax_m.set_title(f'Figure 8: open loop steer command -> lateral position, from closed-loop '
                    f'data\nfit: K = {m.gain:.3g} m/(s^2 rad), zeros [{z}], poles [0, 0, {p}, '
-                   f'-{m.actuator_pole:.3g}], delay {1000 * m.delay:.0f} ms', fontsize=10)
+                   f'-{m.actuator_pole:.3g}], delay {1000 * m.delay:.1f} ms', fontsize=10)
     for ax in (ax_m, ax_p):
         ax.grid(True, which='both', alpha=0.3)
     ax_m.legend(loc='lower left')
@@ -276,13 +284,13 @@ def plot_step(cmp: dict, path) -> Path:
 # ------------------------------------------------------------------ command
 def run(args) -> int:
     if not (0 < args.coherence < 1):
-        raise ValueError(f'--coherence must lie in (0, 1), got {args.coherence}')
+        raise InputError(f'--coherence must lie in (0, 1), got {args.coherence}')
     if args.band is not None and not (0 < args.band[0] < args.band[1]):
-        raise ValueError(f'--band must be 0 < F0 < F1 [Hz], got {args.band}')
+        raise InputError(f'--band must be 0 < F0 < F1 [Hz], got {args.band}')
     for name in ('lag_hz', 'delay'):
         v = getattr(args, name)
         if v is not None and not (math.isfinite(v) and (v > 0 if name == 'lag_hz' else v >= 0)):
-            raise ValueError(f'--{name.replace("_", "-")} must be a '
+            raise InputError(f'--{name.replace("_", "-")} must be a '
                              f'{"positive" if name == "lag_hz" else "non-negative"} number, '
                              f'got {v}')
     run_ = load_run(args.bag)
@@ -333,7 +341,7 @@ def reproduce_figures(img_dir: Path, runs_dir: Path) -> dict:
     for name in ('sysid_vehicle_sweep', 'sysid_vehicle_step'):
         res = ExperimentRunner(load_experiment(name), runs_dir=runs_dir, progress=False).run()
         if not res.completed or res.bag_dir is None:
-            raise RuntimeError(f'{name} did not complete: {res.message}')
+            raise RunFailed(f'{name} did not complete: {res.message}')
         bags[name] = res.bag_dir
     ident = identify(load_run(bags['sysid_vehicle_sweep']))
     m = ident['fit'].model

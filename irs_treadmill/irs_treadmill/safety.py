@@ -81,7 +81,7 @@ class SafetyParams:
     belt_half_width: float = BELT_HALF_WIDTH
     end_margin: float = 0.15
     edge_margin: float = 0.10
-    stale_timeout: float = 0.1
+    stale_timeout: float = 0.5
 
     def __post_init__(self) -> None:
         check_numbers(self, ('belt_half_length', 'belt_half_width', 'end_margin', 'edge_margin',
@@ -190,9 +190,17 @@ class SafetyMonitor:
         """Check the position age at time ``now`` [s]; call every control period."""
         if not math.isfinite(now):
             self._latch(FaultCode.INVALID_INPUT, f'now={now!r}')
-        elif self._last_stamp is not None and now - self._last_stamp > self.params.stale_timeout:
-            self._latch(FaultCode.STALE_POSITION,
-                        f'last position {now - self._last_stamp:.3f} s old')
+        elif self._last_stamp is not None:
+            self.check_age(now - self._last_stamp)
+        return self.fault
+
+    def check_age(self, age: float) -> FaultCode:
+        """Check a position age [s] measured by the caller (a node measures the wall time since
+        the last valid position *arrived*: a source whose stamps lag the clock, such as a rig
+        catching up after a stall, is not stale).
+        """
+        if self._last_stamp is not None and age > self.params.stale_timeout:
+            self._latch(FaultCode.STALE_POSITION, f'last position {age:.3f} s old')
         return self.fault
 
     # ------------------------------------------------------------------ outputs

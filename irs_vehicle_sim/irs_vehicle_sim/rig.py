@@ -414,6 +414,8 @@ class RigSimulation:
         self.k = 0
         self._speed_cmd = c.u0
         self._fault_reason = ''
+        self.path_rate = 1.0
+        self._path_time = 0.0
         self._outputs = self._make_outputs((), None)
         return self._outputs
 
@@ -488,7 +490,10 @@ class RigSimulation:
         v_k = self.plant.lateral_velocity
         d_front_k = self.act_front.achieved
         d_rear_k = self.act_rear.achieved
-        self.plant.step(d_front_k, d_rear_k, dt)
+        if self.path_rate == 1.0:
+            self.plant.step(d_front_k, d_rear_k, dt)
+        else:
+            self._step_on_path(d_front_k, d_rear_k, dt)
         s_prev = self.belt.position
         self.belt.step(vb, dt)
         travel = self.belt.position - s_prev
@@ -499,6 +504,16 @@ class RigSimulation:
         self.k += 1
         self._outputs = self._make_outputs(tuple(warn), applied)
         return self._outputs
+
+    def _step_on_path(self, d_front: float, d_rear: float, dt: float) -> None:
+        """Advance the lateral plant by ``path_rate`` of the step (a car slower than the
+        plant's speed ``U`` covers its path at ``u / U`` of real time): whole steps of ``dt``
+        as the accumulated path time allows, so the plant's one discretisation serves.
+        """
+        self._path_time += max(0.0, min(1.0, self.path_rate)) * dt
+        while self._path_time >= dt:
+            self.plant.step(d_front, d_rear, dt)
+            self._path_time -= dt
 
     def _step_torque_car(self, inputs: RigInputs, applied: RigInputs, warn: list) -> RigOutputs:
         """Step ``t_k -> t_{k+1}`` of the torque car (module docstring); ``applied`` holds the

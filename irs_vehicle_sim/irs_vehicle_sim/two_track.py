@@ -51,7 +51,7 @@ Integration: classic fourth-order Runge-Kutta with the step ``dt`` (1 ms at 1 kH
 and frictions held over the step (zero-order hold, docs/conventions.md).  RK4 because it is
 explicit, fixed-step and bit-deterministic, and its error at 1 kHz is far below the model's
 uncertainty: the fastest mode (wheel spin against the relaxed slip, ~sqrt(R^2 F_z C_k /
-(J sigma)) = 280 rad/s with the defaults, and 175 1/s for the regularised lateral slip at
+(J sigma)) = 280 rad/s with the defaults, and 523 1/s for the regularised lateral slip at
 standstill) has ``|lambda dt| < 0.3``, well inside RK4's stability region (2.8); below
 ``V_low,d`` = 0.3 m/s the low-speed damping adds ``R^2 k_d F_z / J`` = 1500 1/s to a free
 wheel's spin at rest (with rolling resistance: eigenvalue -1720 1/s at 7 N, -2220 at the 9 N a
@@ -60,12 +60,14 @@ heavier car or a larger ``k_d`` needs a smaller step) and the saturated relaxati
 most 150 1/s to the slip (tyre.py); ``solve_ivp``
 per step would add adaptive-step machinery and Python overhead for nothing.
 
-Parameters: mass, yaw inertia, axle distances, track, wheel radius and the axle cornering
-stiffnesses are the ``irs_iwt`` preset's (irs_models/config/presets.yaml), so at small slip this
-model is the preset's bicycle model (tested); the tyre's cornering stiffness per unit load is set
-per axle to ``c_f / (2 F_z,f0)``, ``c_r / (2 F_z,r0)``.  The rest is assumed (see
-:class:`TwoTrackParams`).  Aerodynamic drag is left out: at 1.2 m/s on a 1:10 body it is about
-5 mN (``0.5 rho c_d A V^2`` with ``c_d A = 0.005 m^2``), against 0.56 N of rolling resistance.
+Parameters: mass, yaw inertia, axle distances, track and wheel radius are the ``irs_iwt``
+preset's (irs_models/config/presets.yaml); the axle cornering stiffnesses are the rubber 1:10
+tyres' (irs_models.torque_car: 69.4 and 80.3 N/rad, not the preset's Eq. 6 fit), so at small slip
+this model is ``irs_models.torque_car.torque_car_bicycle()`` (tested); the tyre's cornering
+stiffness per unit load is set per axle to ``c_f / (2 F_z,f0)``, ``c_r / (2 F_z,r0)``.  The rest
+is assumed (see :class:`TwoTrackParams`).  Aerodynamic drag is left out: at 1.2 m/s on a 1:10
+body it is about 5 mN (``0.5 rho c_d A V^2`` with ``c_d A = 0.005 m^2``), against 0.56 N of
+rolling resistance.
 """
 
 from __future__ import annotations
@@ -76,6 +78,7 @@ from dataclasses import dataclass, field, fields, replace
 import numpy as np
 
 from irs_common.field_checks import check_numbers
+from irs_models.torque_car import torque_car_bicycle
 
 from .surface import SurfaceSpec
 from .tyre import (TyreParams, damped_slip, lateral_slip, relaxation_length, slip_rate,
@@ -92,7 +95,7 @@ _G = 9.81
 
 @dataclass
 class TwoTrackParams:
-    """Parameters of the two-track car (defaults: the ``irs_iwt`` preset's car).
+    """Parameters of the two-track car (defaults: the ``irs_iwt`` preset's car on rubber tyres).
 
     Attributes
     ----------
@@ -107,7 +110,8 @@ class TwoTrackParams:
     wheel_radius : float
         Effective rolling radius R [m] (irs_iwt: 0.033).
     c_f, c_r : float
-        Axle cornering stiffness at the static load [N/rad] (irs_iwt: 31.0006 / 19.13).
+        Axle cornering stiffness at the static load [N/rad] (69.42 / 80.28: the rubber 1:10
+        tyres' 4.95 / 5.72 /rad per unit load, irs_models.torque_car).
     cg_height : float
         c.g. height h [m] (0.04: assumed, a 1:10 touring chassis with hub motors carries its
         mass low, 30-45 mm above the ground).
@@ -132,8 +136,8 @@ class TwoTrackParams:
     lr: float = 0.15
     track: float = 0.17
     wheel_radius: float = 0.033
-    c_f: float = 31.0006
-    c_r: float = 19.13
+    c_f: float = field(default_factory=lambda: torque_car_bicycle().c_f)
+    c_r: float = field(default_factory=lambda: torque_car_bicycle().c_r)
     cg_height: float = 0.04
     wheel_inertia: float = 5e-5
     rolling_resistance: float = 0.02

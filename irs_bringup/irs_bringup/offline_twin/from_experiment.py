@@ -57,15 +57,16 @@ def hardware_loop(exp: Experiment):
     return HardwareClosedLoop(loop_config_from_experiment(exp), rig)
 
 
-def offline_run(name_or_path) -> dict:
+def offline_run(experiment) -> dict:
     """The experiment's loop without ROS: arrays as :meth:`ClosedLoop.run` returns them (the
     torque car's, with a ``chassis_controller``: as :meth:`ChassisLoop.run` returns them; on
     ``rig_hardware``: the hardware core on the emulated devices, :func:`hardware_loop`).
 
+    ``experiment``: a loaded :class:`~irs_bringup.experiment.Experiment`, or a name or path.
     A parameter the cores refuse (what the tables could not check) is an
     :class:`~irs_bringup.experiment.ExperimentError` line naming the file.
     """
-    exp = load_experiment(str(name_or_path))
+    exp = experiment if isinstance(experiment, Experiment) else load_experiment(str(experiment))
     torque_car = exp.node('irs_control', 'chassis_controller') is not None
     try:
         if exp.rig() is not None and exp.rig().key == HARDWARE_RIG_KEY:

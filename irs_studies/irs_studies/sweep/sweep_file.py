@@ -47,13 +47,15 @@ from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_valida
     model_validator
 import yaml
 
+from irs_common.cli import InputError, did_you_mean
+
 #: Nodes a parameter path may name, and the LoopConfig field each maps to.
 NODES = {'rig': 'rig', 'estimator': 'estimator', 'controller': 'controller',
          'reference': 'reference', 'regulator': 'regulator', 'driver': 'driver'}
 SAFE_NAME = re.compile(r'[A-Za-z0-9][A-Za-z0-9_-]{0,99}')
 
 
-class SweepError(ValueError):
+class SweepError(InputError):
     """The sweep file is missing, unreadable or inconsistent (message: one line)."""
 
 
@@ -183,6 +185,15 @@ class PlotModel(_Strict):
     vmax: float | None = None  # clip the colour scale at this value (heat map)
     file: str | None = None    # PNG name; default sweep_<name>_<metric>.png
 
+    @field_validator('file')
+    @classmethod
+    def _file(cls, value):
+        """A plain file name: the PNG goes into the results directory, nowhere else."""
+        if value is not None and not re.fullmatch(r'[A-Za-z0-9][A-Za-z0-9_.-]{0,99}\.png', value):
+            raise ValueError(f'{value!r}: a plain PNG file name expected (letters, digits, _ - .; '
+                             'no folder: the plots go into the results directory)')
+        return value
+
 
 class SweepModel(_Strict):
     """The whole sweep file (format: the module docstring)."""
@@ -272,8 +283,8 @@ def find_sweep(name_or_path: str) -> Path:
     except Exception:  # noqa: BLE001 - no ament index: only paths work
         raise SweepError(f"sweep file '{name_or_path}' does not exist") from None
     if not candidate.is_file():
-        names = ', '.join(sorted(x.stem for x in candidate.parent.glob('*.yaml')))
-        raise SweepError(f"no sweep '{name_or_path}'; installed: {names or 'none'}")
+        names = [x.stem for x in candidate.parent.glob('*.yaml')]
+        raise SweepError(did_you_mean(name_or_path, names, 'sweep', 'sweep list'))
     return candidate
 
 

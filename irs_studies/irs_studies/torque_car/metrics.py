@@ -19,6 +19,10 @@ Braking (``braking_metrics``), all from the rig's ground truth unless said other
   (``slip_est_source = 'chassis/status'``), else recomputed here from ``/wheels/encoders``,
   ``/pose`` and ``/belt/speed`` with :class:`irs_control.abs_control.ArmSpeedEstimator`
   (``'recomputed'``); NaN without them;
+* the ABS's reference speed (``v_ref`` of ``chassis/status``, from the wheels): its largest
+  error ``max |v_ref - u|`` [m/s] over the status samples between ``t_b`` and the stop with
+  ``u > 0.2 m/s``, and the mean slip target over them (the peak seeker's; -0.10 fixed); NaN
+  without them and for locked wheels (then the estimated slips too: held wheels tell nothing);
 * a wheel locked: ``|omega_i| R < lock_speed`` (0.01 m/s) while ``u > v_min`` between ``t_b``
   and the stop (after it the friction brakes hold the wheels while the car rocks on its
   tyres); the time it spent so [s];
@@ -64,6 +68,7 @@ __all__ = ['U_STOP', 'V_MIN', 'LOCK_SPEED', 'WHEELS', 'brake_start', 'crossing_t
 U_STOP = 0.02           # [m/s] the car has stopped below this speed over the belt
 V_MIN = 0.1             # [m/s] ABS threshold: slips are evaluated above it
 LOCK_SPEED = 0.01       # [m/s] a wheel whose rim speed |omega| R is below this is locked
+V_REF_CHECK = 0.2       # [m/s] the reference speed's error is taken above this speed
 WHEELS = ('FL', 'FR', 'RL', 'RR')
 _NAN = float('nan')
 
@@ -147,6 +152,20 @@ def _estimated_slip_means(run, tb: float, t_end: float) -> dict:
             'slip_est_source': source if ok else 'none'}
 
 
+def _reference_metrics(run, tb: float, t_end: float) -> dict:
+    out = {'v_ref_error_max': _NAN, 'slip_target_mean': _NAN}
+    if not run.has('status'):
+        return out
+    st, tyre = run.series['status'], run.series['tyre']
+    u = np.interp(st['t'], tyre['t'], tyre['u'])
+    w = (st['t'] >= tb) & (st['t'] <= t_end) & (u > V_REF_CHECK)
+    if w.any() and np.isfinite(st['v_ref'][w]).all():
+        out['v_ref_error_max'] = float(np.max(np.abs(st['v_ref'][w] - u[w])))
+    if w.any() and np.isfinite(st['target'][w]).all():
+        out['slip_target_mean'] = float(np.mean(st['target'][w]))
+    return out
+
+
 def _at(t, ts, xs) -> float:
     return float(np.interp(t, ts, xs)) if math.isfinite(t) and len(ts) else _NAN
 
@@ -174,6 +193,10 @@ def braking_metrics(run) -> dict:
     out['slip_mean'] = slip.mean(axis=0).tolist() if slip.size else [_NAN] * 4
     out['slip_min'] = slip.min(axis=0).tolist() if slip.size else [_NAN] * 4
     out.update(_estimated_slip_means(run, tb, t_end))
+    out.update(_reference_metrics(run, tb, t_end))
+    if run_kind(run.name)['mode'] == 'locked':
+        # the friction brakes hold the wheels: the controller's reference and slips are moot
+        out.update(slip_est_median=[_NAN] * 4, v_ref_error_max=_NAN, slip_target_mean=_NAN)
     after = (t >= tb) & (t <= t_end) & (u > V_MIN)
     rim = np.abs(tyre['omega']) * wheel_radius(run)
     locked = (rim < LOCK_SPEED) & after[:, None]

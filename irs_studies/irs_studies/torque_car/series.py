@@ -18,9 +18,10 @@ velocity   /velocity                   r [rad/s]  (the arm's yaw rate)
 belt       /belt/speed                 speed [m/s]  (the belt encoder)
 steer      /steering/command           front, rear [rad]
 act        /steering/state             front, rear [rad]  (achieved)
-status     /chassis/status             v_hat [m/s], braking, slip  (the controller's view;
-                                       DiagnosticArray key/values ``v_hat``, ``braking``,
-                                       ``slip_FL`` ...; NaN where absent)
+status     /chassis/status             v_hat (arm), v_ref (wheels) [m/s], braking, slip,
+                                       target (the controller's view; DiagnosticArray
+                                       key/values ``v_hat``, ``v_ref``, ``braking``,
+                                       ``slip_FL``, ``slip_target_FL`` ...; NaN where absent)
 =========  ==========================  ============================================
 
 A topic missing from the bag is missing from ``series``. Messages whose stamp repeats (a
@@ -80,8 +81,10 @@ TOPICS = {
     'act': ('/steering/state', {'front': lambda m: m.front_achieved,
                                 'rear': lambda m: m.rear_achieved}),
     'status': ('/chassis/status', {
-        'v_hat': lambda m: _kv(m, 'v_hat'), 'braking': lambda m: _kv(m, 'braking'),
-        'slip': lambda m: [_kv(m, f'slip_{w}') for w in ('FL', 'FR', 'RL', 'RR')]}),
+        'v_hat': lambda m: _kv(m, 'v_hat'), 'v_ref': lambda m: _kv(m, 'v_ref'),
+        'braking': lambda m: _kv(m, 'braking'),
+        'slip': lambda m: [_kv(m, f'slip_{w}') for w in ('FL', 'FR', 'RL', 'RR')],
+        'target': lambda m: [_kv(m, f'slip_target_{w}') for w in ('FL', 'FR', 'RL', 'RR')]}),
 }
 
 
