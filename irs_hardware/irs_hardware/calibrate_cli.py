@@ -33,6 +33,7 @@ import numpy as np
 import yaml
 from pydantic import ValidationError
 
+from irs_common.cli import InputError, run_cli
 from irs_models.arm_kinematics import ArmGeometry, inverse_kinematics
 
 from . import protocol as P
@@ -174,7 +175,7 @@ def _servo(board, pulses):
     return fit_servo(pulses, angles)
 
 
-def main(argv=None) -> int:
+def _main(argv) -> int:
     ap = argparse.ArgumentParser(prog='calibrate', description=__doc__.split('\n')[0])
     ap.add_argument('what', choices=('pots', 'servo', 'belt', 'drive'))
     ap.add_argument('--port', default='/dev/ttyACM0')
@@ -210,15 +211,20 @@ def main(argv=None) -> int:
         elif args.what == 'drive':
             doc['drive'] = DriveCalibration(volts_full_scale=args.volts_full_scale).model_dump()
         args.out.write_text(yaml.safe_dump(_check(doc, args.out), sort_keys=False))
-    except (CalibrationError, OSError, ValueError, KeyError, TypeError,
-            yaml.YAMLError) as exc:
-        print(f'calibrate: {exc}', file=sys.stderr)
-        return 2
+    except (CalibrationError, ValueError, KeyError, TypeError, yaml.YAMLError) as exc:
+        raise InputError(exc) from exc   # a bad file, pose list or fit: one line, exit 2
     finally:
         if board is not None:
             board.close()
     print(f'calibrate: {args.what} written to {args.out}')
     return 0
+
+
+def main(argv=None) -> int:
+    """The console script: one ``calibrate: error:`` line and the exit codes of docs/cli.md
+    (2: bad input or a board/port that cannot be used).
+    """
+    return run_cli('calibrate', _main, argv)
 
 
 if __name__ == '__main__':

@@ -101,4 +101,5 @@ def test_a_belt_that_did_not_move_is_one_line(devices, monkeypatch, capsys):
     assert main(['belt', '--port', str(tmp_path / 'board'), '--travel', '2.0',
                  '--out', str(tmp_path / 'cal.yaml')]) == 2
     err = capsys.readouterr().err
-    assert 'needs a travel > 0 m and counts' in err and err.count('\n') == 1
+    assert err.startswith('calibrate: error: ') and 'needs a travel > 0 m and counts' in err
+    assert err.count('\n') == 1
