@@ -53,7 +53,7 @@ NODE_TOPICS = {
         'sub': ['steering/command', 'treadmill/drive', 'driver/command', 'treadmill/state']},
     ('irs_hardware', 'rig_hardware'): {
         'pub': ['/clock', 'arm/joint_states', 'belt/speed', 'rig/status', 'rig/diagnostics',
-                'rig/timing'],
+                'rig/timing', 'treadmill/reset'],
         'sub': ['steering/command', 'treadmill/drive']},
     ('irs_sensing', 'arm_pose_estimator'): {
         'pub': ['pose', 'velocity', 'lateral_position', 'sensing/status'],

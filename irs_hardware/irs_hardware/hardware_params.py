@@ -70,6 +70,26 @@ def hardware_parameter_table() -> list:
     return list(NODE_PARAMS)
 
 
+def hardware_problem(values: dict):
+    """``None``, or why the table's values do not fit together (``declare_table(check=...)``):
+    the clock mode is one of the two; the board's watchdog and the link timeout span at least
+    two samples (one late sample is no fault); the drive hears from the node (keep-alive and
+    drive thread) before its own communication-loss stop ends the run (0 = no such stop).
+    """
+    v = {**{p.name: p.default for p in NODE_PARAMS}, **values}
+    if v['clock_mode'] not in ('realtime', 'lockstep'):
+        return f"clock_mode must be 'realtime' or 'lockstep', got {v['clock_mode']!r}"
+    for name in ('board_watchdog', 'link_timeout'):
+        if v[name] < 2 * v['dt']:
+            return f"{name} = {v[name]:g} s is shorter than two samples (2 dt = {2 * v['dt']:g} s)"
+    comm = v['drive_comm_timeout']
+    for name in ('drive_keepalive', 'drive_period'):
+        if comm > 0 and v[name] >= comm:
+            return (f"{name} = {v[name]:g} s is not shorter than drive_comm_timeout = {comm:g} "
+                    f"s: the drive would stop itself between the node's writes")
+    return None
+
+
 def hardware_config(values: dict) -> HardwareConfig:
     """The core's configuration from the node's flat parameters (defaults for missing ones)."""
     return HardwareConfig(**core_values(NODE_PARAMS, values, nested=False))

@@ -9,7 +9,11 @@ Publishes ``arm/joint_states`` (sensor_msgs/JointState, the three pot angles [ra
 ``time.monotonic()``) every second and at once on a fault, and ``rig/timing`` (real time:
 deadline misses and loop latency, as ``vehicle_sim``) every second. Takes ``steering/command``
 (front angle) and ``treadmill/drive`` (COMMAND QoS). Services ``rig/start`` and ``rig/reset``
-(std_srvs/Trigger; reset clears the latched fault once the devices answer again).
+(std_srvs/Trigger; reset clears the latched fault once the devices answer again), and in real
+time ``rig/recover`` as on ``vehicle_sim`` (docs/safety.md): the reset plus ``treadmill/reset``
+(std_msgs/Empty, COMMAND QoS) for the regulator's latched fault; the car is the operator's to
+place (no rig holds a real car). ``rig/status`` says ``SAFE_STOPPED`` with the fault as
+``stop_cause`` while a fault is latched, ``SAFE_RUNNING`` otherwise.
 
 Clock modes as ``vehicle_sim``: ``lockstep`` (the board in triggered mode: each step's commands,
 paired by stamp, go to the drive and then the board, whose answer is the next sample; /clock
@@ -31,6 +35,7 @@ from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
 from rclpy.node import Node
 from rosgraph_msgs.msg import Clock
 from sensor_msgs.msg import JointState
+from std_msgs.msg import Empty
 from std_srvs.srv import Trigger
 
 from irs_common import qos
@@ -45,7 +50,7 @@ from irs_msgs.msg import BeltSpeed, RigStatus, SteeringCommand, TreadmillDriveCo
 from .calibration import CalibrationError, load_calibration
 from .driver import DriveError, LinkError, SerialModbusRig
 from .drive_modbus import ModbusDrive
-from .hardware_params import hardware_config, NODE_PARAMS
+from .hardware_params import hardware_config, hardware_problem, NODE_PARAMS
 from .hardware_rig import HardwareRig
 from .paths import resolve
 
@@ -59,10 +64,8 @@ class RigHardwareNode(Node):
 
     def __init__(self, **node_options):
         super().__init__('rig_hardware', **node_options)
-        self.p = declare_table(self, NODE_PARAMS, on_change=self._on_parameter)
-        if self.p['clock_mode'] not in ('realtime', 'lockstep'):
-            raise ValueError(f"clock_mode must be 'realtime' or 'lockstep', got "
-                             f"{self.p['clock_mode']!r}")
+        self.p = declare_table(self, NODE_PARAMS, on_change=self._on_parameter,
+                               check=hardware_problem)
         self.lockstep = self.p['clock_mode'] == 'lockstep'
         self.rig = self._make_rig()
         self.dt_ns = int(round(self.p['dt'] * 1e9))
@@ -92,6 +95,8 @@ class RigHardwareNode(Node):
                                      qos.COMMAND)
         self.create_service(Trigger, 'rig/start', self._on_start)
         self.create_service(Trigger, 'rig/reset', self._on_reset)
+        self.pub_treadmill_reset = self.create_publisher(Empty, 'treadmill/reset', qos.COMMAND)
+        self.create_service(Trigger, 'rig/recover', self._on_recover)
         self.started = self.complete = False
         self.k = self.tick0 = self.stamp0_ns = 0
         self.status_key, self.status_k = None, -10 ** 9
@@ -210,6 +215,17 @@ class RigHardwareNode(Node):
         self.get_logger().info(f'rig/reset: {resp.message}')
         if self.started:
             self._publish_status(force=True)
+        return resp
+
+    def _on_recover(self, req, resp):
+        if self.lockstep:
+            resp.success = False
+            resp.message = 'not running in real time (lock-step runs restart with rig/reset)'
+            return resp
+        self._on_reset(req, resp)
+        if resp.success:
+            self.pub_treadmill_reset.publish(Empty())
+            resp.message = f'recovering: devices restarted, treadmill reset; {resp.message}'
         return resp
 
     def _on_parameter(self, name, value):
@@ -417,7 +433,9 @@ class RigHardwareNode(Node):
         st = RigStatus(car_on_belt=True, fault_text=self.rig.fault,
                        rejected_steer_count=self.rig.refused['steering'],
                        rejected_drive_count=self.rig.refused['drive'], step=max(0, self.k),
-                       run_complete=self.complete)
+                       run_complete=self.complete, stop_cause=self.rig.fault,
+                       safe_state=RigStatus.SAFE_STOPPED if self.rig.fault
+                       else RigStatus.SAFE_RUNNING)
         st.header.stamp = from_ns(self._stamp_ns())
         self.pub_status.publish(st)
 

@@ -103,3 +103,15 @@ def test_a_belt_that_did_not_move_is_one_line(devices, monkeypatch, capsys):
     err = capsys.readouterr().err
     assert err.startswith('calibrate: error: ') and 'needs a travel > 0 m and counts' in err
     assert err.count('\n') == 1
+
+
+@pytest.mark.parametrize('case', ['bad base', 'no board'])
+def test_bad_input_is_one_error_line_and_exit_2(tmp_path, capsys, case):
+    base = tmp_path / 'base.yaml'
+    base.write_text('- not\n- a mapping\n')
+    argv = (['drive', '--base', str(base)] if case == 'bad base'
+            else ['belt', '--port', str(tmp_path / 'absent'), '--travel', '1.0'])
+    assert main([*argv, '--out', str(tmp_path / 'cal.yaml')]) == 2
+    err = capsys.readouterr().err
+    assert err.startswith('calibrate: error: ') and err.count('\n') == 1, err
+    assert not (tmp_path / 'cal.yaml').exists()

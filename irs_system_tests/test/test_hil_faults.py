@@ -22,7 +22,9 @@ for scheduling:
   after the latch;
 - the Modbus server killed: the next set-point write (keep-alive 0.1 s, drive thread 10 ms)
   fails at once (connection refused), then the board's enable line drops: 0.11 + SLACK.
-``rig/reset`` clears the latch once the devices answer again (tested after the NaN).
+``rig/reset`` clears the latch once the devices answer again (tested after the NaN);
+``rig/recover`` does the same and resets the treadmill (tested after the garbled frame).
+While latched, ``rig/status`` says ``SAFE_STOPPED`` with the fault as its ``stop_cause``.
 """
 import json
 import math
@@ -34,6 +36,7 @@ from pathlib import Path
 import pytest
 from ament_index_python.packages import get_package_share_directory
 from diagnostic_msgs.msg import DiagnosticArray
+from std_msgs.msg import Empty
 from std_srvs.srv import Trigger
 
 from irs_bringup.processes import NodeSpec
@@ -98,6 +101,10 @@ class Hil:
         self.drive_pub = n.create_publisher(TreadmillDriveCommand, 'treadmill/drive',
                                             qos.COMMAND_PUB)
         self.reset_client = n.create_client(Trigger, 'rig/reset')
+        self.recover_client = n.create_client(Trigger, 'rig/recover')
+        self.treadmill_resets = []
+        n.create_subscription(Empty, 'treadmill/reset', self.treadmill_resets.append,
+                              qos.COMMAND)
         assert ros.spin_until(lambda: self.status and self.status[-1].step > 100, 60.0), \
             self.node.tail()
         assert ros.spin_until(lambda: self.steer.get_subscription_count()
@@ -167,6 +174,8 @@ class Hil:
         assert 0.0 <= safe <= safe_bound, f'{fault}: safe after {safe:.4f} s'
         self.ros.spin_until(lambda: False, 0.3)
         assert latched(), self.fault()
+        assert self.status[-1].safe_state == RigStatus.SAFE_STOPPED \
+            and self.status[-1].stop_cause == self.fault(), self.status[-1]
         assert not board or self.board_safe()
         assert self.wire.drive_voltage() == 0.0
 
@@ -184,10 +193,21 @@ def test_board_killed(hil):
 
 
 @pytest.mark.exclusive
-def test_garbled_frame(hil):
+def test_garbled_frame_then_recover(hil):
     t0 = time.monotonic()
     hil.control('garble 1')
     hil.check('garbled frame', t0)
+    assert hil.ros.spin_until(lambda: hil.recover_client.service_is_ready()
+                              and hil.treadmill_resets == [], 10.0)
+    future = hil.recover_client.call_async(Trigger.Request())
+    assert hil.ros.spin_until(future.done, 10.0) and future.result().success, future.result()
+    assert 'recovering' in future.result().message
+    hil.command(0.05, 2.0)
+    assert hil.ros.spin_until(lambda: hil.treadmill_resets and not hil.fault()
+                              and hil.status[-1].safe_state == RigStatus.SAFE_RUNNING
+                              and hil.board_state().get('enable')
+                              and hil.wire.drive_voltage() > 1.9, 10.0), \
+        (hil.status[-1], hil.board_state(), hil.node.tail())
 
 
 @pytest.mark.exclusive
