@@ -191,8 +191,8 @@ def main(argv=None) -> int:
         ctl.bind(str(args.control))
         ctl.setblocking(False)
     loop = BoardLoop(board, link, ctl, args.status)
-    signal.signal(signal.SIGTERM, lambda *_: loop.stop())
-    signal.signal(signal.SIGINT, lambda *_: loop.stop())
+    for sig in (signal.SIGINT, signal.SIGTERM, signal.SIGHUP):   # a clean stop: exit 0
+        signal.signal(sig, lambda *_: loop.stop())
     note = set_fifo(args.rt_priority)
     print(f'board_emulator: {args.link} -> {link.slave_name}, rig dt {config.dt} s, {note}',
           flush=True)

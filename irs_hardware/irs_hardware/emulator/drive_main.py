@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import argparse
 import asyncio
+import signal
 import sys
 import time
 from pathlib import Path
@@ -108,6 +109,10 @@ class _Inputs(ModbusSequentialDataBlock):
 
 
 async def _serve(state: DriveState, port: int):
+    """Serve until SIGINT, SIGTERM or SIGHUP (a clean stop, as a node's: exit 0)."""
+    stop = asyncio.Event()
+    for sig in (signal.SIGINT, signal.SIGTERM, signal.SIGHUP):
+        asyncio.get_running_loop().add_signal_handler(sig, stop.set)
     context = ModbusServerContext(devices=ModbusDeviceContext(hr=_Holding(state),
                                                               ir=_Inputs(state)), single=True)
     server = ModbusTcpServer(context, address=('127.0.0.1', port))
@@ -117,10 +122,15 @@ async def _serve(state: DriveState, port: int):
             state.output()
             await asyncio.sleep(0.005)
     task = asyncio.create_task(beat())
+    serving = asyncio.create_task(server.serve_forever())
     try:
-        await server.serve_forever()
+        await asyncio.wait([serving, asyncio.create_task(stop.wait())],
+                           return_when=asyncio.FIRST_COMPLETED)
+        if serving.done():
+            serving.result()           # the server failed (port taken): raise its error
     finally:
         task.cancel()
+        await server.shutdown()
 
 
 def main(argv=None) -> int:
