@@ -8,7 +8,7 @@ UV := $(VENV)/bin/uv
 ENV_STAMP := $(VENV)/.irs-requirements.stamp
 LOCK := env/requirements.lock
 BUILD_STAMP := install/.irs-build.stamp
-PACKAGES := irs_msgs irs_common irs_models irs_sensing irs_treadmill irs_vehicle_sim irs_control irs_bag irs_bringup irs_sysid irs_studies irs_system_tests
+PACKAGES := irs_msgs irs_common irs_models irs_sensing irs_treadmill irs_vehicle_sim irs_control irs_hardware irs_bag irs_bringup irs_sysid irs_studies irs_system_tests
 # The files whose change needs colcon again. Python modules are not among them: the ament_python
 # packages are installed with --symlink-install (develop mode), so edits to them are live.
 PACKAGE_FILES := $(shell find $(PACKAGES) -type f \( -name package.xml -o -name 'setup.*' \

@@ -23,6 +23,8 @@ Sections (each a function below; results go to ``bench/results/<time>.json`` and
   (replay);
 - ``sweep``: bench/sweep.py -- points/s of 12 points of the actuator x speed sweep serially and
   on 1 and 2 Dask workers, and 100 linear plants stepped at once (BatchLti) against dlsim;
+- ``hil`` (bench/hil.py): real time at 1 kHz through the emulated board's link and drive, next
+  to ``vehicle_sim`` in the same run: deadline misses, ADC-sample-to-servo latency, frames lost;
 - ``soak`` (only with ``--only soak``, 10 min): ``soak_realtime`` process per node with
   SCHED_FIFO 50 and the recorder on: misses, latency, CPU, and the messages the bag kept and lost;
 - ``starvation`` (only with ``--only starvation``, about 8 min; bench/starvation.py): one process
@@ -47,7 +49,7 @@ sys.path.insert(0, str(HERE))
 from common import domain as _domain, write_results   # noqa: E402 (bench/ is on sys.path)
 from offline import offline  # noqa: E402,F401 (a section, called by name)
 
-SECTIONS = ('floor', 'realtime', 'lockstep', 'offline', 'replay', 'sweep')
+SECTIONS = ('floor', 'realtime', 'lockstep', 'offline', 'replay', 'sweep', 'hil')
 #: Sections run only when named with ``--only``.
 EXTRA_SECTIONS = ('soak', 'starvation', 'soak_hour')
 
@@ -206,6 +208,11 @@ def replay(seconds: float) -> list:
              'recorded': r[2], 'drops_reported': r[3], 'duration_s': r[4]} for r in rows]
 
 
+def hil(seconds: float) -> list:
+    import hil as bench_hil       # bench/hil.py: the emulated link next to vehicle_sim
+    return bench_hil.hil(seconds, _run_experiment, _realtime_row)
+
+
 def starvation() -> list:
     import starvation as bench_starvation    # bench/starvation.py
     rows = bench_starvation.starvation()
@@ -240,7 +247,7 @@ def main(argv=None) -> int:
         print(f'== {section}', flush=True)
         fn = globals()[section]
         args = {'floor': (floor_s,), 'realtime': (rt_s,), 'replay': (replay_s,),
-                'soak_hour': (a.soak_minutes,)}.get(section, ())
+                'hil': (rt_s / 2,), 'soak_hour': (a.soak_minutes,)}.get(section, ())
         results[section] = fn(*args)
     write_results(results, a.out)
     return 0

@@ -24,12 +24,17 @@ ALLOWED = {
     'irs_models': set(),
     'irs_common': set(),
     **{core: set(_BASE) for core in CORES},
+    # the hardware node sits with the cores; its emulators step the simulated rig (ONLY_FROM)
+    'irs_hardware': {*_BASE, 'irs_vehicle_sim'},
     'irs_bag': set(_BASE),
-    'irs_bringup': {*_BASE, *CORES, 'irs_bag'},
-    'irs_sysid': {*_BASE, *CORES, 'irs_bag', 'irs_bringup'},
-    'irs_studies': {*_BASE, *CORES, 'irs_bag', 'irs_bringup', 'irs_sysid'},
-    'irs_system_tests': {*_BASE, *CORES, 'irs_bag', 'irs_bringup', 'irs_sysid', 'irs_studies'},
+    'irs_bringup': {*_BASE, *CORES, 'irs_hardware', 'irs_bag'},
+    'irs_sysid': {*_BASE, *CORES, 'irs_hardware', 'irs_bag', 'irs_bringup'},
+    'irs_studies': {*_BASE, *CORES, 'irs_hardware', 'irs_bag', 'irs_bringup', 'irs_sysid'},
+    'irs_system_tests': {*_BASE, *CORES, 'irs_hardware', 'irs_bag', 'irs_bringup', 'irs_sysid',
+                         'irs_studies'},
 }
+#: package -> (a package it may import only from these subpackages, the subpackages)
+ONLY_FROM = {'irs_hardware': ('irs_vehicle_sim', ('emulator',))}
 #: irs_common modules that the bottom layer may lean on: no ROS import, directly or through
 #: another irs_common module.
 ROS_FREE_COMMON = {'answer_cache', 'field_checks', 'input_checks', 'loop_timing', 'orientation',
@@ -154,6 +159,10 @@ def violations(root: Path) -> list:
         for line, name in imported_modules(path, rel.parts[1:-1]):
             top = name.split('.')[0]
             where = f'{rel}:{line}'
+            only = ONLY_FROM.get(package)
+            if only and top == only[0] and rel.parts[2] not in only[1]:
+                found.append(f'{where}: {package} imports {name} outside its '
+                             f'{"/".join(only[1])} subpackage')
             if top.startswith('irs_') and top != package and top not in ALLOWED[package]:
                 found.append(f'{where}: {package} imports {name} (allowed: '
                              f'{sorted(ALLOWED[package]) or "no IRS package"})')

@@ -14,7 +14,8 @@ CONFIGS = {'vehicle_sim': 'irs_vehicle_sim/config/rig.yaml',
            'lateral_controller': 'irs_control/config/lateral_controller.yaml',
            'reference_generator': 'irs_control/config/reference_generator.yaml',
            'chassis_controller': 'irs_control/config/chassis_controller.yaml',
-           'driver': 'irs_bringup/config/driver.yaml'}
+           'driver': 'irs_bringup/config/driver.yaml',
+           'rig_hardware': 'irs_hardware/config/hardware.yaml'}
 
 
 def test_every_parameter_has_a_description_and_a_unit():
@@ -50,6 +51,7 @@ def test_architecture_doc_lists_every_topic():
 
 NODE_CLASSES = {
     'vehicle_sim': 'irs_vehicle_sim.vehicle_sim_node:VehicleSimNode',
+    'rig_hardware': 'irs_hardware.rig_hardware_node:RigHardwareNode',
     'arm_pose_estimator': 'irs_sensing.arm_pose_estimator_node:ArmPoseEstimatorNode',
     'treadmill_regulator': 'irs_treadmill.treadmill_regulator_node:TreadmillRegulatorNode',
     'lateral_controller': 'irs_control.lateral_controller_node:LateralControllerNode',

@@ -24,6 +24,9 @@ import yaml
 from irs_common.cli import InputError, did_you_mean
 
 RIG_KEY = ('irs_vehicle_sim', 'vehicle_sim')
+#: The rigs: the simulator and the hardware node (docs/hardware.md), one per experiment.
+HARDWARE_RIG_KEY = ('irs_hardware', 'rig_hardware')
+RIG_KEYS = (RIG_KEY, HARDWARE_RIG_KEY)
 
 #: Topics each node executable publishes and subscribes (relative names), used to wait until the
 #: graph is connected and documented in docs/architecture.md.
@@ -32,6 +35,10 @@ NODE_TOPICS = {
         'pub': ['/clock', 'arm/joint_states', 'belt/speed', 'steering/state', 'ground_truth/odom',
                 'ground_truth/sensor_point', 'rig/status', 'rig/timing', 'treadmill/reset'],
         'sub': ['steering/command', 'treadmill/drive', 'driver/command', 'treadmill/state']},
+    ('irs_hardware', 'rig_hardware'): {
+        'pub': ['/clock', 'arm/joint_states', 'belt/speed', 'rig/status', 'rig/diagnostics',
+                'rig/timing', 'treadmill/reset'],
+        'sub': ['steering/command', 'treadmill/drive']},
     ('irs_sensing', 'arm_pose_estimator'): {
         'pub': ['pose', 'velocity', 'lateral_position', 'sensing/status'],
         'sub': ['arm/joint_states']},
@@ -129,10 +136,15 @@ class Experiment:
     path: Path | None = None
     text: str = ''
     record_process: str | None = None    # the recorder runs composed in this process group
+    devices: dict = field(default_factory=dict)   # name -> (package, executable, args)
 
     def node(self, package, executable):
         """The entry that runs ``package/executable``, or None."""
         return next((n for n in self.nodes if n.key == (package, executable)), None)
+
+    def rig(self):
+        """The rig's entry (``vehicle_sim`` or ``rig_hardware``), or None."""
+        return next((n for n in self.nodes if n.key in RIG_KEYS), None)
 
     def composed(self, process: str = 'graph') -> 'Experiment':
         """A copy with every node, and the recorder, in the one process group ``process``.
@@ -256,7 +268,9 @@ def load_experiment(name_or_path: str) -> Experiment:
     if problems:
         raise ExperimentError(one_line(path, problems))
     exp = Experiment(name, model.description, model.clock, float(model.duration), nodes,
-                     list(model.record.topics), path, text, model.record.process)
+                     list(model.record.topics), path, text, model.record.process,
+                     {n: (d.package, d.executable, list(d.args))
+                      for n, d in model.devices.items()})
     problems = _parameter_problems(exp) or _duration_problems(exp)
     if problems:
         raise ExperimentError(one_line(path, problems))
@@ -296,7 +310,8 @@ def _parameter_problems(exp: Experiment) -> list:
         table, complete = parameter_table(entry.key)
         if table is None:
             continue
-        values = {k: v for k, v in node_parameters(entry).items() if k not in RCLPY_PARAMETERS}
+        values = {k: v for k, v in node_parameters(entry).items() if k not in RCLPY_PARAMETERS
+                  and v not in ('{free_port}',)}     # placeholder: the runner's free port
         for pname, message in check_values(table, values, unknown=complete).items():
             if pname in entry.params:
                 where = f'nodes.{entry.name}.params.{pname}'
@@ -311,7 +326,7 @@ def _parameter_problems(exp: Experiment) -> list:
 
 def _duration_problems(exp: Experiment) -> list:
     """The run must be at least one rig step: 0 steps would mean 'run forever' on the rig."""
-    rig = exp.node(*RIG_KEY)
+    rig = exp.rig()
     dt = float(node_parameters(rig).get('dt', 0.001)) if rig is not None else 0.001
     if exp.duration < dt and not math.isclose(exp.duration, dt, rel_tol=1e-9):
         return [('duration', f'{exp.duration!r} s is shorter than one rig step (dt = {dt} s): '
@@ -334,7 +349,7 @@ def node_parameters(entry: NodeEntry) -> dict:
 
 def clock_overrides(exp: Experiment, entry: NodeEntry, dt: float) -> dict:
     """Parameters the runner adds for the experiment's clock mode."""
-    if entry.key == RIG_KEY:
+    if entry.key in RIG_KEYS:
         if exp.clock == 'lockstep':
             rig_topics = {absolute(t) for t in node_topics(entry)['pub']}
             waits = ','.join(f'{t}={subs}' for t, (_pubs, subs) in expected_endpoints(exp).items()
@@ -366,7 +381,7 @@ def expected_endpoints(exp: Experiment) -> dict:
     if exp.clock == 'lockstep' and '/clock' in counts:
         # every node but the rig runs on sim time: it subscribes /clock once (its TimeSource, which
         # the ticker of the reference generator and the driver rides on)
-        counts['/clock'][1] += sum(1 for e in exp.nodes if e.key != RIG_KEY)
+        counts['/clock'][1] += sum(1 for e in exp.nodes if e.key not in RIG_KEYS)
     else:
         counts.pop('/clock', None)  # only the lock-step rig publishes /clock
     # A topic nobody publishes (e.g. driver/command without a driver node) is not waited for.

@@ -15,6 +15,7 @@ import os
 from pathlib import Path
 import platform
 import signal
+import socket
 import subprocess
 import threading
 import sys
@@ -32,7 +33,7 @@ from irs_common.cli import SignalGuard, current_guard
 from irs_common.stamps import to_sec
 from irs_msgs.msg import RigStatus
 
-from .experiment import (Experiment, RIG_KEY, clock_overrides, expected_endpoints,
+from .experiment import (Experiment, clock_overrides, expected_endpoints,
                          new_run_dir, node_parameters, resolve_params_file)
 from .graph import make_watcher
 from .processes import NodeProcess, NodeSpec, kill_processes, stop_processes
@@ -104,7 +105,7 @@ def experiment_metadata(exp: Experiment) -> dict:
 
 
 def _rig_dt(exp: Experiment) -> float:
-    rig = exp.node(*RIG_KEY)
+    rig = exp.rig()
     return float(node_parameters(rig).get('dt', 0.001)) if rig else 0.001
 
 
@@ -146,6 +147,7 @@ class ExperimentRunner:
         self.stall_timeout = stall_timeout
         self.progress = progress
         self.procs = {}
+        self.devices = {}    # device processes (emulators): started first, stopped last
         self.members = {}    # container process label -> its node names
         self.rt_priority = int(rt_priority)
         self.dt = _rig_dt(exp)
@@ -153,12 +155,32 @@ class ExperimentRunner:
         self.stop_signal = None  # set by request_stop: the signal number (0: asked, no signal)
 
     # ------------------------------------------------------------------ processes
+    def _placeholders(self, value):
+        """``{run_dir}`` and ``{free_port}`` of a device argument or a string parameter."""
+        if not isinstance(value, str):
+            return value
+        if '{free_port}' in value and not hasattr(self, 'free_port'):
+            with socket.socket() as sock:
+                sock.bind(('127.0.0.1', 0))
+                self.free_port = sock.getsockname()[1]
+        if value == '{free_port}':
+            return self.free_port            # an integer parameter
+        return value.replace('{run_dir}', str(self.run_dir)).replace(
+            '{free_port}', str(getattr(self, 'free_port', '')))
+
+    def _start_devices(self, logs: Path):
+        """The experiment's device processes (emulators), before any node."""
+        for name, (package, executable, args) in self.exp.devices.items():
+            spec = NodeSpec(package, executable, args=[self._placeholders(a) for a in args])
+            self.devices[name] = NodeProcess(spec, logs, label=name)
+
     def _specs(self):
         specs = []
         for entry in self.exp.nodes:
             for ref in entry.params_files:
                 resolve_params_file(ref)  # fail early with a clear message
-            params = {**entry.params, **clock_overrides(self.exp, entry, self.dt)}
+            params = {**{k: self._placeholders(v) for k, v in entry.params.items()},
+                      **clock_overrides(self.exp, entry, self.dt)}
             specs.append((getattr(entry, 'process', None),
                           NodeSpec(entry.package, entry.executable, entry.name,
                                    [str(resolve_params_file(r)) for r in entry.params_files],
@@ -191,7 +213,7 @@ class ExperimentRunner:
         return NodeSpec('irs_bag', 'recorder', 'recorder', params=params)
 
     def _check_alive(self):
-        for name, proc in self.procs.items():
+        for name, proc in [*self.procs.items(), *self.devices.items()]:
             code = proc.poll()
             if code is not None:
                 what = (f"process '{name}' (nodes {', '.join(self.members[name])})"
@@ -204,11 +226,15 @@ class ExperimentRunner:
                                        f'its last output:\n{proc.tail(15)}')
 
     def _stop_all(self) -> dict:
-        """Every node at once, then the recorder (class docstring); ``{label: exit code}``."""
+        """Every node at once, then the recorder (class docstring), then the devices (the
+        emulators outlive the nodes that talk to them); ``{label: exit code}``.
+        """
         nodes = [p for label, p in self.procs.items() if label != 'recorder']
         codes = stop_processes(nodes, NODE_GRACE)
         if 'recorder' in self.procs:
             codes.update(stop_processes([self.procs['recorder']], RECORDER_GRACE))
+        if self.devices:
+            codes.update(stop_processes(list(self.devices.values()), NODE_GRACE))
         return codes
 
     def scheduling_report(self) -> str:
@@ -237,7 +263,7 @@ class ExperimentRunner:
 
     def kill(self):
         """SIGKILL to every node's process group (a second signal: no waiting)."""
-        kill_processes(list(self.procs.values()))
+        kill_processes([*self.procs.values(), *self.devices.values()])
 
     # ------------------------------------------------------------------ run
     def run(self) -> RunResult:
@@ -287,6 +313,7 @@ class ExperimentRunner:
             elif bag_dir is not None:
                 self.procs['recorder'] = NodeProcess(self._recorder_spec(bag_dir), logs)
             self._check_stop()
+            self._start_devices(logs)
             self._start_nodes(logs, env, extra)
             self.log(f'[experiment] {exp.name}: started {len(self.procs)} processes, '
                      f'logs in {logs}')
@@ -367,14 +394,20 @@ class ExperimentRunner:
         self.log(f'[experiment] graph up: {len(names)} nodes, {len(expected)} topics connected')
 
     def _start_rig(self, watcher):
-        if self.exp.node(*RIG_KEY) is None:
+        if self.exp.rig() is None:
             return
         client = watcher.node.create_client(Trigger, 'rig/start')
         if not watcher.spin_until(lambda: self._check_stop() or client.service_is_ready(), 20.0):
             raise ExperimentFailed('rig/start service not available')
-        future = client.call_async(Trigger.Request())
-        if not watcher.spin_until(lambda: self._check_stop() or future.done(), 20.0) \
-                or not future.result().success:
+        deadline = time.monotonic() + 10.0
+        while True:       # the hardware rig's devices may still be coming up: try for 10 s
+            future = client.call_async(Trigger.Request())
+            ok = watcher.spin_until(lambda: self._check_stop() or future.done(), 20.0) \
+                and future.result().success
+            if ok or time.monotonic() > deadline:
+                break
+            time.sleep(0.2)
+        if not ok:
             raise ExperimentFailed(
                 f'rig/start failed: {future.result() and future.result().message}'
             )
@@ -407,7 +440,7 @@ class ExperimentRunner:
             if rig is not None and not rig.car_on_belt:
                 raise ExperimentFailed(f'the car left the belt ({rig.fault_text}) at '
                                        f't = {t:.3f} s; the run is stopped')
-            rig_done = clock.get('complete') or (self.exp.node(*RIG_KEY) is None and t >= end)
+            rig_done = clock.get('complete') or (self.exp.rig() is None and t >= end)
             if rig_done or (exp.clock == 'realtime' and t >= end + 5.0):
                 if self.progress and tty:
                     sys.stdout.write('\n')

@@ -85,6 +85,17 @@ class NodeModel(_Strict):
         return _safe_name(value, 'a process group')
 
 
+class DeviceModel(_Strict):
+    """One entry of ``devices``: a non-ROS process (an emulated device) started before the
+    nodes and stopped after them; ``{run_dir}`` and ``{free_port}`` in ``args`` (and in the
+    nodes' string parameters) become the run's directory and a free TCP port on 127.0.0.1.
+    """
+
+    package: str = Field(min_length=1)
+    executable: str = Field(min_length=1)
+    args: list[str] = []
+
+
 class RecordModel(_Strict):
     """The ``record:`` section: topics to record and the process the recorder joins."""
 
@@ -119,6 +130,7 @@ class ExperimentModel(_Strict):
     duration: float = Field(gt=0.0, allow_inf_nan=False)   # strict: true is not 1 s
     nodes: dict[str, NodeModel] = Field(min_length=1)      # at least one node
     record: RecordModel = RecordModel()
+    devices: dict[str, DeviceModel] = {}
     surface: dict[str, Any] | None = None                   # the torque car's road (see below)
 
     @field_validator('surface')
@@ -158,7 +170,8 @@ class ExperimentModel(_Strict):
         return value
 
 
-_FIELDS = {(): ExperimentModel, ('nodes', '*'): NodeModel, ('record',): RecordModel}
+_FIELDS = {(): ExperimentModel, ('nodes', '*'): NodeModel, ('record',): RecordModel,
+           ('devices', '*'): DeviceModel}
 
 
 def _where(loc) -> str:

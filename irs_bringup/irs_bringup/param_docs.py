@@ -8,8 +8,9 @@ from irs_common.params import markdown_table
 
 
 #: The order of the nodes in the docs: the loop first, then the tools.
-ORDER = ('vehicle_sim', 'arm_pose_estimator', 'treadmill_regulator', 'lateral_controller',
-         'reference_generator', 'chassis_controller', 'driver', 'excitation', 'recorder')
+ORDER = ('vehicle_sim', 'rig_hardware', 'arm_pose_estimator', 'treadmill_regulator',
+         'lateral_controller', 'reference_generator', 'chassis_controller', 'driver', 'excitation',
+         'recorder')
 
 
 def node_tables():

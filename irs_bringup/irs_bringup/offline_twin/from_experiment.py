@@ -4,7 +4,8 @@ The twin's loops take, per node, the same flat parameters the graph's nodes get
 (:func:`~irs_bringup.experiment.node_parameters`: the node's parameter files, then the
 experiment's ``params``), so one experiment file drives both. No rclpy.
 """
-from ..experiment import RIG_KEY, Experiment, ExperimentError, load_experiment, node_parameters
+from ..experiment import (HARDWARE_RIG_KEY, RIG_KEY, Experiment, ExperimentError,
+                          load_experiment, node_parameters)
 from .chassis_loop import ChassisLoop, ChassisLoopConfig
 from .lateral_loop import ClosedLoop, LoopConfig
 
@@ -37,9 +38,29 @@ def chassis_loop_config(exp: Experiment) -> ChassisLoopConfig:
         default_drive_voltage=float(rig.get('default_drive_voltage', 0.0)))
 
 
+def hardware_loop(exp: Experiment):
+    """The hardware loop of an experiment whose rig is ``rig_hardware``: its ``board`` device's
+    arguments build the emulated board, the node's parameters the core and its calibration.
+    """
+    from irs_hardware.calibration import load_calibration
+    from irs_hardware.emulator.board_main import board_from_args
+    from irs_hardware.hardware_params import hardware_config
+    from irs_hardware.paths import resolve
+
+    from .hardware_loop import EmulatedHardwareRig, HardwareClosedLoop
+    if 'board' not in exp.devices:
+        raise ValueError('a rig_hardware experiment needs a devices.board entry (the emulator)')
+    _package, _executable, args = exp.devices['board']
+    node = node_parameters(exp.rig())
+    rig = EmulatedHardwareRig(board_from_args(args), load_calibration(
+        resolve(node.get('calibration', ''))), hardware_config(node))
+    return HardwareClosedLoop(loop_config_from_experiment(exp), rig)
+
+
 def offline_run(experiment) -> dict:
     """The experiment's loop without ROS: arrays as :meth:`ClosedLoop.run` returns them (the
-    torque car's, with a ``chassis_controller``: as :meth:`ChassisLoop.run` returns them).
+    torque car's, with a ``chassis_controller``: as :meth:`ChassisLoop.run` returns them; on
+    ``rig_hardware``: the hardware core on the emulated devices, :func:`hardware_loop`).
 
     ``experiment``: a loaded :class:`~irs_bringup.experiment.Experiment`, or a name or path.
     A parameter the cores refuse (what the tables could not check) is an
@@ -48,9 +69,13 @@ def offline_run(experiment) -> dict:
     exp = experiment if isinstance(experiment, Experiment) else load_experiment(str(experiment))
     torque_car = exp.node('irs_control', 'chassis_controller') is not None
     try:
-        loop = ChassisLoop(chassis_loop_config(exp)) if torque_car \
-            else ClosedLoop(loop_config_from_experiment(exp))
-    except (ValueError, TypeError, KeyError) as exc:
+        if exp.rig() is not None and exp.rig().key == HARDWARE_RIG_KEY:
+            loop = hardware_loop(exp)
+        elif torque_car:
+            loop = ChassisLoop(chassis_loop_config(exp))
+        else:
+            loop = ClosedLoop(loop_config_from_experiment(exp))
+    except (ValueError, TypeError, KeyError, OSError) as exc:
         msg = exc.args[0] if isinstance(exc, KeyError) and exc.args else exc
         what = 'the offline torque-car loop' if torque_car else 'the offline closed loop'
         raise ExperimentError(f'{exp.path}: nodes: {what} refuses a parameter: '

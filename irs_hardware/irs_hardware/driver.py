@@ -1,0 +1,169 @@
+"""The driver interface between the hardware node's core and the rig's devices (no rclpy).
+
+:class:`RigIO` is all the core needs: analog inputs (three pots) and a counter (belt encoder)
+in, a servo pulse, an enable line and a drive set-point out. :class:`SerialModbusRig` is the
+rig: the IRSL board on a serial port (:mod:`.protocol`) and the drive on Modbus
+(:mod:`.drive_modbus`). Failures surface as :class:`LinkError` (board) or
+:class:`~.drive_modbus.DriveError` (drive); the core's supervisor turns them into the safe state.
+"""
+from __future__ import annotations
+
+import time
+from abc import ABC, abstractmethod
+from dataclasses import dataclass
+
+from . import protocol as P
+from .drive_modbus import DriveError, ModbusDrive
+
+__all__ = ['Reading', 'RigIO', 'LinkError', 'SerialModbusRig', 'DriveError']
+
+
+class LinkError(IOError):
+    """The board's link failed: port gone, wrong firmware, no answer (message says which)."""
+
+
+@dataclass(frozen=True)
+class Reading:
+    """One sample of the board: ADC counts of the three pots, the belt counter, the board's
+    sample index ``tick``, the sequence number of the last command it applied, status bits.
+    """
+
+    tick: int
+    ack: int
+    adc: tuple
+    belt: int
+    status: int
+    received: float       # time.monotonic() of arrival
+
+
+class RigIO(ABC):
+    """The devices of the rig (module docstring)."""
+
+    @abstractmethod
+    def start(self, triggered: bool) -> None:
+        """Open the devices; start the board's sampler (triggered: one sample per command)."""
+
+    @abstractmethod
+    def read(self, timeout: float) -> list:
+        """Readings received so far, waiting up to ``timeout`` [s] for the first."""
+
+    @abstractmethod
+    def write_board(self, seq: int, pulse_us: float, enable: bool) -> None:
+        """Servo pulse [us] and drive-enable line; ``seq`` = tick of the sample it answers."""
+
+    @abstractmethod
+    def write_drive(self, setpoint: int) -> None:
+        """Drive set-point register value."""
+
+    @abstractmethod
+    def drive_status(self) -> tuple:
+        """``(status word, belt speed [m/s])`` the drive reports."""
+
+    @property
+    @abstractmethod
+    def bad_frames(self) -> int:
+        """Frames from the board thrown away (CRC, version, length)."""
+
+    @abstractmethod
+    def close(self) -> None:
+        """Close the devices."""
+
+
+class SerialModbusRig(RigIO):
+    """IRSL board over pyserial + Modbus drive over pymodbus."""
+
+    def __init__(self, port: str, baud: int, drive: ModbusDrive, watchdog_ms: int = 25,
+                 safe_pulse_us: float = 1500.0):
+        self.port_name = port
+        self.baud = baud
+        self.drive = drive
+        self.watchdog_ms = watchdog_ms
+        self.safe_ticks = int(round(safe_pulse_us * 1e-6 / P.PULSE_TICK))
+        self.serial = None
+        self.parser = P.FrameParser()
+        self.info = None
+        self.early = []            # samples that came with the INFO answer
+
+    def start(self, triggered: bool) -> None:
+        """Drive: comm timeout, set-point 0, run; board: HELLO, INFO checked (1 s). The board's
+        watchdog arms with the first command the caller sends.
+        """
+        import serial
+        self.drive.start()
+        try:
+            self.serial = serial.Serial(self.port_name, self.baud, timeout=0)
+            self.serial.reset_input_buffer()
+        except (serial.SerialException, OSError) as exc:
+            raise LinkError(f'board at {self.port_name}: cannot open ({exc})') from None
+        self.parser = P.FrameParser()
+        self.info, self.early = None, []
+        self._write(P.encode(P.Hello(1 if triggered else 0, self.watchdog_ms, 1000,
+                                     self.safe_ticks)))
+        deadline = time.monotonic() + 1.0
+        while self.info is None:
+            for msg in self._messages(max(0.0, deadline - time.monotonic())):
+                if isinstance(msg, P.Info):
+                    self.info = msg
+                elif isinstance(msg, P.Sample):
+                    self.early.append(msg)
+            if self.info is None and time.monotonic() >= deadline:
+                raise LinkError(f'board at {self.port_name}: no INFO answer to HELLO in 1 s '
+                                '(not IRSL firmware, or a different baud rate)')
+        if self.info.firmware != P.VERSION:
+            raise LinkError(f'board at {self.port_name}: firmware {self.info.firmware}, the '
+                            f'host speaks IRSL {P.VERSION}')
+
+    def _write(self, data: bytes) -> None:
+        import serial
+        try:
+            self.serial.write(data)
+        except (serial.SerialException, OSError) as exc:
+            raise LinkError(f'board at {self.port_name}: write failed ({exc})') from None
+
+    def _messages(self, timeout: float) -> list:
+        """Messages of the bytes waiting, waiting up to ``timeout`` [s] for the first ones."""
+        import select
+        import serial
+        deadline = time.monotonic() + timeout
+        while True:
+            try:
+                data = self.serial.read(4096)
+            except (serial.SerialException, OSError, TypeError) as exc:
+                raise LinkError(f'board at {self.port_name}: read failed ({exc})') from None
+            msgs = self.parser.feed(data) if data else []
+            left = deadline - time.monotonic()
+            if msgs or left <= 0.0:
+                return msgs
+            try:
+                select.select([self.serial.fileno()], [], [], left)
+            except (OSError, ValueError, serial.SerialException) as exc:
+                raise LinkError(f'board at {self.port_name}: read failed ({exc})') from None
+
+    def read(self, timeout: float) -> list:
+        early, self.early = self.early, []
+        msgs = early + self._messages(0.0 if early else timeout)
+        now = time.monotonic()
+        return [Reading(m.tick, m.ack, m.adc, m.belt, m.status, now)
+                for m in msgs if isinstance(m, P.Sample)]
+
+    def write_board(self, seq: int, pulse_us: float, enable: bool) -> None:
+        ticks = int(round(pulse_us * 1e-6 / P.PULSE_TICK))
+        self._write(P.encode(P.Command(seq & 0xFFFF, ticks, P.DRIVE_ENABLE if enable else 0)))
+
+    def write_drive(self, setpoint: int) -> None:
+        self.drive.write_setpoint(setpoint)
+
+    def drive_status(self) -> tuple:
+        return self.drive.read()
+
+    @property
+    def bad_frames(self) -> int:
+        return self.parser.bad
+
+    def close(self) -> None:
+        if self.serial is not None:
+            try:
+                self.serial.close()
+            except OSError:
+                pass
+        self.drive.close()
