@@ -549,32 +549,7 @@ def declare_table(node, table, on_change=None, *, strict: bool = False,
         realtime = runs_in_real_time(node, table)
     values = {}
     for p in table:
-        if p.default is None:
-            raise ValueError(f'parameter {p.name}: a default is required to fix its type')
-        default = p.default
-        try:
-            p.coerce(p.default)
-            if p.realtime_default is not None:
-                real_time = p.coerce(p.realtime_default)
-                default = real_time if realtime else default
-        except ValueError as exc:
-            raise ValueError(f'default of {exc}') from None
-        override = overrides.get(p.name)
-        if override is not None:
-            try:
-                value = p.coerce(override.value)
-            except ValueError as exc:
-                raise ValueError(f"{exc} (node '{node.get_name()}', set by a params file or -p; "
-                                 'of several params files the last one wins)') from None
-            overrides[p.name] = _parameter(override, p, value)   # e.g. 0 -> 0.0 for a double
-        try:
-            node.declare_parameter(p.name, default, p.descriptor())
-        except Exception as exc:
-            if type(exc).__module__ != 'rclpy.exceptions':
-                raise
-            raise ValueError(f"parameter '{p.name}' (node '{node.get_name()}'): {exc}; "
-                             f'expected {p.expected()}') from None
-        value = node.get_parameter(p.name).value
+        value = _declare_one(node, p, overrides, realtime)
         values[p.name] = list(value) if isinstance(value, tuple) else value
     if check is not None:
         reason = check(values)
@@ -590,6 +565,39 @@ def declare_table(node, table, on_change=None, *, strict: bool = False,
     if check_unknown:
         report_unknown_overrides(node, strict=strict)
     return values
+
+
+def _declare_one(node, p: Param, overrides: dict, realtime: bool):
+    """Declare ``p`` on ``node`` (its real-time default if ``realtime``), its override (params
+    file, ``-p``) converted first; the value it takes. One ``ValueError`` for a bad default,
+    override or type.
+    """
+    if p.default is None:
+        raise ValueError(f'parameter {p.name}: a default is required to fix its type')
+    default = p.default
+    try:
+        p.coerce(p.default)
+        if p.realtime_default is not None:
+            real_time = p.coerce(p.realtime_default)
+            default = real_time if realtime else default
+    except ValueError as exc:
+        raise ValueError(f'default of {exc}') from None
+    override = overrides.get(p.name)
+    if override is not None:
+        try:
+            value = p.coerce(override.value)
+        except ValueError as exc:
+            raise ValueError(f"{exc} (node '{node.get_name()}', set by a params file or -p; "
+                             'of several params files the last one wins)') from None
+        overrides[p.name] = _parameter(override, p, value)   # e.g. 0 -> 0.0 for a double
+    try:
+        node.declare_parameter(p.name, default, p.descriptor())
+    except Exception as exc:
+        if type(exc).__module__ != 'rclpy.exceptions':
+            raise
+        raise ValueError(f"parameter '{p.name}' (node '{node.get_name()}'): {exc}; "
+                         f'expected {p.expected()}') from None
+    return node.get_parameter(p.name).value
 
 
 def _parameter(override, p: Param, value):
