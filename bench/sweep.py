@@ -21,6 +21,7 @@ run (the load average before and after is in the JSON).
 """
 import argparse
 import datetime
+import itertools
 import os
 from pathlib import Path
 import sys
@@ -31,45 +32,43 @@ HERE = Path(__file__).resolve().parent
 
 
 def _prep(points: int, duration: float | None):
-    from irs_studies.sweep.runner import prepare
+    from irs_studies.sweep.runner import iter_points, prepare
     from irs_studies.sweep.sweep_file import load_sweep
     sweep, path = load_sweep('actuator_speed')
     prep = prepare(sweep, path)
-    # every design at several actuator/speed points, not only the first design's corner
-    step = max(len(prep.points) // points, 1)
-    prep.points = prep.points[::step][:points]
     if duration:
         prep.duration = duration
-    return prep
+    # the sweep's first ``points`` points: those run_sweep(limit=points) runs on the cluster
+    return prep, list(itertools.islice(iter_points(prep.sweep), points))
 
 
 def sweep_rates(points: int, duration: float | None) -> list:
     from irs_studies.sweep.point import run_point
     from irs_studies.sweep.runner import make_client, run_sweep
-    prep = _prep(points, duration)
+    prep, chosen = _prep(points, duration)
     rows = []
     t0 = time.perf_counter()
-    for p in prep.points:
+    for p in chosen:
         run_point(prep.cfg, prep.duration, p, list(prep.sweep.metrics))
     dt = time.perf_counter() - t0
-    rows.append({'name': 'sweep serial (this process)', 'workers': 0, 'points': len(prep.points),
-                 'seconds': dt, 'points_per_s': len(prep.points) / dt})
+    rows.append({'name': 'sweep serial (this process)', 'workers': 0, 'points': len(chosen),
+                 'seconds': dt, 'points_per_s': len(chosen) / dt})
     print(f"{rows[-1]['name']:44s} {rows[-1]['points_per_s']:8.3f} points/s", flush=True)
     for workers in (1, 2):
         t0 = time.perf_counter()
         client = make_client(workers)
         warm = client.map(run_point, [prep.cfg] * workers, [0.01] * workers,
-                          prep.points[:workers], [['off_belt']] * workers, pure=False)
+                          chosen[:workers], [['off_belt']] * workers, pure=False)
         client.gather(warm)
         start = time.perf_counter() - t0
         with tempfile.TemporaryDirectory() as d:
             t0 = time.perf_counter()
-            run_sweep(prep, Path(d), client=client, log=lambda s: None)
+            run_sweep(prep, Path(d), client=client, limit=len(chosen), log=lambda s: None)
             dt = time.perf_counter() - t0
         client.close()       # closes its local cluster too
         rows.append({'name': f'sweep on a LocalCluster, {workers} worker(s)', 'workers': workers,
-                     'points': len(prep.points), 'seconds': dt,
-                     'points_per_s': len(prep.points) / dt, 'startup_s': start})
+                     'points': len(chosen), 'seconds': dt,
+                     'points_per_s': len(chosen) / dt, 'startup_s': start})
         print(f"{rows[-1]['name']:44s} {rows[-1]['points_per_s']:8.3f} points/s "
               f'(cluster start-up and imports {start:.1f} s)', flush=True)
     return rows
