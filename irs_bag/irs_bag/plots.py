@@ -28,7 +28,7 @@ from __future__ import annotations
 import argparse
 import sys
 from pathlib import Path
-from typing import List, Optional
+from typing import TYPE_CHECKING, Dict, List, Optional
 
 import numpy as np
 
@@ -38,8 +38,11 @@ from .columns import Columns, columns_of, read_columns
 from .reader import BagError, open_bag, reading
 from .run_info import RunInfo, run_info
 
+if TYPE_CHECKING:
+    from matplotlib.figure import Figure
+
 __all__ = ['BELT_LENGTH', 'BELT_WIDTH', 'NoPlottableTopics', 'PLOT_SPEC', 'STYLES', 'main',
-           'make_plots', 'min_max_envelope', 'moving_average']
+           'make_figures', 'make_plots', 'min_max_envelope', 'moving_average']
 
 BELT_LENGTH = 2 * BELT_HALF_LENGTH    # [m] 8 ft
 BELT_WIDTH = 2 * BELT_HALF_WIDTH      # [m] 4 ft
@@ -76,6 +79,8 @@ STYLES = {
     'voltage': dict(color='#c83228', lw=1.0, zorder=3),
 }
 
+#: The plots, in the order they are made (each a method of :class:`_Figures`).
+PLOTS = ('lateral', 'steering', 'belt', 'car_position')
 ENVELOPE_BINS = 2000       # bins of the min/max envelope (a figure is about 1000 px wide)
 BELT_AVERAGE = 0.1         # [s] window of the belt speed's moving average
 
@@ -282,10 +287,11 @@ def load_columns(bag_path) -> Columns:
     return read_columns(bag_path, PLOT_SPEC)
 
 
-def make_plots(bag_path, out_dir, *, columns: Optional[Columns] = None,
-               info: Optional[RunInfo] = None) -> List[Path]:
-    """Write the PNG plots of ``bag_path`` (path or open reader) into ``out_dir``; return
-    their paths. ``columns``: the bag's columns of :data:`PLOT_SPEC` when already read.
+def make_figures(bag_path, *, columns: Optional[Columns] = None,
+                 info: Optional[RunInfo] = None) -> Dict[str, 'Figure']:
+    """The figures of ``bag_path`` (path or open reader) by plot name (``'lateral'``, ...),
+    those whose topics are in the bag. ``columns``: the bag's columns of :data:`PLOT_SPEC`
+    when already read.
 
     Raises
     ------
@@ -304,13 +310,20 @@ def make_plots(bag_path, out_dir, *, columns: Optional[Columns] = None,
         raise NoPlottableTopics(f'{path}: none of the plotted topics is in the bag (looked for '
                                 f'{", ".join(sorted(PLOT_SPEC))})')
     figs = _Figures(columns, info)
+    made = {name: getattr(figs, name)() for name in PLOTS}
+    return {name: fig for name, fig in made.items() if fig is not None}
+
+
+def make_plots(bag_path, out_dir, *, columns: Optional[Columns] = None,
+               info: Optional[RunInfo] = None) -> List[Path]:
+    """Write the PNG plots of ``bag_path`` (:func:`make_figures`) into ``out_dir``; return
+    their paths. Raises as :func:`make_figures`.
+    """
+    figures = make_figures(bag_path, columns=columns, info=info)
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
     written: List[Path] = []
-    for name in ('lateral', 'steering', 'belt', 'car_position'):
-        fig = getattr(figs, name)()
-        if fig is None:
-            continue
+    for name, fig in figures.items():
         dest = out / f'{name}.png'
         fig.savefig(dest, dpi=100)
         written.append(dest)

@@ -24,20 +24,20 @@ def write_views(bag_dir, run_dir, log: Callable[[str], None] = print) -> List[Pa
     from .rerun_export import export_rrd
     run_dir = Path(run_dir)
     try:
-        with reading(bag_dir) as r:
+        with reading(bag_dir) as r:        # one open, one pass over the messages
             info = run_info(r)
             columns = read_columns(r, merge_specs(PLOT_SPEC, SPEC))
+            written: List[Path] = []
+            try:
+                written += make_plots(r, run_dir / 'plots', columns=columns, info=info)
+            except Exception as exc:  # plots must never hide the run's result
+                log(f'[experiment] plots failed: {exc}')
+            try:
+                export_rrd(r, run_dir / 'run.rrd', columns=columns, info=info)
+                written.append(run_dir / 'run.rrd')
+            except Exception as exc:
+                log(f'[experiment] rerun export failed: {exc}')
     except BagError as exc:
         log(f'[experiment] plots and run.rrd not written: {exc}')
         return []
-    written: List[Path] = []
-    try:
-        written += make_plots(bag_dir, run_dir / 'plots', columns=columns, info=info)
-    except Exception as exc:  # plots must never hide the run's result
-        log(f'[experiment] plots failed: {exc}')
-    try:
-        export_rrd(bag_dir, run_dir / 'run.rrd', columns=columns, info=info)
-        written.append(run_dir / 'run.rrd')
-    except Exception as exc:
-        log(f'[experiment] rerun export failed: {exc}')
     return written
