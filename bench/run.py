@@ -24,7 +24,11 @@ Sections (each a function below; results go to ``bench/results/<time>.json`` and
 - ``sweep``: bench/sweep.py -- points/s of 12 points of the actuator x speed sweep serially and
   on 1 and 2 Dask workers, and 100 linear plants stepped at once (BatchLti) against dlsim;
 - ``soak`` (only with ``--only soak``, 10 min): ``soak_realtime`` process per node with
-  SCHED_FIFO 50 and the recorder on: misses, latency, CPU, and the messages the bag kept and lost.
+  SCHED_FIFO 50 and the recorder on: misses, latency, CPU, and the messages the bag kept and lost;
+- ``starvation`` (only with ``--only starvation``, about 8 min; bench/starvation.py): one process
+  of each real-time deployment stopped for 0.2-5 s: car kept, controlled stop or lost;
+- ``soak_hour`` (only with ``--only soak_hour [--soak-minutes N]``; bench/soak_hour.py): the
+  composed real-time graph with the recorder for an hour, memory per process every minute.
 
 Speed is measured here, never asserted in tests. Timing figures are noisy on a shared 2-core
 machine: compare ratios within one run (the floor is in the same JSON).
@@ -45,7 +49,7 @@ from offline import offline  # noqa: E402,F401 (a section, called by name)
 
 SECTIONS = ('floor', 'realtime', 'lockstep', 'offline', 'replay', 'sweep')
 #: Sections run only when named with ``--only``.
-EXTRA_SECTIONS = ('soak',)
+EXTRA_SECTIONS = ('soak', 'starvation', 'soak_hour')
 
 
 def floor(seconds: float) -> list:
@@ -202,6 +206,18 @@ def replay(seconds: float) -> list:
              'recorded': r[2], 'drops_reported': r[3], 'duration_s': r[4]} for r in rows]
 
 
+def starvation() -> list:
+    import starvation as bench_starvation    # bench/starvation.py
+    rows = bench_starvation.starvation()
+    print(bench_starvation.table(rows), flush=True)
+    return rows
+
+
+def soak_hour(minutes: float) -> list:
+    import soak_hour as bench_soak            # bench/soak_hour.py
+    return [bench_soak.soak(minutes)]
+
+
 def sweep() -> list:
     import sweep as bench_sweep   # bench/sweep.py: points/s on 1 and 2 Dask workers, BatchLti
     return bench_sweep.sweep_rates(12, None) + bench_sweep.offline(100)
@@ -214,6 +230,8 @@ def main(argv=None) -> int:
     ap.add_argument('--only', nargs='+', choices=SECTIONS + EXTRA_SECTIONS, default=list(SECTIONS),
                     help='sections to run (default: all but soak, a 10-minute run)')
     ap.add_argument('--out', default=str(HERE / 'results'), help='folder for the JSON file')
+    ap.add_argument('--soak-minutes', type=float, default=60.0,
+                    help='length of the soak_hour run [min] (default 60)')
     a = ap.parse_args(argv)
     floor_s, rt_s, replay_s = (5.0, 20.0, 3.0) if a.quick else (10.0, 60.0, 5.0)
     results = {'started': datetime.datetime.now().isoformat(timespec='seconds'),
@@ -221,7 +239,8 @@ def main(argv=None) -> int:
     for section in a.only:
         print(f'== {section}', flush=True)
         fn = globals()[section]
-        args = {'floor': (floor_s,), 'realtime': (rt_s,), 'replay': (replay_s,)}.get(section, ())
+        args = {'floor': (floor_s,), 'realtime': (rt_s,), 'replay': (replay_s,),
+                'soak_hour': (a.soak_minutes,)}.get(section, ())
         results[section] = fn(*args)
     write_results(results, a.out)
     return 0

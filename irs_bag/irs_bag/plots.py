@@ -32,6 +32,7 @@ from typing import TYPE_CHECKING, Dict, List, Optional
 
 import numpy as np
 
+from irs_common.cli import EXIT_FAILED, InputError, error, run_cli
 from irs_models.constants import BELT_HALF_LENGTH, BELT_HALF_WIDTH
 
 from .columns import Columns, columns_of, read_columns
@@ -41,8 +42,9 @@ from .run_info import RunInfo, run_info
 if TYPE_CHECKING:
     from matplotlib.figure import Figure
 
-__all__ = ['BELT_LENGTH', 'BELT_WIDTH', 'NoPlottableTopics', 'PLOT_SPEC', 'STYLES', 'main',
-           'make_figures', 'make_plots', 'min_max_envelope', 'moving_average']
+__all__ = ['BELT_LENGTH', 'BELT_WIDTH', 'NoPlottableTopics', 'PLOT_LABELS', 'PLOT_SPEC',
+           'STYLES', 'main', 'make_figures', 'make_plots', 'min_max_envelope', 'moving_average',
+           'plot_series']
 
 BELT_LENGTH = 2 * BELT_HALF_LENGTH    # [m] 8 ft
 BELT_WIDTH = 2 * BELT_HALF_WIDTH      # [m] 4 ft
@@ -62,6 +64,22 @@ PLOT_SPEC = {
     'driver/command': {'speed': 'speed'},
     'ground_truth/odom': {'x': 'pose.pose.position.x', 'y': 'pose.pose.position.y'},
     'pose': {'x': 'pose.position.x', 'y': 'pose.position.y'},
+}
+
+#: Series label (offline twin, :func:`plot_series`) -> (suffix, column) of :data:`PLOT_SPEC`.
+PLOT_LABELS = {
+    'y_s ground truth': ('ground_truth/sensor_point', 'y'),
+    'y_s sensed': ('lateral_position', 'y'),
+    'reference': ('lateral/reference', 'y'),
+    'reference model': ('reference_model', 'y'),
+    'command front': ('steering/command', 'front'),
+    'servo commanded front': ('steering/state', 'commanded'),
+    'servo achieved front': ('steering/state', 'achieved'),
+    'belt speed (encoder)': ('belt/speed', 'speed'),
+    'belt speed (regulator)': ('treadmill/state', 'belt_speed'),
+    'drive voltage': ('treadmill/drive', 'voltage'),
+    'x ground truth': ('ground_truth/odom', 'x'),
+    'y ground truth': ('ground_truth/odom', 'y'),
 }
 
 #: Line styles by role (matplotlib keyword arguments).
@@ -305,13 +323,33 @@ def make_figures(bag_path, *, columns: Optional[Columns] = None,
         if columns is None:
             columns = read_columns(r, PLOT_SPEC)
         path = r.path
+    return _figures(columns, info, path)
+
+
+def _figures(columns: Columns, info: RunInfo, where) -> Dict[str, 'Figure']:
     columns = {s: c for s, c in columns.items() if s in PLOT_SPEC and len(c['t'])}
     if not columns:
-        raise NoPlottableTopics(f'{path}: none of the plotted topics is in the bag (looked for '
+        raise NoPlottableTopics(f'{where}: none of the plotted topics is in the bag (looked for '
                                 f'{", ".join(sorted(PLOT_SPEC))})')
     figs = _Figures(columns, info)
     made = {name: getattr(figs, name)() for name in PLOTS}
     return {name: fig for name, fig in made.items() if fig is not None}
+
+
+def plot_series(data, out_dir, info: Optional[RunInfo] = None) -> List[Path]:
+    """The plots of :func:`make_plots` from ``{label: (t [s], values)}`` with the labels of
+    :data:`PLOT_LABELS` (the offline twin's runs); ``info`` default: the run named after
+    ``out_dir``'s parent (``<run>/plots``).
+    """
+    columns: Columns = {}
+    for label, (t, v) in data.items():
+        suffix, col = PLOT_LABELS[label]
+        got = columns.setdefault(suffix, {'t': np.asarray(t, dtype=float)})
+        v = np.asarray(v, dtype=float)
+        n = len(got['t'])
+        got[col] = v[:n] if len(v) >= n else np.r_[v, np.full(n - len(v), np.nan)]
+    info = info or RunInfo(Path(out_dir).resolve().parent.name)
+    return _write(_figures(columns, info, out_dir), out_dir)
 
 
 def make_plots(bag_path, out_dir, *, columns: Optional[Columns] = None,
@@ -319,7 +357,10 @@ def make_plots(bag_path, out_dir, *, columns: Optional[Columns] = None,
     """Write the PNG plots of ``bag_path`` (:func:`make_figures`) into ``out_dir``; return
     their paths. Raises as :func:`make_figures`.
     """
-    figures = make_figures(bag_path, columns=columns, info=info)
+    return _write(make_figures(bag_path, columns=columns, info=info), out_dir)
+
+
+def _write(figures: Dict[str, 'Figure'], out_dir) -> List[Path]:
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
     written: List[Path] = []
@@ -331,7 +372,11 @@ def make_plots(bag_path, out_dir, *, columns: Optional[Columns] = None,
 
 
 def main(argv: Optional[List[str]] = None) -> int:
-    """Entry point of ``bag plots``; returns the exit code."""
+    """Entry point of ``bag plots``; returns the exit code (docs/cli.md)."""
+    return run_cli('bag plots', _main, argv)
+
+
+def _main(argv: Optional[List[str]]) -> int:
     p = argparse.ArgumentParser(
         prog='bag plots', description='PNG plots of an IRS run from its bag.')
     p.add_argument('bag', help='bag directory or .mcap file')
@@ -341,11 +386,10 @@ def main(argv: Optional[List[str]] = None) -> int:
         with open_bag(args.bag, 'bag plots') as r:
             paths = make_plots(r, args.out)
     except NoPlottableTopics as exc:
-        print(f'bag plots: error: {exc}', file=sys.stderr)
-        return 1
-    except (BagError, OSError) as exc:
-        print(f'bag plots: error: {exc}', file=sys.stderr)
-        return 2
+        error('bag plots', exc)
+        return EXIT_FAILED
+    except BagError as exc:
+        raise InputError(str(exc)) from None
     for path in paths:
         print(path)
     return 0

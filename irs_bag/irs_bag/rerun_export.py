@@ -22,6 +22,8 @@ import sys
 from pathlib import Path
 from typing import Dict, List, Optional
 
+from irs_common.cli import EXIT_FAILED, InputError, error, run_cli
+
 from .columns import Columns, read_columns
 from .reader import BagError, open_bag, reading
 from .rerun_entities import ENTITY_PATHS, SPEC, blueprint, log_static, send
@@ -94,7 +96,11 @@ def rrd_entity_paths(rrd_path) -> set:
 
 
 def main(argv: Optional[List[str]] = None) -> int:
-    """Entry point of ``bag rerun``; returns the exit code."""
+    """Entry point of ``bag rerun``; returns the exit code (docs/cli.md)."""
+    return run_cli('bag rerun', _main, argv)
+
+
+def _main(argv: Optional[List[str]]) -> int:
     p = argparse.ArgumentParser(
         prog='bag rerun', description='Export an IRS bag to a rerun .rrd recording.')
     p.add_argument('bag', help='bag directory or .mcap file')
@@ -118,17 +124,15 @@ def main(argv: Optional[List[str]] = None) -> int:
             try:
                 geom = dataclasses.replace(info.geometry, **given)
             except ValueError as exc:
-                print(f'bag rerun: error: {exc}', file=sys.stderr)
-                return 2
+                raise InputError(f'arm geometry: {exc}') from None
             rows = export_rrd(r, args.out, view_rate=args.view_rate,
                               series_rate=args.series_rate, geometry=geom,
                               car_length=args.car_length, car_width=args.car_width, info=info)
     except NothingToExport as exc:
-        print(f'bag rerun: error: {exc}', file=sys.stderr)
-        return 1
-    except (BagError, OSError) as exc:
-        print(f'bag rerun: error: {exc}', file=sys.stderr)
-        return 2
+        error('bag rerun', exc)
+        return EXIT_FAILED
+    except BagError as exc:
+        raise InputError(str(exc)) from None
     print(f'{args.out}: ' + ', '.join(f'{k} ({v})' for k, v in sorted(rows.items())))
     return 0
 

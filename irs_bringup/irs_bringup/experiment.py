@@ -1,27 +1,11 @@
 """Experiment files: what runs, with which parameters, on which clock, for how long (no rclpy).
 
-An experiment file (YAML, see ``config/experiments/``)::
-
-    name: figure10_mrc_with_actuator
-    description: one line
-    clock: lockstep            # lockstep (rig publishes /clock, reproducible) | realtime
-    duration: 8.0              # [s] simulated (lockstep) or wall (realtime) time
-    nodes:                     # node name -> how to start it (as `ros2 run` would)
-      vehicle_sim:
-        package: irs_vehicle_sim
-        executable: vehicle_sim
-        params_files: [pkg://irs_vehicle_sim/config/rig.yaml]   # share/<pkg>/... or a path
-        params: {plant: identified}                              # overrides, flat names
-        remaps: {}
-        process: rig           # optional process group: nodes with the same one share a process
-    record:
-      topics: [arm/joint_states, ...]     # what the recorder writes to the bag ([] = no bag)
-      process: loop                       # optional: the recorder composed with that group
-    surface: {kind: split, mu_left: 0.8, mu_right: 0.3}   # optional, torque car only: the road
-
-The ``surface:`` section (irs_vehicle_sim.surface.SurfaceSpec: ``uniform`` mu, a ``patch`` in x,
-``split`` left/right, a ``step`` in time) becomes the rig's ``surface.*`` parameters; it needs
-``plant: two_track`` in the rig's ``params`` and no ``surface.*`` parameter there as well.
+An experiment file (YAML, ``config/experiments/``) names the clock (``lockstep``: the rig
+publishes ``/clock`` and runs are reproducible to the bit; ``realtime``), the duration [s], every
+node with its package, executable, parameter files, overrides, remaps and optional ``process:``
+group, the topics to record and, for the torque car, the road surface. It exists so that a run
+is one reviewed file, checked before anything starts; the annotated format:
+:class:`Experiment`.
 
 Clock handling is the runner's job: for ``lockstep`` it sets ``clock_mode: lockstep``,
 ``autostart: false`` and ``max_steps`` on the rig and ``use_sim_time: true`` on every other node;
@@ -29,13 +13,15 @@ for ``realtime`` ``clock_mode: realtime``.
 
 Deployment is the file's choice (``process:``), and :meth:`Experiment.composed` (the runner's
 ``--composed``) overrides it: every node and the recorder in one ``container`` process. Lock-step
-bags are the same to the bit either way (``tests/test_deployments.py``).
+bags are the same to the bit either way (``irs_system_tests/test/test_deployments.py``).
 """
 from dataclasses import dataclass, field, replace
 import math
 from pathlib import Path
 
 import yaml
+
+from irs_common.cli import InputError, did_you_mean
 
 RIG_KEY = ('irs_vehicle_sim', 'vehicle_sim')
 
@@ -44,8 +30,8 @@ RIG_KEY = ('irs_vehicle_sim', 'vehicle_sim')
 NODE_TOPICS = {
     ('irs_vehicle_sim', 'vehicle_sim'): {
         'pub': ['/clock', 'arm/joint_states', 'belt/speed', 'steering/state', 'ground_truth/odom',
-                'ground_truth/sensor_point', 'rig/status', 'rig/timing'],
-        'sub': ['steering/command', 'treadmill/drive', 'driver/command']},
+                'ground_truth/sensor_point', 'rig/status', 'rig/timing', 'treadmill/reset'],
+        'sub': ['steering/command', 'treadmill/drive', 'driver/command', 'treadmill/state']},
     ('irs_sensing', 'arm_pose_estimator'): {
         'pub': ['pose', 'velocity', 'lateral_position', 'sensing/status'],
         'sub': ['arm/joint_states']},
@@ -84,7 +70,7 @@ def node_topics(entry) -> dict:
     return io
 
 
-class ExperimentError(ValueError):
+class ExperimentError(InputError):
     """The experiment file is missing, unreadable or inconsistent (message says what and where)."""
 
 
@@ -107,7 +93,32 @@ class NodeEntry:
 
 @dataclass
 class Experiment:
-    """A loaded experiment file (format: the module docstring)."""
+    """A loaded experiment file.
+
+    An experiment file (YAML, see ``config/experiments/``)::
+
+        name: figure10_mrc_with_actuator
+        description: one line
+        clock: lockstep            # lockstep (rig publishes /clock, reproducible) | realtime
+        duration: 8.0              # [s] simulated (lockstep) or wall (realtime) time
+        nodes:                     # node name -> how to start it (as `ros2 run` would)
+          vehicle_sim:
+            package: irs_vehicle_sim
+            executable: vehicle_sim
+            params_files: [pkg://irs_vehicle_sim/config/rig.yaml]   # share/<pkg>/... or a path
+            params: {plant: identified}                              # overrides, flat names
+            remaps: {}
+            process: rig           # optional group: nodes with the same one share a process
+        record:
+          topics: [arm/joint_states, ...]     # what the recorder writes to the bag ([] = no bag)
+          process: loop                       # optional: the recorder composed with that group
+        surface: {kind: split, mu_left: 0.8, mu_right: 0.3}   # optional, torque car only: the road
+
+    The ``surface:`` section (irs_vehicle_sim.surface.SurfaceSpec: ``uniform`` mu, a ``patch`` in
+    x, ``split`` left/right, a ``step`` in time) becomes the rig's ``surface.*`` parameters; it
+    needs ``plant: two_track`` in the rig's ``params`` and no ``surface.*`` parameter there as
+    well.
+    """
 
     name: str
     description: str
@@ -143,6 +154,34 @@ class Experiment:
             out['recorder'] = self.record_process
         return out
 
+    def with_duration(self, duration: float) -> 'Experiment':
+        """A copy that runs ``duration`` s instead (``experiment run --duration``); one
+        :class:`ExperimentError` line unless it is a finite number of at least one rig step.
+        """
+        if isinstance(duration, bool) or not isinstance(duration, (int, float)) \
+                or not math.isfinite(duration) or duration <= 0:
+            raise ExperimentError(f'--duration: a finite number of seconds > 0 expected, '
+                                  f'got {duration!r}')
+        exp = replace(self, duration=float(duration))
+        problems = _duration_problems(exp)
+        if problems:
+            raise ExperimentError(f'--duration: {problems[0][1]}')
+        return exp
+
+
+def new_run_dir(runs_dir, name: str) -> Path:
+    """``<runs_dir>/<name>-<YYYYmmdd-HHMMSS>``, with ``-2``, ``-3`` ... if that exists
+    (absolute; not created).
+    """
+    import datetime
+    stamp = datetime.datetime.now().strftime('%Y%m%d-%H%M%S')
+    base = Path(runs_dir).resolve()
+    path, n = base / f'{name}-{stamp}', 1
+    while path.exists():
+        n += 1
+        path = base / f'{name}-{stamp}-{n}'
+    return path
+
 
 def experiments_dir() -> Path:
     """``share/irs_bringup/config/experiments`` of the installed package."""
@@ -159,8 +198,8 @@ def find_experiment(name_or_path: str) -> Path:
         return p
     candidate = experiments_dir() / f'{name_or_path}.yaml'
     if not candidate.is_file():
-        names = ', '.join(sorted(x.stem for x in experiments_dir().glob('*.yaml')))
-        raise ExperimentError(f"no experiment '{name_or_path}'; installed: {names}")
+        names = [x.stem for x in experiments_dir().glob('*.yaml')]
+        raise ExperimentError(did_you_mean(name_or_path, names, 'experiment', 'experiment list'))
     return candidate
 
 

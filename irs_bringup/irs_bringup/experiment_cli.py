@@ -1,15 +1,22 @@
 """``experiment``: run IRS experiments (``ros2 run irs_bringup experiment ...``, or ``./irs run``).
 
 commands:
-  experiment list                        installed experiment files
+  experiment list                        installed experiment files (read only: no ROS started)
   experiment run <name|file.yaml>        run one through the ROS graph, record, plot
   experiment run <name> --composed       the same with every node in one process
-  experiment run <name> --offline        the same cores without ROS (closed_loop.py)
+  experiment run <name> --offline        the same cores without ROS: traces, metrics, plots
+  experiment run <name> --duration 3     any of these for 3 s instead of the file's duration
+  experiment recover                     rig/recover: the running rig back from any fault
+
+Every run writes into its own folder under --runs-dir (default runs/): <name>-<time>/ for the
+graph, <name>-offline-<time>/ offline. Exit codes: docs/cli.md.
 """
 import argparse
 import sys
 
-from .experiment import ExperimentError, experiments_dir, load_experiment
+from irs_common.cli import EXIT_FAILED, InputError, run_cli
+
+from .experiment import experiments_dir, load_experiment
 
 COMPOSED_HELP = ('every node and the recorder in one process (one executor, messages handed over '
                  'in-process; the same lock-step bag, several times faster)')
@@ -30,40 +37,73 @@ def _post_process(result, log=print):
     except BagError as exc:
         log(f'[experiment] bag unreadable: {exc}')
         return written
-    try:
-        from irs_bag.plots import make_plots
-        written += make_plots(result.bag_dir, result.run_dir / 'plots')
-    except Exception as exc:  # plots must never hide the run's result
-        log(f'[experiment] plots failed: {exc}')
-    try:
-        from irs_bag.rerun_export import export_rrd
-        rrd = result.run_dir / 'run.rrd'
-        export_rrd(result.bag_dir, rrd)
-        written.append(rrd)
-    except Exception as exc:
-        log(f'[experiment] rerun export failed: {exc}')
+    from irs_bag.views import write_views      # plots and run.rrd from one read of the bag
+    written += write_views(result.bag_dir, result.run_dir, log)
     for path in written:
         log(f'[experiment] wrote {path}')
     return written
 
 
-def run_experiment(name, runs_dir='runs', plots=True, log=print, rt_priority=0, composed=False):
+def run_experiment(name, runs_dir='runs', plots=True, log=print, rt_priority=0, composed=False,
+                   duration=None):
     """Run one experiment through the graph; returns the RunResult. ``composed``: every node
-    and the recorder in one process (:meth:`~.experiment.Experiment.composed`).
+    and the recorder in one process (:meth:`~.experiment.Experiment.composed`); ``duration``
+    [s]: instead of the file's.
     """
     from .experiment_runner import ExperimentRunner
     exp = load_experiment(name)
+    if duration is not None:
+        exp = exp.with_duration(duration)
     if composed:
         exp = exp.composed()
     result = ExperimentRunner(exp, runs_dir=runs_dir, log=log, rt_priority=rt_priority).run()
     log(f'[experiment] {exp.name}: {result.message}; simulated {result.sim_time:.3f} s in '
         f'{result.wall_time:.1f} s wall; run directory {result.run_dir}')
-    if plots:
+    if plots and result.interrupted is None:
         _post_process(result, log)
     return result
 
 
-def main(argv=None) -> int:
+def run_offline(name, runs_dir='runs', plots=True, duration=None, log=print):
+    """The experiment's cores without ROS, into ``<runs_dir>/<name>-offline-<time>/``
+    (:mod:`.offline_twin.run_output`); the run folder.
+    """
+    from .experiment import new_run_dir
+    from .offline_twin.from_experiment import offline_run
+    from .offline_twin.run_output import write_run
+    exp = load_experiment(name)
+    if duration is not None:
+        exp = exp.with_duration(duration)
+    res = offline_run(exp)
+    run_dir = new_run_dir(runs_dir, f'{exp.name}-offline')
+    write_run(res, exp, run_dir, plots=plots, log=log)
+    last = (f'final y_s = {res["y_s"][-1]:.6f} m' if 'y_s' in res else
+            f'final x_belt = {res["x_belt"][-1]:.6f} m, u = {res["u"][-1]:.6f} m/s')
+    log(f'[experiment] {exp.name} offline: {len(res["time"])} samples, {last}; '
+        f'run directory {run_dir}')
+    return run_dir
+
+
+def list_experiments(out=print) -> int:
+    """One line per installed experiment file: name, clock, duration, description.
+
+    Reads the YAML files only (no schema, no parameter tables, no ROS): ``experiment run``
+    checks a file fully.
+    """
+    import yaml
+    for path in sorted(experiments_dir().glob('*.yaml')):
+        try:
+            doc = yaml.safe_load(path.read_text())
+            doc = doc if isinstance(doc, dict) else {}
+            duration = float(doc.get('duration'))
+            out(f'{path.stem:36s} {str(doc.get("clock", "lockstep")):9s} {duration:7.1f} s  '
+                f'{doc.get("description", "")}')
+        except (OSError, yaml.YAMLError, TypeError, ValueError) as exc:
+            out(f'{path.stem:36s} (unreadable: {" ".join(str(exc).split())[:80]})')
+    return 0
+
+
+def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(prog='experiment', description=__doc__,
                                      formatter_class=argparse.RawDescriptionHelpFormatter)
     sub = parser.add_subparsers(dest='cmd', required=True)
@@ -73,38 +113,48 @@ def main(argv=None) -> int:
     p_run.add_argument(
         '--runs-dir', default='runs', help='where run directories go (default: runs)'
     )
+    p_run.add_argument('--duration', type=float, metavar='SECONDS',
+                       help="run this long instead of the file's duration (simulated time in "
+                       'lock-step, wall time in real time)')
     p_run.add_argument('--no-plots', action='store_true', help='skip plots and the .rrd')
     p_run.add_argument('--offline', action='store_true', help='simulate the cores without ROS')
     p_run.add_argument('--composed', action='store_true', help=COMPOSED_HELP)
     p_run.add_argument('--rt-priority', type=int, default=0, metavar='N',
                        help='run every node process with SCHED_FIFO priority N (1-99; needs root '
                        'or CAP_SYS_NICE; 0 = normal scheduling)')
-    args = parser.parse_args(argv)
-    if getattr(args, 'offline', False) and getattr(args, 'composed', False):
-        parser.error('--composed runs the graph, --offline runs the cores without it: pick one')
-    try:
-        if args.cmd == 'list':
-            for path in sorted(experiments_dir().glob('*.yaml')):
-                exp = load_experiment(str(path))
-                print(f'{path.stem:36s} {exp.clock:9s} {exp.duration:7.1f} s  {exp.description}')
-            return 0
-        if args.cmd == 'run':
-            if args.offline:
-                from .offline_twin.from_experiment import offline_run
-                res = offline_run(args.experiment)
-                last = (f'final y_s = {res["y_s"][-1]:.6f} m' if 'y_s' in res else
-                        f'final x_belt = {res["x_belt"][-1]:.6f} m, u = {res["u"][-1]:.6f} m/s')
-                print(f'offline: {len(res["time"])} samples, {last}')
-                return 0
-            if not 0 <= args.rt_priority <= 99:
-                parser.error('--rt-priority must be 0..99')
-            result = run_experiment(args.experiment, args.runs_dir, plots=not args.no_plots,
-                                    rt_priority=args.rt_priority, composed=args.composed)
-            return 0 if result.completed else 1
-    except ExperimentError as exc:
-        print(f'experiment: {exc}', file=sys.stderr)
-        return 2
+    sub.add_parser('recover', help='call rig/recover (docs/safety.md) and wait until the rig runs')
+    return parser
 
+
+def _main(argv) -> int:
+    parser = build_parser()
+    args = parser.parse_args(argv)
+    if args.cmd == 'list':
+        return list_experiments()
+    if args.cmd == 'recover':
+        from irs_vehicle_sim.recover_call import recover
+        return 0 if recover() else EXIT_FAILED
+    if args.offline and args.composed:
+        parser.error('--composed runs the graph, --offline runs the cores without it: pick one')
+    if not 0 <= args.rt_priority <= 99:
+        parser.error('--rt-priority must be 0..99')
+    if args.offline:
+        run_offline(args.experiment, args.runs_dir, plots=not args.no_plots,
+                    duration=args.duration)
+        return 0
+    result = run_experiment(args.experiment, args.runs_dir, plots=not args.no_plots,
+                            rt_priority=args.rt_priority, composed=args.composed,
+                            duration=args.duration)
+    if result.interrupted is not None:
+        return 128 + result.interrupted if result.interrupted else EXIT_FAILED
+    return 0 if result.completed else EXIT_FAILED
+
+
+def main(argv=None) -> int:
+    return run_cli('experiment', _main, argv)
+
+
+__all__ = ['main', 'run_experiment', 'run_offline', 'InputError']
 
 if __name__ == '__main__':
     sys.exit(main())

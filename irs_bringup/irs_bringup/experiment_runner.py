@@ -1,20 +1,12 @@
 """Run an experiment: start every node as its own process, wait for the graph, run, shut down.
 
-Order of events:
-
-1. a run directory ``<runs>/<name>-<time>/`` with ``logs/`` (one log per node) and ``bag/``;
-2. the recorder (if the experiment records) and every node start through their ament-resolved
-   executables, with the experiment's parameter files and overrides plus the clock parameters;
-   nodes that share a ``process:`` name start together in one ``container`` process
-   (composition: one executor, the nodes still separate on topics);
-3. the runner waits until every node is in the graph and every topic has its expected
-   publishers and subscriptions (``experiment.expected_endpoints``), then calls ``rig/start``;
-4. it follows the run (the rig's ``rig/status``, 10 Hz of simulated time, in lock-step; wall
-   time in real time) with a progress line,
-   checking every process: if one dies the run stops, naming the node and its last output; if
-   the rig reports that the car left the belt, the run stops too;
-5. on completion or Ctrl-C every node is stopped with SIGINT (then SIGTERM/SIGKILL per process
-   group), the recorder last so it writes everything it received; no process is left behind.
+The runner makes a run directory (node logs, bag), starts the recorder and every node (a shared
+``process:`` group in one ``container``), waits until every node and topic endpoint is in the
+graph, calls ``rig/start``, follows the run with a progress line and stops it when a process
+dies or the car leaves the belt, then stops every process, the recorder last, leaving none
+behind. A signal only sets a flag that every wait checks within 50 ms. It exists so that an
+experiment file is one command with a clean end; the order of events and the stop rules:
+:class:`ExperimentRunner`.
 """
 from dataclasses import dataclass, field
 import datetime
@@ -30,18 +22,25 @@ import time
 
 import rclpy
 from rclpy.context import Context
+from rclpy.signals import SignalHandlerOptions
 from diagnostic_msgs.msg import DiagnosticArray
 from std_srvs.srv import Trigger
 import yaml
 
 from irs_common import qos
+from irs_common.cli import SignalGuard, current_guard
 from irs_common.stamps import to_sec
 from irs_msgs.msg import RigStatus
 
 from .experiment import (Experiment, RIG_KEY, clock_overrides, expected_endpoints,
-                         node_parameters, resolve_params_file)
+                         new_run_dir, node_parameters, resolve_params_file)
 from .graph import make_watcher
-from .processes import NodeProcess, NodeSpec
+from .processes import NodeProcess, NodeSpec, kill_processes, stop_processes
+
+#: Seconds a node has to stop after SIGINT (then SIGTERM, 2 s later SIGKILL).
+NODE_GRACE = 5.0
+#: Seconds the recorder has to stop after SIGINT: it writes its bag's summary and index.
+RECORDER_GRACE = 15.0
 
 
 def _number(text: str):
@@ -53,6 +52,10 @@ def _number(text: str):
 
 class ExperimentFailed(RuntimeError):
     """A node died, the graph did not come up, or the run did not progress."""
+
+
+class _StopRequested(Exception):
+    """A signal or :meth:`ExperimentRunner.request_stop` asked the run to stop."""
 
 
 @dataclass
@@ -69,6 +72,7 @@ class RunResult:
     timing: dict = field(default_factory=dict)   # real time: the rig's loop figures (rig/timing)
     cpu: dict = field(default_factory=dict)      # process label -> CPU seconds used in the run
     running_time: float = float('nan')           # wall time from rig/start to the end [s]
+    interrupted: int | None = None               # the signal that stopped the run, if any
 
 
 def _git_commit() -> str:
@@ -99,17 +103,38 @@ def _rig_dt(exp: Experiment) -> float:
 
 
 class ExperimentRunner:
-    """Runs one :class:`~irs_bringup.experiment.Experiment` (see module docstring)."""
+    """Runs one :class:`~irs_bringup.experiment.Experiment`.
+
+    Order of events:
+
+    1. a run directory ``<runs>/<name>-<time>/`` with ``logs/`` (one log per node) and ``bag/``;
+    2. the recorder (if the experiment records) and every node start through their ament-resolved
+       executables, with the experiment's parameter files and overrides plus the clock parameters;
+       nodes that share a ``process:`` name start together in one ``container`` process
+       (composition: one executor, the nodes still separate on topics);
+    3. the runner waits until every node is in the graph and every topic has its expected
+       publishers and subscriptions (``experiment.expected_endpoints``), then calls ``rig/start``;
+    4. it follows the run (the rig's ``rig/status``, 10 Hz of simulated time, in lock-step; wall
+       time in real time) with a progress line, checking every process: if one dies the run stops,
+       naming the node and its last output; if the rig reports that the car left the belt, the run
+       stops too;
+    5. on completion or a stop request every node is stopped with SIGINT (then SIGTERM/SIGKILL per
+       process group, all at once: :func:`~.processes.stop_processes`), the recorder last so it
+       writes everything it received; no process is left behind.
+
+    Stopping: SIGINT, SIGTERM or SIGHUP (or :meth:`ExperimentRunner.request_stop` from another
+    thread) only sets a flag; every wait of the runner (graph, ``rig/start``, the run, the drain)
+    spins in steps of 50 ms and checks it, so a stop starts within one step wherever the run is,
+    start-up included. The nodes then get :data:`NODE_GRACE` s to stop, the recorder
+    :data:`RECORDER_GRACE` s (it writes its bag's index), each SIGTERM then SIGKILL after that. A
+    second signal kills every process group at once and ends the runner's process (exit 128 +
+    signal). The result says which signal stopped the run (``RunResult.interrupted``).
+    """
 
     def __init__(self, exp: Experiment, runs_dir='runs', log=print, graph_timeout=60.0,
                  stall_timeout=30.0, progress=True, rt_priority=0):
         self.exp = exp
-        stamp = datetime.datetime.now().strftime('%Y%m%d-%H%M%S')
-        self.run_dir = Path(runs_dir).resolve() / f'{exp.name}-{stamp}'
-        n = 1
-        while self.run_dir.exists():
-            n += 1
-            self.run_dir = Path(runs_dir).resolve() / f'{exp.name}-{stamp}-{n}'
+        self.run_dir = new_run_dir(runs_dir, exp.name)
         self.log = log
         self.graph_timeout = graph_timeout
         self.stall_timeout = stall_timeout
@@ -119,6 +144,7 @@ class ExperimentRunner:
         self.rt_priority = int(rt_priority)
         self.dt = _rig_dt(exp)
         self.phase = 'created'   # -> starting -> running -> stopping -> done (for observers)
+        self.stop_signal = None  # set by request_stop: the signal number (0: asked, no signal)
 
     # ------------------------------------------------------------------ processes
     def _specs(self):
@@ -168,28 +194,61 @@ class ExperimentRunner:
                                        f'{proc.tail(15)}')
 
     def _stop_all(self) -> dict:
-        codes = {}
-        recorder = self.procs.pop('recorder', None)
-        for name, proc in reversed(list(self.procs.items())):
-            codes[name] = proc.stop()
-        if recorder is not None:
-            self.procs['recorder'] = recorder
-            codes['recorder'] = recorder.stop(timeout=30.0)
+        """Every node at once, then the recorder (class docstring); ``{label: exit code}``."""
+        nodes = [p for label, p in self.procs.items() if label != 'recorder']
+        codes = stop_processes(nodes, NODE_GRACE)
+        if 'recorder' in self.procs:
+            codes.update(stop_processes([self.procs['recorder']], RECORDER_GRACE))
         return codes
+
+    def scheduling_report(self) -> str:
+        """Which node processes got SCHED_FIFO (``--rt-priority``): it needs root or
+        CAP_SYS_NICE, and a process that is refused runs at normal priority.
+        """
+        fifo = []
+        for label, proc in self.procs.items():
+            try:
+                if os.sched_getscheduler(proc.pid) == os.SCHED_FIFO:
+                    fifo.append(label)
+            except OSError:
+                pass
+        return (f'SCHED_FIFO priority {self.rt_priority} granted to {len(fifo)} of '
+                f'{len(self.procs)} processes' + (f' ({", ".join(sorted(fifo))})' if fifo else
+                                                  ' (needs root or CAP_SYS_NICE)'))
+
+    def _check_stop(self):
+        if self.stop_signal is not None:
+            raise _StopRequested()
+
+    def request_stop(self, signum: int = 0):
+        """Stop the run at its next check (within 50 ms of spinning); safe in a signal handler."""
+        if self.stop_signal is None:
+            self.stop_signal = int(signum)
+
+    def kill(self):
+        """SIGKILL to every node's process group (a second signal: no waiting)."""
+        kill_processes(list(self.procs.values()))
 
     # ------------------------------------------------------------------ run
     def run(self) -> RunResult:
-        """Run the experiment; SIGTERM and SIGHUP end it like Ctrl-C (every node stopped)."""
+        """Run the experiment. In the main thread SIGINT, SIGTERM and SIGHUP stop it (module
+        docstring); elsewhere :meth:`request_stop` does.
+        """
         if threading.current_thread() is not threading.main_thread():
             return self._run()
-        def interrupt(signum, _frame):
-            raise KeyboardInterrupt(signal.Signals(signum).name)
-        previous = {sig: signal.signal(sig, interrupt) for sig in (signal.SIGTERM, signal.SIGHUP)}
+        outer = current_guard()
+        guard = SignalGuard()
+        guard.on_first = self.request_stop
+        guard.force_hooks.append(self.kill)
+        if outer is not None and outer.signum is not None:
+            self.request_stop(outer.signum)      # stopped before the run began
+        guard.install()
         try:
             return self._run()
         finally:
-            for sig, handler in previous.items():
-                signal.signal(sig, handler)
+            guard.restore()
+            if outer is not None and self.stop_signal:
+                outer.signum = outer.signum or self.stop_signal
 
     def _run(self) -> RunResult:
         exp = self.exp
@@ -197,7 +256,9 @@ class ExperimentRunner:
         logs.mkdir(parents=True)
         bag_dir = self.run_dir / 'bag' if exp.record_topics else None
         context = Context()
-        rclpy.init(context=context)
+        # The runner's own signal handling (run): rclpy's handlers would shut the context down
+        # under the waits instead.
+        rclpy.init(context=context, signal_handler_options=SignalHandlerOptions.NO)
         watcher = make_watcher('irs_experiment_runner', context=context)
         t_wall0 = time.monotonic()
         clock = {'t': 0.0}
@@ -215,10 +276,13 @@ class ExperimentRunner:
                 extra.append((exp.record_process, self._recorder_spec(bag_dir)))
             elif bag_dir is not None:
                 self.procs['recorder'] = NodeProcess(self._recorder_spec(bag_dir), logs)
+            self._check_stop()
             self._start_nodes(logs, env, extra)
             self.log(f'[experiment] {exp.name}: started {len(self.procs)} processes, '
                      f'logs in {logs}')
             self._wait_for_graph(watcher)
+            if self.rt_priority:
+                self.log(f'[experiment] {self.scheduling_report()}')
             node = watcher.node
             node.create_subscription(
                 RigStatus, 'rig/status', lambda m: clock.update(
@@ -233,8 +297,11 @@ class ExperimentRunner:
             completed = self._follow(watcher, clock, t_start)
             running = clock.get('done_at', time.monotonic()) - t_start
             message = 'completed' if completed else 'stopped'
-        except KeyboardInterrupt:
-            message = 'interrupted (Ctrl-C)'
+        except (KeyboardInterrupt, _StopRequested):
+            if self.stop_signal is None:
+                self.stop_signal = signal.SIGINT     # a KeyboardInterrupt of the caller's own
+            how = signal.Signals(self.stop_signal).name if self.stop_signal else 'a stop request'
+            message = f'interrupted ({how})'
             self.log(f'\n[experiment] {message}: shutting down')
         except ExperimentFailed as exc:
             message = str(exc)
@@ -257,7 +324,8 @@ class ExperimentRunner:
         cpu = {label: getattr(proc, 'cpu_at_stop', float('nan')) - cpu0.get(label, float('nan'))
                for label, proc in self.procs.items()}   # CPU of the run itself, start-up excluded
         return RunResult(self.run_dir, bag_dir, completed, sim_time, time.monotonic() - t_wall0,
-                         codes, message, timing, cpu, running)
+                         codes, message, timing, cpu, running,
+                         None if completed else self.stop_signal)
 
     def _wait_for_graph(self, watcher):
         names = [n for label in self.procs for n in self.members.get(label, [label])]
@@ -265,6 +333,7 @@ class ExperimentRunner:
         deadline = time.monotonic() + self.graph_timeout
 
         def ready():
+            self._check_stop()
             self._check_alive()
             if not {'/' + n for n in names} <= watcher.node_names():
                 return False
@@ -290,10 +359,11 @@ class ExperimentRunner:
         if self.exp.node(*RIG_KEY) is None:
             return
         client = watcher.node.create_client(Trigger, 'rig/start')
-        if not watcher.spin_until(client.service_is_ready, 20.0):
+        if not watcher.spin_until(lambda: self._check_stop() or client.service_is_ready(), 20.0):
             raise ExperimentFailed('rig/start service not available')
         future = client.call_async(Trigger.Request())
-        if not watcher.spin_until(future.done, 20.0) or not future.result().success:
+        if not watcher.spin_until(lambda: self._check_stop() or future.done(), 20.0) \
+                or not future.result().success:
             raise ExperimentFailed(
                 f'rig/start failed: {future.result() and future.result().message}'
             )
@@ -305,6 +375,7 @@ class ExperimentRunner:
         end = exp.duration - 0.5 * self.dt
         while True:
             watcher.executor.spin_once(timeout_sec=0.05)
+            self._check_stop()
             self._check_alive()
             now = time.monotonic()
             t = clock['t'] if exp.clock == 'lockstep' else now - t_start
@@ -340,4 +411,5 @@ class ExperimentRunner:
         deadline = time.monotonic() + seconds
         while time.monotonic() < deadline:
             watcher.executor.spin_once(timeout_sec=0.05)
+            self._check_stop()
             self._check_alive()

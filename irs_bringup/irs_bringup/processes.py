@@ -4,7 +4,11 @@ Each node runs as its own process in its own session (process group), with its o
 log file (a pipe could fill up and block a 1 kHz node), and is set to receive SIGTERM should the
 starting process die without stopping it. Stopping sends SIGINT (what Ctrl-C in
 ``ros2 run`` sends), then SIGTERM, then SIGKILL to the whole group, each after a timeout, so no
-child survives. No rclpy here.
+child survives; :func:`stop_processes` does it for many at once, with one deadline for all. A
+process that does not handle SIGTERM yet (still starting: the interpreter and its imports, before
+``run_node`` installs its handlers; read from ``/proc/<pid>/status``) gets SIGTERM instead of
+SIGINT: the default action ends it at once and silently, where SIGINT would print Python's
+``KeyboardInterrupt`` report. No rclpy here.
 """
 from dataclasses import dataclass, field
 import os
@@ -124,26 +128,74 @@ class NodeProcess:
         return (int(fields[11]) + int(fields[12])) / os.sysconf('SC_CLK_TCK')
 
     def stop(self, timeout: float = 10.0) -> int:
-        """SIGINT, then SIGTERM, then SIGKILL (process group), each after ``timeout`` s."""
+        """SIGINT, then SIGTERM after ``timeout`` s, then SIGKILL after ``timeout / 2`` s more
+        (process group); the exit code.
+        """
+        return stop_processes([self], timeout, timeout / 2)[self.label]
+
+    def interrupt(self):
+        """The first stop signal: SIGINT, or SIGTERM while the process does not handle it yet."""
         self.cpu_at_stop = self.cpu_seconds()
-        for sig, wait in ((signal.SIGINT, timeout), (signal.SIGTERM, timeout / 2),
-                          (signal.SIGKILL, timeout)):
-            if self.popen.poll() is not None:
-                break
-            self._signal_group(sig)
-            try:
-                self.popen.wait(wait)
-            except subprocess.TimeoutExpired:
-                continue
-        self._signal_group(signal.SIGKILL)  # leftovers of the group, if any
-        self._log.close()
+        self.signal_group(signal.SIGINT if handles_sigterm(self.popen.pid) else signal.SIGTERM)
+
+    def finish(self) -> int:
+        """After the process ended: kill what is left of its group, close the log."""
+        self.signal_group(signal.SIGKILL)  # leftovers of the group, if any
+        if not self._log.closed:
+            self._log.close()
         return self.popen.returncode
 
-    def _signal_group(self, sig):
+    def signal_group(self, sig):
         try:
             os.killpg(self.popen.pid, sig)
         except (ProcessLookupError, PermissionError):
             pass
+
+
+def handles_sigterm(pid: int) -> bool:
+    """Whether ``pid`` has a handler for SIGTERM (``SigCgt`` of ``/proc/<pid>/status``): an IRS
+    process installs one (``run_node``, ``irs_common.cli``) once it is past its imports.
+    """
+    try:
+        for line in Path(f'/proc/{pid}/status').read_text().splitlines():
+            if line.startswith('SigCgt:'):
+                return bool(int(line.split()[1], 16) >> (signal.SIGTERM - 1) & 1)
+    except (OSError, ValueError):
+        pass
+    return False
+
+
+def stop_processes(procs, grace: float = 5.0, term_grace: float = 2.0) -> dict:
+    """Stop every process of ``procs`` at once: the first stop signal to all
+    (:meth:`NodeProcess.interrupt`), SIGTERM to those still running after ``grace`` s, SIGKILL
+    after ``term_grace`` s more; ``{label: exit code}``. Takes at most ``grace + term_grace``
+    s plus the kill.
+    """
+    procs = list(procs)
+    for p in procs:
+        if p.popen.poll() is None:
+            p.interrupt()
+        else:
+            p.cpu_at_stop = float('nan')
+    for sig, wait in ((signal.SIGTERM, grace), (signal.SIGKILL, term_grace), (None, 5.0)):
+        deadline = time.monotonic() + wait
+        for p in procs:
+            try:
+                p.popen.wait(max(0.0, deadline - time.monotonic()))
+            except subprocess.TimeoutExpired:
+                pass
+        left = [p for p in procs if p.popen.poll() is None]
+        if not left or sig is None:
+            break
+        for p in left:
+            p.signal_group(sig)
+    return {p.label: p.finish() for p in procs}
+
+
+def kill_processes(procs) -> None:
+    """SIGKILL to the group of every process (a second Ctrl-C: no waiting)."""
+    for p in procs:
+        p.signal_group(signal.SIGKILL)
 
 
 def wait_until(predicate, timeout: float, interval: float = 0.02) -> bool:

@@ -1,14 +1,12 @@
 """A fast CDR serialiser for rclpy messages, generated per message class (no rclpy import).
 
-Why our own
------------
 The composed recorder serialises every message it records in the 1 kHz loop's thread
 (:mod:`irs_common.intra_process`). ``rclpy.serialization.serialize_message`` converts the Python
 message to its C struct field by field, then Fast CDR writes it: 5-12 us per message in a tight
 loop, 15-40 us inside the running loop, 16 % of a composed lock-step Figure 10 step (13 topics
 recorded at 1 kHz). The libraries that write CDR from Python are slower or refuse rclpy's
-messages: ``mcap_ros2``'s dynamic encoder took 19 us for a JointState and rejects numpy arrays;
-``rosbags``' generated serialiser was 1.7x faster than rclpy but rejects ``array.array``
+messages: ``mcap_ros2``'s dynamic encoder takes 19 us for a JointState and rejects numpy arrays;
+``rosbags``' generated serialiser is 1.7x faster than rclpy but rejects ``array.array``
 sequences (rclpy's type for ``sequence<double>``). So this module generates, once per message
 class, a Python function that writes the same CDR with as few interpreter steps as possible:
 
@@ -18,22 +16,7 @@ class, a Python function that writes the same CDR with as few interpreter steps 
   layouts chosen by the current offset mod 8 (the alignment padding differs);
 * numeric arrays and sequences are written with ``tobytes()`` (numpy arrays, ``array.array``).
 
-Encoding (OMG CDR, XCDR1, little endian, as ROS 2's Fast DDS writes it)
--------------------------------------------------------------------------
-A 4-byte encapsulation header ``00 01 00 00`` (CDR_LE), then the fields in order. A primitive of
-size s (1, 2, 4 or 8 bytes) starts at an offset (from the end of the header) that is a multiple
-of s; the padding bytes are zero here (Fast DDS leaves them uninitialised). A string is a uint32
-length counting a terminating NUL, the UTF-8 bytes and the NUL. A sequence is a uint32 element
-count, then the elements; a fixed array only the elements. Like Fast CDR, an empty sequence of
-primitives adds no alignment padding after its count.
-
-Supported: every basic type but ``char``/``wchar``/``long double``, strings (bounded or not),
-nested messages, and arrays and sequences (bounded or not) of numbers, bools, strings and
-messages. :func:`cdr_serializer` returns None for a class with anything else (wide strings,
-collections of octet or char); the caller then uses rclpy's serialiser. The tests
-(``test_cdr.py``) check, on random messages of every type the project publishes, that rclpy and
-mcap_ros2's reader decode these bytes to the values that went in, bit for bit, and that they
-are no longer than rclpy's own (which may end in extra padding).
+Encoding and supported types: :func:`cdr_serializer`.
 """
 from __future__ import annotations
 
@@ -67,6 +50,22 @@ def cdr_serializer(msg_class):
     """``f(msg) -> bytes``, the CDR of a ``msg_class`` message; None if a field is unsupported.
 
     Generated and compiled on the first call per class, then cached.
+
+    Encoding (OMG CDR, XCDR1, little endian, as ROS 2's Fast DDS writes it): A 4-byte encapsulation
+    header ``00 01 00 00`` (CDR_LE), then the fields in order. A primitive of size s (1, 2, 4 or 8
+    bytes) starts at an offset (from the end of the header) that is a multiple of s; the padding
+    bytes are zero here (Fast DDS leaves them uninitialised). A string is a uint32 length counting
+    a terminating NUL, the UTF-8 bytes and the NUL. A sequence is a uint32 element count, then the
+    elements; a fixed array only the elements. Like Fast CDR, an empty sequence of primitives adds
+    no alignment padding after its count.
+
+    Supported: every basic type but ``char``/``wchar``/``long double``, strings (bounded or not),
+    nested messages, and arrays and sequences (bounded or not) of numbers, bools, strings and
+    messages. :func:`cdr_serializer` returns None for a class with anything else (wide strings,
+    collections of octet or char); the caller then uses rclpy's serialiser. The tests
+    (``test_cdr.py``) check, on random messages of every type the project publishes, that rclpy and
+    mcap_ros2's reader decode these bytes to the values that went in, bit for bit, and that they
+    are at most as long as rclpy's own (which may end in extra padding).
     """
     if msg_class in _cache:
         return _cache[msg_class]

@@ -1,49 +1,18 @@
 """A lean single-threaded executor: one reused rcl wait set, callbacks called directly.
 
-Why not rclpy's ``SingleThreadedExecutor``
--------------------------------------------
-Measured on this 2-core machine (``bench/``), rclpy 7.1.6's ``SingleThreadedExecutor`` spends
-250-300 us of CPU per message hop (publish + take), 3x the 95-130 us of a loop over one raw
-``WaitSet``. Per ``spin_once`` it rebuilds the entity lists through generators, creates a new
-``WaitSet`` object, wraps every ready entity in a ``Task`` (a coroutine plus a future), and takes
-*one* message per wait. ``rclpy.experimental.EventsExecutor`` is as cheap as the raw wait set,
-but in rclpy 7.1.6 its ``spin()`` dispatched nothing and it hung on shutdown in some runs.
+It exists because rclpy's ``SingleThreadedExecutor`` is too slow for a 1 kHz loop on this
+2-core machine (``bench/``): rclpy 7.1.6's spends 250-300 us of CPU per message hop (publish +
+take), 3x the 95-130 us of a loop over one raw ``WaitSet``, because per ``spin_once`` it rebuilds
+the entity lists through generators, creates a new ``WaitSet``, wraps every ready entity in a
+``Task`` (a coroutine plus a future) and takes *one* message per wait.
+``rclpy.experimental.EventsExecutor`` is as cheap as the raw wait set, but in rclpy 7.1.6 its
+``spin()`` dispatches nothing and it hangs on shutdown in some runs.
 
-What this executor does instead
--------------------------------
-It keeps rclpy's ``Executor`` base (``add_node``, ``wake``, ``shutdown``, the guard condition
-that node entity creation triggers, the SIGINT guard condition), so nodes, timers, services,
-clients, parameter services, the sim-time ``/clock`` subscription and QoS event handlers work
-unchanged. Its ``spin_once`` is the loop the recorder already used:
-
-1. the entity lists of all nodes are gathered only when they change (a node created or
-   destroyed an entity: rclpy triggers the executor's guard condition then);
-2. one ``_rclpy.WaitSet`` (sized once per gather) is cleared, refilled and waited on. The
-   1 kHz entities (subscriptions, timers, guard conditions) go in every time. Three slow
-   chores take turns, at most one per ``spin_once`` (the most overdue), and the wait is capped
-   so that none is left out longer than its period:
-
-   - services (every node has six parameter services) and clients, every ``slow_period`` s
-     (default 10 ms): a service call waits at most that much longer;
-   - the QoS event handlers of every publisher and subscription (incompatible QoS, lost
-     messages, matching), every ``event_period`` s (default 0.5 s);
-   - the graph lookup of the in-process routes (:mod:`irs_common.intra_process`), every
-     ``graph_period`` s (default 0.1 s).
-
-   Five nodes and the composed recorder have about 45 services and 200 event handlers. Adding
-   them on every wait cost more than all the messages of a step. Adding them all, and asking
-   the graph about 15 routes, in one ``spin_once`` every 10 ms cost 0.5 ms there, and 65 % of
-   the composed real-time loop's overruns (measured in the fourth round of issue 9);
-3. every ready subscription is drained: ``take_message`` until nothing is left, each message
-   handed straight to its callback (no ``Task``); then ready timers are called
-   (``call_timer`` + callback), so a periodic step sees every message that had arrived when it
-   woke; then services, clients, guard conditions and waitables.
-
-With ``intra_process=True`` (composition: ``run_nodes`` with several nodes), messages between
-the executor's own nodes are handed over instead of sent through DDS while no subscriber outside
-the process listens (:mod:`irs_common.intra_process`); the handovers are delivered, oldest first,
-at the end of the ``spin_once`` that produced them, the recorder's copies last, in slices of
-``BACKGROUND_SLICE_NS`` while the loop is idle.
+:class:`LeanExecutor` keeps rclpy's ``Executor`` base, gathers the entities only when they
+change, reuses one wait set, serves slow chores (services, QoS events, graph lookups) in turns
+and drains every ready subscription straight into its callback. With ``intra_process=True``
+(``run_nodes`` with several nodes) messages between its own nodes are handed over instead of
+sent through DDS while no subscriber outside the process listens (:mod:`irs_common.intra_process`).
 
 Callbacks must be plain functions (no coroutines) -- all of ours are. Callback groups are
 ignored: one thread runs every callback, so every group is effectively mutually exclusive.
@@ -70,6 +39,10 @@ HANDOVER_BUDGET_NS = 5_000_000
 #: [ns]. The executor then polls (a zero-timeout wait) and takes another slice, so a timer tick
 #: that falls due waits at most one slice: 0.2 ms, a fifth of a 1 kHz period.
 BACKGROUND_SLICE_NS = 200_000
+
+#: The slow chore of one ``spin_once`` (:class:`LeanExecutor`): none, services and clients, or the
+#: QoS event handlers.
+_NONE, _SLOW, _EVENTS = 0, 1, 2
 
 
 class _Entities:
@@ -110,7 +83,40 @@ class _Entities:
 
 
 class LeanExecutor(Executor):
-    """Single-threaded executor with a reused wait set and direct callbacks (module docstring)."""
+    """Single-threaded executor with a reused wait set and direct callbacks.
+
+    It keeps rclpy's ``Executor`` base (``add_node``, ``wake``, ``shutdown``, the guard condition
+    that node entity creation triggers, the SIGINT guard condition), so nodes, timers, services,
+    clients, parameter services, the sim-time ``/clock`` subscription and QoS event handlers work
+    unchanged. Its ``spin_once``:
+
+    1. gathers the entity lists of all nodes only when they change (a node created or destroyed
+       an entity: rclpy triggers the executor's guard condition then);
+    2. clears, refills and waits on one ``_rclpy.WaitSet`` (sized once per gather). The 1 kHz
+       entities (subscriptions, timers, guard conditions) go in every time. Three slow chores
+       take turns, at most one per ``spin_once`` (the most overdue), and the wait is capped so
+       that none is left out longer than its period:
+
+       - services (every node has six parameter services) and clients, every ``slow_period`` s
+         (default 10 ms): a service call waits at most that much longer;
+       - the QoS event handlers of every publisher and subscription (incompatible QoS, lost
+         messages, matching), every ``event_period`` s (default 0.5 s);
+       - the graph lookup of the in-process routes (:mod:`irs_common.intra_process`), every
+         ``graph_period`` s (default 0.1 s).
+
+       Five nodes and the composed recorder have about 45 services and 200 event handlers.
+       Adding them on every wait costs more than all the messages of a step; adding them all,
+       and asking the graph about 15 routes, in one ``spin_once`` every 10 ms costs 0.5 ms there
+       and most of the composed real-time loop's overruns;
+    3. drains every ready subscription: ``take_message`` until nothing is left, each message
+       handed straight to its callback (no ``Task``); then calls the ready timers
+       (``call_timer`` + callback), so a periodic step sees every message that had arrived when
+       it woke; then services, clients, guard conditions and waitables.
+
+    With ``intra_process=True`` the handovers are delivered, oldest first, at the end of the
+    ``spin_once`` that produced them, the recorder's copies last, in slices of
+    ``BACKGROUND_SLICE_NS`` while the loop is idle.
+    """
 
     def __init__(self, *, context=None, slow_period: float = 0.01, event_period: float = 0.5,
                  graph_period: float = 0.1, intra_process: bool = False):
@@ -163,39 +169,69 @@ class LeanExecutor(Executor):
             raise ExternalShutdownException()
         ents = self._entities
         if ents is None:
-            ents = self._entities = _Entities(self.get_nodes(), (self._guard, self._sigint_gc),
-                                              self._context)
-            if self._bus is not None:
-                self._bus.rebuild(self.get_nodes())
+            ents = self._gather()
         ws = ents.wait_set
         timeout_ns = timeout_sec_to_nsec(timeout_sec)
         if self._bus is not None and (self._bus.queue or self._bus.background):
             timeout_ns = 0          # handovers are waiting: only poll for what else is ready
         now_ns = time.monotonic_ns()
-        # At most one slow chore per spin_once (module docstring), the most overdue: services
-        # and clients, or the QoS event handlers, or the graph lookup of the in-process routes.
-        slow = events = False
+        chore = self._pick_chore(now_ns)
+        timeout_ns = self._capped_timeout(timeout_ns, now_ns)
+        if not self._fill(ws, ents, chore):
+            return
+        ws.wait(timeout_ns)
+        if self._is_shutdown:
+            return
+        if not self._context.ok():
+            raise ExternalShutdownException()
+        try:
+            self._dispatch(ws, ents, chore == _EVENTS)
+        except InvalidHandle:
+            self._entities = None   # a callback destroyed an entity that was ready too
+
+    def _gather(self):
+        """Gather the entity lists of every node (and the in-process routes) again."""
+        ents = self._entities = _Entities(self.get_nodes(), (self._guard, self._sigint_gc),
+                                          self._context)
+        if self._bus is not None:
+            self._bus.rebuild(self.get_nodes())
+        return ents
+
+    def _pick_chore(self, now_ns: int) -> int:
+        """At most one slow chore per spin_once (class docstring), the most overdue: services
+        and clients (``_SLOW``), or the QoS event handlers (``_EVENTS``), or the graph lookup of
+        the in-process routes (done here); ``_NONE`` when none is due.
+        """
         late_slow = now_ns - self._next_slow_ns
         late_events = now_ns - self._next_event_ns
         late_graph = now_ns - self._next_graph_ns if self._bus is not None else -1
-        if max(late_slow, late_events, late_graph) >= 0:
-            if late_slow >= late_events and late_slow >= late_graph:
-                slow = True
-                self._next_slow_ns = now_ns + self._slow_period_ns
-            elif late_events >= late_graph:
-                events = True
-                self._next_event_ns = now_ns + self._event_period_ns
-            else:
-                self._next_graph_ns = now_ns + self._graph_period_ns
-                self._bus.refresh()
-        # Never wait longer than the slow period: the slow entities must get their turn, and a
-        # signal's stop flag (node_main) is only seen when the wait returns -- a Python signal
-        # handler cannot run while the main thread is inside rcl_wait.
+        if max(late_slow, late_events, late_graph) < 0:
+            return _NONE
+        if late_slow >= late_events and late_slow >= late_graph:
+            self._next_slow_ns = now_ns + self._slow_period_ns
+            return _SLOW
+        if late_events >= late_graph:
+            self._next_event_ns = now_ns + self._event_period_ns
+            return _EVENTS
+        self._next_graph_ns = now_ns + self._graph_period_ns
+        self._bus.refresh()
+        return _NONE
+
+    def _capped_timeout(self, timeout_ns: int, now_ns: int) -> int:
+        """Never wait longer than the next chore is due: the slow entities must get their turn,
+        and a signal's stop flag (node_main) is only seen when the wait returns -- a Python
+        signal handler cannot run while the main thread is inside rcl_wait.
+        """
         due_ns = min(self._next_slow_ns, self._next_event_ns)
         if self._bus is not None:
             due_ns = min(due_ns, self._next_graph_ns)
         left = max(due_ns - now_ns, 0)   # never negative: rcl_wait takes that as "forever"
-        timeout_ns = left if timeout_ns < 0 else min(timeout_ns, left)
+        return left if timeout_ns < 0 else min(timeout_ns, left)
+
+    def _fill(self, ws, ents, chore: int) -> bool:
+        """Refill the wait set: the 1 kHz entities always, the chore's entities when due.
+        False if an entity was destroyed since the gather (gather again next time).
+        """
         try:
             ws.clear_entities()
             for h in ents.sub_handles:
@@ -204,60 +240,57 @@ class LeanExecutor(Executor):
                 ws.add_timer(h)
             for h in ents.guard_handles:
                 ws.add_guard_condition(h)
-            if slow:
+            if chore == _SLOW:
                 for s in ents.services:
                     ws.add_service(s.handle)
                 for c in ents.clients:
                     ws.add_client(c.handle)
-            elif events:
+            elif chore == _EVENTS:
                 for wt in ents.waitables:
                     wt.add_to_wait_set(ws)
         except InvalidHandle:
-            self._entities = None   # an entity was destroyed since the gather: gather again
-            return
-        ws.wait(timeout_ns)
-        if self._is_shutdown:
-            return
-        if not self._context.ok():
-            raise ExternalShutdownException()
+            self._entities = None
+            return False
+        return True
+
+    def _dispatch(self, ws, ents, events: bool) -> None:
+        """Run what is ready. Messages before timers: a periodic step (the real-time rig's
+        tick) then acts on every command that had arrived by the time it woke.
+        """
         ready_timers = ws.get_ready_entities('timer')
-        ready_subs = ws.get_ready_entities('subscription')
-        ready_srvs = ws.get_ready_entities('service')
-        ready_clis = ws.get_ready_entities('client')
+        for ptr in ws.get_ready_entities('subscription'):
+            sub = ents.sub_by_ptr.get(ptr)
+            if sub is not None:
+                self._drain(sub)
+        for ptr in ready_timers:
+            tmr = ents.timer_by_ptr.get(ptr)
+            if tmr is not None and tmr.handle.is_timer_ready():
+                tmr.handle.call_timer()
+                tmr.callback()
+        self._dispatch_slow(ws, ents, events)
+        if self._bus is not None:
+            self._bus.deliver(self._handover_budget_ns, BACKGROUND_SLICE_NS)
+
+    def _dispatch_slow(self, ws, ents, events: bool) -> None:
+        """Services, clients, guard conditions and (when their chore is due) waitables."""
+        for ptr in ws.get_ready_entities('service'):
+            srv = ents.service_by_ptr.get(ptr)
+            if srv is not None:
+                request, header = srv.handle.service_take_request(srv.srv_type.Request)
+                if header is not None:
+                    srv.send_response(srv.callback(request, srv.srv_type.Response()), header)
+        for ptr in ws.get_ready_entities('client'):
+            cli = ents.client_by_ptr.get(ptr)
+            if cli is not None:
+                self._take_response(cli)
         ready_gcs = ws.get_ready_entities('guard_condition')
-        ready_waitables = [wt for wt in ents.waitables if wt.is_ready(ws)] if events else ()
-        try:
-            # Messages before timers: a periodic step (the real-time rig's tick) then acts on
-            # every command that had arrived by the time it woke, not on the previous ones.
-            for ptr in ready_subs:
-                sub = ents.sub_by_ptr.get(ptr)
-                if sub is not None:
-                    self._drain(sub)
-            for ptr in ready_timers:
-                tmr = ents.timer_by_ptr.get(ptr)
-                if tmr is not None and tmr.handle.is_timer_ready():
-                    tmr.handle.call_timer()
-                    tmr.callback()
-            for ptr in ready_srvs:
-                srv = ents.service_by_ptr.get(ptr)
-                if srv is not None:
-                    request, header = srv.handle.service_take_request(srv.srv_type.Request)
-                    if header is not None:
-                        srv.send_response(srv.callback(request, srv.srv_type.Response()), header)
-            for ptr in ready_clis:
-                cli = ents.client_by_ptr.get(ptr)
-                if cli is not None:
-                    self._take_response(cli)
-            if ready_gcs:
-                for gc in ents.guards:
-                    if gc.handle.pointer in ready_gcs and gc.callback is not None:
-                        gc.callback()
-            for wt in ready_waitables:
+        if ready_gcs:
+            for gc in ents.guards:
+                if gc.handle.pointer in ready_gcs and gc.callback is not None:
+                    gc.callback()
+        if events:
+            for wt in [wt for wt in ents.waitables if wt.is_ready(ws)]:
                 _run_coroutine(wt.execute(wt.take_data()))
-            if self._bus is not None:
-                self._bus.deliver(self._handover_budget_ns, BACKGROUND_SLICE_NS)
-        except InvalidHandle:
-            self._entities = None   # a callback destroyed an entity that was ready too
 
     @staticmethod
     def _drain(sub):

@@ -3,33 +3,15 @@
 Every node checks what it receives before a core sees it, with the same rules and the same
 wording, so a log or a status message says the same thing whichever node found the problem.
 
-Rules
------
 Values (:func:`finite_problem`, :func:`range_problem`)
     A value is *usable* when it is a real number (``int``, ``float``, numpy scalars; not ``bool``),
-    finite
-    (not NaN, not +-inf) and, for a range check, ``low <= value <= high`` (limits in the value's
-    unit, inclusive). Each check returns ``None`` for a usable value or one sentence saying what
-    is wrong (naming the input, its value and the expected range). Finite-but-absurd values such
-    as ``1e308`` are *not* caught by the finite check: every physical input must also get a range
-    check with a documented physical bound (e.g. ``|y| <= 2 m`` for a lateral position on the
-    4 x 8 ft belt).
-
-Stamps (:func:`stamp_problem`), all in integer nanoseconds
-    With ``now_ns`` the receiving node's clock, ``last_ns`` the stamp of the last *accepted*
-    message on that input (``None`` before the first) and ``future_tolerance_ns >= 0``:
-
-    * ``stamp_ns > now_ns + future_tolerance_ns`` -> ``FUTURE``: rejected and reported; the stamp
-      must **not** be stored as ``last_ns`` (otherwise one reading stamped a day ahead, or at the
-      largest representable time, makes every later genuine reading look old). Checked first.
-    * ``stamp_ns == last_ns`` -> ``REPEAT``: the same step again (lock-step resend); a node answers
-      it with the answer it already gave, its state untouched.
-    * ``stamp_ns < last_ns`` -> ``OLD``: out of order; rejected and reported, not stored.
-    * otherwise ``OK``: the caller processes the message and stores ``stamp_ns`` as ``last_ns``.
-
-    ``now_ns=None`` skips the future check (e.g. replay without a clock). Negative stamps are
-    ``OLD`` only relative to ``last_ns``; the checker has no opinion on the epoch.
-
+    finite (not NaN, not +-inf) and, for a range check, ``low <= value <= high`` (inclusive, in
+    the value's unit). Each check returns ``None`` or one sentence naming the input, its value and
+    the expected range. ``1e308`` passes the finite check: every physical input also gets a range
+    check with a documented physical bound (e.g. ``|y| <= 2 m`` on the 4 x 8 ft belt).
+Stamps (:func:`stamp_problem`), integer nanoseconds against the node's clock and the last stamp
+    ``FUTURE`` (rejected, never stored), ``REPEAT`` (lock-step resend: the same answer again),
+    ``OLD`` (out of order: rejected) or ``OK``.
 Throttled warnings (:class:`ThrottledWarner`)
     Logs at most one message per ``key`` every ``period`` seconds of the caller's clock and counts
     the suppressed ones, so a 1 kHz stream of bad data gives one line per second that says how
@@ -95,7 +77,22 @@ class StampVerdict(str, enum.Enum):
 
 def stamp_problem(stamp_ns: int, now_ns: Optional[int], future_tolerance_ns: int,
                   last_ns: Optional[int]) -> Tuple[StampVerdict, Optional[str]]:
-    """Classify a message stamp; see the module docstring for the rule.
+    """Classify a message stamp: ``FUTURE``, ``REPEAT``, ``OLD`` or ``OK``.
+
+    The rule, all in integer nanoseconds. With ``now_ns`` the receiving node's clock,
+    ``last_ns`` the stamp of the last *accepted* message on that input (``None`` before the
+    first) and ``future_tolerance_ns >= 0``:
+
+    * ``stamp_ns > now_ns + future_tolerance_ns`` -> ``FUTURE``: rejected and reported; the stamp
+      must **not** be stored as ``last_ns`` (otherwise one reading stamped a day ahead, or at the
+      largest representable time, makes every later genuine reading look old). Checked first.
+    * ``stamp_ns == last_ns`` -> ``REPEAT``: the same step again (lock-step resend); a node answers
+      it with the answer it already gave, its state untouched.
+    * ``stamp_ns < last_ns`` -> ``OLD``: out of order; rejected and reported, not stored.
+    * otherwise ``OK``: the caller processes the message and stores ``stamp_ns`` as ``last_ns``.
+
+    ``now_ns=None`` skips the future check (e.g. replay without a clock). Negative stamps are
+    ``OLD`` only relative to ``last_ns``; the checker has no opinion on the epoch.
 
     Parameters
     ----------
@@ -141,7 +138,8 @@ class ThrottledWarner:
 
     ``warn(key, text, now)`` calls ``log(text)`` (with `` (N more suppressed)`` appended when
     messages were dropped since the last one) if ``key`` was not logged within ``period`` s
-    before ``now`` [s], and returns True when it logged. ``now`` is the caller's clock (sim or
+    before ``now`` [s], and returns True when it logged. ``once``/``end`` report a persisting
+    condition once per episode instead of once a ``period``. ``now`` is the caller's clock (sim or
     wall time); a clock that jumps back logs again at once.
     """
 
@@ -149,6 +147,7 @@ class ThrottledWarner:
     period: float = 1.0
     _last: dict = field(default_factory=dict)
     _suppressed: dict = field(default_factory=dict)
+    _episodes: dict = field(default_factory=dict)
 
     def warn(self, key: str, text: str, now: float) -> bool:
         last = self._last.get(key)
@@ -163,3 +162,36 @@ class ThrottledWarner:
     def suppressed(self, key: str) -> int:
         """Messages for ``key`` dropped since it was last logged."""
         return self._suppressed.get(key, 0)
+
+    def once(self, key: str, text: str, now: float) -> bool:
+        """Log ``text`` at the start of an *episode* of ``key`` only (a condition that persists,
+        such as every reading rejected while the car is off the belt), counting the later
+        calls until :meth:`end` closes it; episodes that start more often than once a
+        ``period`` (a condition that flaps) are throttled as :meth:`warn`. True when it logged.
+        """
+        if key in self._episodes:
+            self._episodes[key] += 1
+            return False
+        self._episodes[key] = 0
+        return self.warn(key, f'{text} (reported once while it lasts)', now)
+
+    def end(self, key: str, log_end: Callable[[str], object], text: str, now: float) -> bool:
+        """Close the episode of ``key`` if one is open: ``log_end(text)`` with the episode's
+        count, throttled like :meth:`warn`. True when it logged.
+        """
+        n = self._episodes.pop(key, None)
+        if n is None:
+            return False
+        last = self._last.get(key + '/end')
+        if last is not None and 0.0 <= now - last < self.period:
+            return False
+        self._last[key + '/end'] = now
+        log_end(f'{text} ({n + 1} in the episode)')
+        return True
+
+    def forget_episodes(self) -> None:
+        """Close every open episode without a log line (a reset that restarts the reports)."""
+        self._episodes.clear()
+
+    def in_episode(self, key: str) -> bool:
+        return key in self._episodes

@@ -2,53 +2,19 @@
 
 rclpy (Jazzy) has no intra-process communication: between two nodes of one process a message is
 converted to C, serialised, written to Fast DDS, taken, deserialised and converted back to
-Python -- about 50-70 us of CPU per hop here, most of a composed step's cost (``IRS_PROFILE``
-profile of the composed lock-step Figure 10: ``publish`` and ``take_message`` were the two
-largest entries). rclcpp's answer is intra-process comms; this is the same idea for rclpy,
-confined to :class:`~irs_common.executor.LeanExecutor`.
+Python -- about 50-70 us of CPU per hop here, most of a composed step's cost (without the
+handover, ``publish`` and ``take_message`` are the two largest entries of an ``IRS_PROFILE``
+profile of the composed lock-step Figure 10). rclcpp's answer is intra-process comms; this is
+the same idea for rclpy, confined to :class:`~irs_common.executor.LeanExecutor`.
 
-Rule
-----
-For every publisher of the executor's nodes, the *local* subscriptions are those of the same
-executor on the same resolved topic with the same message class whose QoS DDS would match
-(a reliable subscription does not match a best-effort publisher). A publisher with local
-subscriptions is routed:
-
-* **no subscriber outside the process** (the graph's subscription count on the topic equals the
-  local count): ``publish(msg)`` only queues ``(subscription, msg)`` for each local subscription.
-  Nothing goes to DDS. The executor delivers the queue in FIFO order, in the same ``spin_once``,
-  before it waits again, so the order of callbacks is a function of the messages alone
-  (lock-step stays reproducible to the bit);
-* **a subscriber outside the process** (``ros2 topic echo``, the experiment runner, a recorder in
-  another process): ``publish`` goes to DDS as before, and the local subscriptions receive their
-  copy from DDS too. Each local subscription gets every message exactly once either way.
-
-The outside count is refreshed from the ROS graph by the executor every ``graph_period``
-(0.1 s), so a subscriber that joins from outside starts receiving within about 0.1 s of its
-discovery, as any late-joining volatile subscriber would. The switch is one way: once a topic
-has had an outside subscriber it stays on DDS, and the queued handovers are delivered before its
-first DDS message.
-Switching back could let an older message, still in flight through DDS, reach a local
-subscription after a newer handover. Transient-local publishers are never routed (a late local
-subscriber must get the stored sample from DDS).
+A publisher's messages to subscriptions of the same executor are queued and delivered in FIFO
+order within the same ``spin_once`` while no subscriber outside the process listens (lock-step
+stays reproducible to the bit); with an outside subscriber the topic goes through DDS for good.
+Routing rule and the recorder's background lane: :class:`IntraProcessBus`.
 
 Contract (all IRS nodes keep it; documented in docs/architecture.md): a subscription callback
 does not modify the message it receives, and a publisher does not modify a message after
 publishing it -- with a handover, publisher and subscribers share the object.
-
-A raw subscription (``raw=True``: the composed recorder) receives the message's CDR bytes
-(:mod:`irs_common.cdr`: the message of ``serialize_message(msg)``, with zero padding) with
-``received_timestamp``/``source_timestamp`` of the handover and no publication sequence number
-(a handover cannot lose a message, so there is no gap to detect).
-
-Raw subscriptions are served in a **background lane**: their handovers wait in a second queue,
-delivered only when the first is empty, and serialised only then. A recorder composed with a
-1 kHz loop thus serialises and writes in the time the loop leaves idle, after the step's control
-chain (rig -> estimator -> controller -> rig), not in the middle of it: 25-35 us per recorded
-message, 4-13 messages per step, which used to sit between the arm sample and the steering
-command. The lane keeps each raw subscription's messages in order; its callbacks publish nothing,
-so the control callbacks' order, and a lock-step bag's content, do not change. The receive time
-a raw subscription sees is the time of its (later) delivery.
 
 ``IRS_INTRA_PROCESS=0`` in the environment switches the handover off (every message through DDS),
 for comparison.
@@ -134,7 +100,44 @@ class _Route:
 
 
 class IntraProcessBus:
-    """The routes of one executor's nodes and the queue of handed-over messages."""
+    """The routes of one executor's nodes and the queue of handed-over messages.
+
+    Routing rule. For every publisher of the executor's nodes, the *local* subscriptions are those
+    of the same executor on the same resolved topic with the same message class whose QoS DDS would
+    match (a reliable subscription does not match a best-effort publisher). A publisher with local
+    subscriptions is routed:
+
+    * **no subscriber outside the process** (the graph's subscription count on the topic equals the
+      local count): ``publish(msg)`` only queues ``(subscription, msg)`` for each local
+      subscription. Nothing goes to DDS. The executor delivers the queue in FIFO order, in the same
+      ``spin_once``, before it waits again, so the order of callbacks is a function of the messages
+      alone (lock-step stays reproducible to the bit);
+    * **a subscriber outside the process** (``ros2 topic echo``, the experiment runner, a recorder
+      in another process): ``publish`` goes to DDS, and the local subscriptions receive their copy
+      from DDS too. Each local subscription gets every message exactly once either way.
+
+    The outside count is refreshed from the ROS graph by the executor every ``graph_period`` (0.1
+    s), so a subscriber that joins from outside starts receiving within about 0.1 s of its
+    discovery, as any late-joining volatile subscriber would. The switch is one way: once a topic
+    has had an outside subscriber it stays on DDS, and the queued handovers are delivered before
+    its first DDS message. Switching back could let an older message, still in flight through DDS,
+    reach a local subscription after a newer handover. Transient-local publishers are never routed
+    (a late local subscriber must get the stored sample from DDS).
+
+    A raw subscription (``raw=True``: the composed recorder) receives the message's CDR bytes
+    (:mod:`irs_common.cdr`: the message of ``serialize_message(msg)``, with zero padding) with
+    ``received_timestamp``/``source_timestamp`` of the handover and no publication sequence number
+    (a handover cannot lose a message, so there is no gap to detect).
+
+    Raw subscriptions are served in a **background lane**: their handovers wait in a second queue,
+    delivered only when the first is empty, and serialised only then. A recorder composed with a 1
+    kHz loop thus serialises and writes in the time the loop leaves idle, after the step's control
+    chain (rig -> estimator -> controller -> rig), not in the middle of it: 25-35 us per recorded
+    message, 4-13 messages per step, which would otherwise sit between the arm sample and the
+    steering command. The lane keeps each raw subscription's messages in order; its callbacks
+    publish nothing, so the control callbacks' order, and a lock-step bag's content, do not change.
+    The receive time a raw subscription sees is the time of its (later) delivery.
+    """
 
     def __init__(self) -> None:
         self.queue: deque = deque()

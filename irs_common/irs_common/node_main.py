@@ -9,24 +9,17 @@ hand messages to each other in-process while nobody outside listens
 
 Start-up failures are one line on stderr and exit code 2, never a traceback: a configuration
 error raised by a node's constructor (``ValueError``), an rclpy parameter exception (wrong type,
-out of range), and an ``RCLError`` from a bad ``--ros-args`` or ``--params-file``.
+out of range), and an ``RCLError`` from a bad ``--ros-args`` or ``--params-file``; a
+``--params-file`` with no section for the node (a misspelt node name) and a later file that
+gives a parameter another type are start-up errors too
+(:func:`irs_common.params.params_file_problems`).
 
-Real-time priority: with ``IRS_RT_PRIORITY=<1..99>`` in the environment the process switches to
-``SCHED_FIFO`` at that priority before rclpy starts its DDS threads (which inherit it), as
-ros2_control's real-time loops do. It needs root or ``CAP_SYS_NICE`` (``ulimit -r``); if the
-switch is refused, a warning says so and the node runs at normal priority.
-
-Garbage collection: the objects built before spinning are frozen (``gc.freeze``), so the rare
-full collection no longer scans them (it paused the composed 1 kHz loop for 79 ms).
-
-Profiling: with ``IRS_PROFILE=<prefix>`` the spin runs under ``cProfile`` and the statistics are
-written to ``<prefix>.<pid>.prof`` at exit (read them with ``python -m pstats``); an experiment's
-processes inherit the variable, so ``IRS_PROFILE=/tmp/p ./irs run irs_bringup experiment run X``
-profiles every node of a run.
+Signals end the process with exit code 0. The environment switches on real-time priority
+(``IRS_RT_PRIORITY``), allocation tracing (``IRS_MEMTRACE``) and profiling (``IRS_PROFILE``):
+:func:`run_nodes`. It exists so that every executable starts, fails and stops the same way.
 """
 import gc
 import os
-import signal
 import sys
 
 import rclpy
@@ -35,8 +28,10 @@ from rclpy.executors import ExternalShutdownException
 from rclpy.impl.implementation_singleton import rclpy_implementation as _rclpy
 from rclpy.signals import SignalHandlerOptions
 
+from .cli import SignalGuard
 from .executor import LeanExecutor
 from .intra_process import enabled_by_env as intra_process_enabled
+from .params import params_file_problems, ros_args_params_files
 from .sim_time import guard_clock
 
 #: Exceptions that mean "the command line or the parameters are wrong", reported in one line.
@@ -67,92 +62,114 @@ def _fail(text: str) -> int:
     return 2
 
 
-def run_nodes(factories, args=None) -> int:
+def run_nodes(factories, args=None, guard=None) -> int:
     """Build every node of ``factories`` (callables, in order), spin them on one executor.
 
-    Returns the process exit code: 0 after SIGINT/SIGTERM, 2 after a start-up error.
+    Returns the process exit code: 0 after SIGINT/SIGTERM/SIGHUP, 2 after a start-up error.
+    ``guard``: a :class:`~irs_common.cli.SignalGuard` the caller installed before its own
+    start-up work (the ``container``); one is installed here otherwise, and kept to the end of
+    the process unless ``args`` are given (a signal after the stop leaves at once).
+
+    Signals (SIGINT, SIGTERM, SIGHUP; :class:`irs_common.cli.SignalGuard`): while the nodes are
+    built a signal abandons the start-up at once; while they spin it asks the executor to stop
+    after the callback in progress (within its 10 ms wait); both end with exit code 0. A second
+    signal while the nodes are destroyed (the recorder closing its bag) leaves at once with 128 +
+    the signal.
+
+    Real-time priority: with ``IRS_RT_PRIORITY=<1..99>`` in the environment the process switches to
+    ``SCHED_FIFO`` at that priority before rclpy starts its DDS threads (which inherit it), as
+    ros2_control's real-time loops do. It needs root or ``CAP_SYS_NICE`` (``ulimit -r``); if the
+    switch is refused, a warning says so and the node runs at normal priority.
+
+    Garbage collection: the objects built before spinning are frozen (``gc.freeze``), so the rare
+    full collection does not scan them (scanning them pauses the composed 1 kHz loop for up to 79
+    ms).
+
+    Memory: with ``IRS_MEMTRACE=<prefix>`` the spin runs under ``tracemalloc`` and every
+    ``IRS_MEMTRACE_PERIOD`` s (default 300) the 25 allocation sites that grew most since the first
+    minute are written to ``<prefix>.<pid>.txt`` (a soak finds a leak's line this way).
+
+    Profiling: with ``IRS_PROFILE=<prefix>`` the spin runs under ``cProfile`` and the statistics
+    are written to ``<prefix>.<pid>.prof`` at exit (read them with ``python -m pstats``); an
+    experiment's processes inherit the variable, so ``IRS_PROFILE=/tmp/p ./irs run irs_bringup
+    experiment run X`` profiles every node of a run.
     """
+    own_guard = guard is None
+    guard = guard or SignalGuard().install()
     rt_note = set_realtime_priority()
-    stop = _StopOnSignal()
-    try:
-        rclpy.init(args=args, signal_handler_options=SignalHandlerOptions.NO)
-    except _rclpy.UnknownROSArgsError as exc:
-        return _fail(f'unknown ROS arguments after --ros-args: {_one_line(exc)}')
-    except _START_ERRORS as exc:
-        return _fail(f'bad command line: {_one_line(exc)}')
     nodes = []
     executor = None
     try:
-        for factory in factories:
-            nodes.append(factory())
-            guard_clock(nodes[-1])   # a bad /clock message is dropped, not fatal
-            if stop.signalled:
-                return 0             # stopped while starting up
+        try:
+            rclpy.init(args=args, signal_handler_options=SignalHandlerOptions.NO)
+        except _rclpy.UnknownROSArgsError as exc:
+            return _fail(f'unknown ROS arguments after --ros-args: {_one_line(exc)}')
+        except _START_ERRORS as exc:
+            return _fail(f'bad command line: {_one_line(exc)}')
+        _build_nodes(factories, nodes, sys.argv if args is None else args)
         if rt_note:
             nodes[0].get_logger().info(rt_note)
         # Composed nodes hand their messages over in-process (irs_common.intra_process).
         executor = LeanExecutor(intra_process=len(nodes) > 1 and intra_process_enabled())
         for node in nodes:
             executor.add_node(node)
-        stop.executor = executor
         # Every object built so far (modules, nodes, the cores' tables: ~140,000 objects) goes
         # to the collector's permanent generation. Otherwise a full (generation 2) collection
         # scans them all, and it comes once in a while, unannounced: 79 ms measured in the
         # composed real-time loop, 79 deadlines at 1 kHz. Start-up garbage is not collected
         # (a few kB); everything made while spinning is collected as before.
         gc.freeze()
-        if not stop.signalled:
+        # From here a signal only stops the executor after the callback in progress: rclpy's
+        # own handlers (disabled above) raise at an arbitrary bytecode, seen to cut the
+        # composed recorder's bag writer between a chunk and its message indexes.
+        guard.on_first = lambda _signum: executor.request_stop()
+        if guard.signum is None:
             _spin(executor)
     except (KeyboardInterrupt, ExternalShutdownException):
         pass
     except _START_ERRORS as exc:
-        if not rclpy.ok() or executor is not None:
-            if executor is not None:
-                raise   # a failure while running is a bug: keep its traceback
+        if executor is not None:
+            raise   # a failure while running is a bug: keep its traceback
+        if guard.signum is not None or not rclpy.ok():
             return 0    # shut down by a signal while starting up
         return _fail(f'configuration error: {_one_line(exc)}')
     except Exception:
-        if rclpy.ok():
+        if rclpy.ok() and guard.signum is None:
             raise
         return 0  # a signal shut the context down while a node was being built
     finally:
-        stop.executor = None
+        guard.on_first = None
+        guard.ending = True          # a signal from here on leaves at once
         if executor is not None:
             executor.shutdown(timeout_sec=0)
         for node in nodes:
             node.destroy_node()
         rclpy.try_shutdown()
-        stop.restore()
+        if own_guard and args is not None:
+            guard.restore()   # called in-process; as the process's main the guard stays
     return 0
 
 
-class _StopOnSignal:
-    """SIGINT/SIGTERM request a clean stop instead of raising where the main thread happens to be.
-
-    rclpy's own handlers (disabled: ``SignalHandlerOptions.NO``) end in a ``KeyboardInterrupt``
-    raised at an arbitrary bytecode of the main thread -- seen to cut the composed recorder's bag
-    writer between a chunk and its message indexes (a damaged bag). Here a signal only sets a
-    flag and wakes the executor (:meth:`LeanExecutor.request_stop`); ``spin`` returns after the
-    callback in progress and the nodes are destroyed in order (the recorder closes its bag).
+def _build_nodes(factories, nodes: list, args) -> None:
+    """Build the nodes in order into ``nodes``; ``ValueError`` for a ``--params-file`` that does
+    not fit a node (no section for it, a parameter re-typed by a later file).
     """
-
-    def __init__(self):
-        self.signalled = False
-        self.executor = None
-        self._old = {sig: signal.signal(sig, self._on_signal)
-                     for sig in (signal.SIGINT, signal.SIGTERM)}
-
-    def _on_signal(self, signum, _frame):
-        self.signalled = True
-        if self.executor is not None:
-            self.executor.request_stop()
-
-    def restore(self):
-        for sig, handler in self._old.items():
-            signal.signal(sig, handler)
+    global_files = ros_args_params_files(args)[0]
+    for factory in factories:
+        nodes.append(factory())
+        guard_clock(nodes[-1])   # a bad /clock message is dropped, not fatal
+        own_files = ros_args_params_files(getattr(factory, 'ros_args', ()))[0]
+        problems = params_file_problems(global_files + own_files,
+                                        nodes[-1].get_fully_qualified_name())
+        if problems:
+            more = f' (and {len(problems) - 1} more)' if len(problems) > 1 else ''
+            raise ValueError(problems[0] + more)
 
 
 def _spin(executor) -> None:
+    memtrace = os.environ.get('IRS_MEMTRACE', '').strip()
+    if memtrace:
+        _start_memtrace(memtrace, float(os.environ.get('IRS_MEMTRACE_PERIOD', '300')))
     prefix = os.environ.get('IRS_PROFILE', '').strip()
     if not prefix:
         executor.spin()
@@ -163,6 +180,29 @@ def _spin(executor) -> None:
         profile.runcall(executor.spin)
     finally:
         profile.dump_stats(f'{prefix}.{os.getpid()}.prof')
+
+
+def _start_memtrace(prefix: str, period: float) -> None:
+    """A daemon thread: the allocation sites that grew since the first minute, every period."""
+    import threading
+    import time
+    import tracemalloc
+    tracemalloc.start(6)
+    path = f'{prefix}.{os.getpid()}.txt'
+
+    def watch():
+        time.sleep(60.0)
+        base = tracemalloc.take_snapshot()
+        t0 = time.monotonic()
+        while True:
+            time.sleep(period)
+            stats = tracemalloc.take_snapshot().compare_to(base, 'traceback')[:25]
+            with open(path, 'a') as out:
+                out.write(f'== {time.monotonic() - t0:.0f} s after the first minute\n')
+                for stat in stats:
+                    out.write(f'{stat.size_diff / 1024:+10.1f} KiB {stat.count_diff:+8d} '
+                              f'blocks\n    ' + '\n    '.join(stat.traceback.format()) + '\n')
+    threading.Thread(target=watch, daemon=True, name='irs-memtrace').start()
 
 
 def run_node(node_factory, args=None) -> int:

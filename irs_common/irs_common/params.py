@@ -5,41 +5,12 @@ the unit, range, read-only flag). ``declare_table`` declares them all and return
 of values, which is what the ROS-free cores take. ``markdown_table`` renders the same table for
 the docs, so the docs cannot drift from the code.
 
-Parameters tell the truth
--------------------------
-* **Read-only unless a parameter says otherwise.** ``Param(..., writable=True)`` is a parameter
-  the node applies while running; every other parameter has a read-only descriptor and rclpy
-  refuses to set it after start-up. (The older spelling ``read_only=True`` is still accepted
-  and means the default; ``read_only=False`` means ``writable=True``.)
-* **A writable parameter needs a handler.** The node passes ``on_change(name, value)`` to
-  :func:`declare_table`; declaring a writable parameter without one raises ``TypeError``::
-
-      self.p = declare_table(self, TABLE, on_change=self._on_parameter)
-
-      def _on_parameter(self, name, value):   # called after rclpy stored the accepted value
-          if name == 'command_timeout':
-              self.timeout = value
-
-  Before that, the change was validated (one ``on_set`` callback per node): type, range,
-  finiteness of doubles, non-empty arrays, and the parameter's own ``validator``; a refused
-  change returns ``SetParametersResult(successful=False, reason=...)`` naming the parameter, the
-  value and what was expected. The ``dict`` ``declare_table`` returned is kept current too.
-* **Integers are doubles where a double is expected.** ``-p x0:=0`` or ``x0: 0`` in a params
-  file (an INTEGER) for a double parameter is taken as ``0.0``, likewise ``[1, 2]`` for a double
-  array: at start-up the node's parameter overrides are converted before declaration, at run
-  time a ``pre_set`` callback converts the request before rclpy's type check (rclpy 7.1 checks
-  the type against the descriptor before any ``on_set`` callback, so an ``on_set`` callback
-  cannot do it). ``ParameterDescriptor.dynamic_typing`` would also let integers in, but it drops
-  rclpy's type check altogether (a string would then replace a double), so it is not used.
-* **Start-up errors are one ``ValueError``** naming the parameter, the value and what was
-  expected (``run_node`` turns it into one line and exit code 2), also when a second params
-  file gives a parameter another type.
-* **Unknown names are reported.** Overrides (params files, ``-p``) naming no declared parameter
-  are listed in one warning at the end of ``declare_table``, with the closest declared names;
-  ``strict=True`` makes that an error. Warning by default, because a params file with a ``/**``
-  section may legitimately carry parameters for other nodes. A node that declares several tables
-  should pass them in one call (``declare_table(node, A + B)``), or ``check_unknown=False`` to
-  all but the last call, so that names of a later table are not reported.
+Parameters tell the truth: read-only unless a parameter is marked ``writable`` (and then the
+node must pass a handler that applies it); every value, at start-up and on change, is validated
+(type, range, finiteness, the parameter's own ``validator``) and a refused one is named in one
+sentence; integers are taken as doubles where a double is expected; parameter files are checked
+before the node spins; override names that match no parameter are reported. The rules in
+detail: :func:`declare_table`.
 """
 from dataclasses import dataclass, replace
 import difflib
@@ -263,6 +234,112 @@ def _did_you_mean(name, names) -> str:
     return f" (did you mean {' or '.join(close)}?)" if close else ''
 
 
+# ------------------------------------------------------------------- parameter files (no rclpy)
+def params_file_sections(path) -> dict:
+    """``{section: flat parameters}`` of a ``--params-file``; ``ValueError`` (one line) unless it
+    is YAML of ``<node name>: {ros__parameters: {...}}`` sections.
+    """
+    import yaml
+    try:
+        with open(path) as f:
+            doc = yaml.safe_load(f) or {}
+    except (OSError, UnicodeDecodeError, yaml.YAMLError) as exc:
+        raise ValueError(f"--params-file {path}: not readable YAML: {' '.join(str(exc).split())}"
+                         ) from None
+    if not isinstance(doc, dict) or not all(
+            isinstance(sec, dict) and isinstance(sec.get('ros__parameters', {}), dict)
+            for sec in doc.values()):
+        raise ValueError(f'--params-file {path}: expected <node name>: '
+                         '{ros__parameters: {...}} sections')
+    return {str(k): flatten(v.get('ros__parameters') or {}) for k, v in doc.items()}
+
+
+def section_matches(section: str, node_fqn: str) -> bool:
+    """Whether a parameter file's section name applies to the node ``node_fqn`` (``/ns/name``),
+    as rcl matches them: a relative name is under ``/``, ``*`` is one name token, ``**`` any
+    number of them (``/**``: every node).
+    """
+    import re
+    pattern = section if section.startswith('/') else '/' + section
+    regex = ''
+    for token in pattern.strip('/').split('/'):
+        regex += {'**': r'(?:/[^/]+)*', '*': r'/[^/]+'}.get(token, '/' + re.escape(token))
+    return re.fullmatch(regex, node_fqn) is not None
+
+
+def params_file_problems(files, node_fqn: str) -> list:
+    """What is wrong with the ``--params-file`` ``files`` (in order) given to node ``node_fqn``:
+    a file none of whose sections applies to the node (a misspelt node name), and a parameter
+    that a later file gives another type than an earlier one (rcl would keep one silently).
+    Integers for doubles are no change of type (the tables take them).
+    """
+    problems, seen = [], {}      # name -> (kind, file)
+    for path in files:
+        sections = params_file_sections(path)
+        applying = [k for k in sections if section_matches(k, node_fqn)]
+        if sections and not applying:
+            names = [k for k in sections if '*' not in k]
+            close = difflib.get_close_matches(node_fqn.rsplit('/', 1)[-1],
+                                              [n.rsplit('/', 1)[-1] for n in names], n=1)
+            hint = f" (a misspelt '{node_fqn.rsplit('/', 1)[-1]}'?)" if close else ''
+            problems.append(f'--params-file {path}: no section for node {node_fqn}: it has '
+                            f'{", ".join(sections)}{hint}')
+        for key in applying:
+            for name, value in sections[key].items():
+                kind = _value_kind(value)
+                before = seen.get(name)
+                if before is not None and not _same_kind(before[0], kind):
+                    problems.append(f"parameter '{name}' of node {node_fqn}: {before[1]} gives "
+                                    f'{_KIND_WORDS_SHORT.get(before[0], before[0])}, {path} '
+                                    f'{_KIND_WORDS_SHORT.get(kind, kind)} (one parameter, one '
+                                    'type)')
+                seen[name] = (kind, path)
+    return problems
+
+
+_KIND_WORDS_SHORT = {'bool': 'a boolean', 'int': 'an integer', 'double': 'a double',
+                     'string': 'a string', 'bool[]': 'a boolean array',
+                     'int[]': 'an integer array', 'double[]': 'a double array',
+                     'string[]': 'a string array', 'none': 'no value', '[]': 'an empty array'}
+
+
+def _value_kind(value) -> str:
+    if value is None:
+        return 'none'
+    if isinstance(value, (list, tuple)):
+        if not value:
+            return '[]'
+        kinds = {_value_kind(v) for v in value}
+        return (kinds.pop() if len(kinds) == 1 else 'mixed') + '[]'
+    return _kind(value)
+
+
+def _same_kind(a: str, b: str) -> bool:
+    numbers = {'int', 'double'}
+    if a == b or '[]' in (a, b) and a.endswith('[]') and b.endswith('[]'):
+        return True
+    if a in numbers and b in numbers:
+        return True
+    return a.endswith('[]') and b.endswith('[]') and {a[:-2], b[:-2]} <= numbers
+
+
+def ros_args_params_files(args) -> tuple[list, str | None]:
+    """``(params files, node name remap or None)`` from a command line's ``--ros-args`` parts."""
+    files, name, inside = [], None, False
+    args = list(args or [])
+    for i, arg in enumerate(args):
+        if arg == '--ros-args':
+            inside = True
+        elif arg == '--':
+            inside = False
+        elif inside and arg == '--params-file' and i + 1 < len(args):
+            files.append(args[i + 1])
+        elif inside and arg in ('-r', '--remap') and i + 1 < len(args) \
+                and args[i + 1].startswith('__node:='):
+            name = args[i + 1].split(':=', 1)[1]
+    return files, name
+
+
 # ---------------------------------------------------------------------------------- rclpy side
 _DOUBLE_TYPES = {ParameterType.PARAMETER_DOUBLE: ParameterType.PARAMETER_INTEGER,
                  ParameterType.PARAMETER_DOUBLE_ARRAY: ParameterType.PARAMETER_INTEGER_ARRAY}
@@ -286,6 +363,7 @@ class ParameterGuard:
         self.params = {}      # name -> Param (declared through declare_table)
         self.handlers = {}    # name -> on_change(name, value), writable parameters only
         self.values = {}      # name -> the dict declare_table returned for it (kept current)
+        self.checks = {}      # name -> check(candidate values) of its table, if it has one
         node.add_pre_set_parameters_callback(self.pre_set)
         node.add_on_set_parameters_callback(self.on_set)
         node.add_post_set_parameters_callback(self.post_set)
@@ -334,6 +412,23 @@ class ParameterGuard:
                 p.coerce(param.value)
             except ValueError as exc:
                 return SetParametersResult(successful=False, reason=str(exc))
+        return self._check_tables(parameters)
+
+    def _check_tables(self, parameters) -> SetParametersResult:
+        """Each changed table's ``check`` on its values as they would be after the change."""
+        done = set()
+        for param in parameters:
+            check = self.checks.get(param.name)
+            if check is None or id(check) in done:
+                continue
+            done.add(id(check))
+            candidate = dict(self.values[param.name])
+            for other in parameters:
+                if other.name in candidate and other.name in self.params:
+                    candidate[other.name] = self.params[other.name].coerce(other.value)
+            reason = check(candidate)
+            if reason:
+                return SetParametersResult(successful=False, reason=reason)
         return SetParametersResult(successful=True)
 
     def post_set(self, parameters):
@@ -358,7 +453,7 @@ def _ptype(p: Param) -> int:
 
 
 def declare_table(node, table, on_change=None, *, strict: bool = False,
-                  check_unknown: bool = True) -> dict:
+                  check_unknown: bool = True, check=None) -> dict:
     """Declare every parameter of ``table`` on ``node``; return ``{name: value}``.
 
     ``on_change(name, value)`` is called after a change of a writable parameter was accepted
@@ -366,7 +461,53 @@ def declare_table(node, table, on_change=None, *, strict: bool = False,
     when the table has a writable parameter (``TypeError`` otherwise). Initial values (defaults,
     params files, ``-p``) are validated like changes; a bad one raises one ``ValueError``.
     Override names that are no declared parameter are logged as one warning
-    (``strict``: ``ValueError``) unless ``check_unknown`` is false.
+    (``strict``: ``ValueError``) unless ``check_unknown`` is false. ``check(values)`` (optional)
+    judges the table as a whole (limits that depend on another parameter): it returns ``None``
+    or a sentence; a sentence refuses a change (and, at start-up, raises ``ValueError``).
+
+    Notes
+    -----
+    Parameters tell the truth:
+
+    * **Read-only unless a parameter says otherwise.** ``Param(..., writable=True)`` is a parameter
+      the node applies while running; every other parameter has a read-only descriptor and rclpy
+      refuses to set it after start-up. (``read_only=True`` is accepted as an alias of the default;
+      ``read_only=False`` means ``writable=True``.)
+    * **A writable parameter needs a handler.** The node passes ``on_change(name, value)`` to
+      :func:`declare_table`; declaring a writable parameter without one raises ``TypeError``::
+
+          self.p = declare_table(self, TABLE, on_change=self._on_parameter)
+
+          def _on_parameter(self, name, value):   # called after rclpy stored the accepted value
+              if name == 'command_timeout':
+                  self.timeout = value
+
+      Before that call, the change is validated (one ``on_set`` callback per node): type, range,
+      finiteness of doubles, non-empty arrays, and the parameter's own ``validator``; a refused
+      change returns ``SetParametersResult(successful=False, reason=...)`` naming the parameter,
+      the value and what was expected. The ``dict`` ``declare_table`` returned is kept current too.
+    * **Integers are doubles where a double is expected.** ``-p x0:=0`` or ``x0: 0`` in a params
+      file (an INTEGER) for a double parameter is taken as ``0.0``, likewise ``[1, 2]`` for a
+      double array: at start-up the node's parameter overrides are converted before declaration, at
+      run time a ``pre_set`` callback converts the request before rclpy's type check (rclpy 7.1
+      checks the type against the descriptor before any ``on_set`` callback, so an ``on_set``
+      callback cannot do it). ``ParameterDescriptor.dynamic_typing`` would also let integers in,
+      but it drops rclpy's type check altogether (a string would then replace a double), so it is
+      not used.
+    * **Start-up errors are one ``ValueError``** naming the parameter, the value and what was
+      expected (``run_node`` turns it into one line and exit code 2), also when a second params
+      file gives a parameter another type.
+    * **Parameter files are checked** before the node spins (:func:`params_file_problems`, called
+      by ``run_nodes``): a ``--params-file`` with no section for the node (a misspelt node name)
+      and a later file that gives a parameter another type are start-up errors; rcl drops both
+      silently.
+    * **Unknown names are reported.** Overrides (params files, ``-p``) naming no declared parameter
+      are listed in one warning at the end of ``declare_table``, with the closest declared names;
+      ``strict=True`` makes that an error. Warning by default, because a params file with a ``/**``
+      section may legitimately carry parameters for other nodes. A node that declares several
+      tables should pass them in one call (``declare_table(node, A + B)``), or
+      ``check_unknown=False`` to all but the last call, so that names of a later table are not
+      reported.
     """
     writable = [p.name for p in table if p.writable]
     if writable and on_change is None:
@@ -401,11 +542,17 @@ def declare_table(node, table, on_change=None, *, strict: bool = False,
                              f'expected {p.expected()}') from None
         value = node.get_parameter(p.name).value
         values[p.name] = list(value) if isinstance(value, tuple) else value
+    if check is not None:
+        reason = check(values)
+        if reason:
+            raise ValueError(f"node '{node.get_name()}': {reason}")
     for p in table:
         guard.params[p.name] = p
         guard.values[p.name] = values
         if p.writable:
             guard.handlers[p.name] = on_change
+        if check is not None:
+            guard.checks[p.name] = check
     if check_unknown:
         report_unknown_overrides(node, strict=strict)
     return values

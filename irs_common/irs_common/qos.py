@@ -7,17 +7,12 @@
   Depth 100 = 0.1 s of history at 1 kHz absorbs scheduling hiccups on a loaded machine.
 - ``COMMAND``: actuator commands (steer, drive voltage, driver speed). RELIABLE, KEEP_LAST 100,
   VOLATILE: each command belongs to one step in lock-step, so none may be dropped.
-- ``SENSOR_PUB`` / ``COMMAND_PUB``: the same for the *publishers* of those streams, with a history
-  of ``PUBLISHER_HISTORY`` = 5000 samples (5 s at 1 kHz). A reliable writer keeps the samples a
-  reader has not acknowledged only as deep as its history: a reader that falls further behind
-  (a recorder at normal priority starved of CPU by SCHED_FIFO nodes) loses them for good, because
-  they can no longer be repaired. With 100, a recorder frozen for 0.3 s (``SIGSTOP``) lost 21,061
-  messages in a 30 s process-per-node run at 1 kHz, and the 10-minute soak lost 9,049 on a quiet
-  machine and 94,473 on a busy one; with 1000, a 0.3 s or 0.8 s freeze lost none and a 2 s freeze
-  lost 3,097; with 5000, a 2 s freeze lost none and a 4 s one 6,950, and three soaks lost none
-  (issue 9, stop 20; docs/performance.md). The cost is memory, up to 5000 samples of a few
-  hundred bytes per publisher; no CPU cost could be measured. A subscription's own depth stays
-  100: a node that catches up after a stall is not fed 5 s of stale samples.
+- ``SENSOR_PUB`` / ``COMMAND_PUB``: the same for the *publishers*, with a history of
+  ``PUBLISHER_HISTORY`` = 5000 samples (5 s at 1 kHz). A reliable writer keeps unacknowledged
+  samples only as deep as its history, so a reader starved of CPU for longer loses them for good;
+  5000 lets a recorder stall for 2 s without loss (measurements: docs/performance.md). The cost is
+  memory (up to 5000 samples of a few hundred bytes per publisher); a subscription's own depth
+  stays 100, so a node that catches up after a stall is not fed 5 s of stale samples.
 - ``STATUS``: low-rate health/fault messages. RELIABLE, KEEP_LAST 1, TRANSIENT_LOCAL (latched):
   a late joiner sees the current fault at once.
 - ``CLOCK``: /clock from the lock-step rig. RELIABLE, KEEP_LAST 100 for nodes that act on every

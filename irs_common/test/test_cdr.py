@@ -3,7 +3,7 @@ project publishes.
 
 For each type, hypothesis draws messages (NaN, inf, empty and long sequences, unicode strings);
 the generated serialiser's bytes must decode, with rclpy and with mcap_ros2's own CDR reader, to
-the very values that went in (floats compared bit for bit), and be no longer than rclpy's.
+the very values that went in (floats compared bit for bit), and be at most as long as rclpy's.
 """
 import importlib
 import math

@@ -3,7 +3,8 @@ import os
 import subprocess
 import sys
 import textwrap
-import uuid
+
+from irs_system_tests.domains import claim_domain
 
 SCRIPT = textwrap.dedent("""
     import gc, os, signal
@@ -23,9 +24,13 @@ SCRIPT = textwrap.dedent("""
 
 
 def test_objects_built_before_spinning_are_frozen():
-    env = dict(os.environ, ROS_DOMAIN_ID=str(200 + uuid.uuid4().int % 30))
-    done = subprocess.run([sys.executable, '-c', SCRIPT], capture_output=True, text=True,
-                          timeout=60, env=env)
+    domain, lock = claim_domain(os.getpid() + 7)      # a domain of its own, held while it runs
+    try:
+        env = dict(os.environ, ROS_DOMAIN_ID=str(domain))
+        done = subprocess.run([sys.executable, '-c', SCRIPT], capture_output=True, text=True,
+                              timeout=60, env=env)
+    finally:
+        lock.close()
     assert done.returncode == 0, done.stderr
     counts = [int(line.split()[1]) for line in done.stdout.splitlines()
               if line.startswith('frozen')]

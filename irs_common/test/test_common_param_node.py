@@ -257,3 +257,27 @@ def test_a_long_list_of_unknown_names_is_shortened(ctx):
         _declare(node, strict=True)
     assert 'zz00, zz01' in str(info.value) and 'zz09 and 2 more' in str(info.value)
     assert 'zz10' not in str(info.value)
+
+
+def _x0_times_gain(values):
+    """A check over two parameters: |x0 * gain| <= 1."""
+    product = values['x0'] * values['gain']
+    return None if abs(product) <= 1.0 else f'x0 * gain = {product:g} exceeds 1'
+
+
+def test_a_table_check_refuses_a_change_that_breaks_a_joint_limit(ctx):
+    node = ctx()
+    values, seen = _declare(node, check=_x0_times_gain)
+    [res] = node.set_parameters([Parameter('gain', value=3.0)])    # 0.5 * 3 = 1.5
+    assert not res.successful and 'x0 * gain = 1.5 exceeds 1' in res.reason
+    assert values['gain'] == 2.0 and seen == []
+    res = node.set_parameters_atomically([Parameter('x0', value=0.25),     # 0.25 * 3 = 0.75
+                                          Parameter('gain', value=3.0)])
+    assert res.successful, res.reason
+    assert values['x0'] == 0.25 and values['gain'] == 3.0
+
+
+def test_a_table_check_refuses_start_up_values_in_one_line(ctx):
+    node = ctx('-p', 'gain:=4.0')
+    with pytest.raises(ValueError, match="node 'params_test': x0 \\* gain = 2 exceeds 1"):
+        _declare(node, check=_x0_times_gain)

@@ -83,3 +83,26 @@ def test_throttled_warner_counts_suppressed():
     assert w.warn('nan', 'bad y', 1.0)
     assert lines == ['bad y', 'bad ref', 'bad y (4 more suppressed)']
     assert w.warn('nan', 'bad y', 0.2)               # the clock jumped back: log again
+
+
+def test_throttled_warner_reports_an_episode_once_and_its_end_with_the_count():
+    lines, ends = [], []
+    w = ThrottledWarner(lines.append, period=1.0)
+    assert w.once('rejected', 'reading rejected', 0.0)
+    for k in range(1, 5000):                 # 5 s of a persisting condition: no more lines
+        assert not w.once('rejected', 'reading rejected', k * 1e-3)
+    assert lines == ['reading rejected (reported once while it lasts)']
+    assert w.end('rejected', ends.append, 'readings accepted again', 5.0)
+    assert ends == ['readings accepted again (5000 in the episode)']
+    assert not w.end('rejected', ends.append, 'again', 5.1)         # no episode open
+    assert w.once('rejected', 'reading rejected', 6.5)                # a new episode: logged
+    assert len(lines) == 2
+
+
+def test_throttled_warner_throttles_flapping_episodes():
+    lines, ends = [], []
+    w = ThrottledWarner(lines.append, period=1.0)
+    for k in range(100):                      # bad, good, bad, good ... every 10 ms
+        w.once('bad', 'bad', k * 0.02)
+        w.end('bad', ends.append, 'good', k * 0.02 + 0.01)
+    assert len(lines) == 2 and len(ends) == 2     # 2 s: at most one of each a second

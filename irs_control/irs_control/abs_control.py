@@ -1,9 +1,10 @@
 """Anti-lock braking: a per-wheel slip PI on the wheel torques, and a speed estimate (ROS-free).
 
 Measurements only (never the simulator's ground truth): the wheel speeds ``omega_i`` [rad/s]
-from the encoders and a vehicle speed estimate ``v_hat`` [m/s] over the belt, e.g. from
-:class:`ArmSpeedEstimator` (the arm's pose differentiated, plus the belt speed the treadmill
-encoder measures).  Wheel slip (the tyre model's definition, negative when braking)::
+from the encoders and a vehicle speed estimate ``v_hat`` [m/s] over the belt: the wheels'
+(:mod:`.abs_reference`) or, for comparison, :class:`ArmSpeedEstimator` (the arm's pose
+differentiated plus the belt speed the treadmill encoder measures).  Wheel slip (the tyre
+model's definition, negative when braking)::
 
     lambda_i = (omega_i R - v_hat) / max(v_hat, v_min)
 
@@ -18,26 +19,9 @@ Control law, per wheel whose requested torque ``T_req,i < 0`` brakes, while ``v_
     T_i   = clip(T_abs, T_req,i, 0)        (ABS only takes braking away, never adds drive)
     I_i   clamped to [T_req,i, 0]          (anti-windup: the integral cannot run past the range)
 
-Two regimes set the two gains: below the friction peak the tyre is stiff (``T = R F_x ~ R C_k
-F_z lambda``, a static gain of ``R C_k F_z = 2.3 N m`` per unit slip, so the integral alone gives
-the pole ``K_i / 2.3``); at and past the peak the wheel is an integrator and the proportional
-part closes it at ``w_c``.  A wheel that is not braking, or all wheels below ``v_min``, get
-``T_req``, and the integral starts at ``T_req`` when a wheel starts braking (bumpless
-engagement: the full request first, released as the slip grows).  Requests are clipped to
-``+-torque_limit`` first.
-
-Defaults: ``lambda* = -0.10`` (Rajamani, Vehicle Dynamics and Control 2012, sec. 6 / Bosch
-Automotive Handbook: the friction peak of car tyres lies at 10-20 % slip; the tyre model here
-peaks at 0.29 mu, i.e. 9 % on mu = 0.3 and 23 % on mu = 0.8, and is within 15 % of its peak at
-10 % slip on both); ``w_c = 200 rad/s`` and ``K_i = 40 N m/s`` (pole near 17 rad/s below the
-peak): tuned on the two-track model with 5-sample (5 ms) encoder windows -- the encoder's
-2.5 ms lag costs 29 deg of phase at 200 rad/s; slower loops (40 rad/s) let the wheels lock
-before the release and limit-cycle between lock and the peak, and 10-sample windows do too;
-``v_min = 0.1 m/s`` (below it slip is meaningless and the wheels may lock, as real ABS
-cuts out at walking pace);
-``torque_limit = 0.3 N m``: assumed, a 1:10 hub motor's peak torque, enough to lock a wheel on
-the best surface (``R mu F_z = 0.033 * 0.8 * 7 = 0.19 N m``); ``J`` and ``R`` the two-track
-model's defaults (5e-5 kg m^2, 0.033 m).
+It exists so that a braking torque car keeps its wheels near the friction peak (steerable, the
+shortest stop) from measurements only. The two gains: :class:`AbsController`; the defaults and
+their sources: :class:`AbsParams`; the per-wheel peak seeker: :mod:`.abs_peak`.
 """
 
 from __future__ import annotations
@@ -55,7 +39,20 @@ __all__ = ['AbsParams', 'AbsController', 'AbsOutput', 'ArmSpeedEstimator', 'whee
 
 @dataclass
 class AbsParams:
-    """ABS parameters (module docstring for sources).
+    """ABS parameters.
+
+    Sources of the defaults. Defaults: ``lambda* = -0.10`` (Rajamani, Vehicle Dynamics and Control
+    2012, sec. 6 / Bosch Automotive Handbook: the friction peak of car tyres lies at 10-20 % slip;
+    the tyre model here peaks at 9 % on mu = 0.3 and 16 % on mu = 0.8, and gives 99.97 % and 90 %
+    of its peak at 10 % slip; :mod:`.abs_peak` moves the target per wheel to the fitted peak);
+    ``w_c = 200 rad/s`` and ``K_i = 40 N m/s`` (pole near 17 rad/s below the peak): tuned on the
+    two-track model with 5-sample (5 ms) encoder windows -- the encoder's 2.5 ms lag costs 29 deg
+    of phase at 200 rad/s; slower loops (40 rad/s) let the wheels lock before the release and
+    limit-cycle between lock and the peak, and 10-sample windows do too; ``v_min = 0.1 m/s`` (below
+    it slip is meaningless and the wheels may lock, as real ABS cuts out at walking pace);
+    ``torque_limit = 0.3 N m``: assumed, a 1:10 hub motor's peak torque, enough to lock a wheel on
+    the best surface (``R mu F_z = 0.033 * 0.8 * 7 = 0.19 N m``); ``J`` and ``R`` the two-track
+    model's defaults (5e-5 kg m^2, 0.033 m).
 
     Attributes
     ----------
@@ -128,7 +125,16 @@ def _finite(*xs) -> bool:
 
 
 class AbsController:
-    """Per-wheel slip PI (module docstring); ``step`` filters the requested torques."""
+    """Per-wheel slip PI (module docstring); ``step`` filters the requested torques.
+
+    Two regimes set the two gains: below the friction peak the tyre is stiff (``T = R F_x ~ R C_k
+    F_z lambda``, a static gain of ``R C_k F_z = 2.3 N m`` per unit slip, so the integral alone
+    gives the pole ``K_i / 2.3``); at and past the peak the wheel is an integrator and the
+    proportional part closes it at ``w_c``.  A wheel that is not braking, or all wheels below
+    ``v_min``, get ``T_req``, and the integral starts at ``T_req`` when a wheel starts braking
+    (bumpless engagement: the full request first, released as the slip grows).  Requests are
+    clipped to ``+-torque_limit`` first.
+    """
 
     def __init__(self, params: AbsParams | None = None, n: int = 4):
         self.params = params if params is not None else AbsParams()
@@ -140,7 +146,8 @@ class AbsController:
         self.integral = np.zeros(self.n)
         self._braking = np.zeros(self.n, bool)
 
-    def step(self, torque_request, omega, v_hat: float, dt: float) -> AbsOutput:
+    def step(self, torque_request, omega, v_hat: float, dt: float, slip_target=None
+             ) -> AbsOutput:
         """One control step.
 
         Parameters
@@ -153,6 +160,9 @@ class AbsController:
             Vehicle speed estimate over the belt [m/s] (not ground truth).
         dt : float
             Step [s].
+        slip_target : sequence of n float, optional
+            Per-wheel targets lambda* in (-1, 0) [-] (e.g. :class:`~.abs_peak.PeakSeeker`'s,
+            negated); default ``params.slip_target`` for every wheel.
         """
         p = self.params
         zero = np.zeros(self.n)
@@ -169,7 +179,9 @@ class AbsController:
         lam = wheel_slips(omega, v, p.wheel_radius, p.v_min)
         braking = treq < 0.0
         kp = p.bandwidth * p.wheel_inertia * v / p.wheel_radius
-        e = p.slip_target - lam
+        target = p.slip_target if slip_target is None else np.clip(
+            np.asarray(slip_target, float), -0.99, -1e-3)
+        e = target - lam
         start = np.where(self._braking, self.integral, treq)
         integ = np.where(braking, start + dt * p.integral_gain * e, treq)
         integ = np.where(braking, np.clip(integ, treq, 0.0), integ)

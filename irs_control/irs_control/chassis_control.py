@@ -1,55 +1,26 @@
 """Integrated chassis control of the torque car: yaw-rate tracking and speed (ROS-free).
 
 Yaw-rate reference: the steady-state yaw rate of the linear bicycle model (irs_models.bicycle,
-the ``irs_iwt`` preset's car) for the driver's front steer at the current speed::
+the torque car of irs_models.torque_car) for the driver's front steer at the current speed::
 
     [v_y, r]_ss = -A_2^{-1} B_2 [delta_f, 0]^T,   r_ref = r_ss(V = max(v_hat, v_min))
 
-(``A_2``, ``B_2`` the dynamic 2x2 block and its front/rear input columns; for small steer this is
-``V delta_f / (L + K_us V^2)``, Rajamani 2012 sec. 3.5).
-
-Yaw moment demand, a PI with anti-windup (integral clamped so its moment stays within what the
-actuators can give)::
+(``A_2``, ``B_2`` the dynamic 2x2 block and its input columns; for small steer
+``V delta_f / (L + K_us V^2)``, Rajamani 2012 sec. 3.5). Yaw moment demand [N m], a PI with a
+clamped integral, allocated to rear steer ``delta_r = -M / (l_r C_r)`` and differential torque
+``dT = M R / (2 t)`` [N m]; speed [m/s] by a PI on the wheel torques::
 
     M_z = I_z (w_r (r_ref - r) + w_ri z),   dz/dt = r_ref - r
-
-with the measured yaw rate ``r`` [rad/s] (the arm's heading differentiated, not ground truth).
-Allocation (``mix``), half each for ``'both'``:
-
-* rear steer: the rear axle's lateral force ``C_r delta_r`` at ``-l_r`` gives
-  ``M = -l_r C_r delta_r``, so ``delta_r = -M / (l_r C_r)``, clipped to the steer limit;
-* differential torque: ``+dT`` on the right wheels and ``-dT`` on the left ones gives
-  ``M = (t/2) 4 dT / R``, so ``dT = M R / (2 t)``.
-
-Speed (the car drives at belt speed so it stays put on the treadmill)::
-
     F = m (w_v (v_target - v_hat) + w_vi q),   dq/dt = v_target - v_hat,   T_base = F R / 4
 
-or, while a brake demand ``b > 0`` [N m per wheel] is given, ``T_base = -b`` (the speed integral
-is then reset, and the ABS downstream limits each wheel's slip).  Torques are clipped to
-``+-torque_limit``.
-
-Defaults: ``w_r = 300 rad/s``, ``w_ri = 60 1/s``, ``mix = 'both'``: tuned on the two-track
-model braking on split mu (0.8 left / 0.3 right) from 1.2 m/s under ABS with the yaw rate from
-the heading differentiated over one 1 ms step.  The differential torque only acts when it asks
-for *less* braking than the ABS allows on the high side, i.e. when the demand exceeds the gap
-between the brake demand and the ABS's torque (about 0.1 N m, a moment of 1 N m), hence the
-high gain; 15-60 rad/s cut the peak yaw rate by 10-30 % only, 300 rad/s by about 55 %.  While
-driving (no brake demand, no ABS clipping) the torque path has its own dynamics (the wheel spin
-against the relaxed slip, about 280 rad/s and lightly damped) and a step steer showed it
-unstable above about 60 rad/s on the two-track model, so there its share of the moment is
-scaled by ``w_d / w_r`` with ``w_d = 40 rad/s``.  The rear steer is taken as achieved: through
-the rig's 4.6 Hz servo it acts later, and the gain must be re-checked there (the moment demand
-is applied to the motors at once).
-``w_v = 3 rad/s``, ``w_vi = 2.25 1/s`` (assumed: the speed loop ``s^2 + w_v s + w_vi``
-critically damped at 1.5 rad/s, slower than the treadmill regulator, which also moves the
-car), steer limit 0.2618 rad (irs_models.constants),
-``torque_limit = 0.3 N m`` (as the ABS), ``v_min = 0.1 m/s``.
+with the measured yaw rate ``r`` [rad/s] (the arm's heading differentiated). The car drives at
+belt speed so it stays put on the treadmill; the controller exists to keep the torque car on its
+path when it brakes on split friction (allocation and braking: :class:`ChassisController`;
+tuning: :class:`ChassisParams`).
 """
 
 from __future__ import annotations
 
-import functools
 import math
 from dataclasses import dataclass, field
 
@@ -64,21 +35,36 @@ __all__ = ['ChassisParams', 'ChassisController', 'ChassisOutput', 'MIXES']
 MIXES = ('rear_steer', 'differential', 'both')
 
 
-@functools.lru_cache(maxsize=1)
 def _default_car() -> BicycleParams:
-    from irs_models.presets import get_preset
+    from irs_models.torque_car import torque_car_bicycle
 
-    return get_preset('irs_iwt').params   # frozen dataclass: safe to share
+    return torque_car_bicycle()   # frozen dataclass: safe to share
 
 
 @dataclass
 class ChassisParams:
-    """Chassis controller parameters (module docstring for sources).
+    """Chassis controller parameters.
+
+    Sources of the defaults. Defaults: ``w_r = 300 rad/s``, ``w_ri = 60 1/s``, ``mix = 'both'``:
+    tuned on the two-track model braking on split mu (0.8 left / 0.3 right) from 1.2 m/s under ABS
+    with the yaw rate from the heading differentiated over one 1 ms step.  The differential torque
+    only acts when it asks for *less* braking than the ABS allows on the high side, i.e. when the
+    demand exceeds the gap between the brake demand and the ABS's torque (about 0.1 N m, a moment
+    of 1 N m), hence the high gain; 15-60 rad/s cut the peak yaw rate by 10-30 % only, 300 rad/s by
+    about 55 %.  While driving (no brake demand, no ABS clipping) the torque path has its own
+    dynamics (the wheel spin against the relaxed slip, about 280 rad/s and lightly damped) and a
+    step steer makes it unstable above about 60 rad/s on the two-track model, so there its share of
+    the moment is scaled by ``w_d / w_r`` with ``w_d = 40 rad/s``.  The rear steer is taken as
+    achieved: through the rig's 4.6 Hz servo it acts later, and the gain must be re-checked there
+    (the moment demand is applied to the motors at once). ``w_v = 3 rad/s``, ``w_vi = 2.25 1/s``
+    (assumed: the speed loop ``s^2 + w_v s + w_vi`` critically damped at 1.5 rad/s, slower than the
+    treadmill regulator, which also moves the car), steer limit 0.2618 rad (irs_models.constants),
+    ``torque_limit = 0.3 N m`` (as the ABS), ``v_min = 0.1 m/s``.
 
     Attributes
     ----------
     car : BicycleParams
-        The car (default: the ``irs_iwt`` preset).
+        The car (default: irs_models.torque_car, the ``irs_iwt`` preset on rubber tyres).
     yaw_bandwidth, yaw_integral : float
         w_r [rad/s], w_ri [1/s].
     differential_bandwidth : float
@@ -131,7 +117,19 @@ class ChassisOutput:
 
 
 class ChassisController:
-    """Yaw-rate and speed control through wheel torques and rear steer (module docstring)."""
+    """Yaw-rate and speed control through wheel torques and rear steer.
+
+    Allocation of the yaw moment (``mix``), half each for ``'both'``:
+
+    * rear steer: the rear axle's lateral force ``C_r delta_r`` at ``-l_r`` gives ``M = -l_r C_r
+      delta_r``, so ``delta_r = -M / (l_r C_r)``, clipped to the steer limit;
+    * differential torque: ``+dT`` on the right wheels and ``-dT`` on the left ones gives ``M =
+      (t/2) 4 dT / R``, so ``dT = M R / (2 t)``.
+
+    or, while a brake demand ``b > 0`` [N m per wheel] is given, ``T_base = -b`` (the speed
+    integral is then reset, and the ABS downstream limits each wheel's slip).  Torques are clipped
+    to ``+-torque_limit``.
+    """
 
     def __init__(self, params: ChassisParams | None = None):
         self.params = params if params is not None else ChassisParams()

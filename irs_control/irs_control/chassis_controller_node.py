@@ -1,29 +1,12 @@
-"""``chassis_controller`` node: ABS and integrated chassis control of the torque car (issue 13).
+"""``chassis_controller`` node: ABS and integrated chassis control of the torque car.
 
-A thin wrapper of :class:`~irs_control.torque_car_control.TorqueCarController` (speed estimate
-from the arm, the driver's brake and steer schedule, :class:`ChassisController`,
-:class:`AbsController`; equations there). Subscribes the measurements only: ``wheels/encoders``
-(irs_msgs/WheelEncoders, 1 kHz), ``pose`` (PoseStamped, treadmill frame), ``velocity``
-(TwistStamped, ``angular.z`` = yaw rate [rad/s]) and ``belt/speed`` (irs_msgs/BeltSpeed).
-Publishes, one answer per encoder sample and stamped with it: ``wheels/torque_command``
-(irs_msgs/WheelTorqueCommand: torques [N m] FL, FR, RL, RR, + drives; ``locked`` flags) and
-``steering/command`` (front = the driver's step steer, rear = the chassis controller's);
-``chassis/status`` (diagnostic_msgs/DiagnosticArray: mode, braking, v_hat, slips, r_ref,
-reason) every ``status_decimation`` steps and when the reason or braking changes.
-
-Pairing: with ``input_sync`` (lock-step) an encoder sample t_k is answered once the pose,
-velocity and belt speed stamped t_k have arrived (:class:`~irs_common.stamp_sync.StampSync`), so
-a run does not depend on DDS delivery order; otherwise (real time) each encoder sample is
-answered with the newest pose, velocity and belt speed. Time is the time since the first
-answered sample (sim time in lock-step).
-
-Bad input: non-finite encoder speeds, a NaN pose (a rejected arm reading), a non-finite belt
-speed or yaw rate (with yaw control) -> zero torques, no wheel locked, zero steer, the reason on
-``chassis/status`` and a throttled warning; the next valid sample runs again. No encoder sample
-for ``stale_timeout`` -> the same zero command, stamped now (STALE). Stamps follow
-:mod:`irs_common.stamp_gate` (future -> dropped; older -> dropped; a repeat -> the same answer
-again; more than 1 s back or ``/clock`` jumping back -> everything restarts). Published values
-are always finite.
+A thin wrapper of :class:`~irs_control.torque_car_control.TorqueCarController` (equations
+there): measurements in (``wheels/encoders`` at 1 kHz, ``pose``, ``velocity``, ``belt/speed``),
+one answer per encoder sample, stamped with it, out (``wheels/torque_command`` [N m],
+``steering/command`` [rad], ``chassis/status``). With ``input_sync`` (lock-step) a sample waits
+for the measurements of its stamp, so a run does not depend on DDS delivery order. Bad, stale or
+mis-stamped input gives zero torques and steer; published values are always finite. Topics,
+pairing and the bad-input rule: :class:`ChassisControllerNode`.
 """
 import time
 
@@ -36,11 +19,10 @@ from irs_common.answer_cache import AnswerCache
 from irs_common.input_checks import ThrottledWarner
 from irs_common.node_main import run_node
 from irs_common.orientation import yaw_from_quaternion
+from irs_common.node_edge import EdgeGate, StaleTimer
 from irs_common.params import declare_table
-from irs_common.stamp_gate import StampGate
 from irs_common.stamp_sync import StampSync
 from irs_common.stamps import to_ns
-from irs_common.time_jump import on_time_jump_back
 from irs_msgs.msg import BeltSpeed, SteeringCommand, WheelEncoders, WheelTorqueCommand
 
 from .chassis_params import LIVE, PARAMS, chassis_config
@@ -51,13 +33,39 @@ STALE = 'stale_encoders'
 
 
 class ChassisControllerNode(Node):
-    """Encoders, pose, velocity and belt speed in; wheel torques and steer out."""
+    """Encoders, pose, velocity and belt speed in; wheel torques and steer out.
+
+    A thin wrapper of :class:`~irs_control.torque_car_control.TorqueCarController` (speed estimate
+    from the arm, the driver's brake and steer schedule, :class:`ChassisController`,
+    :class:`AbsController`; equations there). Subscribes the measurements only: ``wheels/encoders``
+    (irs_msgs/WheelEncoders, 1 kHz), ``pose`` (PoseStamped, treadmill frame), ``velocity``
+    (TwistStamped, ``angular.z`` = yaw rate [rad/s]) and ``belt/speed`` (irs_msgs/BeltSpeed).
+    Publishes, one answer per encoder sample and stamped with it: ``wheels/torque_command``
+    (irs_msgs/WheelTorqueCommand: torques [N m] FL, FR, RL, RR, + drives; ``locked`` flags) and
+    ``steering/command`` (front = the driver's step steer, rear = the chassis controller's);
+    ``chassis/status`` (diagnostic_msgs/DiagnosticArray: mode, braking, v_hat (arm), v_ref
+    (wheels), slips, slip targets, friction estimates, r_ref, reason) every ``status_decimation``
+    steps and when the reason or braking changes.
+
+    Pairing: with ``input_sync`` (lock-step) an encoder sample t_k is answered once the pose,
+    velocity and belt speed stamped t_k have arrived (:class:`~irs_common.stamp_sync.StampSync`),
+    so a run does not depend on DDS delivery order; otherwise (real time) each encoder sample is
+    answered with the newest pose, velocity and belt speed. Time is the time since the first
+    answered sample (sim time in lock-step).
+
+    Bad input: non-finite encoder speeds, a NaN pose (a rejected arm reading), a non-finite belt
+    speed or yaw rate (with yaw control) -> zero torques, no wheel locked, zero steer, the reason
+    on ``chassis/status`` and a throttled warning; the next valid sample runs again. No encoder
+    sample for ``stale_timeout`` -> the same zero command, stamped now (STALE). Stamps follow
+    :mod:`irs_common.stamp_gate` (future -> dropped; older -> dropped; a repeat -> the same answer
+    again; more than 1 s back or ``/clock`` jumping back -> everything restarts). Published values
+    are always finite.
+    """
 
     def __init__(self, **node_options):
         super().__init__('chassis_controller', **node_options)
         self.p = declare_table(self, PARAMS, on_change=self._on_parameter)
         self.core = TorqueCarController(chassis_config(self.p))
-        self.gate = StampGate(int(round(self.p['future_tolerance'] * 1e9)))
         self.sync = StampSync(('enc', 'pose', 'vel', 'belt')) if self.p['input_sync'] else None
         self.latest = {'pose': None, 'vel': None, 'belt': None}   # real time: the newest
         self.answer = AnswerCache()   # what was published for the last stamp (re-sent on a repeat)
@@ -65,9 +73,10 @@ class ChassisControllerNode(Node):
         self.reason = None            # of the last published step
         self.braking = None
         self.steps = 0
-        self.dropped = 0
         # rclpy's throttled logging costs ~1 ms per call: per-step warnings are throttled first
         self.warner = ThrottledWarner(self.get_logger().warning, 1.0)
+        self.edge = EdgeGate(self, self.p['future_tolerance'], 'encoders', self._reset_time_state,
+                             self.warner)
         # COMMAND: every command answers one step (lock-step waits for it): reliable, none lost
         self.pub_torque = self.create_publisher(WheelTorqueCommand, 'wheels/torque_command',
                                                 qos.COMMAND_PUB)
@@ -85,48 +94,30 @@ class ChassisControllerNode(Node):
                                  qos.SENSOR)
         self.create_subscription(BeltSpeed, 'belt/speed', lambda m: self._on_input('belt', m),
                                  qos.SENSOR)
-        self.stale_timer = self.create_timer(max(self.p['stale_timeout'] / 2.0, 0.001),
-                                             self._check_stale)
-        self.jump_handle = on_time_jump_back(self, lambda _delta: self._reset_time_state())
+        self.stale = StaleTimer(self, self.p['stale_timeout'], self._check_stale)
 
     # ------------------------------------------------------------------ parameters, time
     def _on_parameter(self, name, value):
         if name == 'stale_timeout':
-            self.destroy_timer(self.stale_timer)
-            self.stale_timer = self.create_timer(max(value / 2.0, 0.001), self._check_stale)
+            self.stale.set_timeout(value)
         elif name in LIVE:
             setattr(self.core.config, LIVE[name], value)
         self.get_logger().info(f'parameter {name} = {value!r} applied')
 
     def _reset_time_state(self):
-        """Time went back: forget stamps, time origin, speed estimate and integrals."""
-        self.gate.clear()
+        """Time went back: forget time origin, speed estimate and integrals (the edge gate has
+        forgotten the stamps).
+        """
         self.core.reset()
         self.answer.clear()
         self.last_enc_time = None
         self.latest = {'pose': None, 'vel': None, 'belt': None}
 
-    def _drop(self, what, verdict, stamp_ns, now_ns):
-        self.dropped += 1
-        self.warner.warn(f'{what}-{verdict}',
-                         f'{what}: {self.gate.reason(verdict, stamp_ns, now_ns)}',
-                         time.monotonic())
-
-    def _drop_step(self, verdict, stamp_ns, now_ns):
-        self._drop('step', verdict, stamp_ns, now_ns)
-
-    def _time_reset(self, verdict, stamp_ns, now_ns):
-        self.warner.warn('reset', f'encoders {self.gate.reason(verdict, stamp_ns, now_ns)}',
-                         time.monotonic())
-        self._reset_time_state()
-
     # ------------------------------------------------------------------ inputs
     def _on_input(self, name, msg):
         stamp_ns = to_ns(msg.header.stamp)
         now_ns = self.get_clock().now().nanoseconds
-        verdict = self.gate.admit(stamp_ns, now_ns, pairing=self.sync is not None)
-        if verdict is not None:
-            self._drop(name, verdict, stamp_ns, now_ns)
+        if not self.edge.admit(name, stamp_ns, now_ns, self.sync is not None):
             return
         if self.sync is not None:
             for step_ns, vals in self.sync.add(name, stamp_ns, msg):
@@ -148,8 +139,7 @@ class ChassisControllerNode(Node):
                               yaw_from_quaternion(q.x, q.y, q.z, q.w), belt.speed)
 
     def _step(self, stamp_ns, vals, now_ns):
-        if not self.gate.take_step(stamp_ns, now_ns, self.answer, self._drop_step,
-                                   self._time_reset):
+        if not self.edge.take_step(stamp_ns, now_ns, self.answer):
             return
         if self.sync is not None:
             self._pose(vals['pose'], vals['belt'])
@@ -194,9 +184,11 @@ class ChassisControllerNode(Node):
         values = {'brake_mode': c.brake_mode, 'yaw_control': c.yaw_control,
                   'braking': str(bool(out is not None and out.braking)).lower()}
         if out is not None:
-            values.update({'t': out.t, 'v_hat': out.v_hat, 'r_ref': out.r_ref,
+            values.update({'t': out.t, 'v_hat': out.v_hat, 'v_ref': out.v_ref, 'r_ref': out.r_ref,
                            'front_steer': out.front_steer, 'rear_steer': out.rear_steer})
             values.update({f'slip_{w}': float(s) for w, s in zip(WHEELS, out.slips)})
+            values.update({f'slip_target_{w}': float(s) for w, s in zip(WHEELS, out.slip_target)})
+            values.update({f'mu_{w}': float(s) for w, s in zip(WHEELS, out.mu)})
             values.update({f'torque_{w}': float(v) for w, v in zip(WHEELS, out.torques)})
         st.values = [KeyValue(key=k, value=f'{v:.9g}' if isinstance(v, float) else v)
                      for k, v in values.items()]

@@ -8,10 +8,11 @@ builds the controllers is read-only.
 from irs_common.params import Param, core_values
 
 from .abs_control import AbsParams
+from .abs_peak import PeakSeekParams
 from .chassis_control import ChassisParams
-from .torque_car_control import BRAKE_MODES, YAW_CONTROLS, TorqueCarConfig
+from .torque_car_control import ABS_REFERENCES, BRAKE_MODES, YAW_CONTROLS, TorqueCarConfig
 
-_A, _C = AbsParams(), ChassisParams()
+_A, _C, _P = AbsParams(), ChassisParams(), PeakSeekParams()
 
 
 def _one_of(name, choices):
@@ -41,9 +42,10 @@ PARAMS = [
           'hold to the end (a stop); applied at the next step', 's', -1e9, 1e9, writable=True),
     Param('brake.torque', 0.3, 'brake demand per wheel (a magnitude; clipped to torque_limit); '
           'applied at the next step', 'N m', 1e-6, 10.0, writable=True),
-    Param('brake.mode', 'abs', "'abs' (slip control), 'locked' (friction brakes lock every "
-          "wheel: the baseline) or 'open' (the demand, no ABS); applied at the next step", '-',
-          writable=True, validator=_one_of('brake.mode', BRAKE_MODES)),
+    Param('brake.mode', 'abs', "'abs' (slip control to abs.slip_target), 'abs_peak' (slip "
+          "control to the peak of an online Burckhardt fit per wheel), 'locked' (friction "
+          "brakes lock every wheel) or 'open' (the demand, no ABS); applied at the next step",
+          '-', writable=True, validator=_one_of('brake.mode', BRAKE_MODES)),
     Param('yaw_control', 'off', "yaw-rate control: 'off', 'rear_steer', 'differential' "
           "(left/right torque) or 'both'", '-', validator=_one_of('yaw_control', YAW_CONTROLS)),
     Param('yaw.bandwidth', _C.yaw_bandwidth, 'yaw-rate loop gain w_r', 'rad/s', 1e-6, 1e5),
@@ -59,6 +61,17 @@ PARAMS = [
           -0.99, -0.001),
     Param('abs.bandwidth', _A.bandwidth, 'ABS slip loop pole w_c', 'rad/s', 1e-6, 1e5),
     Param('abs.integral_gain', _A.integral_gain, 'ABS integral gain K_i', 'N m/s', 0.0, 1e5),
+    Param('abs.reference', 'wheels', "the ABS's speed: 'wheels' (encoders, applied torques and "
+          "belt speed, as a car has) or 'arm' (the arm's pose differentiated plus the belt "
+          'speed)', '-', validator=_one_of('abs.reference', ABS_REFERENCES)),
+    Param('abs.peak.slip_min', _P.slip_min, "smallest slip target of 'abs_peak' (a magnitude)",
+          '1', 0.001, 0.99),
+    Param('abs.peak.slip_max', _P.slip_max, "largest slip target of 'abs_peak' (a magnitude)",
+          '1', 0.001, 0.99),
+    Param('abs.peak.gain_threshold', _P.gain_threshold, "'abs_peak' moves its target only for "
+          'this predicted relative friction gain', '1', 0.0, 1.0),
+    Param('abs.peak.forgetting', _P.forgetting, "'abs_peak' fit's forgetting factor per sample "
+          '(0.98: 50 ms memory at 1 kHz)', '1', 0.5, 1.0),
     Param('abs.v_min', _A.v_min, 'speed below which ABS and the yaw reference stop', 'm/s', 1e-3,
           10.0),
     Param('torque_limit', _A.torque_limit, 'wheel torque limit (the hub motors)', 'N m', 1e-6,

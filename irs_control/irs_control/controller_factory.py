@@ -4,31 +4,10 @@ The lateral-controller node and the offline closed-loop simulation both call
 :func:`make_controller`, so the design the node computes at start-up is the one the offline
 simulation uses.
 
-Plant used for an MRC design (steer [rad] -> sensor-point lateral displacement y_s [m]):
-
-- ``plant = 'identified'``: the paper's Eq. 6 plant with the reconstructed gain
-  (:mod:`.paper_design`), with or without the actuator lag ``p/(s+p)``.
-- ``plant = <preset name>``: the physical bicycle model of that preset at ``speed`` and ``ds``
-  (:func:`irs_models.bicycle.transfer_function`), with or without the actuator lag.
-- ``plant = 'custom'``: the vehicle ``plant_num / plant_den`` (coefficient lists, highest power
-  first, ``plant_den`` monic; e.g. a model identified by ``sysid vehicle``), with or without the
-  actuator lag. Used by ``sysid cycle`` (identify, design, run).
-
-The reference model (``reference_model_num``/``_den``) and observer polynomial (``observer``;
-``[0.0]`` = the paper's choice: ``(s+12)^2`` with the actuator, ``s+12`` without) are
-coefficient lists, highest power first.
-
-Anti-windup (``anti_windup``, the paper describes none): ``'back_calculation'`` (default; RST:
-the Astrom-Wittenmark polynomial form, PI: tracking time ``kp/ki``) or ``'clip'`` (the linear law
-runs on, only the output is clipped); see :mod:`.discrete_rst`.
-
-Design check (``check_plant``, ``allow_unstable_design``): not used here; the node closes the
-loop of the built controller with that plant at start-up (:mod:`.design_check`).
-
-Bad-input bounds (:data:`INPUT_CHECK_DEFAULTS`, optional keys of :func:`make_controller`, not
-required from the node): ``measurement_limit`` and ``reference_limit`` [m] bound ``|y|`` and
-``|u_c|`` (see :mod:`.discrete_rst`, bad-input rule), ``initial_reference`` [m] is held until a
-valid reference arrives.
+The mapping names the controller (MRC/RST or PI), the design plant (steer [rad] -> sensor-point
+lateral displacement y_s [m]: the paper's Eq. 6, a preset's bicycle model or a custom
+polynomial pair; :func:`plant_polynomials`), the reference model, the observer and the
+anti-windup; :func:`make_controller` designs and discretises it.
 """
 from dataclasses import dataclass
 
@@ -92,7 +71,22 @@ class LateralControllerSpec:
 
 
 def plant_polynomials(cfg: dict):
-    """``(B, A)`` of the design plant described by ``cfg`` (see the module docstring)."""
+    """``(B, A)`` of the design plant described by ``cfg``.
+
+    Plant used for an MRC design (steer [rad] -> sensor-point lateral displacement y_s [m]):
+
+    - ``plant = 'identified'``: the paper's Eq. 6 plant with the reconstructed gain
+      (:mod:`.paper_design`), with or without the actuator lag ``p/(s+p)``.
+    - ``plant = <preset name>``: the physical bicycle model of that preset at ``speed`` and ``ds``
+      (:func:`irs_models.bicycle.transfer_function`), with or without the actuator lag.
+    - ``plant = 'custom'``: the vehicle ``plant_num / plant_den`` (coefficient lists, highest power
+      first, ``plant_den`` monic; e.g. a model identified by ``sysid vehicle``), with or without
+      the actuator lag. Used by ``sysid cycle`` (identify, design, run).
+
+    The reference model (``reference_model_num``/``_den``) and observer polynomial (``observer``;
+    ``[0.0]`` = the paper's choice: ``(s+12)^2`` with the actuator, ``s+12`` without) are
+    coefficient lists, highest power first.
+    """
     include = bool(cfg['include_actuator'])
     pole = float(cfg['actuator_pole'])
     if cfg['plant'] == 'identified':
@@ -147,7 +141,7 @@ def check_controller_params(cfg: dict) -> None:
     Numbers: ``dt``, ``steer_limit``, ``actuator_pole``, ``speed`` positive and finite;
     ``ds``, ``plant_gain`` (>= 0), ``kp``, ``ki`` (>= 0), the input bounds (> 0, inf allowed) and
     ``initial_reference`` finite; ``anti_windup`` one of ``'back_calculation'``, ``'clip'`` (or a
-    bool, the older spelling). Reference model (MRC only): ``reference_model_num`` a non-empty
+    bool, an alias). Reference model (MRC only): ``reference_model_num`` a non-empty
     list of finite coefficients, not all zero; ``reference_model_den`` the same, monic and
     stable (Hurwitz), of higher degree than the numerator (a strictly proper model).
     """
@@ -182,6 +176,20 @@ def make_controller(params: dict | None = None) -> LateralControllerSpec:
     ValueError
         Unknown keys, or a bad number/polynomial (:func:`check_controller_params`, checked
         before any arithmetic), or an impossible design (:class:`.rst_design.RstDesignError`).
+
+    Notes
+    -----
+    Anti-windup (``anti_windup``, the paper describes none): ``'back_calculation'`` (default; RST:
+    the Astrom-Wittenmark polynomial form, PI: tracking time ``kp/ki``) or ``'clip'`` (the linear
+    law runs on, only the output is clipped); see :mod:`.discrete_rst`.
+
+    Design check (``check_plant``, ``allow_unstable_design``): not used here; the node closes the
+    loop of the built controller with that plant at start-up (:mod:`.design_check`).
+
+    Bad-input bounds (:data:`INPUT_CHECK_DEFAULTS`, optional keys of :func:`make_controller`, not
+    required from the node): ``measurement_limit`` and ``reference_limit`` [m] bound ``|y|`` and
+    ``|u_c|`` (see :mod:`.discrete_rst`, bad-input rule), ``initial_reference`` [m] is held until a
+    valid reference arrives.
     """
     cfg = {**CONTROLLER_DEFAULTS, **INPUT_CHECK_DEFAULTS, **(params or {})}
     unknown = set(cfg) - set(CONTROLLER_DEFAULTS) - set(INPUT_CHECK_DEFAULTS)

@@ -9,64 +9,13 @@ Hurwitz polynomial ``F`` of the same degree as ``R`` the law is rewritten as
 
 .. math:: F u = T u_c - S y + (F - R) v, \qquad v = \mathrm{sat}(u),
 
-so the controller states are driven by the steer ``v`` that is actually applied. In the
-linear range ``v = u`` and this is exactly ``R u = T u_c - S y``; during saturation the
-controller states evolve through the stable filter ``1/F`` driven by the applied steer, so
-they stay consistent with what the plant really received (without this the states follow
-the unsaturated ``u`` and, the plant being a double integrator, the loop overshoots badly
-when it leaves saturation). ``A_o`` alone has lower degree than ``R`` here (2 < 4), so the
-default is ``F = A_o (s + w_f)^k``, ``k = deg R - deg A_o`` and ``w_f`` the largest root
-magnitude of ``A_m`` (30 rad/s for Eq. 21). The "natural" ``F = A_o B^+`` was tried and
-rejected: its slow roots -2.4 and -4.8 make the saturated controller sluggish and a 0.3 m
-step overshoots 37 % (worse than no anti-windup, 30 %), while ``A_o (s+30)^2`` gives 1.2 %
-(see docs/control_design.md).
-
-Realisation and discretisation: the *linear* law ``u = [T/R, -S/R] [u_c, y]`` is realised
-as an observable-canonical state space (denominator ``R``) and discretised with
-**zero-order hold** (exact matrix exponential) to ``(Phi, Gamma, C, D)``. Anti-windup is
-then added in the equivalent observer form (Astrom & Wittenmark, Computer-Controlled Systems,
-"anti-windup in state-space/observer form"):
-
-.. math::
-
-    u_k = C x_k + D w_k, \quad v_k = \mathrm{sat}(u_k), \quad
-    x_{k+1} = \Phi x_k + \Gamma w_k + L (v_k - u_k),
-
-whose characteristic polynomial from ``v`` is ``F_d(z) = prod(z - exp(f_i dt))``, the ZOH
-image of ``F``: this is the discrete ``F_d u = T_d u_c - S_d y + (F_d - R_d) v``. ``L`` is
-placed with Ackermann's formula on the delta-operator matrix ``(Phi - I)/dt`` (well
-conditioned at 1 kHz). In the linear range ``v = u`` and the controller is *exactly* the
-ZOH discretisation of ``[T/R, -S/R]`` whatever ``F`` is. ZOH rather than Tustin because the
-steer really is held between samples, ZOH keeps the controller's direct term equal to the
-continuous high-frequency gain ``t_0/r_0`` (no extra feed-through from Tustin's warping),
-and the error it makes -- treating the sampled ``y`` as held, a delay of about ``dt/2`` --
-costs ``w dt/2 = 0.9 deg`` of phase at 30 rad/s at 1 kHz; the unit test measures the
-resulting step-response error against ``Bm/Am`` (< 1 %).
-
-Bad inputs (the rule of both lateral controllers, :class:`InputGuard`)
----------------------------------------------------------------------
-``step(reference, measurement)`` never raises for bad data and always returns a finite steer
-within ``[u_min, u_max]``; :attr:`ControlOutput.state` and :attr:`ControlOutput.reason` say what
-happened. With ``L_y = measurement_limit`` and ``L_r = reference_limit`` [m] (default 2 m each:
-the belt is 1.22 m wide, so no genuine lateral position or set point comes near):
-
-1. **Reference** ``u_c`` NaN, +-inf, not a number or ``|u_c| > L_r``: the step uses the *last
-   valid reference* (``initial_reference``, default 0 m, before any valid one) and the controller
-   keeps running, its state untouched by the bad value; the output says ``reason = "reference
-   ... holding the last valid reference ..."`` with ``state = RUNNING``. A glitch in the
-   reference stream therefore neither resets the loop nor reaches the plant.
-2. **Measurement** ``y`` NaN, +-inf, not a number or ``|y| > L_y``: no valid feedback, so zero
-   steer (0 rad clipped into the limits) this step, the controller state is **reset** (rest, as
-   after :meth:`reset`) and ``state = INVALID``, ``reset = True``. The next valid measurement
-   starts from rest: from then on the output equals that of a freshly built controller fed the
-   same inputs (the recovery the unit tests check).
-3. **State**: should the next state or the output ever be non-finite (only possible with
-   limits raised towards ``inf``), the state is reset, the step answers zero steer with
-   ``state = INVALID``, ``reset = True`` and a reason; nothing non-finite is ever stored.
-
-For valid inputs the arithmetic is exactly the unchecked law above (bit-identical results).
-The stale case (no measurement for a while) is the node's: it calls :meth:`reset` and reports
-STALE; the controller has no clock.
+so the controller states are driven by the steer ``v`` that is actually applied: in the linear
+range ``v = u`` and this is exactly ``R u = T u_c - S y``; in saturation the states evolve through
+the stable filter ``1/F`` and stay consistent with what the plant received (without it the
+double-integrator plant overshoots badly on leaving saturation). The linear law is discretised
+by zero-order hold at the fixed rate (1 kHz) and the anti-windup added in observer form. Bad
+inputs never raise and never give a non-finite steer (:class:`InputGuard`). Choice of ``F``:
+:func:`anti_windup_polynomial`; discretisation: :class:`DiscreteRstController`.
 """
 from __future__ import annotations
 
@@ -98,8 +47,8 @@ ANTI_WINDUP_MODES = ('back_calculation', 'clip')
 
 
 def anti_windup_mode(value) -> str:
-    """Normalise an anti-windup choice: one of :data:`ANTI_WINDUP_MODES`, or a bool (the older
-    spelling: ``True`` = ``'back_calculation'``, ``False`` = ``'clip'``); ``ValueError`` else.
+    """Normalise an anti-windup choice: one of :data:`ANTI_WINDUP_MODES`, or a bool (an alias:
+    ``True`` = ``'back_calculation'``, ``False`` = ``'clip'``); ``ValueError`` else.
     """
     if isinstance(value, bool):
         return ANTI_WINDUP_MODES[0] if value else 'clip'
@@ -153,7 +102,30 @@ class ControlOutput:
 
 
 class InputGuard:
-    """The bad-input rule shared by the lateral controllers (module docstring, items 1-3).
+    """The bad-input rule shared by the lateral controllers.
+
+    ``step(reference, measurement)`` never raises for bad data and always returns a finite steer
+    within ``[u_min, u_max]``; :attr:`ControlOutput.state` and :attr:`ControlOutput.reason` say
+    what happened. With ``L_y = measurement_limit`` and ``L_r = reference_limit`` [m] (default 2 m
+    each: the belt is 1.22 m wide, so no genuine lateral position or set point comes near):
+
+    1. **Reference** ``u_c`` NaN, +-inf, not a number or ``|u_c| > L_r``: the step uses the *last
+       valid reference* (``initial_reference``, default 0 m, before any valid one) and the
+       controller keeps running, its state untouched by the bad value; the output says ``reason =
+       "reference ... holding the last valid reference ..."`` with ``state = RUNNING``. A glitch in
+       the reference stream therefore neither resets the loop nor reaches the plant.
+    2. **Measurement** ``y`` NaN, +-inf, not a number or ``|y| > L_y``: no valid feedback, so zero
+       steer (0 rad clipped into the limits) this step, the controller state is **reset** (rest, as
+       after :meth:`reset`) and ``state = INVALID``, ``reset = True``. The next valid measurement
+       starts from rest: from then on the output equals that of a freshly built controller fed the
+       same inputs (the recovery the unit tests check).
+    3. **State**: should the next state or the output ever be non-finite (only possible with limits
+       raised towards ``inf``), the state is reset, the step answers zero steer with ``state =
+       INVALID``, ``reset = True`` and a reason; nothing non-finite is ever stored.
+
+    For valid inputs the arithmetic is exactly the unchecked law above (bit-identical results). The
+    stale case (no measurement for a while) is the node's: it calls :meth:`reset` and reports
+    STALE; the controller has no clock.
 
     Subclasses call :meth:`_init_guard` in ``__init__``, define ``reset()``, ``u_min``, ``u_max``
     and use :meth:`_screen` / :meth:`_invalid` in ``step``.
@@ -210,7 +182,14 @@ class InputGuard:
 
 
 def anti_windup_polynomial(design: RstDesign) -> np.ndarray:
-    """Default anti-windup polynomial ``F = Ao (s + w_f)^k``: monic, Hurwitz, ``deg F = deg R``."""
+    """Default anti-windup polynomial ``F = Ao (s + w_f)^k``: monic, Hurwitz, ``deg F = deg R``.
+
+    ``A_o`` alone has lower degree than ``R`` (2 < 4), so the default is ``F = A_o (s + w_f)^k``,
+    ``k = deg R - deg A_o`` and ``w_f`` the largest root magnitude of ``A_m`` (30 rad/s for Eq.
+    21). The "natural" ``F = A_o B^+`` is not used: its slow roots -2.4 and -4.8 make the saturated
+    controller sluggish and a 0.3 m step overshoots 37 % (worse than no anti-windup, 30 %), while
+    ``A_o (s+30)^2`` gives 1.2 % (docs/control_design.md).
+    """
     Ao = trim(design.Ao)
     k = degree(design.R) - degree(Ao)
     if k < 0:
@@ -275,6 +254,25 @@ def _ackermann_observer(A, c, poles):
 class DiscreteRstController(InputGuard):
     """Discrete-time RST controller with steer saturation and anti-windup.
 
+    Realisation and discretisation: the *linear* law ``u = [T/R, -S/R] [u_c, y]`` is realised as an
+    observable-canonical state space (denominator ``R``) and discretised with **zero-order hold**
+    (exact matrix exponential) to ``(Phi, Gamma, C, D)``. Anti-windup is then added in the
+    equivalent observer form (Astrom & Wittenmark, Computer-Controlled Systems, "anti-windup in
+    state-space/observer form")::
+
+        u_k = C x_k + D w_k,   v_k = sat(u_k),   x_{k+1} = Phi x_k + Gamma w_k + L (v_k - u_k)
+
+    whose characteristic polynomial from ``v`` is ``F_d(z) = prod(z - exp(f_i dt))``, the ZOH image
+    of ``F``: this is the discrete ``F_d u = T_d u_c - S_d y + (F_d - R_d) v``. ``L`` is placed
+    with Ackermann's formula on the delta-operator matrix ``(Phi - I)/dt`` (well conditioned at 1
+    kHz). In the linear range ``v = u`` and the controller is *exactly* the ZOH discretisation of
+    ``[T/R, -S/R]`` whatever ``F`` is. ZOH rather than Tustin because the steer really is held
+    between samples, ZOH keeps the controller's direct term equal to the continuous high-frequency
+    gain ``t_0/r_0`` (no extra feed-through from Tustin's warping), and the error it makes --
+    treating the sampled ``y`` as held, a delay of about ``dt/2`` -- costs ``w dt/2 = 0.9 deg`` of
+    phase at 30 rad/s at 1 kHz; the unit test measures the resulting step-response error against
+    ``Bm/Am`` (< 1 %).
+
     Parameters
     ----------
     design : RstDesign
@@ -291,8 +289,8 @@ class DiscreteRstController(InputGuard):
         Anti-windup polynomial ``F`` (monic, Hurwitz, degree ``deg R``); default
         :func:`anti_windup_polynomial`.
     measurement_limit, reference_limit : float
-        Bounds on ``|y|`` and ``|u_c|`` [m] beyond which an input is invalid (module docstring,
-        bad-input rule); default 2 m; ``inf`` allowed.
+        Bounds on ``|y|`` and ``|u_c|`` [m] beyond which an input is invalid (bad-input
+        rule: :class:`InputGuard`); default 2 m; ``inf`` allowed.
     initial_reference : float
         Reference held [m] until a valid one arrives (default 0).
     """
@@ -365,7 +363,7 @@ class DiscreteRstController(InputGuard):
     def step(self, reference: float, measurement: float) -> ControlOutput:
         """Advance one sample: compute the steer for ``u_c = reference``, ``y = measurement``.
 
-        Bad inputs follow the rule of the module docstring (invalid reference: last valid one
+        Bad inputs follow the rule of :class:`InputGuard` (invalid reference: last valid one
         held; invalid measurement: zero steer and reset; non-finite state: reset); never raises
         for bad data, the steer is always finite and within ``[u_min, u_max]``.
 

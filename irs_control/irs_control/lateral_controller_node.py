@@ -1,43 +1,14 @@
 """``lateral_controller`` node: MRC/RST or PI lateral control of the sensor point.
 
-Subscribes ``lateral_position`` (geometry_msgs/PointStamped, y = sensed lateral displacement of
-the sensor point [m]) and ``lateral/reference`` (irs_msgs/LateralReference); publishes
-``steering/command`` (irs_msgs/SteeringCommand, front axle) stamped with the measurement's stamp,
-every step, and ``lateral/status`` (irs_msgs/LateralControllerStatus) every
-``status_decimation`` steps and whenever the state changes (telemetry, not part of the loop).
-
-One control step per measurement (the measurement stream sets the rate; ``dt`` must equal its
-period, 1 kHz by default). With ``reference_sync`` (lock-step runs) a measurement is answered
-only once the reference with the same stamp has arrived, so the run does not depend on DDS
-delivery order; otherwise the latest reference is used. A NaN/inf measurement, or a measurement
-older than ``stale_timeout`` (checked on a timer), gives zero steer and a STALE/INVALID status;
-the controller restarts from rest when valid measurements return.
-
-Bad input (the rule at this node's edge; see irs_common.stamp_gate and the controllers'
-bad-input rule in :mod:`.discrete_rst`):
-
-- values: every step goes through ``controller.step_checked``: an invalid reference (NaN, inf,
-  beyond 2 m) holds the last valid one (RUNNING, reason on ``lateral/status``); an invalid
-  measurement gives zero steer, resets the controller and reports INVALID. The published steer
-  is always finite and within ``steer_limit``;
-- stamps, against the node clock: a measurement or reference stamped more than
-  ``future_tolerance`` s ahead is dropped (not answered, not stored); one older than the last
-  step is dropped as out of order, unless it is more than 1 s older (a replay loop, a
-  restarted publisher): then the controller, the stamp memory and the pairing restart and the
-  message is taken; a measurement with the stamp of the last step is answered again with the
-  same command (lock-step resend);
-- the node clock jumping back (``/clock`` of ``bag play --loop --clock``) resets the same time
-  state; a STALE measurement resets the controller (it restarts from rest).
-
-Start-up design check: the controller built from the parameters is closed with the plant model
-``check_plant`` (default ``identified``, the rig's Eq. 6 plant, with the actuator lag) --
-continuous and sampled closed-loop poles, gain and phase margins (:mod:`.design_check`). An
-unstable loop is refused with one line naming the poles and the plant (exit code 2) unless
-``allow_unstable_design`` is true (then a warning); the result is logged either way.
-
-Writable parameters (``ros2 param set``): ``stale_timeout`` and ``default_reference`` (applied at
-once: it is the reference until the next ``lateral/reference`` message; without
-``reference_sync``).
+One control step per measurement of the sensor point's lateral displacement y [m]
+(``lateral_position``, 1 kHz by default): the controller's steer [rad] goes out on
+``steering/command`` stamped with the measurement's stamp, ``lateral/status`` carries the
+telemetry. With ``reference_sync`` (lock-step) a measurement waits for the reference of the same
+stamp, so the run does not depend on DDS delivery order. Bad, stale, future-stamped or
+out-of-order input gives zero steer or is dropped, never a non-finite command; an unstable design
+is refused at start-up (:mod:`.design_check`). The node exists so that the controller core runs
+in the graph unchanged; topics, the bad-input rule, the design check and the writable
+parameters: :class:`LateralControllerNode`.
 """
 import math
 import time
@@ -49,11 +20,11 @@ from irs_common import qos
 from irs_common.answer_cache import AnswerCache
 from irs_common.node_main import run_node
 from irs_common.input_checks import ThrottledWarner
+from irs_common.node_edge import EdgeGate, StaleTimer
 from irs_common.params import declare_table
-from irs_common.stamp_gate import FUTURE, OK, OLD, REPEAT, RESET, StampGate
+from irs_common.stamp_gate import OK, REPEAT, RESET, StampGate
 from irs_common.stamp_sync import StampSync
 from irs_common.stamps import to_ns
-from irs_common.time_jump import on_time_jump_back
 from irs_msgs.msg import LateralControllerStatus, LateralReference, SteeringCommand
 
 from .controller_factory import make_controller
@@ -62,7 +33,47 @@ from .discrete_rst import STATE_RUNNING
 from .lateral_params import PARAMS, controller_config
 
 class LateralControllerNode(Node):
-    """Thin wrapper around the controller built by :func:`make_controller`."""
+    """Thin wrapper around the controller built by :func:`make_controller`.
+
+    Subscribes ``lateral_position`` (geometry_msgs/PointStamped, y = sensed lateral displacement of
+    the sensor point [m]) and ``lateral/reference`` (irs_msgs/LateralReference); publishes
+    ``steering/command`` (irs_msgs/SteeringCommand, front axle) stamped with the measurement's
+    stamp, every step, and ``lateral/status`` (irs_msgs/LateralControllerStatus) every
+    ``status_decimation`` steps and whenever the state changes (telemetry, not part of the loop).
+
+    One control step per measurement (the measurement stream sets the rate; ``dt`` must equal its
+    period, 1 kHz by default). With ``reference_sync`` (lock-step runs) a measurement is answered
+    only once the reference with the same stamp has arrived, so the run does not depend on DDS
+    delivery order; otherwise the latest reference is used. A NaN/inf measurement, or a measurement
+    older than ``stale_timeout`` (checked on a timer), gives zero steer and a STALE/INVALID status;
+    the controller restarts from rest when valid measurements return.
+
+    Bad input (the rule at this node's edge; see irs_common.stamp_gate and the controllers'
+    bad-input rule in :mod:`.discrete_rst`):
+
+    - values: every step goes through ``controller.step_checked``: an invalid reference (NaN, inf,
+      beyond 2 m) holds the last valid one (RUNNING, reason on ``lateral/status``); an invalid
+      measurement gives zero steer, resets the controller and reports INVALID. The published steer
+      is always finite and within ``steer_limit``;
+    - stamps, against the node clock: a measurement or reference stamped more than
+      ``future_tolerance`` s ahead is dropped (not answered, not stored); one older than the last
+      step is dropped as out of order, unless it is more than 1 s older (a replay loop, a restarted
+      publisher): then the controller, the stamp memory and the pairing restart and the message is
+      taken; a measurement with the stamp of the last step is answered again with the same command
+      (lock-step resend);
+    - the node clock jumping back (``/clock`` of ``bag play --loop --clock``) resets the same time
+      state; a STALE measurement resets the controller (it restarts from rest).
+
+    Start-up design check: the controller built from the parameters is closed with the plant model
+    ``check_plant`` (default ``identified``, the rig's Eq. 6 plant, with the actuator lag) --
+    continuous and sampled closed-loop poles, gain and phase margins (:mod:`.design_check`). An
+    unstable loop is refused with one line naming the poles and the plant (exit code 2) unless
+    ``allow_unstable_design`` is true (then a warning); the result is logged either way.
+
+    Writable parameters (``ros2 param set``): ``stale_timeout`` and ``default_reference`` (applied
+    at once: it is the reference until the next ``lateral/reference`` message; without
+    ``reference_sync``).
+    """
 
     def __init__(self, **node_options):
         super().__init__('lateral_controller', **node_options)
@@ -76,20 +87,19 @@ class LateralControllerNode(Node):
                                              f"{cfg['mode'].upper()} design")
         (self.get_logger().info if ok else self.get_logger().warning)(message)
         self.reference = self.p['default_reference']
-        tolerance_ns = int(round(self.p['future_tolerance'] * 1e9))
-        self.gate = StampGate(tolerance_ns)          # measurement stamps = the steps
-        self.ref_gate = StampGate(tolerance_ns)      # reference stamps (without reference_sync)
+        # reference stamps (without reference_sync); the steps' gate is self.edge's
+        self.ref_gate = StampGate(int(round(self.p['future_tolerance'] * 1e9)))
         self.sync = StampSync(('y', 'ref')) if self.p['reference_sync'] else None
         self.answer = AnswerCache()   # what was published for the last stamp (re-sent on a repeat)
         self.last_meas_time = None
         self.state = LateralControllerStatus.STATE_STALE
         self.published_state = None
         self.steps = 0
-        self.dropped = 0         # messages dropped for their stamps (future, out of order)
-        self.time_resets = 0
         # rclpy's throttled logging inspects the caller's source on every call (~1 ms): at 1 kHz
         # that alone overloads the loop, so per-step warnings are throttled before rclpy.
         self.warner = ThrottledWarner(self.get_logger().warning, 1.0)
+        self.edge = EdgeGate(self, self.p['future_tolerance'], 'measurement',
+                             self._reset_time_state, self.warner)
         self.pub_cmd = self.create_publisher(SteeringCommand, 'steering/command', qos.COMMAND_PUB)
         self.pub_status = self.create_publisher(
             LateralControllerStatus, 'lateral/status', qos.SENSOR_PUB
@@ -99,62 +109,36 @@ class LateralControllerNode(Node):
         )
         self.create_subscription(LateralReference, 'lateral/reference', self._on_reference,
                                  qos.COMMAND)
-        self.stale_timer = self.create_timer(max(self.p['stale_timeout'] / 2.0, 0.001),
-                                             self._check_stale)
-        self.jump_handle = on_time_jump_back(self, lambda _delta: self._reset_time_state())
+        self.stale = StaleTimer(self, self.p['stale_timeout'], self._check_stale)
 
     # ------------------------------------------------------------------ parameters, time
+    # rclpy fixes a logging call site's severity at its first call: info from this line
+    def _log_info(self, text):
+        self.get_logger().info(text)
+
     def _on_parameter(self, name, value):
         if name == 'stale_timeout':
-            self.destroy_timer(self.stale_timer)
-            self.stale_timer = self.create_timer(max(value / 2.0, 0.001), self._check_stale)
+            self.stale.set_timeout(value)
         elif name == 'default_reference':
             self.reference = value
         self.get_logger().info(f'parameter {name} = {value!r} applied')
 
     def _reset_time_state(self):
-        """Time went back: forget stamps and the controller state (restart from rest). Pending
-        pairs stay: they may hold a part of a newer step already taken from the other input.
+        """Time went back: forget the reference stamps and the controller state (restart from
+        rest; the edge gate has forgotten the step stamps). Pending pairs stay: they may hold a
+        part of a newer step already taken from the other input.
         """
-        self.time_resets += 1
-        self.gate.clear()
         self.ref_gate.clear()
         self.controller.reset()
         self.answer.clear()
         self.last_meas_time = None
         self.state = LateralControllerStatus.STATE_STALE
 
-    def _drop(self, what, gate, verdict, stamp_ns, now_ns):
-        self.dropped += 1
-        self.warner.warn(f'{what}-{verdict}', f'{what}: {gate.reason(verdict, stamp_ns, now_ns)}',
-                         time.monotonic())
-
-    def _drop_measurement(self, verdict, stamp_ns, now_ns):
-        self._drop('measurement', self.gate, verdict, stamp_ns, now_ns)
-
-    def _time_reset(self, verdict, stamp_ns, now_ns):
-        self.warner.warn('reset', f'measurement {self.gate.reason(verdict, stamp_ns, now_ns)}',
-                         time.monotonic())
-        self._reset_time_state()
-
-    def _presync(self, what, stamp_ns) -> bool:
-        """Reference sync: only stamps that can still pair with a step enter the pairing."""
-        now_ns = self.get_clock().now().nanoseconds
-        gate = self.gate
-        if stamp_ns - now_ns > gate.future_tolerance_ns:
-            self._drop(what, gate, FUTURE, stamp_ns, now_ns)
-            return False
-        last = gate.last_ns
-        if last is not None and last - gate.reset_after_ns < stamp_ns < last:
-            self._drop(what, gate, OLD, stamp_ns, now_ns)
-            return False
-        return True
-
     # ------------------------------------------------------------------ inputs
     def _on_reference(self, msg):
         stamp_ns = to_ns(msg.header.stamp)
         if self.sync is not None:
-            if self._presync('reference', stamp_ns):
+            if self.edge.admit('reference', stamp_ns, self.get_clock().now().nanoseconds):
                 for _, vals in self.sync.add('ref', stamp_ns, msg.lateral_position):
                     self._control_step(vals['y'], vals['ref'])
             return
@@ -163,12 +147,12 @@ class LateralControllerNode(Node):
         if verdict == OK or verdict == RESET or verdict == REPEAT:
             self.reference = msg.lateral_position    # screened by the controller at each step
         else:
-            self._drop('reference', self.ref_gate, verdict, stamp_ns, now_ns)
+            self.edge.drop('reference', verdict, stamp_ns, now_ns, self.ref_gate)
 
     def _on_measurement(self, msg):
         if self.sync is not None:
             stamp_ns = to_ns(msg.header.stamp)
-            if self._presync('measurement', stamp_ns):
+            if self.edge.admit('measurement', stamp_ns, self.get_clock().now().nanoseconds):
                 for _, vals in self.sync.add('y', stamp_ns, msg):
                     self._control_step(vals['y'], vals['ref'])
         else:
@@ -177,8 +161,7 @@ class LateralControllerNode(Node):
     def _control_step(self, msg, reference):
         stamp_ns = to_ns(msg.header.stamp)
         now = self.get_clock().now()
-        if not self.gate.take_step(stamp_ns, now.nanoseconds, self.answer,
-                                   self._drop_measurement, self._time_reset):
+        if not self.edge.take_step(stamp_ns, now.nanoseconds, self.answer):
             return
         y = msg.point.y
         if self.state != LateralControllerStatus.STATE_RUNNING:
@@ -192,13 +175,16 @@ class LateralControllerNode(Node):
         if out.state == STATE_RUNNING:
             self.state = LateralControllerStatus.STATE_RUNNING
             self.last_meas_time = now
+            if self.warner.in_episode('invalid'):
+                self.warner.end('invalid', self._log_info, 'valid measurements again',
+                                time.monotonic())
             status.error = float(out.reference - y)
             if out.reason:
                 self.warner.warn('reference', out.reason, time.monotonic())
         else:
             self.state = LateralControllerStatus.STATE_INVALID
             status.error = math.nan
-            self.warner.warn('invalid', out.reason, time.monotonic())
+            self.warner.once('invalid', out.reason, time.monotonic())   # once while it lasts
         self._publish(msg.header, out.u_sat, status, out.u_unsat, out.saturated)
 
     def _publish(self, header, steer, status, unsat, saturated):

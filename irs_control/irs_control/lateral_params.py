@@ -6,6 +6,7 @@ core; the node's own parameters (stale timeout, reference pairing, status rate) 
 ``node_only``: the offline twin of the graph leaves them out.
 """
 from irs_common.params import Param, core_values, node_only
+from irs_models.constants import STEER_LIMIT
 
 from .controller_factory import CONTROLLER_DEFAULTS
 from .discrete_rst import anti_windup_mode
@@ -67,8 +68,8 @@ PARAMS = [
           read_only=True),
     Param('kp', D['kp'], 'PI proportional gain', 'rad/m', 0.0, 1e6, read_only=True),
     Param('ki', D['ki'], 'PI integral gain', 'rad/(m s)', 0.0, 1e6, read_only=True),
-    Param('steer_limit', D['steer_limit'], 'steer command limit (15 deg)', 'rad', 0.0, 1.6,
-          read_only=True),
+    Param('steer_limit', D['steer_limit'], "steer command limit (at most the servo's 15 deg)",
+          'rad', 0.0, STEER_LIMIT, read_only=True),
     Param('anti_windup', D['anti_windup'],
           "anti-windup (the paper describes none): 'back_calculation' (controller state driven "
           "by the applied, saturated steer; RST: Astrom-Wittenmark polynomial form, PI: tracking "

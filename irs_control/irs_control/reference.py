@@ -5,34 +5,12 @@ Every signal is a frozen dataclass with ``__call__(t) -> float`` (t in s, value 
 
     {type: square, amplitude: 0.1, period: 4.0, offset: 0.0, start_time: 1.0}
 
-Definitions (``t0`` = ``start_time``; before ``t0`` every signal except ``constant``
-returns its ``offset``):
-
-* ``constant``: ``r = value``
-* ``step``: ``r = offset + amplitude`` for ``t >= t0``
-* ``square``: ``r = offset + amplitude`` in the first half of each period after ``t0``,
-  ``offset - amplitude`` in the second half (``duty`` changes the first-half fraction)
-* ``sine``: ``r = offset + amplitude sin(2 pi (t - t0)/period + phase)``
-* ``schedule``: piecewise constant: ``r = values[i]`` for ``times[i] <= t < times[i+1]`` (the
-  last value holds for ever), ``offset`` before ``times[0]``; ``times`` [s] strictly increasing,
-  as many as ``values``
-* ``chirp``: logarithmic swept sine from ``f0`` to ``f1`` [Hz] over ``sweep_time`` [s]:
-  ``r = offset + amplitude sin(phi(t - t0))`` for ``t0 <= t <= t0 + sweep_time`` with
-  ``phi(tau) = 2 pi f0 T/ln(f1/f0) ((f1/f0)^(tau/T) - 1)``, ``T`` = ``sweep_time``
-  (``scipy.signal.chirp``, ``method='logarithmic'``, ``phi=-90`` degrees so it starts at 0 with
-  a positive slope); ``offset`` before and after the sweep
-
-``schedule`` and ``chirp`` are system-identification excitations (voltage steps of the paper's
-Fig. 5, the swept sines of its Fig. 6 and 8); their values are in the unit of whatever they
-drive (m for the lateral reference, V or rad for ``irs_bringup``'s ``excitation`` node).
-
-Console reference (``source: console`` of ``reference_generator``): :func:`console_reference`
-screens each value typed at the driver console. A value is accepted when it is a finite number
-with ``|value| <= limit`` (default :data:`CONSOLE_LIMIT` = 0.5 m: the belt half width 0.6096 m
-less the treadmill safety's 0.10 m edge margin); anything else (NaN, +-inf, 1e308, a value
-beyond the belt) is **refused**: the last valid value stays in force and a reason is returned.
-Refusing rather than clamping, because an absurd value is a typing or transport error, not a
-request to drive to the belt edge. The result is always finite.
+Signals: ``constant``, ``step``, ``square``, ``sine``, ``schedule`` (piecewise constant) and
+``chirp`` (logarithmic swept sine, ``scipy.signal.chirp``); their definitions are in
+:func:`from_dict`. ``schedule`` and ``chirp`` also serve as system-identification excitations
+(in V or rad for the ``excitation`` node). :func:`console_reference` screens values typed at the
+driver console (finite and within 0.5 m, else refused). They exist so that the reference
+generator, the offline twin and the studies evaluate the very same set point at the same time.
 """
 from __future__ import annotations
 
@@ -221,6 +199,27 @@ SIGNALS = {'constant': Constant, 'step': Step, 'square': Square, 'sine': Sine,
 def from_dict(spec: dict):
     """Build a reference signal from a mapping with a ``type`` key.
 
+    Definitions (``t0`` = ``start_time``; before ``t0`` every signal except ``constant`` returns
+    its ``offset``):
+
+    * ``constant``: ``r = value``
+    * ``step``: ``r = offset + amplitude`` for ``t >= t0``
+    * ``square``: ``r = offset + amplitude`` in the first half of each period after ``t0``,
+      ``offset - amplitude`` in the second half (``duty`` changes the first-half fraction)
+    * ``sine``: ``r = offset + amplitude sin(2 pi (t - t0)/period + phase)``
+    * ``schedule``: piecewise constant: ``r = values[i]`` for ``times[i] <= t < times[i+1]`` (the
+      last value holds for ever), ``offset`` before ``times[0]``; ``times`` [s] strictly
+      increasing, as many as ``values``
+    * ``chirp``: logarithmic swept sine from ``f0`` to ``f1`` [Hz] over ``sweep_time`` [s]: ``r =
+      offset + amplitude sin(phi(t - t0))`` for ``t0 <= t <= t0 + sweep_time`` with ``phi(tau) = 2
+      pi f0 T/ln(f1/f0) ((f1/f0)^(tau/T) - 1)``, ``T`` = ``sweep_time`` (``scipy.signal.chirp``,
+      ``method='logarithmic'``, ``phi=-90`` degrees so it starts at 0 with a positive slope);
+      ``offset`` before and after the sweep
+
+    ``schedule`` and ``chirp`` are system-identification excitations (voltage steps of the paper's
+    Fig. 5, the swept sines of its Fig. 6 and 8); their values are in the unit of whatever they
+    drive (m for the lateral reference, V or rad for ``irs_bringup``'s ``excitation`` node).
+
     Raises
     ------
     ValueError
@@ -248,6 +247,14 @@ def from_dict(spec: dict):
 
 def console_reference(value, last_valid: float = 0.0, limit: float = CONSOLE_LIMIT):
     """Screen one console reference value [m]; returns ``(reference [m], reason or None)``.
+
+    Used by ``source: console`` of ``reference_generator``; it screens each value typed at the
+    driver console. A value is accepted when it is a finite number with ``|value| <= limit``
+    (default :data:`CONSOLE_LIMIT` = 0.5 m: the belt half width 0.6096 m less the treadmill
+    safety's 0.10 m edge margin); anything else (NaN, +-inf, 1e308, a value beyond the belt) is
+    **refused**: the last valid value stays in force and a reason is returned. Refusing rather than
+    clamping, because an absurd value is a typing or transport error, not a request to drive to the
+    belt edge. The result is always finite.
 
     Accepted (``reason`` None): ``value`` is a finite real number with ``|value| <= limit``; the
     reference is ``float(value)``. Refused: the reference stays ``last_valid`` and ``reason``

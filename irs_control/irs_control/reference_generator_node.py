@@ -10,15 +10,8 @@ the same stamp); otherwise at ``rate`` on a wall timer. The signal's time counts
 the run (simulation time, or the node's first tick in real time; ``reference/restart``,
 std_srvs/Trigger, starts it again), not from the Unix epoch.
 
-Bad input: a console value that is NaN, +-inf or beyond ``console_limit`` is refused
-(:func:`.reference.console_reference`): the last valid console value (0 m before any) stays the
-reference, with a throttled warning, so ``lateral/reference`` is always finite and within the
-limit. Time going back (``/clock`` of ``bag play --loop --clock``) restarts the signal's time
-base (irs_common.ticker); the signal is a function of that time and the console value is not
-time state, so nothing else is reset. A bad ``/clock`` (negative) is dropped by
-irs_common.sim_time.
-
-Writable parameters (``ros2 param set``): ``signal.*``; the signal is rebuilt at once.
+Bad console values are refused and ``lateral/reference`` is always finite and within the limit;
+bad input, time going back and the writable parameters: :class:`ReferenceGeneratorNode`.
 """
 import time
 
@@ -34,15 +27,29 @@ from irs_common.ticker import create_ticker
 from irs_msgs.msg import LateralReference
 
 from .reference import console_reference
-from .reference_params import PARAMS, reference_signal
+from .reference_params import PARAMS, reference_problem, reference_signal
 
 
 class ReferenceGeneratorNode(Node):
-    """Publishes ``lateral/reference`` from a signal or the console, per tick."""
+    """Publishes ``lateral/reference`` from a signal or the console, per tick.
+
+    Bad input: a console value that is NaN, +-inf or beyond ``console_limit`` is refused
+    (:func:`.reference.console_reference`): the last valid console value (0 m before any) stays the
+    reference, with a throttled warning, so ``lateral/reference`` is always finite and within the
+    limit. Time going back (``/clock`` of ``bag play --loop --clock``) restarts the signal's time
+    base (irs_common.ticker); the signal is a function of that time and the console value is not
+    time state, so nothing else is reset. A bad ``/clock`` (negative) is dropped by
+    irs_common.sim_time.
+
+    Writable parameters (``ros2 param set``): ``signal.*``; the signal is rebuilt at once. A signal
+    whose range (:func:`.reference_params.signal_range`) leaves +-1 m is refused, at start-up and
+    for every change.
+    """
 
     def __init__(self, **node_options):
         super().__init__('reference_generator', **node_options)
-        self.p = declare_table(self, PARAMS, on_change=self._on_parameter)
+        self.p = declare_table(self, PARAMS, on_change=self._on_parameter,
+                               check=reference_problem)
         if self.p['source'] not in ('function', 'console'):
             raise ValueError(f"source must be 'function' or 'console', got {self.p['source']!r}")
         self.signal = reference_signal(self.p)

@@ -80,6 +80,35 @@ def signal_from_params(p: dict):
     return from_dict({'type': kind, **{f: p[f'signal.{f}'] for f in _FIELDS[kind]}})
 
 
+def signal_range(p: dict) -> tuple[float, float]:
+    """``(low, high)``: the smallest and largest value the signal of the flat ``signal.*``
+    parameters ``p`` can take (constant: the offset; step: offset and offset + amplitude;
+    schedule: the offset and the values; square, sine, chirp: offset -+ amplitude).
+    """
+    kind = p['signal.type']
+    offset, amplitude = float(p['signal.offset']), float(p['signal.amplitude'])
+    values = [offset]
+    if kind == 'step':
+        values.append(offset + amplitude)
+    elif kind == 'schedule':
+        values += [float(v) for v in p['signal.values']]
+    elif kind != 'constant':
+        values += [offset - abs(amplitude), offset + abs(amplitude)]
+    return min(values), max(values)
+
+
+#: The largest lateral reference the generator publishes [m] (the controller's own limit is 2 m).
+REFERENCE_LIMIT = 1.0
+
+
+def reference_problem(values: dict):
+    """``None``, or why the generator's signal would leave +-``REFERENCE_LIMIT``."""
+    low, high = signal_range(values)
+    if low < -REFERENCE_LIMIT or high > REFERENCE_LIMIT:
+        return (f'the reference spans [{low:g}, {high:g}] m, beyond +-{REFERENCE_LIMIT:g} m')
+    return None
+
+
 def reference_signal(values: dict):
     """The reference generator's signal from its flat parameters (the node's, or an
     experiment's for the offline twin), missing ones at their defaults.

@@ -2,37 +2,21 @@ r"""Continuous-time RST / model-reference pole-placement design (Astrom & Witten
 
 Plant ``y = B/A u``, controller ``R u = T u_c - S y``, reference model ``y_m = Bm/Am u_c``.
 
-Algorithm (Astrom & Wittenmark, *Computer-Controlled Systems* / *Adaptive Control*,
-"MRC with zero cancellation"):
+With ``B = B+ B-`` (``B+`` monic, the cancelled zeros), the minimum-degree solution of the
+Diophantine equation
 
-1. Factor ``B = B+ B-``: ``B+`` is monic and holds the zeros that are cancelled
-   (``cancel='stable'``: every zero with real part < ``-sigma_min`` and damping
-   ratio >= ``zeta_min``; ``'none'``; or an explicit list of zeros). ``B-`` holds the
-   remaining zeros and the high-frequency gain ``b0``.
-2. Solve the Diophantine equation, minimum-degree solution ``deg S < deg A``:
+.. math:: A R' + B^- S = A_m A_o ,
 
-   .. math:: A R' + B^- S = A_m A_o .
-
-3. ``R = R' B+`` and ``T = A_o B_m'`` where ``B_m = B^- B_m'``. When ``B-`` is the
-   constant ``b0`` (all zeros cancelled, the paper's case) this is ``T = A_o B_m / b_0``.
-   If ``B-`` has zeros that ``Bm`` does not contain, exact model following is impossible:
-   by default :class:`RstDesignError` is raised; with ``absorb_zeros=True`` the model
-   numerator is replaced by ``Bm_eff = Bm * B-(s)/B-(0)`` (unit DC gain kept) and the
-   design follows ``Bm_eff/Am`` instead (recorded in :attr:`RstDesign.Bm`).
-
-The closed loop is
+``R = R' B+`` and ``T = A_o B_m'`` (``B_m = B^- B_m'``), the closed loop is
 
 .. math:: \frac{B T}{A R + B S} = \frac{B^+ B^- A_o B_m'}{B^+ A_m A_o} = \frac{B_m}{A_m},
 
 with characteristic polynomial ``A_m A_o B+`` (the cancelled factors ``A_o B+`` are
 unobservable / uncontrollable from ``u_c`` but must be stable).
 
-Checks (each raises :class:`RstDesignError` with an explanatory sentence): first, before any
-arithmetic, every polynomial is a non-empty list of finite coefficients, not all zero (NaN, inf,
-empty -> :class:`RstDesignError` naming it); then ``A`` monic,
-``A`` and ``B-`` coprime (the common root is named), cancelled zeros stable, ``Am`` and
-``Ao`` stable, causality ``deg S <= deg R`` and ``deg T <= deg R``, and that the computed
-closed loop equals the model to ``verify_rtol`` (coefficient comparison).
+It exists to compute the paper's MRC (Eq. 21-24) and other model-following designs from plant
+and model polynomials, with every impossible case refused in one sentence. Algorithm and checks:
+:func:`design_rst`.
 """
 from __future__ import annotations
 
@@ -188,6 +172,29 @@ def select_cancelled_zeros(zeros, cancel='stable', zeta_min: float = 0.5,
     return np.array(canc, dtype=complex), np.array(kept, dtype=complex)
 
 
+def _checked_polynomials(A, B, Am, Bm, Ao):
+    """The design's polynomials as arrays; :class:`RstDesignError` naming the first that is
+    not a polynomial, not monic (A, Am, Ao), improper (B/A) or not Hurwitz (Am, Ao).
+    """
+    try:
+        A, B, Am, Bm, Ao = (require_polynomial(name, p) for name, p in
+                            (('A', A), ('B', B), ('Am', Am), ('Bm', Bm), ('Ao', Ao)))
+    except ValueError as exc:
+        raise RstDesignError(str(exc)) from None
+    for name, p in (('A', A), ('Am', Am), ('Ao', Ao)):
+        if abs(p[0] - 1.0) > 1e-12:
+            raise RstDesignError(f'{name} must be monic (leading coefficient 1); got {p[0]}.')
+    if degree(B) > degree(A):
+        raise RstDesignError('The plant B/A must be proper (deg B <= deg A).')
+    for name, p in (('Am', Am), ('Ao', Ao)):
+        if not is_hurwitz(p):
+            raise RstDesignError(
+                f'{name} has roots {np.roots(p)} that are not in the open left half plane; '
+                'the closed-loop poles it places would be unstable.'
+            )
+    return A, B, Am, Bm, Ao
+
+
 def design_rst(B, A, Bm, Am, Ao, cancel='stable', zeta_min: float = 0.5,
                sigma_min: float = 0.1, coprime_tol: float = 1e-6,
                absorb_zeros: bool = False, verify_rtol: float = 1e-9) -> RstDesign:
@@ -219,23 +226,35 @@ def design_rst(B, A, Bm, Am, Ao, cancel='stable', zeta_min: float = 0.5,
     Raises
     ------
     RstDesignError
+
+    Notes
+    -----
+    Algorithm (Astrom & Wittenmark, *Computer-Controlled Systems* / *Adaptive Control*, "MRC with
+    zero cancellation"):
+
+    1. Factor ``B = B+ B-``: ``B+`` is monic and holds the zeros that are cancelled
+       (``cancel='stable'``: every zero with real part < ``-sigma_min`` and damping ratio >=
+       ``zeta_min``; ``'none'``; or an explicit list of zeros). ``B-`` holds the remaining zeros
+       and the high-frequency gain ``b0``.
+    2. Solve the Diophantine equation, minimum-degree solution ``deg S < deg A``:
+
+       .. math:: A R' + B^- S = A_m A_o .
+
+    3. ``R = R' B+`` and ``T = A_o B_m'`` where ``B_m = B^- B_m'``. When ``B-`` is the constant
+       ``b0`` (all zeros cancelled, the paper's case) this is ``T = A_o B_m / b_0``. If ``B-`` has
+       zeros that ``Bm`` does not contain, exact model following is impossible: by default
+       :class:`RstDesignError` is raised; with ``absorb_zeros=True`` the model numerator is
+       replaced by ``Bm_eff = Bm * B-(s)/B-(0)`` (unit DC gain kept) and the design follows
+       ``Bm_eff/Am`` instead (recorded in :attr:`RstDesign.Bm`).
+
+    Checks (each raises :class:`RstDesignError` with an explanatory sentence): first, before any
+    arithmetic, every polynomial is a non-empty list of finite coefficients, not all zero (NaN,
+    inf, empty -> :class:`RstDesignError` naming it); then ``A`` monic, ``A`` and ``B-`` coprime
+    (the common root is named), cancelled zeros stable, ``Am`` and ``Ao`` stable, causality ``deg S
+    <= deg R`` and ``deg T <= deg R``, and that the computed closed loop equals the model to
+    ``verify_rtol`` (coefficient comparison).
     """
-    try:
-        A, B, Am, Bm, Ao = (require_polynomial(name, p) for name, p in
-                            (('A', A), ('B', B), ('Am', Am), ('Bm', Bm), ('Ao', Ao)))
-    except ValueError as exc:
-        raise RstDesignError(str(exc)) from None
-    for name, p in (('A', A), ('Am', Am), ('Ao', Ao)):
-        if abs(p[0] - 1.0) > 1e-12:
-            raise RstDesignError(f'{name} must be monic (leading coefficient 1); got {p[0]}.')
-    if degree(B) > degree(A):
-        raise RstDesignError('The plant B/A must be proper (deg B <= deg A).')
-    for name, p in (('Am', Am), ('Ao', Ao)):
-        if not is_hurwitz(p):
-            raise RstDesignError(
-                f'{name} has roots {np.roots(p)} that are not in the open left half plane; '
-                'the closed-loop poles it places would be unstable.'
-            )
+    A, B, Am, Bm, Ao = _checked_polynomials(A, B, Am, Bm, Ao)
 
     zeros = np.roots(B) if degree(B) > 0 else np.array([], dtype=complex)
     canc, kept = select_cancelled_zeros(zeros, cancel, zeta_min, sigma_min)

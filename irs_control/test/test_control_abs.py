@@ -11,7 +11,11 @@ import numpy as np
 import pytest
 from hypothesis import given, settings, strategies as st
 
+from scipy.optimize import minimize_scalar
+
 from irs_control.abs_control import AbsController, AbsParams, ArmSpeedEstimator, wheel_slips
+from irs_control.abs_peak import PeakSeeker, PeakSeekParams
+from irs_control.abs_reference import WheelSpeedObserver
 from irs_vehicle_sim.surface import SurfaceSpec
 from irs_vehicle_sim.two_track import TwoTrack
 from irs_vehicle_sim.wheel_encoder import WheelEncoders
@@ -118,3 +122,86 @@ def test_arm_speed_estimator():
         ArmSpeedEstimator(window=0)
     with pytest.raises(ValueError, match='slip_target'):
         AbsParams(slip_target=0.1)
+
+
+def test_per_wheel_slip_targets():
+    """Every wheel at slip -0.15: the wheel with target -0.10 is released, the one with -0.20
+    keeps the full brake (it slips less than asked).
+    """
+    a = AbsController()
+    omega = [0.85 * 1.0 / 0.033] * 4
+    out = a.step([-0.2] * 4, omega, 1.0, DT, slip_target=[-0.10, -0.20, -0.10, -0.20])
+    assert np.allclose(out.slips, -0.15)
+    assert out.torques[0] > -0.2 and out.torques[1] == pytest.approx(-0.2)
+    assert out.active[0] and not out.active[1]
+
+
+def test_wheel_speed_observer_follows_the_car_over_a_slowing_belt():
+    """Rolling, then braking below the locking torque, while the belt slows at 0.5 m/s^2: the
+    reference from the encoders, the applied torques and the measured belt speed stays within
+    5 mm/s of the car's true speed over the belt, but at the brake onset (the arm is not used);
+    with the wheels held it is their speed.
+    """
+    car = TwoTrack(u0=VB)
+    enc = WheelEncoders()
+    enc.reset(car.omega, DT)
+    obs = WheelSpeedObserver()
+    torques, belt, err = np.zeros(4), VB, []
+    for k in range(250):
+        _, w = enc.step(car.omega, DT)
+        v = obs.step(w, torques, k >= 100, False, belt, DT)
+        err.append(v - car.u)
+        torques = np.full(4, -0.1) if k >= 100 else np.zeros(4)    # 4 m/s^2 from 0.1 s on
+        car.step(torques, 0.0, 0.0, DT, belt_speed=belt, belt_accel=-0.5)
+        belt -= 0.5 * DT
+    assert car.u < 0.7 * VB                     # it did brake
+    err = np.array(err[50:])                    # the first 50 ms average the encoders' steps
+    # measured: 2.5 mm/s rolling, 7.0 mm/s at the brake onset (the encoders' 2.5 ms lag on the
+    # wheels' deceleration; the inertia term's integral is exact after it), 3.9 mm/s from 20 ms
+    # after the onset on
+    assert np.max(np.abs(err)) < 0.008 and np.max(np.abs(err[70:])) < 0.005
+    assert obs.step([0.0] * 4, [0.0] * 4, True, True, belt, DT) == 0.0
+
+
+def _burckhardt(c1, c2, c3):
+    return lambda s: c1 * (1.0 - np.exp(-c2 * s)) - c3 * s
+
+
+def _feed(seeker, mu, n=300, i=0):
+    """Settled samples of ``mu(s)`` over s in [0.02, 0.30] into wheel ``i``'s fit, with the
+    target decisions as the seeker makes them after a probe.
+    """
+    seeker.probed[i] = True
+    for k in range(n):
+        s = 0.02 + 0.28 * ((k * 0.618) % 1.0)
+        seeker._learn(i, s, float(mu(s)))
+        seeker._retarget(i)
+
+
+@pytest.mark.parametrize('name, coeffs, moves', [
+    ('dry asphalt', (1.2801, 23.99, 0.52), True),    # peak 1.170 at 0.170; 5 % over 0.10
+    ('wet asphalt', (0.857, 33.822, 0.347), False),  # peak 0.801 at 0.131; 1 % over 0.10
+    ('snow', (0.1946, 94.129, 0.0646), False),       # peak 0.190 at 0.060; 1 % under 0.10
+])
+def test_peak_seeker_moves_only_for_a_gain_and_to_the_fitted_peak(name, coeffs, moves):
+    mu = _burckhardt(*coeffs)
+    seeker = PeakSeeker()
+    _feed(seeker, mu)
+    s_pk = minimize_scalar(lambda s: -mu(s), bounds=(0.0, 1.0), method='bounded').x
+    fit = seeker.curve(0, seeker.slips)
+    assert seeker.slips[np.argmax(fit)] == pytest.approx(min(s_pk, 0.25), abs=0.01), name
+    if moves:
+        assert seeker.target[0] > 0.12 and mu(seeker.target[0]) > 0.99 * mu(s_pk), name
+    else:
+        assert seeker.target[0] == 0.10, name
+    assert np.all(seeker.target[1:] == 0.10)      # the other wheels saw nothing
+
+
+def test_peak_seeker_restarts_at_the_baseline_when_the_surface_changes():
+    seeker = PeakSeeker()
+    _feed(seeker, _burckhardt(1.2801, 23.99, 0.52))
+    assert seeker.target[0] > 0.12
+    _feed(seeker, _burckhardt(0.1946, 94.129, 0.0646), n=40)     # snow from now on
+    assert seeker.restarts >= 1 and seeker.target[0] == 0.10
+    with pytest.raises(ValueError, match='slip_min <= baseline'):
+        PeakSeekParams(baseline=0.3)

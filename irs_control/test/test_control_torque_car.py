@@ -2,7 +2,8 @@
 the brake modes, the friction-brake hold at standstill, yaw control off/on, bad input.
 
 The car is not simulated here (the closed loops are in test_control_abs/chassis and, through the
-graph, tests/test_torque_car_graph.py): the inputs are chosen so the answer is known.
+graph, irs_system_tests/test/test_torque_car_graph.py): the inputs are chosen so the answer is
+known.
 """
 import math
 
@@ -53,13 +54,16 @@ def test_a_car_slower_than_the_belt_is_driven_and_a_speed_target_overrides_the_b
     assert np.all(out.torques < 0.0)
 
 
-@pytest.mark.parametrize('mode', ['abs', 'open', 'locked'])
+@pytest.mark.parametrize('mode', ['abs', 'abs_peak', 'open', 'locked'])
 def test_brake_modes_on_a_wheel_slipping_at_minus_half(mode):
-    ctl = controller(brake_start_time=0.01, brake_mode=mode, brake_torque=0.2)
+    """The arm's speed as the ABS's reference, so the slip is known (-0.5 on FL)."""
+    ctl = controller(brake_start_time=0.01, brake_mode=mode, brake_torque=0.2,
+                     abs_reference='arm')
     omega = [0.5 * V / R, V / R, V / R, V / R]
     before = drive(ctl, 10, omega=omega)
     assert not before.braking
-    out = drive(ctl, 30, omega=omega, k0=10)
+    first = drive(ctl, 1, omega=omega, k0=10)
+    out = drive(ctl, 29, omega=omega, k0=11)
     assert out.braking
     if mode == 'locked':
         assert out.locked == (True,) * 4 and np.all(out.torques == 0.0)
@@ -69,6 +73,29 @@ def test_brake_modes_on_a_wheel_slipping_at_minus_half(mode):
         assert out.locked == (False,) * 4
         assert np.allclose(out.torques[1:], -0.2) and out.torques[0] > -0.05
         assert out.slips[0] == pytest.approx(-0.5)
+        assert np.allclose(first.slip_target, -0.10)   # the peak seeker starts at the baseline
+        # ... and 20 ms into the stop raises it by its probe, 0.03
+        assert np.allclose(out.slip_target, -0.13 if mode == 'abs_peak' else -0.10)
+
+
+def test_the_abs_takes_the_wheels_speed_not_the_arms():
+    """Wheels rolling at 1.0 m/s while the arm says 1.2 m/s: before the brake the reference is
+    the wheels' mean, and at the brake start the ABS sees no slip (full brake), where the arm
+    would have seen -0.17 on every wheel and released it.
+    """
+    ctl = controller(brake_start_time=0.01, brake_mode='abs', brake_torque=0.2)
+    omega = [1.0 / R] * 4
+    before = drive(ctl, 10, omega=omega)
+    # (the wheels correct the torque-integrated speed over 20 ms; the torques here drive)
+    assert before.v_ref == pytest.approx(1.0, abs=0.005) and before.v_hat == pytest.approx(V)
+    out = drive(ctl, 1, omega=omega, k0=10)
+    assert out.braking and np.allclose(out.torques, -0.2)
+    assert np.allclose(out.slips, 0.0, atol=0.005)
+    arm = controller(brake_start_time=0.01, brake_mode='abs', brake_torque=0.2,
+                     abs_reference='arm')
+    drive(arm, 10, omega=omega)
+    out = drive(arm, 1, omega=omega, k0=10)
+    assert np.allclose(out.slips, 1.0 / V - 1.0) and np.all(out.torques > -0.2)
 
 
 def test_stopped_car_is_held_by_the_friction_brakes_until_the_brake_is_released():
@@ -125,7 +152,7 @@ finite = st.floats(allow_nan=True, allow_infinity=True, width=64)
 
 @settings(max_examples=200, deadline=None)
 @given(omega=st.lists(finite, min_size=4, max_size=4), x=finite, psi=finite, belt=finite,
-       r=finite, mode=st.sampled_from(['abs', 'open', 'locked']),
+       r=finite, mode=st.sampled_from(['abs', 'abs_peak', 'open', 'locked']),
        yaw=st.sampled_from(['off', 'rear_steer', 'differential', 'both']))
 def test_commands_are_finite_and_within_limits_for_any_input(omega, x, psi, belt, r, mode, yaw):
     ctl = controller(brake_start_time=0.001, brake_mode=mode, yaw_control=yaw,
@@ -136,6 +163,7 @@ def test_commands_are_finite_and_within_limits_for_any_input(omega, x, psi, belt
         assert np.all(np.isfinite(out.torques)) and np.all(np.abs(out.torques) <= 0.3)
         assert math.isfinite(out.front_steer) and abs(out.rear_steer) <= 0.2618
         assert len(out.locked) == 4
+        assert np.all(np.isfinite(out.slip_target)) and np.all(out.slip_target <= 0.0)
 
 
 def test_bad_configuration_is_refused_with_a_sentence_and_live_names_exist():
@@ -143,6 +171,8 @@ def test_bad_configuration_is_refused_with_a_sentence_and_live_names_exist():
         TorqueCarConfig(brake_mode='skid')
     with pytest.raises(ValueError, match='yaw_control'):
         TorqueCarConfig(yaw_control='torque_vectoring')
+    with pytest.raises(ValueError, match='abs.reference'):
+        TorqueCarConfig(abs_reference='gps')
     with pytest.raises(ValueError, match='finite'):
         TorqueCarConfig(brake_start_time=math.nan)
     names = {p.name for p in PARAMS}

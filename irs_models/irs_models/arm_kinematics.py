@@ -1,25 +1,8 @@
 """Planar two-link position-sensing arm of the IRS (paper Sec. 3.2, Fig. 3, Eq. 3).
 
-Reconstruction of the paper's Eq. 3
------------------------------------
-The OCR text of Eq. 3 reads::
-
-    x = Ll co&t + L* CO&~
-    y = L, .sin(Ot +02) + L2 .sin(t!lt +e2)
-
-The ``y`` line shows the pattern ``L_i sin(sum of angles)`` and the ``x`` line the matching
-``L1 cos(...) + L2 cos(...)``.  The only planar two-link relation consistent with the surviving
-symbols (two links L1, L2, relative joint angles theta1, theta2 as in Fig. 3) is the standard
-serial-chain forward kinematics::
-
-    x = L1 cos(theta1) + L2 cos(theta1 + theta2)
-    y = L1 sin(theta1) + L2 sin(theta1 + theta2)
-
-(the OCR's first ``y`` term ``L1 sin(theta1 + theta2)`` is taken as a garbling of
-``L1 sin(theta1)``: with it the ``x`` and ``y`` lines would not describe the same point).  The
-third potentiometer gives the car axis relative to link 2, so the heading is
-``psi = theta1 + theta2 + theta3``.  The project's frames, base offset and attach offset follow
-``docs/conventions.md``::
+Eq. 3 (reconstructed from the OCR: :func:`forward_kinematics`) with the project's frames, base
+offset and attach offset (``docs/conventions.md``); the third potentiometer gives the car axis
+relative to link 2::
 
     x_tip = base_x + L1 cos(theta1) + L2 cos(theta1 + theta2)
     y_tip = base_y + L1 sin(theta1) + L2 sin(theta1 + theta2)
@@ -27,6 +10,10 @@ third potentiometer gives the car axis relative to link 2, so the heading is
     x_cg  = x_tip - attach_offset cos(psi),   y_cg = y_tip - attach_offset sin(psi)
 
 All angles are in rad, CCW positive, wrapped to (-pi, pi]; lengths in m.
+
+The arm exists because the car on the belt carries no position sensor: the estimator turns the
+three potentiometer angles into the car's pose (:func:`forward_kinematics`), and the rig's
+simulated sensor does the reverse (:func:`inverse_kinematics`).
 """
 from __future__ import annotations
 
@@ -132,7 +119,7 @@ class ArmPose:
 
 def forward_kinematics(theta1: float, theta2: float, theta3: float,
                        geometry: ArmGeometry) -> ArmPose:
-    """Car c.g. pose from the three joint angles (Eq. 3 as reconstructed above).
+    """Car c.g. pose from the three joint angles (Eq. 3, reconstruction in the notes).
 
     Parameters
     ----------
@@ -148,6 +135,27 @@ def forward_kinematics(theta1: float, theta2: float, theta3: float,
     -------
     ArmPose
         ``x_cg, y_cg`` [m], ``psi`` [rad] wrapped to (-pi, pi], ``x_tip, y_tip`` [m].
+
+    Notes
+    -----
+    The OCR text of Eq. 3 reads::
+
+        x = Ll co&t + L* CO&~
+        y = L, .sin(Ot +02) + L2 .sin(t!lt +e2)
+
+    The ``y`` line shows the pattern ``L_i sin(sum of angles)`` and the ``x`` line the matching
+    ``L1 cos(...) + L2 cos(...)``.  The only planar two-link relation consistent with the surviving
+    symbols (two links L1, L2, relative joint angles theta1, theta2 as in Fig. 3) is the standard
+    serial-chain forward kinematics::
+
+        x = L1 cos(theta1) + L2 cos(theta1 + theta2)
+        y = L1 sin(theta1) + L2 sin(theta1 + theta2)
+
+    (the OCR's first ``y`` term ``L1 sin(theta1 + theta2)`` is taken as a garbling of ``L1
+    sin(theta1)``: with it the ``x`` and ``y`` lines would not describe the same point).  The third
+    potentiometer gives the car axis relative to link 2, so the heading is ``psi = theta1 + theta2
+    + theta3``.  The project's frames, base offset and attach offset follow
+    ``docs/conventions.md``::
     """
     g = geometry
     a12 = theta1 + theta2

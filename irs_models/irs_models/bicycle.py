@@ -1,9 +1,5 @@
 """Linear bicycle model (Peng & Tomizuka form) of the IRS paper, section 4.
 
-Pure Python (numpy / python-control); no rclpy.
-
-Model
------
 Two dynamic degrees of freedom (lateral velocity ``v_y`` at the c.g. and yaw rate ``r``) at a
 constant forward speed ``V`` [m/s], linear tyres with per-axle cornering stiffnesses ``C_f``,
 ``C_r`` [N/rad], plus the two kinematic states lateral position ``y`` of the c.g. and yaw
@@ -17,62 +13,12 @@ constant forward speed ``V`` [m/s], linear tyres with per-axle cornering stiffne
     y_s     = y + d_s psi                             (sensor point d_s ahead of the c.g.)
 
 State ``x = [v_y, r, y, psi]``, input ``u = [delta_f, delta_r]`` (rad, positive steers the car
-left, i.e. CCW yaw), output ``y_s`` [m].  With ``L = l_f + l_r``::
+left, i.e. CCW yaw), output ``y_s`` [m].
 
-        | -(C_f+C_r)/(mV)              -(C_f l_f - C_r l_r)/(mV) - V      0  0 |
-    A = | -(C_f l_f - C_r l_r)/(I_z V)  -(C_f l_f^2 + C_r l_r^2)/(I_z V)  0  0 |
-        |  1                             0                                 0  V |
-        |  0                             1                                 0  0 |
-
-        | C_f/m        C_r/m       |
-    B = | C_f l_f/I_z  -C_r l_r/I_z |
-        | 0            0           |
-        | 0            0           |
-    C = [0, 0, 1, d_s],  D = [0, 0]
-
-These are the paper's A1..A4, B1, B2 of Eq. (4) (A1 = -(C_f + C_r)/m, A2 = (C_r l_r - C_f l_f)/m,
-A3 = (C_r l_r - C_f l_f)/I_z, A4 = -(C_f l_f^2 + C_r l_r^2)/I_z, B1 = C_f/m, B2 = l_f C_f/I_z,
-with the velocity-dependent entries A_i/V as in Peng & Tomizuka 1993), written in the
-``[v_y, r, y, psi]`` state order.
-
-Transfer functions (derivation)
--------------------------------
-From the kinematic rows, ``s Y = V_y + V Psi`` and ``s Psi = R``, so
-``Y_s = (s V_y + (V + d_s s) R) / s^2``.  Solving the 2x2 dynamic block by Cramer's rule with
-``Delta(s) = (s - a11)(s - a22) - a12 a21`` and collecting powers of ``s`` (the ``V`` in
-``a12`` cancels against ``V b2``) gives, after multiplying numerator and denominator by
-``m I_z V^2``:
-
-Front steer (paper Eq. 5)::
-
-    Y_s      C_f [ V^2 (I_z + m l_f d_s) s^2 + C_r L V (l_r + d_s) s + C_r L V^2 ]
-    ------ = -----------------------------------------------------------------------------
-    delta_f  s^2 [ I_z m V^2 s^2 + V (I_z (C_f + C_r) + m (C_f l_f^2 + C_r l_r^2)) s
-                   + (m V^2 (C_r l_r - C_f l_f) + C_f C_r L^2) ]
-
-  numerator coefficients:  n2 = C_f V^2 (I_z + m l_f d_s),  n1 = C_f C_r L V (l_r + d_s),
-  n0 = C_f C_r L V^2.  Hence the zeros obey
-  ``z1 z2 = C_r L / (I_z + m l_f d_s)`` and
-  ``z1 + z2 = -C_r L (l_r + d_s) / (V (I_z + m l_f d_s))``,
-  so ``1/z1 + 1/z2 = -(l_r + d_s) / V`` *independently of mass, inertia and tyres*.
-  With ``d_s = 0`` the zeros are the roots of ``I_z V s^2 + C_r L l_r s + C_r L V``.
-
-Rear steer (same denominator)::
-
-    numerator = C_r [ V^2 (I_z - m l_r d_s) s^2 + C_f L V (l_f - d_s) s - C_f L V^2 ]
-
-  (constant term negative: at the c.g. (d_s = 0) one right-half-plane zero, i.e. non-minimum
-  phase; for a point ahead both zeros are in the LHP only if ``I_z < m l_r d_s`` and
-  ``d_s > l_f``; ``1/z1 + 1/z2 = (l_f - d_s)/V``.)
-
-The OCR of the paper garbles Eq. 5; the form above is the one consistent with the legible
-fragments ("C_sf C_sr L V (d_s + L_2) s", "C_sf C_sr L V^2", "I_z m V^2 s^4",
-"V(I_z(C_sr + C_sf) + m(C_sr L_r^2 + C_sf L_f^2)) s^3", "(m V^2 (C_sr L_2 - C_sf L_1) + C_sf C_sr
-L^2) s^2")
-and it is verified numerically against the state-space model in the tests.
-
-The optional actuator is a first-order lag ``w_a / (s + w_a)``, ``w_a = 2 pi f_a``
-(paper: 4.6 Hz, i.e. the -29 rad/s pole of Eq. 6).
+The front-steer zeros obey ``1/z1 + 1/z2 = -(l_r + d_s) / V``, independently of mass, inertia
+and tyres. The model is the physical reference the paper's identified plant (Eq. 6) and the
+full-size presets are compared with (numpy, python-control; no rclpy). Matrices and Eq. 4:
+:func:`bicycle_state_space`; Eq. 5 and its reconstruction from the OCR: :func:`tf_coefficients`.
 """
 
 from __future__ import annotations
@@ -181,6 +127,26 @@ def bicycle_state_space(params: BicycleParams, speed: float, ds: float = 0.0):
     -------
     A (4x4), B (4x2), C (1x4), D (1x2) : numpy.ndarray
         States [v_y, r, y, psi], inputs [delta_f, delta_r], output y_s = y + ds psi.
+
+    Notes
+    -----
+    With ``L = l_f + l_r``::
+
+            | -(C_f+C_r)/(mV)              -(C_f l_f - C_r l_r)/(mV) - V      0  0 |
+        A = | -(C_f l_f - C_r l_r)/(I_z V)  -(C_f l_f^2 + C_r l_r^2)/(I_z V)  0  0 |
+            |  1                             0                                 0  V |
+            |  0                             1                                 0  0 |
+
+            | C_f/m        C_r/m       |
+        B = | C_f l_f/I_z  -C_r l_r/I_z |
+            | 0            0           |
+            | 0            0           |
+        C = [0, 0, 1, d_s],  D = [0, 0]
+
+    These are the paper's A1..A4, B1, B2 of Eq. (4) (A1 = -(C_f + C_r)/m, A2 = (C_r l_r - C_f
+    l_f)/m, A3 = (C_r l_r - C_f l_f)/I_z, A4 = -(C_f l_f^2 + C_r l_r^2)/I_z, B1 = C_f/m, B2 = l_f
+    C_f/I_z, with the velocity-dependent entries A_i/V as in Peng & Tomizuka 1993), written in the
+    ``[v_y, r, y, psi]`` state order.
     """
     V, d = _check_speed_ds(speed, ds)
     p = params
@@ -210,6 +176,40 @@ def tf_coefficients(params: BicycleParams, speed: float, ds: float = 0.0, axle: 
     den : ndarray, shape (5,)
         ``[I_z m V^2, V (I_z (C_f + C_r) + m (C_f l_f^2 + C_r l_r^2)),
         m V^2 (C_r l_r - C_f l_f) + C_f C_r L^2, 0, 0]``.
+
+    Notes
+    -----
+    From the kinematic rows, ``s Y = V_y + V Psi`` and ``s Psi = R``, so ``Y_s = (s V_y + (V + d_s
+    s) R) / s^2``.  Solving the 2x2 dynamic block by Cramer's rule with ``Delta(s) = (s - a11)(s -
+    a22) - a12 a21`` and collecting powers of ``s`` (the ``V`` in ``a12`` cancels against ``V b2``)
+    gives, after multiplying numerator and denominator by ``m I_z V^2``:
+
+    Front steer (paper Eq. 5)::
+
+        Y_s      C_f [ V^2 (I_z + m l_f d_s) s^2 + C_r L V (l_r + d_s) s + C_r L V^2 ]
+        ------ = -----------------------------------------------------------------------------
+        delta_f  s^2 [ I_z m V^2 s^2 + V (I_z (C_f + C_r) + m (C_f l_f^2 + C_r l_r^2)) s
+                       + (m V^2 (C_r l_r - C_f l_f) + C_f C_r L^2) ]
+
+      numerator coefficients:  n2 = C_f V^2 (I_z + m l_f d_s),  n1 = C_f C_r L V (l_r + d_s),
+      n0 = C_f C_r L V^2.  Hence the zeros obey
+      ``z1 z2 = C_r L / (I_z + m l_f d_s)`` and
+      ``z1 + z2 = -C_r L (l_r + d_s) / (V (I_z + m l_f d_s))``,
+      so ``1/z1 + 1/z2 = -(l_r + d_s) / V`` *independently of mass, inertia and tyres*.
+      With ``d_s = 0`` the zeros are the roots of ``I_z V s^2 + C_r L l_r s + C_r L V``.
+
+    Rear steer (same denominator)::
+
+        numerator = C_r [ V^2 (I_z - m l_r d_s) s^2 + C_f L V (l_f - d_s) s - C_f L V^2 ]
+
+      (constant term negative: at the c.g. (d_s = 0) one right-half-plane zero, i.e. non-minimum
+      phase; for a point ahead both zeros are in the LHP only if ``I_z < m l_r d_s`` and
+      ``d_s > l_f``; ``1/z1 + 1/z2 = (l_f - d_s)/V``.)
+
+    The OCR of the paper garbles Eq. 5; the form above is the one consistent with the legible
+    fragments ("C_sf C_sr L V (d_s + L_2) s", "C_sf C_sr L V^2", "I_z m V^2 s^4", "V(I_z(C_sr +
+    C_sf) + m(C_sr L_r^2 + C_sf L_f^2)) s^3", "(m V^2 (C_sr L_2 - C_sf L_1) + C_sf C_sr L^2) s^2")
+    and it is verified numerically against the state-space model in the tests.
     """
     V, d = _check_speed_ds(speed, ds)
     p = params
@@ -263,6 +263,9 @@ def transfer_function(params: BicycleParams, speed: float, ds: float = 0.0, axle
         The lag has unit DC gain: ``w_a/(s + w_a)``.
     as_control : bool
         True returns a ``control.TransferFunction``; False returns ``(num, den)`` arrays.
+
+    The optional actuator is a first-order lag ``w_a / (s + w_a)``, ``w_a = 2 pi f_a`` (paper: 4.6
+    Hz, i.e. the -29 rad/s pole of Eq. 6).
     """
     num, den = tf_coefficients(params, speed, ds, axle)
     w = _actuator_omega(actuator_pole)

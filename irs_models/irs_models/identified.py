@@ -11,43 +11,11 @@ plant from the **achieved** front steer angle delta [rad] to y_s [m] is therefor
 
     G(s) = K (s + 2.4)(s + 4.8) / ( s^2 (s + 8)(s + 20) ),    K = b0 / 29
 
-Gain derivation: the high-frequency gain of the *full* plant is b0 = 2308 / 6.351 = 363.4
-(reference-model numerator 2308 of Eq. 21 over the OCR'd leading coefficient of T, Eq. 24),
-:data:`irs_models.constants.PAPER_PLANT_GAIN` = 363.394.  Because the actuator block is the
-unity-DC-gain lag ``29/(s+29)``, the actuator-free gain is ``K = b0 / 29 = 12.53 m/s^2/rad``.
-(Sanity check: with K = 363.4 the paper's PI loop Kp = 5, Ki = 3, which the paper ran on the car,
-would be unstable; with K = 12.53 it is stable with about 34 deg phase margin.)
-
-Realisation (states chosen so that y_s and its rate are states)::
-
-    x = [y_s, v_s, z1, z2]           v_s = dy_s/dt [m/s]
-    z1' = z2,   z2' = -160 z1 - 28 z2 + delta        (denominator (s+8)(s+20) = s^2+28s+160)
-    v_s' = a_s = K (delta - 148.48 z1 - 20.8 z2)
-                 (numerator/denominator - 1 = (-20.8 s - 148.48)/(...))
-    y_s' = v_s
-
-so ``a_s / delta = K (s^2 + 7.2 s + 11.52) / (s^2 + 28 s + 160)``.  Discretised exactly (ZOH on
-delta) by ``scipy.signal.cont2discrete`` (the matrix exponential of ``[[A, B], [0, 0]] dt``).
-:func:`identified_plant` gives the same plant (with or without the actuator) as polynomials.
-
-Pose -- heading and yaw rate are NOT physical
----------------------------------------------
-Eq. 6 is an input-output model (steer -> y_s); it has no yaw or sideslip state.  The pose the rig
-publishes for it (``ground_truth/odom``, the car drawn on the belt) takes the heading
-kinematically from the sensor-point lateral velocity, ``psi = v_s / U`` (small-angle), the yaw
-rate ``r = a_s / U``, zero body lateral velocity at the c.g. and ``y_cg = y_s - ds sin(psi)``
-(conventions: ``y_s = y + ds sin psi``).  This ignores the sideslip ``v`` and the ``ds r`` term
-of ``v_s = v + U psi + ds r``: on the ``irs_2wd`` preset a 5 deg steer doublet gives heading errors
-of 33 % (1 s per half) to 460 % (0.1 s per half) of the peak heading (159 % at 0.25 s; issue 12
-reports 129 %).  So **heading, yaw rate and c.g. position from this
-plant are not physical**; only y_s (and v_s, a_s) are.  A physically consistent heading would need
-a bicycle realisation of G(s) (``num`` and ``den`` of Eq. 5 with some m, I_z, C_f, C_r, l_f, l_r
-at U and ds): for Eq. 6 none exists -- ``n1 / n0 = (l_r + ds) / U`` fixes l_r = 0.42 m, and no
-positive (m, I_z, C_f, C_r, l_f) then matches the poles (closest: 1 % off with l_f = 1.2 m);
-:func:`bicycle_realisation` checks a given plant, and ``heading='bicycle'``
-(:class:`IdentifiedPlant`) uses it when it exists.  Use ``plant: bicycle`` when heading or yaw
-rate matter.  The model is LTI at the identification speed U; it does not rescale with the
-actual car speed.
+``b0 = 363.394`` (:data:`irs_models.constants.PAPER_PLANT_GAIN`, derived in
+:func:`identified_plant`), so ``K = 12.53 m/s^2/rad``. It exists as the paper's plant for the
+rig and for the controller designs; it is LTI at the identification speed U. Eq. 6 has no yaw
+or sideslip state, so the heading, yaw rate and c.g. position the rig derives from it are not
+physical (:class:`IdentifiedPlant`); only y_s, v_s and a_s are.
 """
 
 from __future__ import annotations
@@ -86,6 +54,15 @@ def identified_plant(include_actuator: bool = True, actuator_pole: float = PAPER
     B, A : numpy.ndarray
         ``B = gain (s+2.4)(s+4.8)``, ``A = s^2 (s+8)(s+20)(s+p)`` (with actuator) or
         ``B = (gain/p)(s+2.4)(s+4.8)``, ``A = s^2 (s+8)(s+20)`` (without).
+
+    Notes
+    -----
+    Gain derivation: the high-frequency gain of the *full* plant is b0 = 2308 / 6.351 = 363.4
+    (reference-model numerator 2308 of Eq. 21 over the OCR'd leading coefficient of T, Eq. 24),
+    :data:`irs_models.constants.PAPER_PLANT_GAIN` = 363.394.  Because the actuator block is the
+    unity-DC-gain lag ``29/(s+29)``, the actuator-free gain is ``K = b0 / 29 = 12.53 m/s^2/rad``.
+    (Sanity check: with K = 363.4 the paper's PI loop Kp = 5, Ki = 3, which the paper ran on the
+    car, would be unstable; with K = 12.53 it is stable with about 34 deg phase margin.)
     """
     if not (np.isfinite(actuator_pole) and actuator_pole > 0):
         raise ValueError('actuator_pole must be a positive finite magnitude in rad/s; '
@@ -159,7 +136,7 @@ class IdentifiedParams:
         Sensor distance ahead of the c.g. [m].  Default 0.33.
     heading : {'kinematic', 'bicycle'}
         How heading, yaw rate and c.g. lateral velocity are formed. ``'kinematic'`` (default):
-        ``psi = v_s / U``, not physical (module docstring).  ``'bicycle'``: from the bicycle
+        ``psi = v_s / U``, unphysical (IdentifiedPlant).  ``'bicycle'``: from the bicycle
         that has this G(s) (:func:`bicycle_realisation`; a fifth state psi), physical; refused
         with a sentence when no bicycle realisation exists (Eq. 6 has none).
     """
@@ -211,6 +188,20 @@ def identified_matrices(params: IdentifiedParams | None = None):
     Returns
     -------
     A, B, C, D, Ca, Da : numpy.ndarray
+
+    Notes
+    -----
+    Realisation (states chosen so that y_s and its rate are states)::
+
+        x = [y_s, v_s, z1, z2]           v_s = dy_s/dt [m/s]
+        z1' = z2,   z2' = -160 z1 - 28 z2 + delta        (denominator (s+8)(s+20) = s^2+28s+160)
+        v_s' = a_s = K (delta - 148.48 z1 - 20.8 z2)
+                     (numerator/denominator - 1 = (-20.8 s - 148.48)/(...))
+        y_s' = v_s
+
+    so ``a_s / delta = K (s^2 + 7.2 s + 11.52) / (s^2 + 28 s + 160)``.  Discretised exactly (ZOH on
+    delta) by ``scipy.signal.cont2discrete`` (the matrix exponential of ``[[A, B], [0, 0]] dt``).
+    :func:`identified_plant` gives the same plant (with or without the actuator) as polynomials.
     """
     p = params if params is not None else IdentifiedParams()
     p.validate()
@@ -234,6 +225,23 @@ def identified_matrices(params: IdentifiedParams | None = None):
 
 class IdentifiedPlant(ZohSteps):
     """Discrete (exact ZOH) identified plant implementing the ``LateralPlant`` interface.
+
+    Heading and yaw rate are not physical. Eq. 6 is an input-output model (steer -> y_s); it has no
+    yaw or sideslip state.  The pose the rig publishes for it (``ground_truth/odom``, the car drawn
+    on the belt) takes the heading kinematically from the sensor-point lateral velocity, ``psi =
+    v_s / U`` (small-angle), the yaw rate ``r = a_s / U``, zero body lateral velocity at the c.g.
+    and ``y_cg = y_s - ds sin(psi)`` (conventions: ``y_s = y + ds sin psi``).  This ignores the
+    sideslip ``v`` and the ``ds r`` term of ``v_s = v + U psi + ds r``: on the ``irs_2wd`` preset a
+    5 deg steer doublet gives heading errors of 33 % (1 s per half) to 460 % (0.1 s per half) of
+    the peak heading (159 % at 0.25 s).  So **heading, yaw rate and c.g. position from this plant
+    are not physical**; only y_s (and v_s, a_s) are.  A physically consistent heading would need a
+    bicycle realisation of G(s) (``num`` and ``den`` of Eq. 5 with some m, I_z, C_f, C_r, l_f, l_r
+    at U and ds): for Eq. 6 none exists -- ``n1 / n0 = (l_r + ds) / U`` fixes l_r = 0.42 m, and no
+    positive (m, I_z, C_f, C_r, l_f) then matches the poles (closest: 1 % off with l_f = 1.2 m);
+    :func:`bicycle_realisation` checks a given plant, and ``heading='bicycle'``
+    (:class:`IdentifiedPlant`) uses it when it exists.  Use ``plant: bicycle`` when heading or yaw
+    rate matter.  The model is LTI at the identification speed U; it does not rescale with the
+    actual car speed.
 
     ``step(delta_front, delta_rear, dt)`` ignores ``delta_rear`` (Eq. 6 is front-steer only).
 

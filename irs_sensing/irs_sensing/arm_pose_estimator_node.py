@@ -11,22 +11,10 @@ stamp, publishes
 - ``lateral_position`` (geometry_msgs/PointStamped): the sensor point ``ds`` ahead of the c.g.;
   ``point.y`` is the lateral displacement the lateral controller regulates.
 
-A reading that is NaN, out of the joint ranges, out of the arm's reach, off the belt or an
-implausible jump is rejected: no pose is computed from it. The three topics then carry NaN for
-that stamp (an explicit "no valid measurement" marker, so that downstream nodes take their safe
-action for that step and a lock-step run does not stall), and ``sensing/status`` (SensingStatus,
-latched) says why. No valid reading for ``stale_timeout`` s is reported as STALE (logged once
-per transition, and once when valid readings return). ``sensing/status`` is published on every
-change of state and at most once a second while readings keep being rejected.
-
-Stamps (irs_common.stamp_gate, against the node clock): a reading stamped more than
-``future_tolerance`` s ahead is dropped (no answer, not stored: it cannot silence the input); one
-older than the last is dropped as out of order unless it is more than 1 s older (a replay loop, a
-restarted rig): then the estimator's history restarts and the reading is taken; a reading with
-the last stamp is answered again with the same messages (lock-step resend). The node clock
-jumping back (``/clock`` of ``bag play --loop --clock``) restarts the history too.
-
-Writable parameter: ``stale_timeout`` (``ros2 param set``; applied at once).
+A rejected reading gives NaN on the three topics for its stamp (so downstream nodes take their
+safe action and lock-step does not stall) and its reason on ``sensing/status``. The node exists
+so that :class:`~irs_sensing.pose_estimator.PoseEstimator` runs in the graph unchanged; bad
+readings, staleness, stamps and the writable parameter: :class:`ArmPoseEstimatorNode`.
 """
 import dataclasses
 import math
@@ -41,10 +29,9 @@ from irs_common.answer_cache import AnswerCache
 from irs_common.node_main import run_node
 from irs_common.orientation import quaternion_from_yaw
 from irs_common.input_checks import ThrottledWarner
+from irs_common.node_edge import EdgeGate, StaleTimer
 from irs_common.params import declare_table
-from irs_common.stamp_gate import StampGate
 from irs_common.stamps import to_ns, to_sec
-from irs_common.time_jump import on_time_jump_back
 from irs_msgs.msg import SensingStatus
 
 from .calibration import CalibrationError
@@ -55,7 +42,26 @@ NAN = math.nan
 
 
 class ArmPoseEstimatorNode(Node):
-    """Arm joint angles in, car pose, velocity and lateral position out (module docstring)."""
+    """Arm joint angles in, car pose, velocity and lateral position out.
+
+    A reading that is NaN, out of the joint ranges, out of the arm's reach, off the belt or an
+    implausible jump is rejected: no pose is computed from it. The three topics then carry NaN for
+    that stamp (an explicit "no valid measurement" marker, so that downstream nodes take their safe
+    action for that step and a lock-step run does not stall), and ``sensing/status``
+    (SensingStatus, latched) says why. No valid reading for ``stale_timeout`` s is reported as
+    STALE (logged once per transition, and once when valid readings return). ``sensing/status`` is
+    published on every change of state and at most once a second while readings keep being
+    rejected.
+
+    Stamps (irs_common.stamp_gate, against the node clock): a reading stamped more than
+    ``future_tolerance`` s ahead is dropped (no answer, not stored: it cannot silence the input);
+    one older than the last is dropped as out of order unless it is more than 1 s older (a replay
+    loop, a restarted rig): then the estimator's history restarts and the reading is taken; a
+    reading with the last stamp is answered again with the same messages (lock-step resend). The
+    node clock jumping back (``/clock`` of ``bag play --loop --clock``) restarts the history too.
+
+    Writable parameter: ``stale_timeout`` (``ros2 param set``; applied at once).
+    """
 
     def __init__(self, **node_options):
         super().__init__('arm_pose_estimator', **node_options)
@@ -69,11 +75,8 @@ class ArmPoseEstimatorNode(Node):
         self.readings = 0
         self.calibration = config.calibration
         self.estimator = PoseEstimator(config.params, future_tolerance=future_tolerance)
-        self.gate = StampGate(int(round(future_tolerance * 1e9)))
         self.accepted = 0
         self.rejected = 0
-        self.dropped = 0            # readings dropped for their stamps (future, out of order)
-        self.time_resets = 0
         self.answer = AnswerCache()   # what was published for the last stamp (re-sent on a repeat)
         self.last_state = None
         self.last_reason = ''
@@ -82,14 +85,14 @@ class ArmPoseEstimatorNode(Node):
         # rclpy's throttled logging costs ~1 ms per call: per-step warnings are throttled first.
         self.warner = ThrottledWarner(self.get_logger().warning, 1.0)
         self.info_warner = ThrottledWarner(self._log_info, 1.0)
+        self.edge = EdgeGate(self, future_tolerance, 'arm reading', self._reset_time_state,
+                             self.warner)
         self.pub_pose = self.create_publisher(PoseStamped, 'pose', qos.SENSOR_PUB)
         self.pub_twist = self.create_publisher(TwistStamped, 'velocity', qos.SENSOR_PUB)
         self.pub_point = self.create_publisher(PointStamped, 'lateral_position', qos.SENSOR_PUB)
         self.pub_status = self.create_publisher(SensingStatus, 'sensing/status', qos.STATUS)
         self.create_subscription(JointState, 'arm/joint_states', self._on_joints, qos.SENSOR)
-        self.stale_timer = self.create_timer(
-            max(self.estimator.params.stale_timeout / 2.0, 0.001), self._check_stale)
-        self.jump_handle = on_time_jump_back(self, lambda _delta: self._reset_time_state())
+        self.stale = StaleTimer(self, self.estimator.params.stale_timeout, self._check_stale)
 
 
     # rclpy fixes a logging call site's severity at its first call (a later call with another
@@ -101,14 +104,13 @@ class ArmPoseEstimatorNode(Node):
     def _on_parameter(self, name, value):
         if name == 'stale_timeout':
             self.estimator.params = dataclasses.replace(self.estimator.params, stale_timeout=value)
-            self.destroy_timer(self.stale_timer)
-            self.stale_timer = self.create_timer(max(value / 2.0, 0.001), self._check_stale)
+            self.stale.set_timeout(value)
         self.get_logger().info(f'parameter {name} = {value!r} applied')
 
     def _reset_time_state(self):
-        """Time went back: forget the stamps and the estimator's history."""
-        self.time_resets += 1
-        self.gate.clear()
+        """Time went back: forget the estimator's history (the edge gate has forgotten the
+        stamps).
+        """
         self.estimator.reset()
         self.answer.clear()
 
@@ -119,24 +121,11 @@ class ArmPoseEstimatorNode(Node):
             return self.calibration.to_angles(tuple(msg.position))
         return tuple(msg.position)
 
-    def _drop(self, verdict, stamp_ns, now_ns):
-        """A reading from the future or out of order: dropped, not answered."""
-        self.dropped += 1
-        self.warner.warn(verdict, f'arm reading {self.gate.reason(verdict, stamp_ns, now_ns)}',
-                         time.monotonic())
-
-    def _time_reset(self, verdict, stamp_ns, now_ns):
-        """Time went back: the estimator starts afresh from this reading."""
-        self.warner.warn(verdict, f'arm reading {self.gate.reason(verdict, stamp_ns, now_ns)}',
-                         time.monotonic())
-        self.time_resets += 1
-        self.estimator.reset()
-
     def _on_joints(self, msg):
         stamp_ns = to_ns(msg.header.stamp)
         now_ns = self.get_clock().now().nanoseconds
         # a repeated step is answered again by the answer cache (StampGate.take_step)
-        if not self.gate.take_step(stamp_ns, now_ns, self.answer, self._drop, self._time_reset):
+        if not self.edge.take_step(stamp_ns, now_ns, self.answer):
             return
         self.answer.start()
         stamp = to_sec(msg.header.stamp)
@@ -147,7 +136,8 @@ class ArmPoseEstimatorNode(Node):
             est, reason = None, str(exc)
         if est is None:
             self.rejected += 1
-            self.warner.warn('rejected', f'arm reading rejected: {reason}', time.monotonic())
+            # a persisting rejection (a car off the belt) is logged once, not every second
+            self.warner.once('rejected', f'arm reading rejected: {reason}', time.monotonic())
             self._publish(msg.header.stamp, NAN, NAN, NAN, NAN, NAN, NAN, NAN, NAN)
             wall = time.monotonic()
             if self.last_state != SensingStatus.REJECTED or wall - self.last_status_wall >= 1.0:
@@ -155,6 +145,9 @@ class ArmPoseEstimatorNode(Node):
                 self._status(msg.header.stamp, SensingStatus.REJECTED, reason, 0.0)
             return
         self.accepted += 1
+        if self.warner.in_episode('rejected'):
+            self.warner.end('rejected', self._log_info, 'arm readings accepted again',
+                            time.monotonic())
         vx, vy, r = (est.u, est.v, est.yaw_rate) if est.velocity_valid else (NAN, NAN, NAN)
         self._publish(msg.header.stamp, est.x_cg, est.y_cg, est.psi, est.x_s, est.y_s, vx, vy, r)
         if self.last_state != SensingStatus.OK:

@@ -5,37 +5,12 @@ Equation (3)").  Two filters are provided; both are fixed-step (sample period ``
 are linear time-invariant, described by ``H(z) = B(z^-1) / A(z^-1)`` with
 ``y_k = (sum_i b_i x_{k-i} - sum_{i>=1} a_i y_{k-i}) / a_0``.
 
-(a) :class:`BackwardDifferenceLowPass` -- backward difference then first-order low pass with
-    cut-off ``fc`` [Hz], ``tau = 1/(2 pi fc)``, ``alpha = exp(-dt/tau)`` (the exact image of the
-    continuous pole ``-1/tau``)::
-
-        'matched' (default):  H(z) = (1 - z^-1)/dt * (1 - alpha) / (1 - alpha z^-1)
-        'zoh':                H(z) = (1 - z^-1)/dt * (1 - alpha) z^-1 / (1 - alpha z^-1)
-
-    'zoh' is the exact zero-order-hold discretization of 1/(tau s + 1); it costs one extra
-    sample of delay, so the pole-matched form with unit DC gain is the default.
-    Low-frequency delay: ``dt/2 + alpha dt/(1 - alpha)`` (+ ``dt`` for 'zoh').
-
-(b) :class:`SavitzkyGolayDifferentiator` -- least-squares polynomial of order ``p`` fitted to
-    the newest ``N`` samples, slope evaluated at the newest sample (causal Savitzky-Golay).
-    FIR with ``h_m = [pinv(V)]_{1, N-1-m}``, ``V_{ij} = t_i^j``, ``t_i = -(N-1-i) dt``.
-    Low-frequency delay ``(N-1) dt / 2`` for ``p = 1``; 0 for ``p >= 2`` (exact for ramps and
-    parabolas, paid for with a larger noise gain).
-
-Figures of merit (methods of every differentiator)
----------------------------------------------------
-``transfer_function()``
-    ``(b, a)`` coefficient arrays in powers of ``z^-1`` (``scipy.signal.lfilter`` convention).
-``group_delay()`` [s]
-    Delay of the estimate relative to the true derivative at low frequency:
-    ``H(e^{jwT}) ~ jw e^{-jw tau_d}`` as ``w -> 0``.  With ``B(z) = (1 - z^-1) B'(z)``,
-    ``tau_d = dt/2 + dt (sum k b'_k / sum b'_k - sum k a_k / sum a_k)``.
-    A parabola ``x = t^2/2`` (derivative ``t``) is differentiated to ``t - tau_d`` in steady state.
-``noise_gain()`` [-]
-    For white input noise of std ``sigma``, the output std is ``sigma sqrt(sum h_k^2)``.  The
-    gain is reported normalised by ``sigma/dt``: ``G = dt sqrt(sum_k h_k^2)`` (``h`` the impulse
-    response, computed by running the recursion until it has decayed).  A plain backward
-    difference has ``G = sqrt(2)``.
+:class:`BackwardDifferenceLowPass` is a backward difference then a first-order low pass with
+cut-off ``fc`` [Hz] (``'matched'`` or ``'zoh'``); :class:`SavitzkyGolayDifferentiator` the
+slope, at the newest sample, of a least-squares polynomial over the last ``N`` samples. Each
+reports its ``transfer_function()``, its low-frequency ``group_delay()`` [s] and its
+``noise_gain()`` [-] (:class:`Differentiator`), so the delay and the noise of a choice are
+numbers, not guesses (docs/sensing.md).
 """
 from __future__ import annotations
 
@@ -49,7 +24,24 @@ __all__ = ['Differentiator', 'BackwardDifferenceLowPass', 'SavitzkyGolayDifferen
 
 
 class Differentiator:
-    """Base class: LTI causal differentiator ``H(z) = B/A`` at sample period ``dt`` [s]."""
+    """Base class: LTI causal differentiator ``H(z) = B/A`` at sample period ``dt`` [s].
+
+    Figures of merit:
+
+    ``transfer_function()``
+        ``(b, a)`` coefficient arrays in powers of ``z^-1`` (``scipy.signal.lfilter`` convention).
+    ``group_delay()`` [s]
+        Delay of the estimate relative to the true derivative at low frequency:
+        ``H(e^{jwT}) ~ jw e^{-jw tau_d}`` as ``w -> 0``.  With ``B(z) = (1 - z^-1) B'(z)``,
+        ``tau_d = dt/2 + dt (sum k b'_k / sum b'_k - sum k a_k / sum a_k)``.
+        A parabola ``x = t^2/2`` (derivative ``t``) is differentiated to ``t - tau_d`` in steady
+        state.
+    ``noise_gain()`` [-]
+        For white input noise of std ``sigma``, the output std is ``sigma sqrt(sum h_k^2)``. The
+        gain is reported normalised by ``sigma/dt``: ``G = dt sqrt(sum_k h_k^2)`` (``h`` the
+        impulse response, computed by running the recursion until it has decayed). A plain
+        backward difference has ``G = sqrt(2)``.
+    """
 
     def __init__(self, dt: float, b: np.ndarray, a: np.ndarray) -> None:
         if not (isinstance(dt, (int, float)) and math.isfinite(dt) and dt > 0.0):
@@ -117,7 +109,7 @@ class Differentiator:
         return lfilter(self._b, self._a, imp)
 
     def group_delay(self) -> float:
-        """Low-frequency delay of the derivative estimate [s] (see module docstring)."""
+        """Low-frequency delay of the derivative estimate [s] (see the class docstring)."""
         bp, rem = np.polydiv(self._b, np.array([1.0, -1.0]))  # B = (1 - z^-1) B'
         if np.max(np.abs(rem)) > 1e-9 * max(1.0, np.max(np.abs(self._b))):
             raise ValueError('filter has no zero at z = 1, it is not a differentiator.')
@@ -147,6 +139,16 @@ class Differentiator:
 class BackwardDifferenceLowPass(Differentiator):
     """Backward difference followed by a first-order low pass.
 
+    The low pass has the cut-off ``fc`` [Hz], ``tau = 1/(2 pi fc)``,
+    ``alpha = exp(-dt/tau)`` (the exact image of the continuous pole ``-1/tau``)::
+
+        'matched' (default):  H(z) = (1 - z^-1)/dt * (1 - alpha) / (1 - alpha z^-1)
+        'zoh':                H(z) = (1 - z^-1)/dt * (1 - alpha) z^-1 / (1 - alpha z^-1)
+
+    'zoh' is the exact zero-order-hold discretization of 1/(tau s + 1); it costs one extra sample
+    of delay, so the pole-matched form with unit DC gain is the default. Low-frequency delay:
+    ``dt/2 + alpha dt/(1 - alpha)`` (+ ``dt`` for 'zoh').
+
     Parameters
     ----------
     dt : float
@@ -154,7 +156,7 @@ class BackwardDifferenceLowPass(Differentiator):
     cutoff_hz : float
         Low-pass cut-off ``fc`` [Hz], ``0 < fc``; ``alpha = exp(-2 pi fc dt)``.
     discretization : {'matched', 'zoh'}
-        See module docstring.
+        See above.
     """
 
     def __init__(self, dt: float, cutoff_hz: float, discretization: str = 'matched') -> None:
@@ -197,6 +199,11 @@ class BackwardDifferenceLowPass(Differentiator):
 
 class SavitzkyGolayDifferentiator(Differentiator):
     """Causal least-squares polynomial-fit (Savitzky-Golay) derivative at the newest sample.
+
+    A least-squares polynomial of order ``p`` is fitted to the newest ``N`` samples and its slope
+    evaluated at the newest sample. FIR with ``h_m = [pinv(V)]_{1, N-1-m}``, ``V_{ij} =
+    t_i^j``, ``t_i = -(N-1-i) dt``. Low-frequency delay ``(N-1) dt / 2`` for ``p = 1``; 0 for ``p
+    >= 2`` (exact for ramps and parabolas, paid for with a larger noise gain).
 
     Parameters
     ----------

@@ -1,29 +1,10 @@
 """Arm pose estimator core: joint angles -> validated pose and velocities (paper Sec. 3.2).
 
-Pipeline per sample ``update(theta1, theta2, theta3, stamp, belt_speed, now)``:
-
-1. Reject bad values first (:func:`reading_problem`): an angle that is not a finite number or
-   beyond ``+-ANGLE_LIMIT`` (100 rad, 16 turns: no potentiometer reads that), a stamp that is not
-   a finite number, a belt speed that is not finite or beyond ``+-BELT_SPEED_LIMIT`` (20 m/s).
-   Values come before stamps, so a NaN reading is always rejected *as a NaN reading* with its
-   reason, whatever its stamp (also a zero stamp, or one that repeats the last).
-   Then stamps: with the node's clock ``now`` [s] given, a stamp more than
-   ``future_tolerance`` [s] ahead of it is rejected and **never stored** (otherwise one reading
-   stamped a day ahead, or at the largest time, makes every later reading "not increasing" and
-   hides staleness); then a stamp not later than the last accepted one is rejected.
-2. Reject joint angles outside the configured mechanical ranges ``[joint_min, joint_max]``,
-   compared modulo 2 pi (a reading ``a`` is accepted if some ``a + 2 pi k`` lies in the range),
-   so wrapped (-pi, pi] angles and unwrapped potentiometer angles are treated alike.
-3. Forward kinematics (:func:`irs_models.arm_kinematics.forward_kinematics`).
-4. Reject a c.g. off the belt by more than ``off_belt_margin`` [m].
-5. Reject an implausible jump from the last accepted pose: distance >
-   ``max_speed * (t - t_last) + jump_margin`` or heading change >
-   ``max_yaw_rate * (t - t_last) + jump_margin_psi``.  The bound grows with the elapsed time,
-   so after a genuine fast move (e.g. after a stale period) a reading is eventually accepted.
-6. Differentiate ``x_cg, y_cg`` and the *unwrapped* heading with the configured
-   :mod:`irs_sensing.differentiator`.  The differentiators assume the nominal period ``dt``;
-   if the gap to the last accepted sample differs from ``dt`` by more than ``dt_tolerance``
-   (relative), they are reset and velocities are reported invalid until they have settled.
+Each reading is screened (finite, within the joint ranges, stamp not in the future nor older
+than the last), turned into the c.g. pose by the arm's forward kinematics, screened again (on
+the belt, no implausible jump) and differentiated (:mod:`irs_sensing.differentiator`); the
+pipeline is :meth:`PoseEstimator.update`. It exists so that one bad potentiometer reading never
+becomes a pose, in the node and offline alike.
 
 Velocities: ``xdot, ydot`` [m/s] in the ``treadmill`` frame, ``r`` [rad/s].  The velocity over
 the belt surface is ``(xdot + V_b, ydot)`` (the surface moves at ``-V_b`` along x, see
@@ -68,7 +49,7 @@ def _real(v) -> bool:
 
 
 def reading_problem(theta1, theta2, theta3, stamp, belt_speed=0.0) -> Optional[str]:
-    """The value checks of step 1 (module docstring): ``None`` or the reason a reading is bad.
+    """Value checks (step 1 of :meth:`PoseEstimator.update`): ``None`` or why a reading is bad.
 
     Pure function, no state: a node may call it before its own stamp bookkeeping so that a NaN
     reading is reported as such whatever its stamp.
@@ -187,7 +168,7 @@ class PoseEstimate:
 
 
 class PoseEstimator:
-    """Stateful pose estimator (see module docstring).
+    """Stateful pose estimator (pipeline: :meth:`update`; velocities: the module docstring).
 
     ``future_tolerance`` [s] (>= 0): how far ahead of the clock passed as ``now`` to
     :meth:`update` a stamp may be.
@@ -241,6 +222,34 @@ class PoseEstimator:
                belt_speed: float = 0.0,
                now: Optional[float] = None) -> Tuple[Optional[PoseEstimate], str]:
         """Process one reading of the joint angles [rad] taken at ``stamp`` [s].
+
+        Pipeline per sample:
+
+        1. Reject bad values first (:func:`reading_problem`): an angle that is not a finite number
+           or beyond ``+-ANGLE_LIMIT`` (100 rad, 16 turns: no potentiometer reads that), a stamp
+           that is not a finite number, a belt speed that is not finite or beyond
+           ``+-BELT_SPEED_LIMIT`` (20 m/s). Values come before stamps, so a NaN reading is always
+           rejected *as a NaN reading* with its reason, whatever its stamp (also a zero stamp, or
+           one that repeats the last). Then stamps: with the node's clock ``now`` [s] given, a
+           stamp more than ``future_tolerance`` [s] ahead of it is rejected and **never stored**
+           (otherwise one reading stamped a day ahead, or at the largest time, makes every later
+           reading "not increasing" and hides staleness); then a stamp not later than the last
+           accepted one is rejected.
+        2. Reject joint angles outside the configured mechanical ranges ``[joint_min, joint_max]``,
+           compared modulo 2 pi (a reading ``a`` is accepted if some ``a + 2 pi k`` lies in the
+           range), so wrapped (-pi, pi] angles and unwrapped potentiometer angles are treated
+           alike.
+        3. Forward kinematics (:func:`irs_models.arm_kinematics.forward_kinematics`).
+        4. Reject a c.g. off the belt by more than ``off_belt_margin`` [m].
+        5. Reject an implausible jump from the last accepted pose: distance > ``max_speed * (t -
+           t_last) + jump_margin`` or heading change > ``max_yaw_rate * (t - t_last) +
+           jump_margin_psi``.  The bound grows with the elapsed time, so after a genuine fast move
+           (e.g. after a stale period) a reading is eventually accepted.
+        6. Differentiate ``x_cg, y_cg`` and the *unwrapped* heading with the configured
+           :mod:`irs_sensing.differentiator`.  The differentiators assume the nominal period
+           ``dt``; if the gap to the last accepted sample differs from ``dt`` by more than
+           ``dt_tolerance`` (relative), they are reset and velocities are reported invalid until
+           they have settled.
 
         ``now`` [s] is the node's clock (sim time in lock-step); None skips the future-stamp
         check (offline use). Never raises for bad data.

@@ -1,5 +1,5 @@
 """Bad arm readings are rejected with a reason, never raise, and a future-stamped reading cannot
-make the pose estimator ignore later readings (issue 10).
+make the pose estimator ignore later readings.
 """
 import math
 

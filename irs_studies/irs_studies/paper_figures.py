@@ -1,12 +1,13 @@
 """``figures``: reproduce the paper's Figures 5-10 through the graph, in one command.
 
-    ./irs run irs_studies figures [--img-dir docs/img] [--runs-dir runs/figures]
+    ./irs run irs_studies figures [--runs-dir runs/figures] [--img-dir DIR]
                                   [--only treadmill actuator ...]
 
 Each part runs its experiments (lock-step, recorded to MCAP), identifies from the bags alone and
-writes its PNGs into ``--img-dir``; the numbers each part returns are printed and written to
-``<runs-dir>/figures.json`` (what ``docs/paper.md`` quotes). A part that fails is reported in one
-line and the others still run; the exit code is then 1.
+writes its PNGs into ``--img-dir`` (default ``<runs-dir>/img``; ``make figures`` gives
+``docs/img``, the figures the docs show); the numbers each part returns are printed and written
+to ``<runs-dir>/figures.json`` (what ``docs/paper.md`` quotes). A part that fails is reported in
+one line and the others still run; the exit code is then 1 (exit codes: docs/cli.md).
 
 Parts, in the paper's order (module: function ``reproduce_figures(img_dir, runs_dir) -> dict``):
 
@@ -28,6 +29,8 @@ import sys
 import time
 from pathlib import Path
 
+from irs_common.cli import BUG_HINT, InputError, RunFailed, error, one_line, run_cli
+
 #: part -> module holding its ``reproduce_figures``
 PARTS = {
     'treadmill': 'irs_sysid.treadmill_cli',
@@ -39,8 +42,8 @@ PARTS = {
 
 
 def add_arguments(parser) -> None:
-    parser.add_argument('--img-dir', default='docs/img', type=Path,
-                        help='where the PNGs go (default docs/img)')
+    parser.add_argument('--img-dir', default=None, type=Path,
+                        help='where the PNGs go (default <runs-dir>/img)')
     parser.add_argument('--runs-dir', default='runs/figures', type=Path,
                         help='where the experiment runs and figures.json go')
     parser.add_argument('--only', nargs='+', choices=list(PARTS), metavar='PART',
@@ -59,7 +62,9 @@ def reproduce(parts, img_dir: Path, runs_dir: Path, log=print) -> tuple[dict, li
             module = importlib.import_module(PARTS[part])
             numbers = module.reproduce_figures(img_dir, runs_dir / part)
         except Exception as exc:  # noqa: BLE001 -- one part's failure must not stop the others
-            failures.append(f'{part}: {type(exc).__name__}: {exc}')
+            what = '' if isinstance(exc, (InputError, RunFailed, OSError)) else \
+                f'internal error: {type(exc).__name__}: '
+            failures.append(f'{part}: {what}{one_line(exc)}' + (f'; {BUG_HINT}' if what else ''))
             log(f'   FAILED: {failures[-1]}')
             continue
         results[part] = {k: (v if isinstance(v, (int, float, str, bool)) else str(v))
@@ -68,23 +73,28 @@ def reproduce(parts, img_dir: Path, runs_dir: Path, log=print) -> tuple[dict, li
     return results, failures
 
 
-def main(argv=None) -> int:
+def _main(argv) -> int:
     import argparse
     parser = argparse.ArgumentParser(prog='figures', description=__doc__.splitlines()[0])
     add_arguments(parser)
     args = parser.parse_args(argv)
     parts = args.only or list(PARTS)
-    results, failures = reproduce(parts, args.img_dir, args.runs_dir)
+    img_dir = args.img_dir or args.runs_dir / 'img'
+    results, failures = reproduce(parts, img_dir, args.runs_dir)
     out = args.runs_dir / 'figures.json'
     out.write_text(json.dumps(results, indent=2, sort_keys=True) + '\n')
     for part, numbers in results.items():
         for name, value in numbers.items():
             print(f'{part:10s} {name:40s} {value:.6g}' if isinstance(value, float)
                   else f'{part:10s} {name:40s} {value}')
-    print(f'numbers: {out}; figures: {args.img_dir}')
+    print(f'numbers: {out}; figures: {img_dir}')
     for line in failures:
-        print(f'figures: {line}', file=sys.stderr)
+        error('figures', line)
     return 1 if failures else 0
+
+
+def main(argv=None) -> int:
+    return run_cli('figures', _main, argv)
 
 
 if __name__ == '__main__':

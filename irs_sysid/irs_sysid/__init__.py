@@ -2,5 +2,5 @@
 
 One module pair per identified part: ``<kind>_fit`` holds the fits (numpy/scipy/python-control,
 no rclpy, unit-tested alone) and ``<kind>_cli`` reads a bag, fits, prints identified against
-configured values and draws the paper's figure. :mod:`.sysid_cli` is the ``sysid`` executable.
+configured values and draws the paper's figure. :mod:`.cli` is the ``sysid`` executable.
 """

@@ -30,6 +30,8 @@ from pathlib import Path
 
 import numpy as np
 
+from irs_common.cli import InputError
+
 from . import actuator_fit as af
 from .common import run_experiment
 from .report import Estimate, format_report
@@ -67,7 +69,7 @@ def load_run(bag) -> ActuatorRun:
     try:
         return _load_run(bag)
     except BagError as exc:
-        raise ValueError(str(exc)) from None
+        raise InputError(str(exc)) from None
 
 
 def _load_run(bag) -> ActuatorRun:
@@ -77,7 +79,7 @@ def _load_run(bag) -> ActuatorRun:
     params = {}
     with BagReader(bag) as reader:
         if '/steering/state' not in reader.topics:
-            raise ValueError(f'{bag}: no /steering/state messages (record them to identify)')
+            raise InputError(f'{bag}: no /steering/state messages (record them to identify)')
         for name, meta in reader.metadata_records():
             if name == 'irs_experiment' and 'node_parameters' in meta:
                 params = json.loads(meta['node_parameters'])
@@ -86,7 +88,7 @@ def _load_run(bag) -> ActuatorRun:
             rows[int(s.sec) * 1_000_000_000 + int(s.nanosec)] = (msg.front_commanded,
                                                                  msg.front_achieved)
     if len(rows) < 100:
-        raise ValueError(f'{bag}: only {len(rows)} /steering/state samples')
+        raise InputError(f'{bag}: only {len(rows)} /steering/state samples')
     stamps = np.array(sorted(rows), dtype=np.int64)
     uy = np.array([rows[s] for s in stamps], dtype=float)
     excitation = next((v for k, v in params.items() if 'signal.type' in v), {})
@@ -134,7 +136,7 @@ def sweep_response(run: ActuatorRun, y=None) -> af.FrequencyResponse:
     t0 = float(s.get('signal.start_time', 0.0))
     sel = run.t >= t0
     if np.count_nonzero(sel) < 1000:
-        raise ValueError(f'{run.path}: the sweep has fewer than 1000 samples in the bag')
+        raise InputError(f'{run.path}: the sweep has fewer than 1000 samples in the bag')
     f_lo = float(s.get('signal.f0', 0.3))
     f_hi = min(0.8 * float(s.get('signal.f1', 15.0)), 12.0)
     y = run.y if y is None else y
@@ -159,10 +161,10 @@ def identify(runs) -> dict:
                     key=lambda r: abs(float(r.signal.get('signal.amplitude', 0.0))))
     steps = [r for r in runs if r.kind == 'steps']
     if not sweeps and not steps:
-        raise ValueError('no sweep or step run among the bags')
+        raise InputError('no sweep or step run among the bags')
     rig = (sweeps or steps)[0].rig
     if not rig:
-        raise ValueError(f'{(sweeps or steps)[0].path}: no rig parameters in the bag metadata '
+        raise InputError(f'{(sweeps or steps)[0].path}: no rig parameters in the bag metadata '
                          '(record it with the experiment runner)')
     p = configured_params(rig)
     res = {'params': p, 'sweeps': sweeps, 'steps': steps}

@@ -8,13 +8,15 @@
 Each kind is a module ``irs_sysid.<kind>_cli`` with ``add_arguments(parser)`` and
 ``run(args) -> int``; it fits from the bag alone, prints identified against configured values
 (:mod:`.report`) and writes the paper's figure. A bad bag or argument gives one line on stderr
-and exit code 2, never a traceback.
+and exit code 2, never a traceback (exit codes: docs/cli.md).
 """
 from __future__ import annotations
 
 import argparse
 import importlib
 import sys
+
+from irs_common.cli import InputError, run_cli
 
 #: kind -> (module under irs_sysid, one-line help)
 KINDS = {
@@ -42,20 +44,16 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
-def main(argv=None) -> int:
+def _main(argv) -> int:
     args = build_parser().parse_args(argv)
     if getattr(args, '_missing', False):
-        print(f'sysid: {args.kind} identification is not available in this build',
-              file=sys.stderr)
-        return 2
+        raise InputError(f'{args.kind} identification is not available in this build')
     module = importlib.import_module(f'{__package__}.{args._module}')
-    try:
-        return int(module.run(args) or 0)
-    except (OSError, ValueError) as exc:
-        print(f'sysid {args.kind}: {exc}', file=sys.stderr)
-        return 2
-    except KeyboardInterrupt:
-        return 130
+    return int(module.run(args) or 0)
+
+
+def main(argv=None) -> int:
+    return run_cli('sysid', _main, argv)
 
 
 if __name__ == '__main__':

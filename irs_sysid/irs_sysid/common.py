@@ -9,15 +9,19 @@ __all__ = ['run_experiment', 'save_figure']
 def run_experiment(name_or_path, runs_dir: Path) -> Path:
     """Run one experiment through the graph (lock-step); its bag directory.
 
-    ``RuntimeError`` (with the runner's reason) when the run did not complete.
+    :class:`~irs_common.cli.RunFailed` (with the runner's reason) when the run did not
+    complete; :class:`~irs_common.cli.Interrupted` when a signal stopped it.
     """
+    from irs_common.cli import Interrupted, RunFailed
     from irs_bringup.experiment import load_experiment
     from irs_bringup.experiment_runner import ExperimentRunner
 
     res = ExperimentRunner(load_experiment(str(name_or_path)), runs_dir=Path(runs_dir),
                            progress=False).run()
+    if res.interrupted:
+        raise Interrupted(res.interrupted)
     if not res.completed or res.bag_dir is None:
-        raise RuntimeError(f'{name_or_path} did not complete: {res.message}')
+        raise RunFailed(f'{name_or_path} did not complete: {res.message}')
     return Path(res.bag_dir)
 
 

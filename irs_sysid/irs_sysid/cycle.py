@@ -3,33 +3,13 @@
     ./irs run irs_sysid sysid cycle [--plant identified irs_2wd ...] [--runs-dir runs/cycle]
                                       [--offline] [--input achieved|command] [--png cycle.png]
 
-Per plant (the rig's ``vehicle_sim`` configured with it: ``identified`` = Eq. 6, or a bicycle
-preset of ``irs_models/config/presets.yaml`` at the rig's 1.2 m/s and ds = 0.33 m):
-
-1. **identify**: experiment ``sysid_cycle_identify`` (lock-step through the graph, recorded): a
-   0.25-6 Hz log sweep of the lateral reference under the paper's PI (Kp = 5, Ki = 3 -- it needs no
-   model, and holds Eq. 6 and the 1:10 presets); :mod:`.vehicle_fit` fits the Eq. 6 structure
-   ``K (s^2 + c1 s + c0) / (s^2 (s^2 + d1 s + d0))``. Default input: the *achieved* steer
-   (``steering/state``), so the vehicle is identified without an actuator assumption;
-   ``--input command`` takes the paper's way (steer command, the actuator a 4.6 Hz lag);
-2. **design**: on the Eq. 6 structure, or on the order-1 model ``K (s + c0)/(s^2 (s + d0))``
-   when that fits as well (:data:`ORDER_1_RATIO`: a zero and a pole of the vehicle cancel
-   within what the data tell; a zero/pole pair the fit parks above the band -- irs_2wd's -6.86
-   and -7.88 come out as about -80 and -60 -- is dropped, its gain z/p kept,
-   :func:`.vehicle_fit.reduced_vehicle_polynomials`), the
-   paper's MRC (:func:`irs_control.rst_design.design_rst` through
-   :func:`irs_control.controller_factory.make_controller`, ``plant: custom``): the identified
-   vehicle times the paper's 4.6 Hz actuator lag (the -29 pole of Eq. 6), the reference model of
-   Eq. 21, the observer ``(s + 12)^2`` of Eq. 25, the well-damped zeros cancelled -- the paper's
-   choices, unchanged. The design is checked on the rig's *configured* plant
-   (:mod:`irs_control.design_check`: closed-loop poles, margins); an unstable one is reported
-   and not run. For comparison the paper's own MRC (designed on Eq. 6) is checked on the same
-   plant;
-3. **run**: experiment ``sysid_cycle_run`` (0.02 m step up at 0.5 s and back at 2.5 s) with the
-   designed controller (the node designs the same polynomials from ``plant_num``/``plant_den``);
-4. **model following**: the reference model's output ``y_m = Gm r`` (Eq. 21,
-   ``control.forced_response`` on the recorded reference) against the sensor point's lateral
-   position (ground truth ``y_s``, and the measured one): RMS and peak error [m].
+Per plant (``identified`` = Eq. 6, or a bicycle preset at the rig's 1.2 m/s and ds = 0.33 m):
+**identify** the vehicle under the paper's PI from a 0.25-6 Hz log sweep (:mod:`.vehicle_fit`),
+**design** the paper's MRC on the identified model (checked on the rig's configured plant; an
+unstable design is reported and not run), **run** a 0.02 m step with it and compare with the
+reference model's output: RMS and peak model-following error [m]. It exists to show that the
+paper's design procedure works from identified data alone, on plants other than Eq. 6. The
+steps in detail: :func:`cycle`.
 
 ``--offline`` runs both experiments through the offline closed loop of the same cores
 (:mod:`irs_bringup.offline_twin.lateral_loop`) instead of the graph (the unit test uses it;
@@ -42,6 +22,8 @@ import math
 from pathlib import Path
 
 import numpy as np
+
+from irs_common.cli import InputError, RunFailed
 
 from . import vehicle_fit as vf
 from .common import save_figure
@@ -95,7 +77,7 @@ def _experiment(name: str, plant: str, controller: dict | None = None):
         try:
             get_preset(plant)
         except KeyError as exc:
-            raise ValueError(f'--plant: {exc.args[0]}') from None
+            raise InputError(f'--plant: {exc.args[0]}') from None
         rig.params.update({'plant': 'bicycle', 'bicycle.preset': plant})
     if controller:
         exp.node('irs_control', 'lateral_controller').params.update(controller)
@@ -111,7 +93,7 @@ def _run_experiment(exp, runs_dir: Path, offline: bool) -> dict:
         from irs_bringup.experiment_runner import ExperimentRunner
         res = ExperimentRunner(exp, runs_dir=runs_dir, progress=False).run()
         if not res.completed or res.bag_dir is None:
-            raise RuntimeError(f'{exp.name} did not complete: {res.message}')
+            raise RunFailed(f'{exp.name} did not complete: {res.message}')
         out = load_run(res.bag_dir)
         out['bag'] = str(res.bag_dir)
         return out
@@ -187,7 +169,37 @@ def model_following(run: dict) -> dict:
 
 def cycle(plant: str, runs_dir: Path, offline: bool = False, source: str = 'achieved',
           log=print) -> dict:
-    """The whole cycle on the rig configured with ``plant`` (module docstring); a result dict."""
+    """The whole cycle on the rig configured with ``plant``; a result dict.
+
+    Per plant (the rig's ``vehicle_sim`` configured with it: ``identified`` = Eq. 6, or a bicycle
+    preset of ``irs_models/config/presets.yaml`` at the rig's 1.2 m/s and ds = 0.33 m):
+
+    1. **identify**: experiment ``sysid_cycle_identify`` (lock-step through the graph, recorded): a
+       0.25-6 Hz log sweep of the lateral reference under the paper's PI (Kp = 5, Ki = 3 -- it
+       needs no model, and holds Eq. 6 and the 1:10 presets); :mod:`.vehicle_fit` fits the Eq. 6
+       structure ``K (s^2 + c1 s + c0) / (s^2 (s^2 + d1 s + d0))``. Default input: the *achieved*
+       steer (``steering/state``), so the vehicle is identified without an actuator assumption;
+       ``--input command`` takes the paper's way (steer command, the actuator a 4.6 Hz lag);
+    2. **design**: on the Eq. 6 structure, or on the order-1 model ``K (s + c0)/(s^2 (s + d0))``
+       when that fits as well (:data:`ORDER_1_RATIO`: a zero and a pole of the vehicle cancel
+       within what the data tell; a zero/pole pair the fit parks above the band -- irs_2wd's -6.86
+       and -7.88 come out as about -80 and -60 -- is dropped, its gain z/p kept,
+       :func:`.vehicle_fit.reduced_vehicle_polynomials`), the paper's MRC
+       (:func:`irs_control.rst_design.design_rst` through
+       :func:`irs_control.controller_factory.make_controller`, ``plant: custom``): the identified
+       vehicle times the paper's 4.6 Hz actuator lag (the -29 pole of Eq. 6), the reference model
+       of Eq. 21, the observer ``(s + 12)^2`` of Eq. 25, the well-damped zeros cancelled -- the
+       paper's choices, unchanged. The design is checked on the rig's *configured* plant
+       (:mod:`irs_control.design_check`: closed-loop poles, margins); an unstable one is reported
+       and not run. For comparison the paper's own MRC (designed on Eq. 6) is checked on the same
+       plant;
+    3. **run**: experiment ``sysid_cycle_run`` (0.02 m step up at 0.5 s and back at 2.5 s) with the
+       designed controller (the node designs the same polynomials from
+       ``plant_num``/``plant_den``);
+    4. **model following**: the reference model's output ``y_m = Gm r`` (Eq. 21,
+       ``control.forced_response`` on the recorded reference) against the sensor point's lateral
+       position (ground truth ``y_s``, and the measured one): RMS and peak error [m].
+    """
     runs_dir = Path(runs_dir)
     log(f'[cycle {plant}] identification run (sysid_cycle_identify, '
         f'{"offline" if offline else "graph, lock-step"})')
@@ -351,7 +363,7 @@ def run(args) -> int:
     names = set(list_presets()) | {'identified'}
     for p in args.plant:
         if p not in names:
-            raise ValueError(f"--plant: unknown plant {p!r}; 'identified' or one of "
+            raise InputError(f"--plant: unknown plant {p!r}; 'identified' or one of "
                              f'{", ".join(sorted(names - {"identified"}))}')
     results = []
     for p in args.plant:

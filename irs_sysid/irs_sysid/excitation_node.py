@@ -14,11 +14,10 @@ a tick the rig publishes again is answered again with the same value (the signal
 of the tick). Otherwise it publishes at ``rate`` on a wall timer, ``t`` counting from its first
 tick. The output is always finite and clipped to ``[-limit, limit]`` (steering) or
 ``[0, limit]`` (drive: the belt's motor cannot reverse), ``limit`` = 0 meaning the target's own
-(0.2618 rad, 12.7 V). It replaces the lateral controller (steering) or the treadmill regulator
+(0.2618 rad, 12.7 V); a ``limit`` beyond the target's own, or a signal whose range leaves the
+bounds, is refused (start-up: one line, exit 2; ``ros2 param set``: the change is
+refused). It replaces the lateral controller (steering) or the treadmill regulator
 (drive) in an identification experiment; it never closes a loop.
-
-Writable parameters (``ros2 param set``): ``signal.*``, rebuilt at once (set a schedule's
-``signal.times`` and ``signal.values`` together: until they agree the previous signal stays).
 """
 import time
 
@@ -32,15 +31,21 @@ from irs_common.params import declare_table
 from irs_common.ticker import create_ticker
 from irs_msgs.msg import SteeringCommand, TreadmillDriveCommand
 
-from .excitation_params import PARAMS, TARGETS, excitation_value, output_limit, signal_from_params
+from .excitation_params import (PARAMS, TARGETS, excitation_problem, excitation_value,
+                                output_limit, signal_from_params)
 
 
 class ExcitationNode(Node):
-    """Publishes the excitation signal on ``steering/command`` or ``treadmill/drive`` per tick."""
+    """Publishes the excitation signal on ``steering/command`` or ``treadmill/drive`` per tick.
+
+    Writable parameters (``ros2 param set``): ``signal.*``, rebuilt at once (set a schedule's
+    ``signal.times`` and ``signal.values`` together: until they agree the previous signal stays).
+    """
 
     def __init__(self, **node_options):
         super().__init__('excitation', **node_options)
-        self.p = declare_table(self, PARAMS, on_change=self._on_parameter)
+        self.p = declare_table(self, PARAMS, on_change=self._on_parameter,
+                               check=excitation_problem)
         self.signal = signal_from_params(self.p)
         self.bounds = output_limit(self.p)
         self.clipped = 0

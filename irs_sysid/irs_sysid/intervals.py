@@ -10,18 +10,8 @@ The residual is modelled as a stationary autoregressive process of order p withi
 
     e_t = phi_1 e_{t-1} + ... + phi_p e_{t-p} + w_t,   w white of variance sigma_w^2
 
-p is chosen by BIC (0 to ``p_max``) on a conditional least-squares fit (``numpy.linalg.lstsq``).
-A fit's residual is shorter-memoried than its noise (the parameters absorb the slow part), so
-the autocovariances the model is fitted to are corrected for the fit's leverage: the expected
-residual autocovariance under the model, ``tr(L_l (I - H) Sigma (I - H))`` with ``H = J B J^T``
-and ``L_l`` the lag-l shift, is matched to the sample one by a few Yule-Walker iterations
-(``scipy.linalg.solve_toeplitz``). ``Sigma`` is then the model's autocovariance (the impulse
-response of ``1/A(z)`` by ``scipy.signal.lfilter``), applied with ``scipy.linalg.matmul_toeplitz``.
-
-What the intervals assume: the residual is such an AR(p) process, the same in every segment, with
-p at most ``p_max`` samples of memory beyond which it is white; a model error that does not
-average out (a wrong structure) is not covered. White residual: p = 0 and the usual interval.
-Coverage measured on Ornstein-Uhlenbeck noise: ``irs_sysid/test/test_sysid_intervals.py``.
+p is chosen by BIC (0 to ``p_max``), with the autocovariances corrected for the fit's leverage
+(:func:`fit_residual_model`, which also says what the intervals assume).
 
 Frequency-domain fits (one point per band of FFT bins) have residuals that are independent
 from band to band but of unequal variance; :func:`grouped_sandwich` gives their covariance
@@ -131,9 +121,24 @@ def _stationary(phi) -> bool:
 
 def fit_residual_model(jac, resid, bounds=None, p_max: int = P_MAX,
                        iterations: int = 3) -> ResidualModel:
-    """The AR model of the residual ``resid`` of a fit with Jacobian ``jac`` (module docstring).
+    """The AR model of the residual ``resid`` of a fit with Jacobian ``jac``.
 
     ``bounds``: ``[(start, end), ...]`` index ranges of the segments (default: one).
+
+    p is chosen by BIC (0 to ``p_max``) on a conditional least-squares fit
+    (``numpy.linalg.lstsq``). A fit's residual is shorter-memoried than its noise (the parameters
+    absorb the slow part), so the autocovariances the model is fitted to are corrected for the
+    fit's leverage: the expected residual autocovariance under the model, ``tr(L_l (I - H) Sigma (I
+    - H))`` with ``H = J B J^T`` and ``L_l`` the lag-l shift, is matched to the sample one by a few
+    Yule-Walker iterations (``scipy.linalg.solve_toeplitz``). ``Sigma`` is then the model's
+    autocovariance (the impulse response of ``1/A(z)`` by ``scipy.signal.lfilter``), applied with
+    ``scipy.linalg.matmul_toeplitz``.
+
+    What the intervals assume: the residual is such an AR(p) process, the same in every segment,
+    with p at most ``p_max`` samples of memory beyond which it is white; a model error that does
+    not average out (a wrong structure) is not covered. White residual: p = 0 and the usual
+    interval. Coverage measured on Ornstein-Uhlenbeck noise:
+    ``irs_sysid/test/test_sysid_intervals.py``.
     """
     jac, resid = np.asarray(jac, float), np.asarray(resid, float)
     n, k = jac.shape

@@ -27,6 +27,8 @@ from pathlib import Path
 
 import numpy as np
 
+from irs_common.cli import InputError
+
 from .common import run_experiment, save_figure
 from .report import Estimate, format_report
 from .treadmill_fit import fit_coast, fit_drive, segments, simulate_belt
@@ -62,13 +64,13 @@ def load_run(bag) -> dict:
     from irs_bag.scan import BagError
 
     if not Path(bag).exists():
-        raise ValueError(f'{bag}: no such bag')
+        raise InputError(f'{bag}: no such bag')
     speed, volts, rig = {}, {}, None
     try:
         with BagReader(bag) as reader:
             missing = [t for t in ('/belt/speed', '/treadmill/drive') if t not in reader.topics]
             if missing:
-                raise ValueError(f'{bag}: no {" and no ".join(missing)} messages (record them to '
+                raise InputError(f'{bag}: no {" and no ".join(missing)} messages (record them to '
                                  'identify the belt)')
             for name, meta in reader.metadata_records():
                 if name == 'irs_experiment' and 'node_parameters' in meta:
@@ -83,10 +85,10 @@ def load_run(bag) -> dict:
                 else:
                     volts[ns] = float(msg.voltage)
     except BagError as exc:
-        raise ValueError(f'{bag}: not a readable bag ({exc})') from None
+        raise InputError(f'{bag}: not a readable bag ({exc})') from None
     stamps = np.array(sorted(set(speed) & set(volts)), dtype=np.int64)
     if stamps.size < 100:
-        raise ValueError(f'{bag}: only {stamps.size} stamps with both a belt speed and a drive '
+        raise InputError(f'{bag}: only {stamps.size} stamps with both a belt speed and a drive '
                          'command')
     source = 'bag'
     if rig is None:
@@ -198,8 +200,23 @@ def add_arguments(parser) -> None:
     parser.add_argument('--png', metavar='PATH', help='write Figure 5 to PATH')
 
 
+def check_excitation(run: dict, bag) -> None:
+    """:class:`InputError` unless the drive command has a step up from rest and a coast-down
+    (a bag of another experiment: the torque car's, the regulation's).
+    """
+    segs = segments(run['time'], run['voltage'])
+    ups = sum(s.kind == 'up' and s.u_before <= 0.0 for s in segs)
+    coasts = sum(s.kind == 'coast' for s in segs)
+    if not ups or not coasts:
+        raise InputError(f'{bag}: {ups} drive steps up from rest and {coasts} coast-downs in '
+                         '/treadmill/drive: nothing to identify the belt from (record the '
+                         'sysid_treadmill experiment)')
+
+
 def run(args) -> int:
-    res = identify(load_run(args.bag))
+    data = load_run(args.bag)
+    check_excitation(data, args.bag)
+    res = identify(data)
     d, c = res['drive'], res['coast']
     print(format_report(f'treadmill belt, identified from {args.bag} ({len(d.steps)} steps up, '
                         f'{len(c.coasts)} coast-downs; configured values from the '

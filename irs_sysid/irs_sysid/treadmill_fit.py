@@ -7,23 +7,9 @@ No rclpy: arrays in, estimates out. The model is the rig's belt (:mod:`irs_vehic
 
 with ``V`` the belt speed [m/s] and ``u`` the drive voltage [V].
 
-Drive (Eq. 2, :func:`fit_drive`): every step **up** of the command from a speed ``V0`` gives,
-after the delay, ``V(t) = V_ss + (V0 - V_ss) exp(-a (t - t_s - T_d))`` with ``V_ss = b U / a``,
-``U`` the new voltage, ``t_s`` the step time. ``a`` [1/s], ``b`` [m/s^2/V], ``T_d`` [s] and one
-``V0`` per step are fitted jointly over all step-ups by nonlinear least squares
-(``scipy.optimize.least_squares``), as the paper fitted the gain by least squares and the pole
-from the step responses. ``T_d`` is the delay *seen in the measured speed*: the drive's transport
-delay plus the encoder estimate's lag (``(window_samples/2 + delay_samples) dt``, 6 ms at the
-rig's defaults), which is what the configured value is compared with.
-
-Friction (Eq. 1, :func:`fit_coast`): on every coast-down (command 0 V after a drive) the solution
-is ``V(t) = (V0 + k) exp(-c (t - t0)) - k``, i.e. ``ln(V + k)`` is linear in ``t`` with slope
-``-c``. The paper's "iterative, linear-regression search": an outer scalar search over ``k``
-(``scipy.optimize.minimize_scalar``, bounded) and, for each ``k``, a linear regression of
-``ln(V + k)`` on ``t`` (``numpy.linalg.lstsq``: one intercept per coast-down, one common slope
-``-c``); the outer search minimises the squared speed error of the regressed curves. Its
-optimum starts a final ``least_squares`` on the speed error itself, whose optimum is reported
-(the log-regression weighs the slow end of a coast more than its noise warrants).
+Drive (Eq. 2, :func:`fit_drive`): ``a``, ``b`` and ``T_d`` by nonlinear least squares over all
+step-ups. Friction (Eq. 1, :func:`fit_coast`): ``c`` and ``k`` by the paper's iterative
+linear-regression search on ``ln(V + k)``, refined on the speed error.
 
 Confidence: 95 % half-widths from the Jacobian of the final ``least_squares``, with the residual
 modelled as an autoregressive process within each step or coast (:mod:`.intervals`): the
@@ -126,7 +112,7 @@ def _step_response(params, steps, t_list):
 
 def fit_drive(t, v, u, decimate: int = 10, settle: float = 2.0,
               guess=(3.0, 2.0, 0.03), noise_order: int = P_MAX) -> DriveFit:
-    """Fit ``a``, ``b``, ``T_d`` to every step up of ``u`` (module docstring).
+    """Fit ``a``, ``b``, ``T_d`` to every step up of ``u``.
 
     Parameters
     ----------
@@ -148,6 +134,15 @@ def fit_drive(t, v, u, decimate: int = 10, settle: float = 2.0,
     ------
     ValueError
         No step up in ``u``.
+
+    Every step **up** of the command from a speed ``V0`` gives, after the delay, ``V(t) = V_ss +
+    (V0 - V_ss) exp(-a (t - t_s - T_d))`` with ``V_ss = b U / a``, ``U`` the new voltage, ``t_s``
+    the step time. ``a`` [1/s], ``b`` [m/s^2/V], ``T_d`` [s] and one ``V0`` per step are fitted
+    jointly over all step-ups by nonlinear least squares (``scipy.optimize.least_squares``), as the
+    paper fitted the gain by least squares and the pole from the step responses. ``T_d`` is the
+    delay *seen in the measured speed*: the drive's transport delay plus the encoder estimate's lag
+    (``(window_samples/2 + delay_samples) dt``, 6 ms at the rig's defaults), which is what the
+    configured value is compared with.
     """
     t, v, u = (np.asarray(x, float) for x in (t, v, u))
     steps, t_list, v_list = [], [], []
@@ -234,7 +229,7 @@ def _coast_model(intercepts, c, k, coasts):
 
 def fit_coast(t, v, u, skip: float = 0.15, v_min: float = 0.1, decimate: int = 10,
               k_bounds=(1e-4, 10.0), noise_order: int = P_MAX) -> CoastFit:
-    """Fit ``B/J`` and ``F/B`` to every coast-down (module docstring).
+    """Fit ``B/J`` and ``F/B`` to every coast-down.
 
     Parameters
     ----------
@@ -257,6 +252,15 @@ def fit_coast(t, v, u, skip: float = 0.15, v_min: float = 0.1, decimate: int = 1
     ------
     ValueError
         No coast-down in the data.
+
+    On every coast-down (command 0 V after a drive) the solution is ``V(t) = (V0 + k) exp(-c (t -
+    t0)) - k``, i.e. ``ln(V + k)`` is linear in ``t`` with slope ``-c``. The paper's "iterative,
+    linear-regression search": an outer scalar search over ``k``
+    (``scipy.optimize.minimize_scalar``, bounded) and, for each ``k``, a linear regression of
+    ``ln(V + k)`` on ``t`` (``numpy.linalg.lstsq``: one intercept per coast-down, one common slope
+    ``-c``); the outer search minimises the squared speed error of the regressed curves. Its
+    optimum starts a final ``least_squares`` on the speed error itself, whose optimum is reported
+    (the log-regression weighs the slow end of a coast more than its noise warrants).
     """
     t, v, u = (np.asarray(x, float) for x in (t, v, u))
     coasts = _coast_data(t, v, u, skip, v_min, decimate)

@@ -10,14 +10,8 @@ plant: the plant is identified first and designs rest on it afterwards, the pape
 (Sec. 4-5). From the sweep bag (``lateral/reference`` r, ``steering/command`` u,
 ``lateral_position`` y, and ``steering/state`` for the achieved steer) two identifications
 (:mod:`.vehicle_fit`):
-
-1. **the paper's**: ``S_ry/S_ru`` from the steer *command*, the actuator "simply modeled as a
-   4.6 Hz first order lag" plus the transmitter delay configured in the rig (read from the
-   bag's metadata) and half a sample (the command is held over its step), the Eq. 6 structure
-   fitted;
-2. **from the achieved steer** (``S_ry/S_r delta``, the servo's own angle): the vehicle alone,
-   with no actuator assumption -- what is left when the actuator is not the paper's lag
-   (the rig's amplitude-dependent servo is slew limited at these amplitudes).
+the paper's (from the steer *command*, the actuator a 4.6 Hz lag plus the configured delay) and
+one from the achieved steer (the vehicle alone, no actuator assumption): :func:`identify`.
 
 Both are printed against the plant configured in the bag's metadata (``vehicle_sim``
 parameters: Eq. 6 or a bicycle preset). ``--png PREFIX`` writes ``PREFIX_bode.png`` (Figure 8:
@@ -32,6 +26,8 @@ import math
 from pathlib import Path
 
 import numpy as np
+
+from irs_common.cli import InputError, RunFailed
 
 from . import vehicle_fit as vf
 from .common import save_figure
@@ -68,13 +64,13 @@ def bag_parameters(bag) -> dict:
         with BagReader(bag) as reader:
             records = reader.metadata_records()
     except BagError as exc:
-        raise ValueError(str(exc)) from None
+        raise InputError(str(exc)) from None
     for _name, md in records:
         if 'node_parameters' in md:
             try:
                 return json.loads(md['node_parameters'])
             except ValueError:
-                raise ValueError(f'{bag}: unreadable node_parameters metadata') from None
+                raise InputError(f'{bag}: unreadable node_parameters metadata') from None
     return {}
 
 
@@ -86,19 +82,19 @@ def load_run(bag) -> dict:
     from irs_bag.run_series import lateral_run
 
     if not Path(bag).exists():
-        raise ValueError(f'{bag}: no such bag')
+        raise InputError(f'{bag}: no such bag')
     try:
         run = lateral_run(bag)
     except BagError as exc:
-        raise ValueError(str(exc)) from None
+        raise InputError(str(exc)) from None
     for key in ('reference', 'steer_cmd', 'y_measured'):
         if key not in run:
-            raise ValueError(f'{bag}: the bag has no {key} series (record /lateral/reference, '
+            raise InputError(f'{bag}: the bag has no {key} series (record /lateral/reference, '
                              '/steering/command, /lateral_position)')
     ok = np.isfinite(run['reference']) & np.isfinite(run['steer_cmd']) & \
         np.isfinite(run['y_measured'])
     if ok.sum() < 64:
-        raise ValueError(f'{bag}: only {int(ok.sum())} samples with reference, steer command '
+        raise InputError(f'{bag}: only {int(ok.sum())} samples with reference, steer command '
                          'and measurement')
     out = {k: v[ok] for k, v in run.items()}
     out['params'] = bag_parameters(bag)
@@ -109,21 +105,30 @@ def _rate(t) -> float:
     dt = np.diff(t)
     fs = 1.0 / float(np.median(dt))
     if not np.allclose(dt, dt[0], rtol=1e-6, atol=1e-9):
-        raise ValueError('the samples are not equally spaced (a lock-step run is)')
+        raise InputError('the samples are not equally spaced (a lock-step run is)')
     return fs
 
 
 # ------------------------------------------------------------------ identification
 def identify(run: dict, band=None, coherence_min: float = vf.COHERENCE_MIN, lag_hz=None,
              delay=None) -> dict:
-    """Both identifications of the module docstring; a dict of the pieces."""
+    """Both identifications; a dict of the pieces.
+
+    1. **the paper's**: ``S_ry/S_ru`` from the steer *command*, the actuator "simply modeled as a
+       4.6 Hz first order lag" plus the transmitter delay configured in the rig (read from the
+       bag's metadata) and half a sample (the command is held over its step), the Eq. 6 structure
+       fitted;
+    2. **from the achieved steer** (``S_ry/S_r delta``, the servo's own angle): the vehicle alone,
+       with no actuator assumption -- what is left when the actuator is not the paper's lag (the
+       rig's amplitude-dependent servo is slew limited at these amplitudes).
+    """
     params = run.get('params', {})
     rig = params.get('vehicle_sim', {})
     ref = params.get('reference_generator', {})
     configured = vf.configured_vehicle(rig) if rig else None
     if band is None:
         if ref.get('signal.type') != 'chirp':
-            raise ValueError('the bag says no chirp band (reference_generator signal.type is '
+            raise InputError('the bag says no chirp band (reference_generator signal.type is '
                              f"{ref.get('signal.type')!r}): give --band F0 F1")
         band = (float(ref['signal.f0']), float(ref['signal.f1']))
     a = 2 * math.pi * (lag_hz if lag_hz is not None else vf.PAPER_LAG_HZ)
@@ -188,7 +193,7 @@ def step_comparison(step_run: dict, model: vf.PlantModel, configured=None) -> di
     """
     rst = controller_polynomials(step_run.get('params', {}))
     if rst is None:
-        raise ValueError('the step bag does not say which controller ran (no metadata)')
+        raise InputError('the step bag does not say which controller ran (no metadata)')
     t, r, y = step_run['time'], step_run['reference'], step_run['y_measured']
     out = {'t': t, 'r': r, 'y': y, 'y_model': vf.closed_loop_response(model, *rst, t, r)}
     out['rms_model'] = float(np.sqrt(np.mean((out['y_model'] - y) ** 2)))
@@ -282,13 +287,13 @@ def plot_step(cmp: dict, path) -> Path:
 # ------------------------------------------------------------------ command
 def run(args) -> int:
     if not (0 < args.coherence < 1):
-        raise ValueError(f'--coherence must lie in (0, 1), got {args.coherence}')
+        raise InputError(f'--coherence must lie in (0, 1), got {args.coherence}')
     if args.band is not None and not (0 < args.band[0] < args.band[1]):
-        raise ValueError(f'--band must be 0 < F0 < F1 [Hz], got {args.band}')
+        raise InputError(f'--band must be 0 < F0 < F1 [Hz], got {args.band}')
     for name in ('lag_hz', 'delay'):
         v = getattr(args, name)
         if v is not None and not (math.isfinite(v) and (v > 0 if name == 'lag_hz' else v >= 0)):
-            raise ValueError(f'--{name.replace("_", "-")} must be a '
+            raise InputError(f'--{name.replace("_", "-")} must be a '
                              f'{"positive" if name == "lag_hz" else "non-negative"} number, '
                              f'got {v}')
     run_ = load_run(args.bag)
@@ -339,7 +344,7 @@ def reproduce_figures(img_dir: Path, runs_dir: Path) -> dict:
     for name in ('sysid_vehicle_sweep', 'sysid_vehicle_step'):
         res = ExperimentRunner(load_experiment(name), runs_dir=runs_dir, progress=False).run()
         if not res.completed or res.bag_dir is None:
-            raise RuntimeError(f'{name} did not complete: {res.message}')
+            raise RunFailed(f'{name} did not complete: {res.message}')
         bags[name] = res.bag_dir
     ident = identify(load_run(bags['sysid_vehicle_sweep']))
     m = ident['fit'].model

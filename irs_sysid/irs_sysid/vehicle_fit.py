@@ -10,13 +10,8 @@ position ``y`` [m] both carry the noise fed back by the controller. The joint in
 
 (Welch cross-spectra, ``scipy.signal.csd``; the noise is uncorrelated with ``r`` and averages out
 of both spectra, whereas the direct ``S_{uy}/S_{uu}`` is biased towards ``-1/C`` by the feedback).
-The spectra are grouped into log-spaced bands of at least three bins (one point per band: the
-ratio of the band's summed spectra, so that the fit weighs every decade alike); a band is kept
-where both band coherences ``gamma^2_{ry}`` and ``gamma^2_{ru}`` reach a threshold. A band's
-ratio is an average of ``P`` over its bins (weighted by ``conj(R) U``), and ``P`` changes by a
-factor of 1.2 or more across a band (it falls as ``1/f^2``): the fit compares the model
-averaged the same way (:meth:`FrequencyResponse.band_average`), not the model at the band's
-mean frequency, which would be off by up to 10 %.
+The ratio is taken on log-spaced bands kept where both coherences reach a threshold
+(:func:`closed_loop_frequency_response`).
 
 Model (the structure of Eq. 6; the actuator is known and fixed, as in the paper "simply modeled
 as a 4.6 Hz first order lag", plus the transmitter dead time ``T_d`` the rig is configured with)::
@@ -26,23 +21,8 @@ as a 4.6 Hz first order lag", plus the transmitter dead time ``T_d`` the rig is 
 ``K`` [m s^-2 rad^-1] is the vehicle's high-frequency gain (``y'' / delta``), ``a = 2 pi lag_hz``
 [rad/s]; the two zeros (roots of ``s^2 + c1 s + c0``) and the two non-origin poles (roots of
 ``s^2 + d1 s + d0``) may each be real or a complex pair. For Eq. 6: ``K = b0 / 29 = 12.53``,
-zeros -2.4, -4.8, poles -8, -20 (1/s). Fitted by ``scipy.optimize.least_squares`` on the
-complex log ratio ``ln(P_model / P_data)`` (real part: log magnitude, imaginary part: phase
-error in rad, no wrapping) over the band points, weighted by each band's coherence
-(:func:`fit_open_loop`), parameters ``[ln K, c1, c0, d1, d0]``; start: the linear least-squares
-(Levy) solution of ``P_n(j w) (s^2 + d1 s + d0) = K s^2 + K c1 s + K c0`` with
-``P_n = P_data s^2 (s + a)/a exp(s T_d)`` (``numpy.linalg.lstsq``), plus two generic starts;
-the best is kept.
-
-Confidence: the parameter covariance from the heteroscedasticity-consistent sandwich over the
-bands (:func:`.intervals.grouped_sandwich`: right whatever the weights, for any colour of the
-noise), carried to the poles and zeros by the delta method (a numerical Jacobian of the roots);
-95 % half-width = Student's t (bands - parameters degrees of freedom) sigma. What they assume:
-the bands' errors independent (one boxcar segment of a record that starts and ends at rest:
-neighbouring bands share no bin), and the linearisation valid -- it is for K and for w_n and
-zeta of the quadratics at the rig's noise (coverage 0.93-1.0 over 60 draws of white and of
-0.2 s correlated noise, measured on the test's generator), not for single roots of a near-double
-pair, whose estimates are far from Gaussian.
+zeros -2.4, -4.8, poles -8, -20 (1/s). Fit: :func:`fit_open_loop`; confidence intervals:
+:func:`vehicle_estimates`.
 """
 from __future__ import annotations
 
@@ -115,7 +95,7 @@ class FrequencyResponse:
         weigh the bands above the loop's bandwidth down, where these keep them up -- and with
         them the fit's place for a zero/pole pair the data cannot resolve, above the band
         (:func:`reduced_vehicle_polynomials`). The intervals do not rest on the weights
-        (module docstring).
+        (:func:`vehicle_estimates`).
         """
         g2 = np.minimum(self.coherence, 0.999)
         return np.sqrt(self.bins * g2 / (1.0 - g2))
@@ -129,7 +109,7 @@ class FrequencyResponse:
 def closed_loop_frequency_response(r, u, y, fs: float, band=(0.1, 10.0), nperseg=None,
                                    coherence_min: float = COHERENCE_MIN,
                                    points: int = 30, min_bins: int = 3) -> FrequencyResponse:
-    """``S_ry / S_ru`` on log bands (module docstring).
+    """``S_ry / S_ru`` on log bands.
 
     The spectra are ``scipy.signal.csd``/``welch`` estimates, by default of the whole record
     in one boxcar segment (a swept sine is not stationary: one segment keeps ``Y = P U`` exact
@@ -158,6 +138,14 @@ def closed_loop_frequency_response(r, u, y, fs: float, band=(0.1, 10.0), nperseg
     ------
     ValueError
         Inputs of unequal length, non-finite, too short, or no band reaching the coherence.
+
+    The spectra are grouped into log-spaced bands of at least three bins (one point per band: the
+    ratio of the band's summed spectra, so that the fit weighs every decade alike); a band is kept
+    where both band coherences ``gamma^2_{ry}`` and ``gamma^2_{ru}`` reach a threshold. A band's
+    ratio is an average of ``P`` over its bins (weighted by ``conj(R) U``), and ``P`` changes by a
+    factor of 1.2 or more across a band (it falls as ``1/f^2``): the fit compares the model
+    averaged the same way (:meth:`FrequencyResponse.band_average`), not the model at the band's
+    mean frequency, which would be off by up to 10 %.
     """
     r, u, y = (np.asarray(v, dtype=float) for v in (r, u, y))
     if not (r.shape == u.shape == y.shape and r.ndim == 1):
@@ -269,7 +257,7 @@ def _model(theta, a, delay) -> PlantModel:
 
 
 def _levy_start(w, P, a, delay, order=2):
-    """Linear least squares for ``[ln K, c1, c0, d1, d0]`` (module docstring), or None;
+    """Linear least squares for ``[ln K, c1, c0, d1, d0]`` (:func:`fit_open_loop`), or None;
     ``order`` 1: ``[ln K, c0, d0]`` of ``P_n (s + d0) = K s + K c0``.
     """
     s = 1j * w
@@ -367,7 +355,7 @@ class PlantFit:
 
 def fit_open_loop(fr: FrequencyResponse, actuator_pole: float, delay: float = 0.0,
                   weights='coherence', minimum_phase: bool = True, order: int = 2) -> PlantFit:
-    """Fit the Eq. 6 structure to ``fr`` (module docstring).
+    """Fit the Eq. 6 structure to ``fr``.
 
     Parameters
     ----------
@@ -380,7 +368,7 @@ def fit_open_loop(fr: FrequencyResponse, actuator_pole: float, delay: float = 0.
     weights : array_like, 'coherence' or None
         Per-point weights of the residual; ``'coherence'`` (default): the inverse standard
         deviation of each band's log estimate (:meth:`FrequencyResponse.weights`); None: equal
-        weights. The intervals do not rest on them (module docstring).
+        weights. The intervals do not rest on them (:func:`vehicle_estimates`).
     minimum_phase : bool
         True (default): ``c1, c0, d1, d0 >= 0``, i.e. the zeros and the non-origin poles in the
         closed left half plane (a quadratic is Hurwitz iff its coefficients are positive) --
@@ -396,6 +384,13 @@ def fit_open_loop(fr: FrequencyResponse, actuator_pole: float, delay: float = 0.
     ------
     ValueError
         Fewer than 6 points, or a non-positive actuator pole, or a negative delay.
+
+    Fitted by ``scipy.optimize.least_squares`` on the complex log ratio ``ln(P_model / P_data)``
+    (real part: log magnitude, imaginary part: phase error in rad, no wrapping) over the band
+    points, weighted by each band's coherence (:func:`fit_open_loop`), parameters ``[ln K, c1, c0,
+    d1, d0]``; start: the linear least-squares (Levy) solution of ``P_n(j w) (s^2 + d1 s + d0) = K
+    s^2 + K c1 s + K c0`` with ``P_n = P_data s^2 (s + a)/a exp(s T_d)`` (``numpy.linalg.lstsq``),
+    plus two generic starts; the best is kept.
     """
     if not (actuator_pole > 0):
         raise ValueError(f'actuator_pole must be a positive pole magnitude in rad/s, got '
@@ -617,6 +612,16 @@ def vehicle_estimates(fit: PlantFit, configured: PlantModel | None = None,
                       tolerances=None, w=None) -> list:
     """Report lines: K, the zeros and the poles, with 95 % CI, against ``configured``; with
     ``w`` [rad/s] (the fitted band) also the largest relative frequency-response error.
+
+    Confidence: the parameter covariance from the heteroscedasticity-consistent sandwich over the
+    bands (:func:`.intervals.grouped_sandwich`: right whatever the weights, for any colour of the
+    noise), carried to the poles and zeros by the delta method (a numerical Jacobian of the roots);
+    95 % half-width = Student's t (bands - parameters degrees of freedom) sigma. What they assume:
+    the bands' errors independent (one boxcar segment of a record that starts and ends at rest:
+    neighbouring bands share no bin), and the linearisation valid -- it is for K and for w_n and
+    zeta of the quadratics at the rig's noise (coverage 0.93-1.0 over 60 draws of white and of 0.2
+    s correlated noise, measured on the test's generator), not for single roots of a near-double
+    pair, whose estimates are far from Gaussian.
     """
     tol = {**TOLERANCES, **(tolerances or {})}
     m = fit.model

@@ -5,7 +5,10 @@ NaN, +-inf, +-1e308, subnormals; stamps zero, now, a day ahead, the largest time
 back, negative). After every drawn example a genuine probe message must be answered (the node is
 alive and not silenced), and no command the node ever published may be non-finite or beyond its
 limit (``steering/command``, ``treadmill/drive``, ``lateral/reference``). After the examples the
-node must give, on good data, exactly what it gave on the same good data at the start.
+node must give, on good data, exactly what it gave on the same good data at the start (each
+good run starts from a state that does not depend on timing: a NaN measurement or
+``treadmill/reset_fault`` restarts the controller from rest, never a stale timeout). Every test
+counts the examples that reached its checks and asserts that all of them did.
 
 Bounded: ``EXAMPLES`` per node (generation only, no shrinking: a failing example is printed by
 hypothesis as drawn), about 40 s for the five nodes on two cores.
@@ -23,13 +26,16 @@ from irs_common.stamps import from_ns, to_ns
 from irs_msgs.msg import (BeltSpeed, DriverCommand, LateralControllerStatus, LateralReference,
                           SteeringActuatorState, SteeringCommand, TreadmillDriveCommand)
 from irs_bringup.processes import NodeSpec
+from irs_control.reference import CONSOLE_LIMIT
 from irs_models.arm_kinematics import ArmGeometry, inverse_kinematics
+from irs_models.constants import STEER_LIMIT
+from irs_treadmill.regulator import RegulatorParams
+from irs_vehicle_sim.rig import RigConfig
 
 EXAMPLES = 10
 SETTINGS = settings(max_examples=EXAMPLES, deadline=None, database=None, derandomize=True,
                     phases=[Phase.explicit, Phase.generate],
                     suppress_health_check=list(HealthCheck))
-STEER_LIMIT = 0.2618
 DAY_NS = 86_400 * 1_000_000_000
 SPECIAL = [math.nan, math.inf, -math.inf, 1e308, -1e308, 0.0, -0.0, 5e-324, 0.3, -0.3]
 FLOATS = st.one_of(st.sampled_from(SPECIAL), st.floats(allow_nan=True, allow_infinity=True),
@@ -69,7 +75,9 @@ def _call(ros, name):
 
 # ---------------------------------------------------------------------------------- controller
 def test_fuzz_lateral_controller(ros, launch):
-    proc = launch(NodeSpec('irs_control', 'lateral_controller', params={'stale_timeout': 0.05}))
+    # a long stale timeout: a pause of the test (load) must not restart the controller between
+    # the probes of a good run (the good run restarts it itself, with a NaN measurement)
+    proc = launch(NodeSpec('irs_control', 'lateral_controller', params={'stale_timeout': 10.0}))
     node = ros.node
     meas = node.create_publisher(PointStamped, 'lateral_position', qos.SENSOR)
     ref = node.create_publisher(LateralReference, 'lateral/reference', qos.COMMAND)
@@ -104,15 +112,19 @@ def test_fuzz_lateral_controller(ros, launch):
         return cmds[ns]
 
     def good_run():
-        """Reference 0 m, wait for STALE (the controller restarts from rest), then 5 steps."""
+        """Reference 0 m, a NaN measurement (INVALID: zero steer, the controller restarts from
+        rest at the next valid one), then 5 steps.
+        """
         send_ref(0.0, _now(ros))
         n = len(status)
-        assert ros.spin_until(lambda: any(s.state == LateralControllerStatus.STATE_STALE
-                                          for s in status[n:]), 10.0), 'no STALE after silence'
+        assert probe(math.nan).front_angle == 0.0
+        assert ros.spin_until(lambda: any(s.state == LateralControllerStatus.STATE_INVALID
+                                          for s in status[n:]), 10.0), 'no INVALID on NaN'
         return [probe(y).front_angle for y in (0.01, 0.02, 0.03, 0.02, -0.01)]
 
     probe()
     baseline = good_run()
+    reached = []
 
     @SETTINGS
     @given(ref_value=FLOATS, ref_stamp=STAMPS, y=FLOATS, y_stamp=STAMPS)
@@ -122,8 +134,10 @@ def test_fuzz_lateral_controller(ros, launch):
         send_meas(y, stamp_of(y_stamp, now))
         probe()
         _alive(proc)
+        reached.append(1)
 
     example()
+    assert len(reached) == EXAMPLES
     for c in cmds.values():
         assert math.isfinite(c.front_angle) and abs(c.front_angle) <= STEER_LIMIT + 1e-12, c
         assert c.rear_angle == 0.0
@@ -156,6 +170,7 @@ def test_fuzz_arm_pose_estimator(ros, launch):
 
     y_good = probe()
     assert math.isfinite(y_good)
+    reached = []
 
     @SETTINGS
     @given(angles=st.lists(FLOATS, min_size=0, max_size=4), stamp=STAMPS)
@@ -163,8 +178,10 @@ def test_fuzz_arm_pose_estimator(ros, launch):
         send(angles, stamp_of(stamp, _now(ros)))
         probe()          # answered (NaN allowed: a plausibility rejection after a jump)
         _alive(proc)
+        reached.append(1)
 
     example()
+    assert len(reached) == EXAMPLES
     # good readings again: the same answer as before, once the jump bound has grown (a drawn
     # reading may have been a valid pose elsewhere on the belt)
     assert ros.spin_until(lambda: probe() == y_good, 10.0), 'no recovery on good readings'
@@ -216,6 +233,7 @@ def test_fuzz_treadmill_regulator(ros, launch):
     probe()
     baseline = good_run()
     assert any(v > 0.0 for v in baseline)
+    reached = []
 
     @SETTINGS
     @given(x=FLOATS, y=FLOATS, qz=FLOATS, qw=FLOATS, vx=FLOATS, vy=FLOATS, belt=FLOATS,
@@ -224,10 +242,13 @@ def test_fuzz_treadmill_regulator(ros, launch):
         send(stamp_of(stamp, _now(ros)), x, y, qz, qw, vx, vy, belt)
         probe()
         _alive(proc)
+        reached.append(1)
 
     example()
+    assert len(reached) == EXAMPLES
+    u_max = RegulatorParams().u_max         # the regulator's own limit (the belt's range)
     for d in drive.values():
-        assert math.isfinite(d.voltage) and 0.0 <= d.voltage <= 10.0, d
+        assert math.isfinite(d.voltage) and 0.0 <= d.voltage <= u_max, d
     assert good_run() == baseline
 
 
@@ -250,6 +271,7 @@ def test_fuzz_reference_generator_console(ros, launch):
             f'the good console value {value} did not become the reference\n{proc.tail()}'
 
     probe()
+    reached = []
 
     @SETTINGS
     @given(value=FLOATS)
@@ -257,18 +279,24 @@ def test_fuzz_reference_generator_console(ros, launch):
         console.publish(Float64(data=value))
         probe()
         _alive(proc)
+        reached.append(1)
 
     example()
+    assert len(reached) == EXAMPLES
     assert refs
     for r in refs:
-        assert math.isfinite(r.lateral_position) and abs(r.lateral_position) <= 0.5, r
+        assert math.isfinite(r.lateral_position) and abs(r.lateral_position) <= CONSOLE_LIMIT, r
 
 
 # ---------------------------------------------------------------------------------- rig
 def test_fuzz_vehicle_sim(ros, launch):
     proc = launch(NodeSpec('irs_vehicle_sim', 'vehicle_sim',
                            params={'clock_mode': 'realtime', 'dt': 0.005, 'start_inputs': [''],
-                                   'command_timeout': 1.0, 'ground_truth_decimation': 0}))
+                                   'command_timeout': 1.0, 'ground_truth_decimation': 0,
+                                   # the values and stamps are fuzzed here, not the silences
+                                   # (a drawn drive command stamped ahead is dropped: the drive
+                                   # goes silent, which would stop the rig: test_starvation.py)
+                                   'stall_grace': 3600.0}))
     node = ros.node
     pubs = {'steering': node.create_publisher(SteeringCommand, 'steering/command', qos.COMMAND),
             'drive': node.create_publisher(TreadmillDriveCommand, 'treadmill/drive', qos.COMMAND),
@@ -299,6 +327,7 @@ def test_fuzz_vehicle_sim(ros, launch):
             f'the good steering command {value} was not applied\n{proc.tail()}'
 
     probe()
+    reached = []
 
     @SETTINGS
     @given(front=FLOATS, rear=FLOATS, s_stamp=STAMPS, voltage=FLOATS, d_stamp=STAMPS,
@@ -316,9 +345,17 @@ def test_fuzz_vehicle_sim(ros, launch):
         pubs['driver'].publish(v)
         probe()
         _alive(proc)
+        reached.append(1)
 
     example()
+    assert len(reached) == EXAMPLES
+    # what the rig applies: a command beyond steer_reject is refused (0 rad), the servo
+    # saturates its reference at STEER_LIMIT, so the wheels never pass 15 deg
+    reject = RigConfig().steer_reject
     for s in states:
-        assert math.isfinite(s.front_commanded) and math.isfinite(s.rear_commanded), s
+        for commanded, achieved in ((s.front_commanded, s.front_achieved),
+                                    (s.rear_commanded, s.rear_achieved)):
+            assert math.isfinite(commanded) and abs(commanded) <= reject, s
+            assert math.isfinite(achieved) and abs(achieved) <= STEER_LIMIT, s
     for a in arm[-50:]:
         assert len(a.position) == 3

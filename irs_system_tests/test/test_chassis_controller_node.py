@@ -94,7 +94,10 @@ def start(launch, **params):
 
 
 def test_abs_releases_the_slipping_wheel_and_keeps_the_full_brake_on_the_others(ros, launch):
-    start(launch, **{'brake.start_time': 0.0, 'brake.mode': 'abs', 'brake.torque': 0.3})
+    # the arm's speed as the ABS's reference: the wheels cannot tell it (one slips, the others
+    # roll at an unknown slip), the arm can, so the slip is known
+    start(launch, **{'brake.start_time': 0.0, 'brake.mode': 'abs', 'brake.torque': 0.3,
+                     'abs.reference': 'arm'})
     link = ChassisLink(ros)
     slipping = [0.5 * ROLLING, ROLLING, ROLLING, ROLLING]     # FL at slip -0.5
     for k in range(40):
@@ -109,6 +112,7 @@ def test_abs_releases_the_slipping_wheel_and_keeps_the_full_brake_on_the_others(
     assert reason == 'ok' and values['braking'] == 'true' and values['brake_mode'] == 'abs'
     assert float(values['slip_FL']) == pytest.approx(-0.5, abs=1e-9)
     assert float(values['v_hat']) == pytest.approx(V, abs=1e-9)
+    assert float(values['slip_target_FL']) == -0.10 and math.isfinite(float(values['v_ref']))
     # The same wheel rolling again: ABS gives the brake back (integral towards the request).
     for k in range(40, 200):
         cmd = link.step(k * MS, [ROLLING] * 4)
@@ -241,7 +245,7 @@ def test_fuzz_every_input_commands_stay_finite_and_the_node_keeps_answering(ros,
     set whose stamp it draws too (now, zero, a day ahead, the largest time, 0.3 s and 5 s back,
     negative), the other three inputs good; after each a good set stamped now must be answered,
     and every command ever published must be finite and within the limits (as
-    tests/test_bad_input_fuzz.py does for the other nodes).
+    irs_system_tests/test/test_bad_input_fuzz.py does for the other nodes).
     """
     from hypothesis import given, strategies as st
     from test_bad_input_fuzz import FLOATS, SETTINGS, STAMPS, STEER_LIMIT, stamp_msg, stamp_of

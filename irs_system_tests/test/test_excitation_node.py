@@ -1,4 +1,6 @@
-"""The ``excitation`` node on its topics: the schedule it publishes, per /clock tick, clipped."""
+"""The ``excitation`` node on its topics: the signal it publishes, per /clock tick, within its
+bounds (a signal beyond them is refused at start-up: test_param_limits.py).
+"""
 import pytest
 from rosgraph_msgs.msg import Clock
 
@@ -8,17 +10,17 @@ from irs_msgs.msg import SteeringCommand, TreadmillDriveCommand
 from irs_bringup.processes import NodeSpec
 
 TIMES = [0.010, 0.020, 0.030]     # [s]
-VALUES = [1.0, 20.0, 0.5]         # [V]; 20 V is beyond the 12 V limit below: clipped
+VALUES = [1.0, 12.0, 0.5]         # [V]; 12 V: the limit below
 
 
-def test_excitation_publishes_its_signal_per_tick_clipped_on_either_target(ros, launch):
+def test_excitation_publishes_its_signal_per_tick_on_either_target(ros, launch):
     """Two excitation nodes (drive: a schedule; steering: a step) answer the same /clock ticks."""
     launch(NodeSpec('irs_sysid', 'excitation', name='excitation_drive', params={
         'use_sim_time': True, 'target': 'drive', 'limit': 12.0, 'signal.type': 'schedule',
         'signal.times': TIMES, 'signal.values': VALUES, 'signal.offset': 0.25}))
     launch(NodeSpec('irs_sysid', 'excitation', name='excitation_steering', params={
         'use_sim_time': True, 'target': 'steering', 'signal.type': 'step',
-        'signal.amplitude': 0.35, 'signal.start_time': 0.02, 'signal.offset': -0.3}))
+        'signal.amplitude': 0.25, 'signal.start_time': 0.02, 'signal.offset': -0.2}))
     drive, steer = {}, {}
     subs = [ros.node.create_subscription(TreadmillDriveCommand, 'treadmill/drive',
                                          lambda m: drive.setdefault(to_ns(m.header.stamp), m),
@@ -39,11 +41,11 @@ def test_excitation_publishes_its_signal_per_tick_clipped_on_either_target(ros, 
                 ros.executor.spin_once(timeout_sec=0.01)
             return ns in drive and ns in steer
         assert ros.spin_until(answered, 20.0), f'no answer to tick {ns} ns'
-    # the schedule, 20 V clipped to the 12 V limit, the offset before the first time
+    # the schedule up to the 12 V limit, the offset before the first time
     assert {ns // 1_000_000: drive[ns].voltage for ns in ticks} == {
         0: 0.25, 5: 0.25, 10: 1.0, 15: 1.0, 20: 12.0, 25: 12.0, 30: 0.5, 35: 0.5, 40: 0.5}
-    # the step: -0.3 rad clipped to the servo limit -0.2618 rad before 20 ms, then 0.05 rad
+    # the step: -0.2 rad before 20 ms, then 0.05 rad
     assert {ns // 1_000_000: steer[ns].front_angle for ns in ticks} == pytest.approx({
-        0: -0.2618, 5: -0.2618, 10: -0.2618, 15: -0.2618, 20: 0.05, 25: 0.05, 30: 0.05,
+        0: -0.2, 5: -0.2, 10: -0.2, 15: -0.2, 20: 0.05, 25: 0.05, 30: 0.05,
         35: 0.05, 40: 0.05}, abs=1e-15)
     assert all(m.rear_angle == 0.0 for m in steer.values())

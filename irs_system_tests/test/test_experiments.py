@@ -422,7 +422,7 @@ def test_schema_cli_prints_one_line_and_exits_2(tmp_path, capsys, case):
         code = experiment_main(['run', str(path), '--runs-dir', str(tmp_path / 'runs'), *offline])
         out, err = capsys.readouterr()
         assert code == 2 and out == ''
-        assert err.startswith(f'experiment: {path}: {key}: ') and what in err, err
+        assert err.startswith(f'experiment: error: {path}: {key}: ') and what in err, err
         assert err.count('\n') == 1
     assert not (tmp_path / 'runs').exists() and not (tmp_path.parent / 'escape').exists()
 
@@ -435,8 +435,8 @@ def test_schema_offline_run_with_a_parameter_only_the_cores_check_is_one_line(tm
     path = _write(tmp_path, doc)
     assert experiment_main(['run', str(path), '--offline']) == 2
     _out, err = capsys.readouterr()
-    assert err == (f'experiment: {path}: nodes: the offline closed loop refuses a parameter: '
-                   "mode must be 'mrc' or 'pi', got 'bogus'\n")
+    assert err == (f'experiment: error: {path}: nodes: the offline closed loop refuses a '
+                   "parameter: mode must be 'mrc' or 'pi', got 'bogus'\n")
 
 
 def test_schema_the_installed_command_prints_one_line_and_exits_2(tmp_path):
@@ -449,7 +449,7 @@ def test_schema_the_installed_command_prints_one_line_and_exits_2(tmp_path):
                                str(tmp_path / 'runs'), *extra],
                              capture_output=True, text=True, timeout=120)
         assert res.returncode == 2, res.stderr
-        assert res.stderr.startswith(f'experiment: {path}: {key}: ') and what in res.stderr
+        assert res.stderr.startswith(f'experiment: error: {path}: {key}: ') and what in res.stderr
         assert res.stderr.count('\n') == 1 and 'Traceback' not in res.stderr
 
 

@@ -197,3 +197,25 @@ def test_results_of_another_sweep_file_refused(small, tmp_path):
                         str(Path(d) / 'small.yaml'), '--out', str(out), '--serial'],
                        capture_output=True, text=True, timeout=120)
     assert p.returncode == 2 and 'different sweep file' in p.stderr, p
+
+
+def test_similitude_cli_compares_eq6_with_eq7_10_in_dimensionless_form(tmp_path, capsys):
+    """The table of Eq. 6 and Eqs. 7-10 as s L/V with the equal-L/V and Froude speeds, and the
+    three figures.
+    """
+    import argparse
+
+    import matplotlib.image as mpimg
+
+    from irs_studies.sweep import similitude_cli
+    args = argparse.Namespace(scale='irs_2wd', speed=1.2, out=tmp_path)
+    assert similitude_cli.run(args) == 0
+    out = capsys.readouterr().out
+    assert '| Eq. 6 (IRS 1:10) | 1.2 | 0.300 | 0.250 | 1.10 | -2.00, -5.00 | -0.60, -1.20 |' in out
+    assert '| Eq. 7 (full_size_sedan) | 12 | 2.865 | 0.239 | 0.00 | -1.46, -1.20 |' in out
+    assert '| 1.26 | 3.88 |' in out        # equal-L/V and Froude speeds of the 0.30 m car
+    names = sorted(p.name for p in tmp_path.iterdir())
+    assert names == ['similitude_eq6_eq7_10.png', 'sweep_similitude_speed.png',
+                     'sweep_similitude_step.png']
+    h, w = mpimg.imread(tmp_path / 'similitude_eq6_eq7_10.png').shape[:2]
+    assert h > 400 and w > 1000

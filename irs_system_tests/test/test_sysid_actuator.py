@@ -79,4 +79,4 @@ def test_actuator_identified_from_bags_recorded_through_the_graph(tmp_path, caps
 def test_bad_bag_is_one_line_exit_2(tmp_path, capsys):
     assert sysid_main(['actuator', str(tmp_path / 'nothing')]) == 2
     err = capsys.readouterr().err
-    assert err.startswith('sysid actuator: ') and err.count('\n') == 1
+    assert err.startswith('sysid: error: ') and err.count('\n') == 1

@@ -17,7 +17,7 @@ import yaml
 
 from irs_bringup.experiment import load_experiment
 from irs_bringup.experiment_runner import ExperimentRunner
-from irs_sysid import sysid_cli
+from irs_sysid import cli as sysid_cli
 from irs_sysid.treadmill_cli import estimates, identify, load_run
 from irs_control.reference import Schedule
 

@@ -54,7 +54,7 @@ def test_vehicle_identified_from_the_graph_bag(sweep_bag, tmp_path, capsys):
     (['vehicle', '{bag}', '--coherence', '1.5'], '--coherence'),
     (['vehicle', '{bag}', '--band', '5', '0.4'], '--band'),
     (['vehicle', '{bag}', '--lag-hz', '-1'], '--lag-hz'),
-    (['vehicle', '{bag}'], 'sysid vehicle: '),            # an empty directory: not a bag
+    (['vehicle', '{bag}'], 'no metadata.yaml and no .mcap'),   # an empty directory: not a bag
     (['cycle', '--plant', 'no_such_car', '--offline'], 'unknown plant'),
 ])
 def test_bad_input_one_line_exit_2(argv, words, tmp_path, capsys):

@@ -1,13 +1,16 @@
-"""The torque car through the ROS graph in lock-step (issue 13): the nine experiments.
+"""The torque car through the ROS graph in lock-step: eleven experiments.
 
 Each experiment runs through the experiment runner (vehicle_sim with ``plant: two_track``,
 arm_pose_estimator, treadmill_regulator, chassis_controller and the recorder composed in one
 process) once per module; the tests read the bags:
 
 - the graph's commands and the car's motion equal the offline composition of the same cores
-  (``irs_bringup/paper/chassis_loop.py``) to the bit;
+  (``irs_bringup/offline_twin/chassis_loop.py``) to the bit;
 - on low mu ABS stops the car shorter over the belt (``x_belt`` of ``rig/tyre_truth``) than
-  locked wheels, with the mean slip during the ABS stop near the -0.10 target;
+  locked wheels, holding the slip it measures (from the wheels' reference speed) at the -0.10
+  target;
+- on high mu the peak-seeking ABS stops at least as short as the fixed-target ABS and locked
+  wheels (all four surfaces: irs_system_tests/test/test_torque_car_abs.py, offline);
 - on split mu the car stays on the belt with ABS and yaw control, and turns less than with
   locked wheels or ABS alone;
 - through every braking event the treadmill regulator keeps the car on the belt (no off-belt
@@ -29,7 +32,8 @@ from irs_studies.torque_car.series import load_run
 from irs_control.chassis_control import ChassisController
 
 BRAKING = [f'torque_braking_{mode}_{mu}' for mu in ('high', 'low', 'split')
-           for mode in ('locked', 'abs')] + ['torque_braking_chassis_split']
+           for mode in ('locked', 'abs')] + ['torque_braking_chassis_split',
+                                              'torque_braking_abspeak_high']
 STEER = ['torque_step_steer_open', 'torque_step_steer_chassis']
 EVENT = 'torque_brake_event_abs_low'     # a 0.2 s ABS brake pulse, then belt speed again
 T_BRAKE = 0.05           # [s] brake.start_time of the braking experiments
@@ -41,7 +45,7 @@ END_MARGIN, EDGE_MARGIN = 0.15, 0.10                   # [m] the regulator's saf
 
 @pytest.fixture(scope='module')
 def runs(tmp_path_factory):
-    """``{name: (RunResult, Run)}`` of the ten experiments, each run once through the graph."""
+    """``{name: (RunResult, Run)}`` of the eleven experiments, each run once through the graph."""
     out = {}
     runs_dir = tmp_path_factory.mktemp('torque_runs')
     for name in BRAKING + STEER + [EVENT]:
@@ -94,20 +98,36 @@ def test_abs_stops_shorter_than_locked_wheels_on_low_mu_with_slip_near_target(ru
     d_abs, t_abs, i1 = stop(run)
     print(f'low mu: stop over the belt {d_abs:.3f} m with ABS, {d_locked:.3f} m locked '
           f'({t_abs:.3f} s, {t_locked:.3f} s)')
-    assert d_abs < 0.95 * d_locked
+    assert d_abs < 0.8 * d_locked
     tyre = run.series['tyre']
     i0 = _at(tyre, T_BRAKE)
-    # ABS runs while the car is above v_min (0.1 m/s, by the arm's estimate); below it the
-    # friction brakes hold the wheels. 0.15 m/s leaves room for the estimate's error.
+    # ABS runs while the car is above v_min (0.1 m/s, by the wheels' reference speed); below it
+    # the friction brakes hold the wheels. 0.15 m/s leaves room for the reference's error.
     active = np.arange(len(tyre['t'])) < i1
     active &= (np.arange(len(tyre['t'])) >= i0) & (tyre['u'] > 0.15)
     mean_slip = float(np.mean(tyre['slip'][active]))
-    print(f'low mu: mean slip under ABS {mean_slip:.3f} (target -0.10); locked wheels: '
+    st = run.series['status']
+    u_st = np.interp(st['t'], tyre['t'], tyre['u'])
+    held = float(np.median(st['slip'][(st['t'] >= T_BRAKE) & (u_st > 0.15) & (st['t'] <
+                                                                            tyre['t'][i1])]))
+    print(f'low mu: slip under ABS {held:.3f} as the controller measures it, {mean_slip:.3f} '
+          f"the tyres' (target -0.10); locked wheels: "
           f'{np.mean(runs["torque_braking_locked_low"][1].series["tyre"]["slip"][i0:i1]):.3f}')
-    assert abs(mean_slip + 0.10) < 0.03
+    assert abs(held + 0.10) < 0.01
+    # the tyres' relaxed slip is deeper (measured -0.13): the encoders' 2.5 ms lag on a
+    # decelerating wheel
+    assert -0.16 < mean_slip < -0.10
     cmd = run.series['cmd']
     j = np.searchsorted(cmd['t'], tyre['t'][np.flatnonzero(active)[-1]])
     assert not cmd['locked'][:j].any(), 'ABS must not lock a wheel while the car moves'
+
+
+def test_peak_seeking_abs_stops_shortest_on_high_mu_through_the_graph(runs):
+    d = {m: stop(runs[f'torque_braking_{m}_high'][1])[0] for m in ('locked', 'abs', 'abspeak')}
+    print('high mu: stop over the belt ' + ', '.join(f'{m} {v:.4f} m' for m, v in d.items()))
+    assert d['abspeak'] <= min(d['abs'], d['locked'])
+    st = runs['torque_braking_abspeak_high'][1].series['status']
+    assert np.nanmin(st['target']) < -0.12, 'the peak seeker probed and moved above -0.10'
 
 
 def _heading_change(run):

@@ -71,13 +71,16 @@ def braking_series(u0=1.2, a=3.0, tb=0.5, after=0.6, slips=(-0.05, -0.1, -0.15, 
 
 def with_status(series, offset=0.01, every=10):
     """``series`` plus a ``chassis/status`` every ``every`` steps reporting the true slips +
-    ``offset`` (and v_hat = u, braking after the brake start).
+    ``offset`` (and v_hat = u, v_ref = u + offset, targets -0.10 - offset, braking after the
+    brake start).
     """
     tyre, cmd = series['tyre'], series['cmd']
     k = slice(None, None, every)
     braking = ((cmd['torque'] < 0).any(axis=1) | (cmd['locked'] > 0).any(axis=1))[k]
     series['status'] = {'t': tyre['t'][k], 'v_hat': tyre['u'][k],
-                        'braking': braking.astype(float), 'slip': tyre['slip'][k] + offset}
+                        'v_ref': tyre['u'][k] + offset, 'braking': braking.astype(float),
+                        'slip': tyre['slip'][k] + offset,
+                        'target': np.full((tyre['t'][k].size, 4), -0.10 - offset)}
     return series
 
 
@@ -158,8 +161,10 @@ def _message(key, row):
     elif key == 'status':
         from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
         values = {'brake_mode': 'abs', 'braking': 'true' if row['braking'] else 'false',
-                  'v_hat': f'{row["v_hat"]:.17g}'}
+                  'v_hat': f'{row["v_hat"]:.17g}', 'v_ref': f'{row["v_ref"]:.17g}'}
         values.update({f'slip_{w}': f'{v:.17g}' for w, v in zip(tm.WHEELS, row['slip'])})
+        values.update({f'slip_target_{w}': f'{v:.17g}'
+                       for w, v in zip(tm.WHEELS, row['target'])})
         m = DiagnosticArray(status=[DiagnosticStatus(
             name='chassis_controller', values=[KeyValue(key=a, value=b)
                                                for a, b in values.items()])])
@@ -251,6 +256,11 @@ def test_estimated_slips_from_the_controller_status():
         braking_series(slips=slips), offset=0.01)))
     assert m['slip_est_source'] == 'chassis/status'
     assert m['slip_est_median'] == pytest.approx([s + 0.01 for s in slips], abs=1e-12)
+    # the reference speed reads u + 0.01, the targets -0.11
+    assert m['v_ref_error_max'] == pytest.approx(0.01, abs=1e-12)
+    assert m['slip_target_mean'] == pytest.approx(-0.11, abs=1e-12)
+    bare = tm.braking_metrics(as_run('torque_braking_locked_low', braking_series()))
+    assert math.isnan(bare['v_ref_error_max']) and math.isnan(bare['slip_target_mean'])
 
 
 def test_brake_start_from_the_locked_flags_and_a_run_that_never_stops():
@@ -408,7 +418,7 @@ def _one_line_error(capsys, argv):
     rc = cli_main(argv)
     err = capsys.readouterr().err.strip()
     assert rc == 2
-    assert len(err.splitlines()) == 1 and err.startswith('torque_car: '), err
+    assert len(err.splitlines()) == 1 and err.startswith('torque_car: error: '), err
     assert 'Traceback' not in err
     return err
 
@@ -434,7 +444,7 @@ def test_run_with_an_unknown_experiment_names_it(tmp_path, capsys):
     err = capsys.readouterr().err.strip().splitlines()
     assert rc == 2
     assert len(err) == 2 and 'no_such_torque_experiment' in err[0], err
-    assert err[1] == 'torque_car: no runs given (paths or --run)'
+    assert err[1] == 'torque_car: error: no runs given (paths or --run)'
     assert not (tmp_path / 'm.json').exists()
 
 
@@ -462,4 +472,4 @@ def test_installed_executable_gives_one_line(tmp_path):
                          timeout=120)
     assert res.returncode == 2
     assert res.stderr.strip().splitlines() == [
-        f'torque_car: {tmp_path / "missing"}: no such run directory or bag']
+        f'torque_car: error: {tmp_path / "missing"}: no such run directory or bag']

@@ -1,4 +1,6 @@
-"""vehicle_sim in real time: invalid and stale commands fall back to the safe value, reported."""
+"""vehicle_sim in real time: invalid commands fall back to the safe value; a late one is held,
+then the rig stops under control (docs/safety.md); both reported on rig/status.
+"""
 import math
 
 from irs_common import qos
@@ -6,10 +8,11 @@ from irs_msgs.msg import RigStatus, SteeringActuatorState, SteeringCommand
 from irs_bringup.processes import NodeSpec
 
 
-def test_invalid_and_stale_steering_commands_give_zero_steer(ros, launch):
-    launch(NodeSpec('irs_vehicle_sim', 'vehicle_sim',
-                    params={'clock_mode': 'realtime', 'command_timeout': 0.2,
-                            'start_inputs': ['steering']}))
+def test_invalid_steering_gives_zero_steer_and_a_late_one_is_held_then_stopped(ros, launch):
+    proc = launch(NodeSpec('irs_vehicle_sim', 'vehicle_sim',
+                           params={'clock_mode': 'realtime', 'dt': 0.005, 'command_timeout': 0.2,
+                                   'stall_grace': 1.0, 'status_period': 0.01,
+                                   'start_inputs': ['steering']}))
     node = ros.node
     states, status = [], []
     pub = node.create_publisher(SteeringCommand, 'steering/command', qos.COMMAND)
@@ -39,7 +42,19 @@ def test_invalid_and_stale_steering_commands_give_zero_steer(ros, launch):
     # A NaN command is rejected: zero steer, counted on rig/status.
     assert keep_sending(math.nan, lambda: states[-1].front_commanded == 0.0)
     assert ros.spin_until(lambda: status and status[-1].rejected_steer_count > 0, 5.0)
-    # Valid again, then silence: after command_timeout the rig steers 0.
+    # Valid again, then silence: late after command_timeout, the last command held (the rig says
+    # which input is late) ...
     assert keep_sending(0.1, lambda: states[-1].front_commanded == 0.1)
-    n = len(states)
+    n, m = len(states), len(status)
+    assert ros.spin_until(lambda: any(s.safe_state == RigStatus.SAFE_HOLDING
+                                      for s in status[m:]), 5.0)
+    holding = next(s for s in status[m:] if s.safe_state == RigStatus.SAFE_HOLDING)
+    assert holding.late_inputs == 'steering' and holding.stop_cause == ''
+    assert states[-1].front_commanded == 0.1
+    # ... and silent beyond stall_grace: the controlled stop, steer 0, the cause on rig/status
+    # and in one log line
+    assert ros.spin_until(lambda: status[-1].safe_state >= RigStatus.SAFE_STOPPING, 5.0)
+    assert 'steering command silent' in status[-1].stop_cause
     assert ros.spin_until(lambda: len(states) > n and states[-1].front_commanded == 0.0, 5.0)
+    assert status[-1].car_on_belt
+    assert proc.output().count('controlled stop:') == 1

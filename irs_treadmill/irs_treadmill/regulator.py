@@ -1,65 +1,21 @@
 """Belt-speed regulator that keeps the car at a longitudinal set point on the treadmill.
 
-Plant (``docs/conventions.md``, paper Sec. 3.1)
-----------------------------------------------
-Car on the belt (heading ~ 0): ``dx/dt = u_car - V_b``.  Belt: ``V_b/U = b/(s + a)``,
-``a = 4.5 1/s``, ``b = 2.38 m/s^2/V`` (DC gain ``g = b/a = 0.5289 m/s/V``), transport delay
-~0.05 s, and the drive cannot brake: when the commanded speed is below the belt speed the belt
-only coasts down by friction (``dV/dt = -(B/J)(V + F/B)``, 0.14..1.1 m/s^2).
-
-Control law (cascade, all quantities per sample ``dt``)
--------------------------------------------------------
-Position error ``e = x - x_ref`` [m] (car ahead of the set point -> belt must run faster).
-
-Outer loop, belt speed set point [m/s]::
+Car on the belt (heading ~ 0): ``dx/dt = u_car - V_b``. Belt: ``V_b/U = b/(s + a)``, ``a = 4.5
+1/s``, ``b = 2.38 m/s^2/V`` (DC gain ``g = b/a = 0.5289 m/s/V``), a drive delay of ~0.05 s, and
+the drive cannot brake (below the belt speed the belt only coasts down by friction, 0.14..1.1
+m/s^2). With the position error ``e = x - x_ref`` [m], a cascade per sample ``dt`` sets the belt
+speed set point ``V*`` [m/s] and the drive voltage ``U`` [V]::
 
     u_car_hat = V_meas + xdot_hat                  (car speed over the belt surface)
     V*        = clip(u_car_hat + k_x e + k_i I, 0, v_top),   I = integral of e
-
-Inner loop, drive voltage [V]::
-
     U = V*/g + (k_v/g) (V* - V_meas)               (inverse-DC-gain feed-forward + P)
     U = rate_limit(clip(U, 0, u_max), slew_rate)
 
-``xdot_hat`` is supplied (e.g. the pose estimator's ``xdot``) or, if not, computed internally by
-a backward difference + first-order low pass with cut-off ``xdot_cutoff_hz``.
-
-Because ``V*`` contains ``V_meas``, the feed-forward ``V*/g`` cancels the belt pole and the
-belt behaves as an integrator, ``dV_b/dt = a (1 + k_v)(xdot + k_x e + k_i I)`` (unsaturated,
-delay-free).  With ``xdot = u_car - V_b`` the error obeys, for ``k_i = 0``::
-
-    e'' + a (1 + k_v) e' + a (1 + k_v) k_x e = du_car/dt
-
-i.e. zero steady-state error for any constant car speed without an integrator, and
-``e_ss = A / (a (1 + k_v) k_x)`` for a constant car acceleration ``A``.  The optional ``k_i``
-removes residual bias from feed-forward errors (belt-gain mismatch, encoder bias).
-
-Anti wind-up: ``I`` is integrated only when the voltage is not saturated (or the error would
-drive it out of saturation): frozen while ``U`` is clipped at ``0`` (including the coasting
-case ``V_meas > V*``, voltage 0) and ``e < 0``, while clipped at ``u_max`` or ``V*`` at
-``v_top`` and ``e > 0``, and while the slew limiter is active in the direction of ``e``.  ``I``
-is also clamped to ``|k_i I| <= integral_limit`` [m/s].
-
-Default tuning: ``k_x = 2.0 1/s``, ``k_v = 1.0`` -> characteristic ``s^2 + 9 s + 18`` (poles
--3 and -6 1/s; dominant time constant 0.33 s), well separated from the 0.05 s drive delay;
-``k_i = 0.3 1/s^2`` (slow bias removal, zero at 0.15 1/s).  ``x_ref = 0.3 m`` ahead of the
-belt centre because the car can only be pushed *back* quickly (the belt can accelerate at
-> 10 m/s^2 but decelerate only at the friction rate), so deceleration transients are much
-larger than acceleration ones; see ``docs/treadmill.md`` for the closed-loop results.
-
-Bad inputs (rule of :meth:`BeltSpeedRegulator.update`; the voltage is always finite and within
-``[0, u_max]``, and :attr:`RegulatorOutput.reason` says what was wrong)
--------------------------------------------------------------------------------------------
-* ``x`` not a finite number or ``|x| > position_limit`` (default 5 m; the belt is 2.44 m long),
-  or ``belt_speed`` not finite or ``|belt_speed| > speed_limit`` (default 20 m/s; top speed
-  6.7 m/s): no usable feedback -> 0 V and :meth:`~BeltSpeedRegulator.reset` (integral, slew
-  memory, velocity filter), exactly as for ``enabled = False``. From the next valid sample on
-  the regulator is a fresh one: its outputs equal a new regulator's fed the same inputs.
-* ``xdot`` None, not finite or ``|xdot| > speed_limit``: the internal estimate (filtered
-  difference of ``x``) is used instead (reported unless ``xdot`` is None).
-* Should the internal velocity filter or the voltage ever come out non-finite (e.g. a
-  subnormal ``dt``), the regulator resets and answers 0 V; nothing non-finite is stored.
-* ``dt`` not a finite positive period is a programming error: ``ValueError``.
+The feed-forward cancels the belt pole, so ``e'' + a (1 + k_v) e' + a (1 + k_v) k_x e =
+du_car/dt``: no steady-state error for a constant car speed. It exists to keep the car on the
+treadmill, away from its ends. Derivation and anti-windup: :class:`BeltSpeedRegulator`; tuning:
+:class:`RegulatorParams`; bad inputs: :meth:`BeltSpeedRegulator.update`; closed-loop results:
+docs/treadmill.md.
 """
 from __future__ import annotations
 
@@ -94,6 +50,13 @@ class RegulatorParams:
     belt_gain [m/s/V] belt DC gain ``b/a``; u_max [V] voltage limit; slew_rate [V/s]
     voltage slew limit; v_top [m/s] belt top speed; xdot_cutoff_hz [Hz] internal
     car-velocity filter cut-off.
+
+    Default tuning: ``k_x = 2.0 1/s``, ``k_v = 1.0`` -> characteristic ``s^2 + 9 s + 18`` (poles -3
+    and -6 1/s; dominant time constant 0.33 s), well separated from the 0.05 s drive delay; ``k_i =
+    0.3 1/s^2`` (slow bias removal, zero at 0.15 1/s).  ``x_ref = 0.3 m`` ahead of the belt centre
+    because the car can only be pushed *back* quickly (the belt can accelerate at > 10 m/s^2 but
+    decelerate only at the friction rate), so deceleration transients are much larger than
+    acceleration ones; see ``docs/treadmill.md`` for the closed-loop results.
     """
 
     x_ref: float = 0.3
@@ -141,10 +104,29 @@ DEFAULT_SPEED_LIMIT = 20.0
 
 
 class BeltSpeedRegulator:
-    """Cascade belt-speed regulator (see module docstring).
+    """Cascade belt-speed regulator (control law in the module docstring).
 
     ``position_limit`` [m] and ``speed_limit`` [m/s] bound the inputs it accepts (bad-input rule
-    in the module docstring).
+    in :meth:`update`).
+
+    ``xdot_hat`` is supplied (e.g. the pose estimator's ``xdot``) or, if not, computed internally
+    by a backward difference + first-order low pass with cut-off ``xdot_cutoff_hz``.
+
+    Because ``V*`` contains ``V_meas``, the feed-forward ``V*/g`` cancels the belt pole and the
+    belt behaves as an integrator, ``dV_b/dt = a (1 + k_v)(xdot + k_x e + k_i I)`` (unsaturated,
+    delay-free).  With ``xdot = u_car - V_b`` the error obeys, for ``k_i = 0``::
+
+        e'' + a (1 + k_v) e' + a (1 + k_v) k_x e = du_car/dt
+
+    i.e. zero steady-state error for any constant car speed without an integrator, and ``e_ss = A /
+    (a (1 + k_v) k_x)`` for a constant car acceleration ``A``.  The optional ``k_i`` removes
+    residual bias from feed-forward errors (belt-gain mismatch, encoder bias).
+
+    Anti wind-up: ``I`` is integrated only when the voltage is not saturated (or the error would
+    drive it out of saturation): frozen while ``U`` is clipped at ``0`` (including the coasting
+    case ``V_meas > V*``, voltage 0) and ``e < 0``, while clipped at ``u_max`` or ``V*`` at
+    ``v_top`` and ``e > 0``, and while the slew limiter is active in the direction of ``e``.  ``I``
+    is also clamped to ``|k_i I| <= integral_limit`` [m/s].
     """
 
     def __init__(self, params: Optional[RegulatorParams] = None,
@@ -179,6 +161,21 @@ class BeltSpeedRegulator:
                xdot: Optional[float] = None, enabled: bool = True) -> RegulatorOutput:
         """Compute the drive voltage for this sample.
 
+        Bad inputs: the voltage is always finite and within ``[0, u_max]``, and
+        :attr:`RegulatorOutput.reason` says what was wrong.
+
+        * ``x`` not a finite number or ``|x| > position_limit`` (default 5 m; the belt is 2.44 m
+          long), or ``belt_speed`` not finite or ``|belt_speed| > speed_limit`` (default 20 m/s;
+          top speed 6.7 m/s): no usable feedback -> 0 V and :meth:`~BeltSpeedRegulator.reset`
+          (integral, slew memory, velocity filter), exactly as for ``enabled = False``. From the
+          next valid sample on the regulator is a fresh one: its outputs equal a new regulator's
+          fed the same inputs.
+        * ``xdot`` None, not finite or ``|xdot| > speed_limit``: the internal estimate (filtered
+          difference of ``x``) is used instead (reported unless ``xdot`` is None).
+        * Should the internal velocity filter or the voltage ever come out non-finite (e.g. a
+          subnormal ``dt``), the regulator resets and answers 0 V; nothing non-finite is stored.
+        * ``dt`` not a finite positive period is a programming error: ``ValueError``.
+
         Parameters
         ----------
         x : float
@@ -193,7 +190,7 @@ class BeltSpeedRegulator:
         enabled : bool
             False (e.g. safety fault) -> output 0 V and reset the controller state.
 
-        Never raises for bad ``x``, ``belt_speed``, ``xdot`` (module docstring rule); the
+        Never raises for bad ``x``, ``belt_speed``, ``xdot`` (the rule above); the
         voltage is always finite and within ``[0, u_max]``.
         """
         p = self.params

@@ -3,34 +3,46 @@ from dataclasses import asdict, dataclass
 import math
 
 from irs_common.params import Param, core_values, flatten, node_only, table_from_defaults
-from irs_models.constants import BELT_HALF_LENGTH
+from irs_models.constants import BELT_HALF_LENGTH, BELT_HALF_WIDTH
 
 from .regulator import RegulatorParams
 from .safety import SafetyParams
 
 INF = math.inf
+#: The belt's top speed (15 mph) [m/s] and the drive voltage that reaches it [V].
+V_TOP = RegulatorParams().v_top
+U_MAX = RegulatorParams().u_max
+#: Ranges: finite bounds on every gain (docs/treadmill.md, "Parameter bounds"): the position
+#: loop is kept well below the 1 kHz sample rate and the 0.05 s drive delay (k_x <= 50 1/s;
+#: the default 2 1/s gives poles at -3 and -6 1/s), the drive within the belt's range
+#: (u_max <= 12.7 V, the belt's 15 mph), speeds within the belt's top speed.
 _META = {
     'regulator.x_ref': ('m', -BELT_HALF_LENGTH, BELT_HALF_LENGTH,
                         'longitudinal set point of the car c.g. on the belt'),
-    'regulator.k_x': ('1/s', 0.0, INF, 'position gain (outer loop)'),
-    'regulator.k_i': ('1/s^2', 0.0, INF, 'position integral gain (conditional integration)'),
-    'regulator.integral_limit': ('m/s', 0.0, INF,
+    'regulator.k_x': ('1/s', 0.0, 50.0, 'position gain (outer loop)'),
+    'regulator.k_i': ('1/s^2', 0.0, 50.0, 'position integral gain (conditional integration)'),
+    'regulator.integral_limit': ('m/s', 0.0, V_TOP,
                                  'bound on k_i times the integral of the position error'),
-    'regulator.k_v': ('1', 0.0, INF,
+    'regulator.k_v': ('1', 0.0, 100.0,
                       'inner belt-speed proportional gain relative to the feed-forward'),
-    'regulator.belt_gain': ('m/s/V', 0.0, INF,
+    'regulator.belt_gain': ('m/s/V', 0.01, 10.0,
                             'belt DC gain 2.38/4.5 (paper Eq. 2) for the feed-forward'),
-    'regulator.u_max': ('V', 0.0, 100.0,
-                        'drive voltage upper limit (lower limit 0 V: no reversing)'),
-    'regulator.slew_rate': ('V/s', 0.0, INF, 'drive voltage slew limit'),
-    'regulator.v_top': ('m/s', 0.0, 20.0, 'belt top speed (15 mph)'),
-    'regulator.xdot_cutoff_hz': ('Hz', 0.0, INF, 'cut-off of the internal car-velocity filter'),
-    'safety.belt_half_length': ('m', 0.0, INF, 'half of the belt length'),
-    'safety.belt_half_width': ('m', 0.0, INF, 'half of the belt width'),
-    'safety.end_margin': ('m', 0.0, INF, 'fault when the c.g. is closer than this to a belt end'),
-    'safety.edge_margin': ('m', 0.0, INF,
+    'regulator.u_max': ('V', 0.0, U_MAX,
+                        'drive voltage upper limit (lower limit 0 V: no reversing; at most the '
+                        "belt drive's 12.7 V)"),
+    'regulator.slew_rate': ('V/s', 0.0, 1e4, 'drive voltage slew limit'),
+    'regulator.v_top': ('m/s', 0.0, V_TOP, 'belt top speed (15 mph)'),
+    'regulator.xdot_cutoff_hz': ('Hz', 0.0, 500.0,
+                                 'cut-off of the internal car-velocity filter (below the 500 Hz '
+                                 'Nyquist frequency of the 1 kHz loop)'),
+    'safety.belt_half_length': ('m', 0.0, BELT_HALF_LENGTH, 'half of the belt length'),
+    'safety.belt_half_width': ('m', 0.0, BELT_HALF_WIDTH, 'half of the belt width'),
+    'safety.end_margin': ('m', 0.0, BELT_HALF_LENGTH,
+                          'fault when the c.g. is closer than this to a belt end'),
+    'safety.edge_margin': ('m', 0.0, BELT_HALF_WIDTH,
                            'fault when the c.g. is closer than this to a belt edge'),
-    'safety.stale_timeout': ('s', 0.0, INF, 'fault when no valid position for this long'),
+    'safety.stale_timeout': ('s', 0.0, 10.0, 'fault when no valid position for this long (the '
+                             'grace of a stalled pose input: the last drive stays in effect)'),
 }
 NODE = [
     Param('rate_hz', 1000.0, 'control rate = pose rate', 'Hz', 1.0, 100000.0, read_only=True),

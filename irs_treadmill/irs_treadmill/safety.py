@@ -11,18 +11,8 @@ A fault cuts the drive (0 V; the belt then coasts down by friction, it cannot br
   (counted in ``recoveries``): a start-up transient, a scheduling stall or one rejected arm
   reading must not latch the belt off and lose the car.
 
-Stamps (:meth:`SafetyMonitor.update_position` with the node's clock ``now``): a position whose
-stamp is more than ``future_tolerance`` [s] ahead of ``now`` (``FUTURE``), or older than the last
-stored one (``OLD``), or equal to it (``REPEAT``) is *rejected for timing*: its stamp is never
-stored as the last position time and it does not refresh the stale timer (so a reading stamped a
-day ahead, or at the largest time, can neither make later readings look old nor hide a stale
-input); the rejection is counted in ``rejected_stamps`` and described in ``last_rejection``. Its
-x, y are still checked against the belt ends and edges (a car near an edge is a fault whatever
-its stamp). Without ``now`` (offline use) only OLD/REPEAT are rejected.
-
-Before the first valid position the drive is inhibited (``drive_permitted`` False) without a
-latched fault.  After ``reset()`` the conditions are re-evaluated on the next call, so a
-persisting condition re-latches immediately.  Belt geometry: ``docs/conventions.md``.
+It exists because the belt can only coast: the drive must be cut before the car reaches an end
+or edge. Stamps and start-up: :class:`SafetyMonitor`; belt geometry: ``docs/conventions.md``.
 """
 from __future__ import annotations
 
@@ -81,7 +71,7 @@ class SafetyParams:
     belt_half_width: float = BELT_HALF_WIDTH
     end_margin: float = 0.15
     edge_margin: float = 0.10
-    stale_timeout: float = 0.1
+    stale_timeout: float = 0.5
 
     def __post_init__(self) -> None:
         check_numbers(self, ('belt_half_length', 'belt_half_width', 'end_margin', 'edge_margin',
@@ -110,9 +100,23 @@ TRANSIENT = frozenset({FaultCode.STALE_POSITION, FaultCode.INVALID_INPUT})
 
 
 class SafetyMonitor:
-    """Latched drive-cut logic (see module docstring).
+    """Latched drive-cut logic (the two kinds of fault in the module docstring).
 
     ``future_tolerance`` [s] (>= 0): stamps further ahead of the clock are rejected for timing.
+
+    Stamps (:meth:`SafetyMonitor.update_position` with the node's clock ``now``): a position whose
+    stamp is more than ``future_tolerance`` [s] ahead of ``now`` (``FUTURE``), or older than the
+    last stored one (``OLD``), or equal to it (``REPEAT``) is *rejected for timing*: its stamp is
+    never stored as the last position time and it does not refresh the stale timer (so a reading
+    stamped a day ahead, or at the largest time, can neither make later readings look old nor hide
+    a stale input); the rejection is counted in ``rejected_stamps`` and described in
+    ``last_rejection``. Its x, y are still checked against the belt ends and edges (a car near an
+    edge is a fault whatever its stamp). Without ``now`` (offline use) only OLD/REPEAT are
+    rejected.
+
+    Before the first valid position the drive is inhibited (``drive_permitted`` False) without a
+    latched fault.  After ``reset()`` the conditions are re-evaluated on the next call, so a
+    persisting condition re-latches immediately.  Belt geometry: ``docs/conventions.md``.
     """
 
     def __init__(self, params: Optional[SafetyParams] = None,
@@ -142,7 +146,7 @@ class SafetyMonitor:
 
         ``now`` [s] is the node's clock (sim time in lock-step): a stamp more than
         ``future_tolerance`` ahead of it, or not newer than the last stored stamp, is rejected
-        for timing (module docstring); the belt limits are checked either way. Non-finite x, y
+        for timing (class docstring); the belt limits are checked either way. Non-finite x, y
         or stamp latch ``INVALID_INPUT``.
         """
         p = self.params
@@ -190,9 +194,17 @@ class SafetyMonitor:
         """Check the position age at time ``now`` [s]; call every control period."""
         if not math.isfinite(now):
             self._latch(FaultCode.INVALID_INPUT, f'now={now!r}')
-        elif self._last_stamp is not None and now - self._last_stamp > self.params.stale_timeout:
-            self._latch(FaultCode.STALE_POSITION,
-                        f'last position {now - self._last_stamp:.3f} s old')
+        elif self._last_stamp is not None:
+            self.check_age(now - self._last_stamp)
+        return self.fault
+
+    def check_age(self, age: float) -> FaultCode:
+        """Check a position age [s] measured by the caller (a node measures the wall time since
+        the last valid position *arrived*: a source whose stamps lag the clock, such as a rig
+        catching up after a stall, is not stale).
+        """
+        if self._last_stamp is not None and age > self.params.stale_timeout:
+            self._latch(FaultCode.STALE_POSITION, f'last position {age:.3f} s old')
         return self.fault
 
     # ------------------------------------------------------------------ outputs

@@ -1,36 +1,12 @@
 """``treadmill_regulator`` node: keeps the car at its longitudinal set point with the belt speed.
 
-Inputs: ``pose`` (PoseStamped, car c.g. in the treadmill frame), ``velocity`` (TwistStamped, car
-velocity in the car frame relative to the treadmill), ``belt/speed`` (irs_msgs/BeltSpeed). Pose
-and velocity of the same stamp are paired (they come from the same arm reading); the belt speed
-too when ``sync_belt_speed`` is set. One regulator step per pose: ``treadmill/drive``
-(TreadmillDriveCommand, stamped like the pose) every step and ``treadmill/state``
-(TreadmillState) every ``state_decimation`` steps and whenever the mode changes.
-
-Safety (irs_treadmill.safety): a car near a belt end or edge cuts the drive (0 V: the belt
-coasts) and latches a fault, published in ``treadmill/state`` until reset through the
-``treadmill/reset_fault`` service (std_srvs/Trigger) or a message on ``treadmill/reset``
-(std_msgs/Empty). A NaN pose or no pose for ``safety.stale_timeout`` s cuts the drive too, until
-the next valid pose (an input fault, not a dangerous car: it is not latched).
-
-Bad input at this node's edge:
-
-- values: a pose with ``|x|`` or ``|y|`` beyond the regulator's position limit (5 m; the belt is
-  2.44 x 1.22 m) is not a measurement: treated like a NaN pose (drive cut, transient input
-  fault); a bad belt speed gives 0 V and a regulator reset; a bad velocity makes the regulator
-  use its internal estimate (``BeltSpeedRegulator.update`` rule). The reason is logged through
-  a throttled warner (at most once a second per kind) and the fault is on ``treadmill/state``;
-- stamps, against the node clock: a pose/velocity/belt speed stamped more than
-  ``future_tolerance`` s ahead is dropped (not answered, not stored); an older step than the
-  last is dropped as out of order unless it is more than 1 s older (a replay loop, a restarted
-  rig): then the regulator and the safety monitor's position timing restart (latched faults
-  stay) and the step is taken; the last step again is answered with the same command;
-- the node clock jumping back (``/clock`` of ``bag play --loop --clock``) restarts the same
-  time state.
-
-Writable parameters (``ros2 param set``, applied at once): ``enabled`` (false: 0 V, belt
-coasts), ``regulator.x_ref``, ``regulator.k_x``, ``regulator.k_i``, ``regulator.k_v``,
-``regulator.integral_limit``.
+A thin wrapper of :class:`~irs_treadmill.regulator.BeltSpeedRegulator` and
+:class:`~irs_treadmill.safety.SafetyMonitor`: one regulator step per pose (paired with the
+velocity of the same stamp), ``treadmill/drive`` [V] stamped like the pose and
+``treadmill/state`` out. A car near a belt end or edge cuts the drive and latches a fault until
+reset; a bad or stale pose cuts it until the next valid one. It exists so that the regulator
+and the safety monitor run in the graph unchanged. Topics, the bad-input rule and the writable
+parameters: :class:`TreadmillRegulatorNode`.
 """
 import dataclasses
 import math
@@ -46,11 +22,11 @@ from irs_common.answer_cache import AnswerCache
 from irs_common.input_checks import ThrottledWarner
 from irs_common.node_main import run_node
 from irs_common.orientation import yaw_from_quaternion
+from irs_common.node_edge import EdgeGate
 from irs_common.params import declare_table
-from irs_common.stamp_gate import FUTURE, StampGate
+from irs_common.stamp_gate import FUTURE
 from irs_common.stamp_sync import StampSync
 from irs_common.stamps import to_ns
-from irs_common.time_jump import on_time_jump_back
 from irs_msgs.msg import BeltSpeed, TreadmillDriveCommand, TreadmillState
 
 from .regulator import BeltSpeedRegulator
@@ -59,7 +35,40 @@ from .safety import TRANSIENT, SafetyMonitor
 
 
 class TreadmillRegulatorNode(Node):
-    """Pose and belt speed in, treadmill drive command and state out (module docstring)."""
+    """Pose and belt speed in, treadmill drive command and state out.
+
+    Inputs: ``pose`` (PoseStamped, car c.g. in the treadmill frame), ``velocity`` (TwistStamped,
+    car velocity in the car frame relative to the treadmill), ``belt/speed`` (irs_msgs/BeltSpeed).
+    Pose and velocity of the same stamp are paired (they come from the same arm reading); the belt
+    speed too when ``sync_belt_speed`` is set. One regulator step per pose: ``treadmill/drive``
+    (TreadmillDriveCommand, stamped like the pose) every step and ``treadmill/state``
+    (TreadmillState) every ``state_decimation`` steps and whenever the mode changes.
+
+    Safety (irs_treadmill.safety): a car near a belt end or edge cuts the drive (0 V: the belt
+    coasts) and latches a fault, published in ``treadmill/state`` until reset through the
+    ``treadmill/reset_fault`` service (std_srvs/Trigger) or a message on ``treadmill/reset``
+    (std_msgs/Empty). A NaN pose or no pose for ``safety.stale_timeout`` s cuts the drive too,
+    until the next valid pose (an input fault, not a dangerous car: it is not latched).
+
+    Bad input at this node's edge:
+
+    - values: a pose with ``|x|`` or ``|y|`` beyond the regulator's position limit (5 m; the belt
+      is 2.44 x 1.22 m) is not a measurement: treated like a NaN pose (drive cut, transient input
+      fault); a bad belt speed gives 0 V and a regulator reset; a bad velocity makes the regulator
+      use its internal estimate (``BeltSpeedRegulator.update`` rule). The reason is logged through
+      a throttled warner (at most once a second per kind) and the fault is on ``treadmill/state``;
+    - stamps, against the node clock: a pose/velocity/belt speed stamped more than
+      ``future_tolerance`` s ahead is dropped (not answered, not stored); an older step than the
+      last is dropped as out of order unless it is more than 1 s older (a replay loop, a restarted
+      rig): then the regulator and the safety monitor's position timing restart (latched faults
+      stay) and the step is taken; the last step again is answered with the same command;
+    - the node clock jumping back (``/clock`` of ``bag play --loop --clock``) restarts the same
+      time state.
+
+    Writable parameters (``ros2 param set``, applied at once): ``enabled`` (false: 0 V, belt
+    coasts), ``regulator.x_ref``, ``regulator.k_x``, ``regulator.k_i``, ``regulator.k_v``,
+    ``regulator.integral_limit``.
+    """
 
     def __init__(self, **node_options):
         super().__init__('treadmill_regulator', **node_options)
@@ -67,7 +76,6 @@ class TreadmillRegulatorNode(Node):
         config = regulator_config(self.p)
         self.regulator = BeltSpeedRegulator(config.regulator)
         self.safety = SafetyMonitor(config.safety, future_tolerance=self.p['future_tolerance'])
-        self.gate = StampGate(int(round(self.p['future_tolerance'] * 1e9)))
         self.dt = 1.0 / self.p['rate_hz']
         inputs = ['pose'] + (['velocity'] if self.p['use_velocity_input'] else []) \
             + (['belt'] if self.p['sync_belt_speed'] else [])
@@ -75,16 +83,16 @@ class TreadmillRegulatorNode(Node):
         self.sync = StampSync(self.inputs)
         self.belt_speed = math.nan
         self.belt_seen = False
+        self.pose_arrived_ns = None   # node clock [ns] when the last valid pose arrived
         self.answer = AnswerCache()   # what was published for the last stamp (re-sent on a repeat)
         self.reported_fault = None
         self.published_mode = None
         self.steps = 0
-        self.dropped = 0         # messages dropped for their stamps (future, out of order)
-        self.time_resets = 0
         # rclpy's throttled logging costs ~1 ms per call: per-step warnings are throttled first.
         self.warner = ThrottledWarner(self.get_logger().warning, 1.0)
+        self.edge = EdgeGate(self, self.p['future_tolerance'], 'pose', self._reset_time_state,
+                             self.warner)
         self.fault_warner = ThrottledWarner(self._log_error, 1.0)
-        self.info_warner = ThrottledWarner(self._log_info, 1.0)
         self.pub_drive = self.create_publisher(
             TreadmillDriveCommand, 'treadmill/drive', qos.COMMAND_PUB
         )
@@ -97,7 +105,6 @@ class TreadmillRegulatorNode(Node):
         self.create_subscription(Empty, 'treadmill/reset', lambda _m: self._reset(), qos.COMMAND)
         self.create_service(Trigger, 'treadmill/reset_fault', self._on_reset_service)
         self.create_timer(max(self.safety.params.stale_timeout / 4.0, 0.001), self._check_stale)
-        self.jump_handle = on_time_jump_back(self, lambda _delta: self._reset_time_state())
 
     # ------------------------------------------------------------------ parameters, time
 
@@ -118,14 +125,13 @@ class TreadmillRegulatorNode(Node):
         self.get_logger().info(f'parameter {name} = {value!r} applied')
 
     def _reset_time_state(self):
-        """Time went back: forget stamps, the regulator state and the position timing (latched
-        faults stay latched). Pending pairs stay: they may hold parts of newer steps already
-        taken from another input.
+        """Time went back: forget the regulator state and the position timing (the edge gate
+        has forgotten the stamps; latched faults stay latched). Pending pairs stay: they may
+        hold parts of newer steps already taken from another input.
         """
-        self.time_resets += 1
-        self.gate.clear()
         self.regulator.reset()
         self.safety.forget_time()
+        self.pose_arrived_ns = None
         self.answer.clear()
 
     def _on_belt(self, msg):
@@ -134,39 +140,22 @@ class TreadmillRegulatorNode(Node):
         else:
             now_ns = self.get_clock().now().nanoseconds
             stamp_ns = to_ns(msg.header.stamp)
-            if stamp_ns - now_ns > self.gate.future_tolerance_ns:
-                self._drop('belt speed', FUTURE, stamp_ns, now_ns)
+            if stamp_ns - now_ns > self.edge.future_tolerance_ns:
+                self.edge.drop('belt speed', FUTURE, stamp_ns, now_ns)
             else:
                 self.belt_speed = msg.speed      # screened by the regulator at each step
                 self.belt_seen = True
 
-    def _drop(self, what, verdict, stamp_ns, now_ns):
-        self.dropped += 1
-        self.warner.warn(f'{what}-{verdict}',
-                         f'{what}: {self.gate.reason(verdict, stamp_ns, now_ns)}',
-                         time.monotonic())
-
-    def _drop_step(self, verdict, stamp_ns, now_ns):
-        self._drop('step', verdict, stamp_ns, now_ns)
-
-    def _time_reset(self, verdict, stamp_ns, now_ns):
-        self.warner.warn('reset', f'pose {self.gate.reason(verdict, stamp_ns, now_ns)}',
-                         time.monotonic())
-        self._reset_time_state()
-
     def _add(self, name, msg):
         stamp_ns = to_ns(msg.header.stamp)
         now_ns = self.get_clock().now().nanoseconds
-        verdict = self.gate.admit(stamp_ns, now_ns)
-        if verdict is not None:
-            self._drop(name, verdict, stamp_ns, now_ns)
+        if not self.edge.admit(name, stamp_ns, now_ns):
             return
         for stamp_ns, vals in self.sync.add(name, stamp_ns, msg):
             self._step(stamp_ns, vals, now_ns)
 
     def _step(self, stamp_ns, vals, now_ns):
-        if not self.gate.take_step(stamp_ns, now_ns, self.answer, self._drop_step,
-                                   self._time_reset):
+        if not self.edge.take_step(stamp_ns, now_ns, self.answer):
             return
         pose = vals['pose']
         x, y = pose.pose.position.x, pose.pose.position.y
@@ -187,10 +176,14 @@ class TreadmillRegulatorNode(Node):
             self.safety.update_position(math.nan, math.nan, stamp_ns * 1e-9, now=now_ns * 1e-9)
         else:
             self.safety.update_position(x, y, stamp_ns * 1e-9, now=now_ns * 1e-9)
+            self.pose_arrived_ns = now_ns
         out = self.regulator.update(x, belt_in, self.dt, xdot=xdot,
                                     enabled=self.safety.drive_permitted and self.p['enabled'])
-        if out.reason:
-            self.warner.warn('input', f'treadmill input: {out.reason}', time.monotonic())
+        if out.reason:    # logged once while it persists
+            self.warner.once('input', f'treadmill input: {out.reason}', time.monotonic())
+        elif self.warner.in_episode('input'):
+            self.warner.end('input', self._log_info, 'treadmill input valid again',
+                            time.monotonic())
         voltage = self.safety.gate(out.voltage) if self.p['enabled'] else 0.0
         self._publish(
             pose.header.stamp, voltage, belt, x, out.voltage == 0.0 and out.speed_setpoint < belt
@@ -226,29 +219,36 @@ class TreadmillRegulatorNode(Node):
             self.reported_fault = self.safety.fault
             kind = 'until the input is valid again' if self.safety.fault in TRANSIENT else \
                 'latched until reset'
-            # once per transition, and at most once a second per fault (input faults can come
-            # and go with every pose)
-            self.fault_warner.warn(f'fault-{int(self.safety.fault)}',
+            # once per transition; input faults that come and go with every pose once in all
+            # until the drive resumes
+            self.fault_warner.once(f'fault-{int(self.safety.fault)}',
                                    f'treadmill fault, drive cut ({kind}): {st.fault_text}',
                                    time.monotonic())
         elif not self.safety.faulted and self.reported_fault is not None:
-            self.info_warner.warn('resumed', f'treadmill input valid again: drive resumes (was: '
+            self.fault_warner.end(f'fault-{int(self.reported_fault)}', self._log_info,
+                                  f'treadmill input valid again: drive resumes (was: '
                                   f'{self.reported_fault.text})', time.monotonic())
             self.reported_fault = None
 
     def _check_stale(self):
-        if self.safety.faulted or self.gate.last_ns is None:
+        """No valid pose *arrived* for ``safety.stale_timeout`` (the node clock since the last
+        one, not its stamp: a rig catching up after a stall of its own sends stamps that lag the
+        clock, and its poses are not stale).
+        """
+        if self.safety.faulted or self.pose_arrived_ns is None:
             return
         now = self.get_clock().now()
-        if self.safety.check(now.nanoseconds * 1e-9):
+        if self.safety.check_age((now.nanoseconds - self.pose_arrived_ns) * 1e-9):
             self.regulator.reset()
             self._publish(now.to_msg(), 0.0, self.belt_speed, math.nan, False)
 
     def _reset(self):
         self.safety.reset()
         self.regulator.reset()
+        self.pose_arrived_ns = None
         self.reported_fault = None
-        self.gate.clear()
+        self.fault_warner.forget_episodes()
+        self.edge.gate.clear()
         self.answer.clear()
         self.get_logger().info('treadmill fault reset')
 

@@ -10,25 +10,8 @@ with ``lsb = adc_range / 2**adc_bits`` [rad], or ``lsb`` given directly (``lsb >
 bits/range).  Noise is drawn from a ``numpy.random.Generator`` seeded by ``seed``: three draws
 per call, in joint order; when the noise is disabled no draws are made.
 
-Resolution and noise (paper Sec. 3.2; the paper prints no numbers for either)
-------------------------------------------------------------------------------
-The paper: the joint encoders tried first "had only 1/10 the angular resolution of a
-potentiometer", and the potentiometers were "found to be a better sensor". So the pots resolve
-angles **10x finer** than the encoders did:
-
-* encoder step ``ENCODER_STEP = 2 pi / 4096 = 1.534 mrad`` (0.088 deg) -- *assumed*: a 1024-line
-  quadrature encoder read x4, the common hobby/lab part of the time (the paper gives no count);
-* pot step ``POT_STEP = ENCODER_STEP / 10 = 0.1534 mrad`` (0.0088 deg) -- the paper's ratio;
-  used as the quantisation step ``lsb`` directly (the converter is not known: 12 bit over
-  360 deg would give the encoder's 1.534 mrad, 16 bit 0.096 mrad);
-* noise ``noise_std = POT_STEP = 0.1534 mrad`` per joint -- *assumed*: a sensor chain whose noise
-  exceeded its step would not have the stated resolution, so the noise is taken at the largest
-  value consistent with it (one step rms). On the 1 m + 1 m arm this gives y_s noise of about
-  0.2 mm rms (was 0.9 mm with the earlier 0.5 mrad, which made the pots noisier than the
-  encoders they beat).
-
-``adc_bits`` / ``adc_range`` give the step instead when ``lsb = 0`` (e.g. 12 bit over 2 pi =
-the encoder's 1.534 mrad, the earlier default).
+It exists so that the estimator sees readings with the resolution and noise of the paper's
+potentiometers; the values and why they are chosen: :class:`ArmSensorParams`.
 """
 
 from __future__ import annotations
@@ -43,7 +26,7 @@ from irs_models.arm_kinematics import ArmGeometry, inverse_kinematics
 __all__ = ['ArmSensorParams', 'ArmSensor', 'quantize', 'ENCODER_STEP', 'POT_RESOLUTION_RATIO',
            'POT_STEP']
 
-#: Joint-encoder angle step [rad]: 1024 lines x 4 (quadrature) per turn -- assumed (module doc).
+#: Joint-encoder angle step [rad]: 1024 lines x 4 (quadrature) per turn; assumed (ArmSensorParams).
 ENCODER_STEP = 2.0 * math.pi / 4096
 #: Paper Sec. 3.2: the encoders had 1/10 the angular resolution of a potentiometer.
 POT_RESOLUTION_RATIO = 10
@@ -59,6 +42,25 @@ def quantize(angle: float, lsb: float) -> float:
 @dataclass
 class ArmSensorParams:
     """Potentiometer model parameters.
+
+    Resolution and noise (paper Sec. 3.2; the paper prints no numbers for either): the joint
+    encoders tried first "had only 1/10 the angular resolution of a potentiometer", and the
+    potentiometers were "found to be a better sensor". So the pots resolve angles **10x finer**
+    than the encoders:
+
+    * encoder step ``ENCODER_STEP = 2 pi / 4096 = 1.534 mrad`` (0.088 deg), *assumed*: a 1024-line
+      quadrature encoder read x4, the common hobby/lab part of the time (the paper gives no count);
+    * pot step ``POT_STEP = ENCODER_STEP / 10 = 0.1534 mrad`` (0.0088 deg), the paper's ratio, used
+      as the quantisation step ``lsb`` directly (the converter is not known: 12 bit over 360 deg
+      gives the encoder's 1.534 mrad, 16 bit 0.096 mrad);
+    * noise ``noise_std = POT_STEP = 0.1534 mrad`` per joint, *assumed*: a sensor chain whose noise
+      exceeds its step does not have the stated resolution, so the noise is taken at the largest
+      value consistent with it (one step rms). On the 1 m + 1 m arm this gives y_s noise of about
+      0.2 mm rms (a 0.5 mrad noise gives 0.9 mm and makes the pots noisier than the encoders they
+      beat).
+
+    ``adc_bits`` / ``adc_range`` give the step instead when ``lsb = 0`` (e.g. 12 bit over 2 pi =
+    the encoder's 1.534 mrad).
 
     Attributes
     ----------
@@ -123,8 +125,8 @@ class ArmSensor:
     #: Standard normal draws taken from the generator at a time. The generator's stream is
     #: consumed in the same order as by three ``normal(0, sigma)`` draws per call, and
     #: ``0 + sigma z`` is what numpy computes for each of them, so every reading is the same to
-    #: the bit (tested); numpy's per-call overhead on 3-element arrays was most of the rig's
-    #: arm model in the 1 kHz loop.
+    #: the bit (tested); drawn one at a time, numpy's per-call overhead on 3-element arrays is
+    #: most of the arm model's cost in the 1 kHz loop.
     NOISE_BLOCK = 3 * 1024
 
     def reset(self) -> None:

@@ -1,90 +1,22 @@
 """Treadmill belt model of the IRS (paper Sec. 3.1, Eq. 1, Eq. 2).
 
-State and units
----------------
-The state is the belt *surface* speed ``V`` [m/s], ``V >= 0`` (the belt surface moves in -x of
-the ``treadmill`` frame, see ``docs/conventions.md``).  The paper notes that "treadmill
-velocity is simply a gain multiplied by the rotational speed", so the rotational Eq. 1 is
-written directly in ``V``: ``J``, ``B``, ``F`` are the inertia [kg], viscous damping [N s/m]
-and sliding friction [N] referred to the belt surface.
-
-Reconstruction of the paper's Eq. 1
------------------------------------
-The OCR text reads ``h.if do = B,o-F+ / dt J J / 1 :, ,if ~ ~~ (l)``: the fragments
-``do/dt``, ``B o``, ``F`` and the two ``J`` denominators, together with the prose ("acceleration
-... by a DC motor which applies torque ..., deceleration ... by shutting off the motor and
-allowing friction to slow the treadmill down"), give the piecewise model::
-
-    J dw/dt = -B w - F + T_m,   T_m >= 0   (drive on; motor torque, cannot brake/reverse)
-    J dw/dt = -B w - F                     (drive off, w > 0; stays at 0 once stopped)
-
-i.e. in belt speed ``dV/dt = -(B/J) (V + F/B) + T_m/J``.  The paper fits
-``F/B = 0.270`` and ``B/J = 0.158``, printing "sec^-1" for both.
-
-Units of F/B (the paper's "0.270 sec^-1"): three readings, with the coast-down time from
-1.2 m/s that each implies (``t_stop`` below):
-
-* **F/B = 0.270 m/s** (taken): F/B has the units of the fitted variable, and the paper fitted
-  belt speed: Fig. 5 plots it, Eq. 2 is in m/s per V, and the coast-downs were taken from the
-  same "time-response ... when the motor received step-decrement velocity commands". The
-  "sec^-1" is B/J's unit repeated; the next sentence's "F/J" names the friction torque
-  contributions (F/J and B/J are the coefficients of Eq. 1), not the printed value.
-  Coast-down from 1.2 m/s: 10.7 s.
-* F/J = 0.270 m/s^2 (the name of the next sentence): F/B = 0.270/0.158 = 1.709 m/s, coast-down
-  3.4 s. Needs both the printed name and the printed unit to be wrong.
-* F/B = 0.270 rad/s of the shaft (the printed unit taken literally, Eq. 1 in rotational speed):
-  the belt value is 0.270 rad/s times the roller radius, which the paper does not give; with
-  the assumed 2 in roller 0.0137 m/s, coast-down about 28 s. Consistent in its units, but the
-  number cannot be used without the unknown radius and gearing, and it makes the "sliding
-  friction" the paper discusses 1 % of the viscous term at 1.2 m/s.
-
-The identification (``sysid treadmill``, from belt-speed data as the paper's) gives F/B in m/s
-and recovers whichever value is configured (``belt.f_over_b``: 0.270, 1.709 or 0.0137 select the
-readings); the default is the first.
-
-Coast-down closed form (drive off, ``V0 > 0``)::
-
-    V(t)   = (V0 + F/B) exp(-(B/J) t) - F/B,   0 <= t <= t_stop
-    t_stop = (J/B) ln(1 + V0 B/F)
-    s(t)   = (V0 + F/B) (1 - exp(-(B/J) t)) / (B/J) - (F/B) t      (belt travel) [m]
-
-Drive-on model (project choice, documented in ``docs/treadmill.md``)
--------------------------------------------------------------------
-Eq. 2, ``V(s)/U(s) = 2.38 / (s + 4.5)`` [m/s/V], is the closed loop of the industrial speed
-controller.  Because the motor can only *add* torque, the controller cannot decelerate the belt
-faster than friction does.  We therefore use::
+The state is the belt *surface* speed ``V >= 0`` [m/s] (the surface moves in -x of the
+``treadmill`` frame, ``docs/conventions.md``); ``position`` is the belt travel [m]. Eq. 1 is
+written in ``V``, with inertia, damping and friction referred to the belt surface::
 
     dV/dt = max( -a V + b u_d ,  -c (V + k) )        (drive on, u_d > 0)
     dV/dt = -c (V + k)  for V > 0,  0 at V = 0       (drive off, u_d <= 0)
 
-with ``a = 4.5 1/s``, ``b = 2.38 m/s^2/V``, ``c = B/J = 0.158 1/s``, ``k = F/B = 0.270 m/s``
-and ``u_d(t) = clip(u(t - T_d), 0, u_max)`` the delayed, clamped drive voltage.  The steady
-state is ``V = (b/a) u = 0.5289 m/s/V * u``.  The speed is hard-clamped to ``[0, v_top]`` with
-``v_top = 15 mph = 6.7056 m/s``, the paper's top speed, which Eq. 2 reaches in steady state at
-``v_top a/b = 12.68 V``: the drive range is therefore ``u_max = 12.7 V`` (assumed: the paper
-gives no range; an earlier 10 V default capped the belt at 5.29 m/s = 11.8 mph).  Since
-``a > c`` the two branches switch at ``V_sw = (b u + c k)/(a - c)``: above ``V_sw`` the belt
-coasts, below it follows the linear drive.  Each branch is linear with constant input, so every
-step is integrated *exactly* (piecewise exponential with the analytic switching / stopping /
-clamping instants); the belt travel ``position`` is the exact integral of ``V``.
+``a = 4.5 1/s`` and ``b = 2.38 m/s^2/V`` (Eq. 2, ``V/U = 2.38/(s + 4.5)`` [m/s/V]),
+``c = B/J = 0.158 1/s``, ``k = F/B = 0.270 m/s``, ``u_d(t) = clip(u(t - T_d), 0, u_max)``;
+steady state ``V = (b/a) u = 0.5289 m/s/V * u``, clamped to ``[0, v_top]`` (15 mph). The motor
+only adds torque, so the drive cannot slow the belt faster than friction does (the ``max``).
+Coast-down: ``V(t) = (V0 + F/B) exp(-(B/J) t) - F/B``, ``t_stop = (J/B) ln(1 + V0 B/F)``.
 
-Transport delay
----------------
-The paper reports a delay in the treadmill controller without a value; we assume
-``T_d = 0.05 s`` by default.  The delay line stores the zero-order-held input segments, so the
-delayed input over one step may be piecewise constant and is still integrated exactly, for any
-step sizes (deterministic, no interpolation).
-
-Shaft encoder
--------------
-An encoder with ``counts_per_rev`` counts per revolution sits on a shaft turning
-``gear_ratio`` times per drive-roller revolution; the roller radius is ``roller_radius``.
-Belt travel per count ``d_c = 2 pi r / (counts_per_rev * gear_ratio)`` [m].  The count is
-``floor(position / d_c)``; the speed estimate is the count difference over the last
-``window_samples`` steps divided by their duration, so its resolution is
-``d_c / (window_samples dt)`` [m/s] and its mean lag about
-``(window_samples/2 + delay_samples) dt``.
-The estimate is further delayed by ``delay_samples`` steps.
+It exists so the rig has a belt that behaves like the paper's (drive delay, one-sided torque,
+quantised encoder speed) and is stepped exactly and deterministically for any step size.
+Reconstruction of Eq. 1 from the OCR and the three readings of the units of F/B:
+docs/treadmill.md.
 """
 from __future__ import annotations
 
@@ -114,8 +46,9 @@ class BeltParams:
     b_over_j : float
         ``c = B/J`` [1/s] (paper: 0.158).
     f_over_b : float
-        ``k = F/B`` [m/s] (paper: 0.270; the module docstring on its units: 1.709 and 0.0137
-        are the other readings).
+        ``k = F/B`` [m/s] (paper: 0.270; 1.709 and 0.0137 are the other readings of its
+        units, docs/treadmill.md). ``sysid treadmill`` identifies F/B in m/s from belt-speed
+        data and recovers whichever of the three is configured.
     v_top : float
         Hard speed clamp [m/s] (15 mph = 6.7056 m/s).
     u_max : float
@@ -207,6 +140,13 @@ def coast_distance(v0: float, b_over_j: float = 0.158, f_over_b: float = 0.270) 
 class BeltEncoder:
     """Quantized, windowed, delayed belt-speed measurement from a shaft encoder.
 
+    The encoder has ``counts_per_rev`` counts per revolution of a shaft turning ``gear_ratio``
+    times per drive-roller revolution (roller radius ``roller_radius``). Belt travel per count
+    ``d_c = 2 pi r / (counts_per_rev * gear_ratio)`` [m]; the count is ``floor(position / d_c)``.
+    The speed estimate is the count difference over the last ``window_samples`` steps divided by
+    their duration, delayed by ``delay_samples`` steps: resolution ``d_c / (window_samples dt)``
+    [m/s], mean lag about ``(window_samples/2 + delay_samples) dt``.
+
     ``update(position, dt)`` is called once per step with the true belt travel [m].
     ``speed`` is the delayed estimate [m/s]; ``count`` the current raw count [-].
     """
@@ -245,6 +185,18 @@ class BeltEncoder:
 
 class TreadmillBelt:
     """Fixed-step, deterministic treadmill belt (see module docstring for the equations).
+
+    Since ``a > c`` the two drive-on branches switch at ``V_sw = (b u + c k)/(a - c)``: above
+    ``V_sw`` the belt coasts, below it follows the linear drive. Each branch is linear with
+    constant input, so every step is integrated *exactly* (piecewise exponential with the
+    analytic switching, stopping and clamping instants); ``position`` is the exact integral of
+    ``V``. The drive range ``u_max = 12.7 V`` is assumed (the paper gives none): Eq. 2 reaches
+    ``v_top = 6.7056 m/s`` at ``v_top a/b = 12.68 V``.
+
+    The paper reports a delay in the treadmill controller without a value; ``T_d = 0.05 s`` is
+    assumed. The delay line stores the zero-order-held input segments, so the delayed input over
+    one step may be piecewise constant and is still integrated exactly, for any step sizes
+    (deterministic, no interpolation).
 
     Parameters
     ----------

@@ -15,20 +15,8 @@ start of the step; the ``u`` term is integrated exactly::
 
     x_{k+1} = x_k + cos(psi) [u_cmd dt + (u_k - u_cmd) tau_u (1 - a)] - (v sin(psi) + V_b) dt
 
-Off-belt detection: fault when the c.g. leaves the belt rectangle shrunk by the car's half
-length (in x) and half width (in y), i.e. ``|x| > 1.2192 - length/2`` or
-``|y| > 0.6096 - width/2``; the edge is reported as ``'front'`` (+x), ``'rear'`` (-x),
-``'left'`` (+y) or ``'right'`` (-y).
-
-Wheel speeds (independent-wheel-torque, 4WS car; kinematic, no longitudinal slip): the contact
-point of wheel i at body position ``(px_i, py_i)`` moves over the belt surface with body-frame
-velocity ``(u - r py_i, v + r px_i)``; the wheel rolls along its own heading (steer angle
-``delta_i``, front wheels ``delta_f``, rear wheels ``delta_r``)::
-
-    omega_i = [ (u - r py_i) cos(delta_i) + (v + r px_i) sin(delta_i) ] / R_w
-
-with ``px = +lf`` (front) / ``-lr`` (rear), ``py = +track/2`` (left) / ``-track/2`` (right).
-Order ``[FL, FR, RL, RR]`` [rad/s], positive = rolling forward.
+It exists to give the rig the car's position along the belt (the treadmill regulator's input),
+the off-belt fault (:func:`off_belt_edge`) and the kinematic wheel speeds (:func:`wheel_speeds`).
 """
 
 from __future__ import annotations
@@ -82,6 +70,11 @@ class CarParams:
 def off_belt_edge(x: float, y: float, params: CarParams) -> str:
     """Edge the c.g. crossed, or ``''`` if it is inside the shrunk belt rectangle.
 
+    Off-belt detection: fault when the c.g. leaves the belt rectangle shrunk by the car's half
+    length (in x) and half width (in y), i.e. ``|x| > 1.2192 - length/2`` or ``|y| > 0.6096 -
+    width/2``; the edge is reported as ``'front'`` (+x), ``'rear'`` (-x), ``'left'`` (+y) or
+    ``'right'`` (-y).
+
     Non-finite positions are reported as ``'nonfinite'``.
     """
     if not (math.isfinite(x) and math.isfinite(y)):
@@ -101,7 +94,17 @@ def off_belt_edge(x: float, y: float, params: CarParams) -> str:
 
 def wheel_speeds(u: float, v: float, r: float, delta_f: float, delta_r: float,
                  params: CarParams) -> np.ndarray:
-    """Kinematic wheel angular speeds ``[FL, FR, RL, RR]`` [rad/s] (see module docstring).
+    """Kinematic wheel angular speeds ``[FL, FR, RL, RR]`` [rad/s].
+
+    Wheel speeds (independent-wheel-torque, 4WS car; kinematic, no longitudinal slip): the contact
+    point of wheel i at body position ``(px_i, py_i)`` moves over the belt surface with body-frame
+    velocity ``(u - r py_i, v + r px_i)``; the wheel rolls along its own heading (steer angle
+    ``delta_i``, front wheels ``delta_f``, rear wheels ``delta_r``)::
+
+        omega_i = [ (u - r py_i) cos(delta_i) + (v + r px_i) sin(delta_i) ] / R_w
+
+    with ``px = +lf`` (front) / ``-lr`` (rear), ``py = +track/2`` (left) / ``-track/2`` (right).
+    Order ``[FL, FR, RL, RR]`` [rad/s], positive = rolling forward.
 
     Parameters
     ----------

@@ -1,45 +1,16 @@
 """The whole IRS rig as one fixed-step, deterministic simulation (no rclpy).
 
-Composition per step ``k -> k+1`` (time ``t_k = k dt``), inputs held (ZOH) over the step:
+Each step ``k -> k+1`` (``t_k = k dt``) sanitises the inputs, advances the lateral plant with
+the **achieved** steer at ``t_k``, the car's longitudinal state with the exact belt travel, the
+steering actuators and the belt, and forms the outputs at ``t_{k+1}`` (arm potentiometer angles,
+belt encoder speed, actuator states, ground truth, wheel speeds, latched fault flags).
+``outputs_k`` describe the state at ``t_k``, and the command applied over ``[t_k, t_{k+1})`` is
+the one computed from them (``inputs_k = input_fn(outputs_k)``): no delay beyond the physical
+ones (actuator, belt and encoder delays).
 
-1. The inputs are sanitised (:func:`sanitize_steer`, :func:`sanitize_voltage`,
-   :func:`sanitize_speed`): NaN/inf/out-of-range values are replaced by the safe value and a
-   reason string is recorded in ``RigOutputs.input_warnings``.
-2. The lateral plant advances with the **achieved** steer angles at ``t_k`` (actuator outputs
-   read before the actuators step; ZOH of the sampled actuator output, i.e. at most one sample,
-   1 ms at 1 kHz, of extra lag versus a continuous cascade).
-3. The car's longitudinal state advances with ``psi_k``, ``v_k`` held and the *exact* belt
-   travel over the step (belt stepped first, ``x -= s_{k+1} - s_k``).
-4. Both steering actuators step with the commands; the belt steps with the drive voltage.
-5. Outputs at ``t_{k+1}`` are formed: arm potentiometer angles (inverse kinematics + noise +
-   ADC), belt encoder speed, actuator states, ground truth, wheel speeds, fault flags.
-
-Timing convention (shared with the ROS graph, which must agree bit-for-bit with
-:func:`simulate`): ``outputs_k`` describe the state at ``t_k``; the command applied during step
-``k -> k+1`` is the one computed from ``outputs_k`` (``inputs_k = input_fn(outputs_k)``).  So a
-controller that reads the sensors at ``t_k`` and answers immediately acts over ``[t_k, t_{k+1})``
--- no extra sample of delay beyond the physical ones (actuator transport delay, belt delay,
-encoder delay).
-
-Faults are latched: the first off-belt edge (``'front'``, ``'rear'``, ``'left'``, ``'right'``,
-``'nonfinite'``) or an arm reach error sets ``fault`` and ``fault_reason``; the simulation keeps
-integrating (the ROS node decides what to do).  Arm angles are NaN while the arm cannot reach.
-
-Torque car (``plant: two_track``, :mod:`.rig_torque_car`): steps 2-3 are one RK4 step of the
-two-track model with the achieved steer at ``t_k``, the wheel torques and locked flags of
-``RigInputs`` (sanitised: non-finite -> 0 N m with a reason, clipped to
-``two_track.torque_limit``) and the belt's mean speed and acceleration over the step (the belt
-is stepped first); the driver's speed command is ignored (the speed comes from the wheel
-torques). The outputs then carry the encoder counts and velocities and the tyres' ground truth
-(``RigOutputs.encoder_counts``, ``encoder_velocity``, ``tyre``; empty / None for the other
-plants, whose steps are unchanged to the bit).
-
-Heading with ``plant: identified``: Eq. 6 has no yaw or sideslip state, so the heading, yaw rate,
-c.g. position and the arm angles derived from them are NOT physical (``psi = v_s / U``, see
-:mod:`irs_models.identified`; a 5 deg doublet on the ``irs_2wd`` preset puts the heading off by
-33-460 % of its peak, 1 s to 0.1 s per half).  Only the sensor-point displacement y_s is the
-model's.  Use ``plant: bicycle`` when heading or yaw rate matter, or ``identified.heading:
-bicycle`` for an identified G(s) that is some bicycle's (refused with a sentence otherwise).
+It exists so that one core serves the ``vehicle_sim`` node, :func:`simulate` and the offline
+twin, which must agree to the bit. Step order, faults, the torque car and the heading of
+``plant: identified``: :class:`RigSimulation`; the components: docs/vehicle_sim.md.
 """
 
 from __future__ import annotations
@@ -378,7 +349,50 @@ class RigConfig:
 
 # ----------------------------------------------------------------------------- simulation
 class RigSimulation:
-    """Deterministic rig simulation; see the module docstring for the step order."""
+    """Deterministic rig simulation.
+
+    Composition per step ``k -> k+1`` (time ``t_k = k dt``), inputs held (ZOH) over the step:
+
+    1. The inputs are sanitised (:func:`sanitize_steer`, :func:`sanitize_voltage`,
+       :func:`sanitize_speed`): NaN/inf/out-of-range values are replaced by the safe value and a
+       reason string is recorded in ``RigOutputs.input_warnings``.
+    2. The lateral plant advances with the **achieved** steer angles at ``t_k`` (actuator outputs
+       read before the actuators step; ZOH of the sampled actuator output, i.e. at most one sample,
+       1 ms at 1 kHz, of extra lag versus a continuous cascade).
+    3. The car's longitudinal state advances with ``psi_k``, ``v_k`` held and the *exact* belt
+       travel over the step (belt stepped first, ``x -= s_{k+1} - s_k``).
+    4. Both steering actuators step with the commands; the belt steps with the drive voltage.
+    5. Outputs at ``t_{k+1}`` are formed: arm potentiometer angles (inverse kinematics + noise +
+       ADC), belt encoder speed, actuator states, ground truth, wheel speeds, fault flags.
+
+    Timing convention (shared with the ROS graph, which must agree bit-for-bit with
+    :func:`simulate`): ``outputs_k`` describe the state at ``t_k``; the command applied during step
+    ``k -> k+1`` is the one computed from ``outputs_k`` (``inputs_k = input_fn(outputs_k)``).  So a
+    controller that reads the sensors at ``t_k`` and answers immediately acts over ``[t_k,
+    t_{k+1})`` -- no extra sample of delay beyond the physical ones (actuator transport delay, belt
+    delay, encoder delay).
+
+    Faults are latched: the first off-belt edge (``'front'``, ``'rear'``, ``'left'``, ``'right'``,
+    ``'nonfinite'``) or an arm reach error sets ``fault`` and ``fault_reason``; the simulation
+    keeps integrating (the ROS node decides what to do).  Arm angles are NaN while the arm cannot
+    reach.
+
+    Torque car (``plant: two_track``, :mod:`.rig_torque_car`): steps 2-3 are one RK4 step of the
+    two-track model with the achieved steer at ``t_k``, the wheel torques and locked flags of
+    ``RigInputs`` (sanitised: non-finite -> 0 N m with a reason, clipped to
+    ``two_track.torque_limit``) and the belt's mean speed and acceleration over the step (the belt
+    is stepped first); the driver's speed command is ignored (the speed comes from the wheel
+    torques). The outputs then carry the encoder counts and velocities and the tyres' ground truth
+    (``RigOutputs.encoder_counts``, ``encoder_velocity``, ``tyre``; empty / None for the other
+    plants, whose steps are unchanged to the bit).
+
+    Heading with ``plant: identified``: Eq. 6 has no yaw or sideslip state, so the heading, yaw
+    rate, c.g. position and the arm angles derived from them are NOT physical (``psi = v_s / U``,
+    see :mod:`irs_models.identified`; a 5 deg doublet on the ``irs_2wd`` preset puts the heading
+    off by 33-460 % of its peak, 1 s to 0.1 s per half).  Only the sensor-point displacement y_s is
+    the model's.  Use ``plant: bicycle`` when heading or yaw rate matter, or ``identified.heading:
+    bicycle`` for an identified G(s) that is some bicycle's (refused with a sentence otherwise).
+    """
 
     def __init__(self, config: RigConfig | None = None):
         self.config = config if config is not None else RigConfig()
@@ -414,6 +428,8 @@ class RigSimulation:
         self.k = 0
         self._speed_cmd = c.u0
         self._fault_reason = ''
+        self.path_rate = 1.0
+        self._path_time = 0.0
         self._outputs = self._make_outputs((), None)
         return self._outputs
 
@@ -488,7 +504,10 @@ class RigSimulation:
         v_k = self.plant.lateral_velocity
         d_front_k = self.act_front.achieved
         d_rear_k = self.act_rear.achieved
-        self.plant.step(d_front_k, d_rear_k, dt)
+        if self.path_rate == 1.0:
+            self.plant.step(d_front_k, d_rear_k, dt)
+        else:
+            self._step_on_path(d_front_k, d_rear_k, dt)
         s_prev = self.belt.position
         self.belt.step(vb, dt)
         travel = self.belt.position - s_prev
@@ -500,8 +519,18 @@ class RigSimulation:
         self._outputs = self._make_outputs(tuple(warn), applied)
         return self._outputs
 
+    def _step_on_path(self, d_front: float, d_rear: float, dt: float) -> None:
+        """Advance the lateral plant by ``path_rate`` of the step (a car slower than the
+        plant's speed ``U`` covers its path at ``u / U`` of real time): whole steps of ``dt``
+        as the accumulated path time allows, so the plant's one discretisation serves.
+        """
+        self._path_time += max(0.0, min(1.0, self.path_rate)) * dt
+        while self._path_time >= dt:
+            self.plant.step(d_front, d_rear, dt)
+            self._path_time -= dt
+
     def _step_torque_car(self, inputs: RigInputs, applied: RigInputs, warn: list) -> RigOutputs:
-        """Step ``t_k -> t_{k+1}`` of the torque car (module docstring); ``applied`` holds the
+        """Step ``t_k -> t_{k+1}`` of the torque car (class docstring); ``applied`` holds the
         sanitised steer, voltage and speed command, ``warn`` their reasons.
         """
         dt = self.config.dt

@@ -127,16 +127,29 @@ _TWO_TRACK = {
     'lr': ('m', 0.0, 1.0, 'c.g. to rear axle (irs_iwt: 0.15)'),
     'track': ('m', 0.0, 1.0, 'track width (irs_iwt: 0.17)'),
     'wheel_radius': ('m', 0.0, 1.0, 'effective rolling radius (irs_iwt: 0.033)'),
-    'c_f': ('N/rad', 0.0, INF, 'front axle cornering stiffness at the static load (irs_iwt)'),
-    'c_r': ('N/rad', 0.0, INF, 'rear axle cornering stiffness at the static load (irs_iwt)'),
+    'c_f': ('N/rad', 0.0, INF, 'front axle cornering stiffness at the static load (rubber '
+            '1:10 tyres, 4.95 /rad per unit load: irs_models.torque_car)'),
+    'c_r': ('N/rad', 0.0, INF, 'rear axle cornering stiffness at the static load (rubber '
+            '1:10 tyres, 5.72 /rad per unit load)'),
     'cg_height': ('m', 0.0, 1.0, 'c.g. height for the load transfer (assumed 0.04)'),
     'wheel_inertia': ('kg m^2', 0.0, INF,
                       'spin inertia of wheel, tyre and hub-motor rotor (assumed 5e-5)'),
     'rolling_resistance': ('1', 0.0, 1.0, 'rolling resistance coefficient f_r (assumed 0.02)'),
     'rr_speed': ('m/s', 0.0, INF, 'speed over which rolling resistance builds up (tanh)'),
     'c_kappa': ('1', 0.0, INF, 'tyre longitudinal slip stiffness per unit load (assumed 10)'),
-    'shape_c': ('1', 1.0, 2.0, 'tyre magic-formula shape C (1.41: sliding/peak 0.80)'),
-    'shape_e': ('1', -INF, 1.0, 'tyre magic-formula curvature E (< 1)'),
+    'peak_slip_x': ('1', 0.0, INF, 'tyre longitudinal slip of the force peak at mu_ref (TMeasy '
+                    's_M; 0.16)'),
+    'peak_slip_y': ('1', 0.0, INF, 'tyre lateral slip (tan of the slip angle) of the force peak '
+                    'at mu_ref (0.33: 18.3 deg)'),
+    'sliding_slip_x': ('1', 0.0, INF, 'tyre longitudinal slip from which the force slides '
+                       '(TMeasy s_S; 1.0: a locked wheel)'),
+    'sliding_slip_y': ('1', 0.0, INF, 'tyre lateral slip from which the force slides (1.0)'),
+    'sliding_ratio_x': ('1', 0.0, 1.0, 'tyre longitudinal sliding / peak force (0.65: '
+                        "Burckhardt's locked / peak)"),
+    'sliding_ratio_y': ('1', 0.0, 1.0, 'tyre lateral sliding / peak force (0.65)'),
+    'mu_ref': ('1', 0.0, 2.0, 'friction at which the tyre slips are given (0.8)'),
+    'slip_mu_exponent': ('1', 0.0, 1.0, 'tyre slips scale as (mu / mu_ref)^q (0.56: '
+                         "Burckhardt's peaks; 1 = Rill's)"),
     'relaxation_length': ('m', 0.0, 1.0, 'tyre longitudinal relaxation length sigma'),
     'v_low': ('m/s', 0.0, INF, 'slip regularisation speed near standstill'),
     'low_speed_damping': ('s/m', 0.0, INF,
@@ -243,9 +256,20 @@ NODE_PARAMS = node_only([
     Param(
         'command_timeout',
         0.1,
-        'real time: a steering, drive or wheel torque command older than this is stale '
-        'and the safe value is used (steer 0 rad, drive 0 V, torques 0 N m); the driver speed '
-        'is held',
+        'real time: a steering or drive command older than this is late and its last value is '
+        'held (rig/status SAFE_HOLDING) for up to stall_grace; a wheel torque command older '
+        'than this is stale (torques 0 N m); the driver speed is held',
+        's',
+        0.001,
+        3600.0,
+        writable=True,
+    ),
+    Param(
+        'stall_grace',
+        0.5,
+        'real time: a steering or drive command silent for longer than this (or a treadmill '
+        'fault) brings the rig to a controlled stop (steer 0, belt coasts, car speed follows '
+        'the belt; docs/safety.md); at least command_timeout (the larger of the two applies)',
         's',
         0.001,
         3600.0,

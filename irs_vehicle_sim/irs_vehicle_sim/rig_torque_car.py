@@ -1,28 +1,15 @@
-"""The torque car in the rig: ``plant: two_track`` (ROS-free; issue 13, docs/torque_car.md).
+"""The torque car in the rig: ``plant: two_track`` (ROS-free; docs/torque_car.md).
 
 :class:`TorqueCarPlant` couples the cores the rig steps for the independent-wheel-torque car:
 the two-track model (:mod:`.two_track`, RK4), the surface (:mod:`.surface`) and the four wheel
-encoders (:mod:`.wheel_encoder`). :class:`~irs_vehicle_sim.rig.RigSimulation` feeds it, per step
-``t_k -> t_{k+1}`` with the inputs held:
-
-* the **achieved** front and rear steer at ``t_k`` of the rig's two actuator models;
-* the belt's mean speed and acceleration over the step, from the belt model stepped first::
+encoders (:mod:`.wheel_encoder`), fed per step with the achieved steer, the belt's mean speed
+``V_b = (s_{k+1} - s_k) / dt`` [m/s] and acceleration ``a_b`` [m/s^2], and the sanitised wheel
+torques ``T_i`` [N m] (:func:`sanitize_wheel_inputs`). It exists so that the rig steps the torque
+car with the same belt, actuators and arm as the other plants; the per-step coupling is in
+:class:`TorqueCarPlant`.
 
       V_b = (s_{k+1} - s_k) / dt    [m/s]    (the car's x moves back by the belt's travel)
       a_b = (V_{k+1} - V_k) / dt    [m/s^2]  (the inertial force m a_b of the belt frame)
-
-* the wheel torques ``T_i`` [N m] and locked flags, sanitised by :func:`sanitize_wheel_inputs`
-  (non-finite -> 0 N m with a reason, each clipped to +-``torque_limit``: the motor's limit).
-
-The encoders see the wheel angle grow by the trapezoid ``(omega_k + omega_{k+1}) dt / 2`` (a
-locked wheel: 0) and start primed at the rolling start (``omega_0 = u_0 / R``), so their
-velocity at ``t_0`` is the start spin, not 0. The pose outputs the rig needs (``x, y, psi, u,
-v, r, y_s``) are the two-track state's; ``y_s = y + ds sin(psi)`` [m] as for the other plants.
-
-Configuration: the ``two_track.*`` group (:func:`two_track_defaults`, TwoTrack and tyre
-parameters plus ``torque_limit``), the ``surface.*`` group (:func:`surface_defaults`, the
-:class:`~irs_vehicle_sim.surface.SurfaceSpec` fields) and ``encoders.*``
-(:func:`encoder_defaults`).
 """
 
 from __future__ import annotations
@@ -182,7 +169,15 @@ def _floats(a) -> tuple:
 
 
 class TorqueCarPlant:
-    """Two-track car, surface and wheel encoders, stepped by the rig (module docstring).
+    """Two-track car, surface and wheel encoders, stepped by the rig.
+
+    It couples the cores the rig steps for the independent-wheel-torque car:
+    the two-track model (:mod:`.two_track`, RK4), the surface (:mod:`.surface`) and the four wheel
+    encoders (:mod:`.wheel_encoder`). :class:`~irs_vehicle_sim.rig.RigSimulation` feeds it, per
+    step ``t_k -> t_{k+1}`` with the inputs held:
+
+    * the **achieved** front and rear steer at ``t_k`` of the rig's two actuator models;
+    * the belt's mean speed and acceleration over the step, from the belt model stepped first::
 
     Parameters
     ----------

@@ -1,71 +1,29 @@
 """Planar two-track model of the independent-wheel-torque, four-wheel-steer car (ROS-free).
 
-Frames (docs/conventions.md): the car's velocities ``u`` (forward), ``v`` (left) [m/s] and the
-yaw rate ``r`` [rad/s] are its motion **over the belt surface**, in the body frame; the pose
-``(x, y, psi)`` is in the treadmill frame, whose belt surface moves in -x at the belt speed
-``V_b``.  So a car driving at ``u = V_b`` stands still in the treadmill frame and a braking car
-drifts back on the belt.  ``x_belt`` is the distance the car has travelled over the belt
-surface along the treadmill x (the stopping distance on the belt).
+Velocities ``u``, ``v`` [m/s] and yaw rate ``r`` [rad/s] are the car's motion **over the belt
+surface** (body frame); the pose ``(x, y, psi)`` is in the treadmill frame, whose surface moves
+in -x at ``V_b`` (docs/conventions.md); ``x_belt`` is the travel over the belt (the stopping
+distance). States (15): ``u, v, r, psi, x, y, x_belt``, wheel spins ``omega_i`` [rad/s], slips
+``kappa_i`` [-], wheels ``[FL, FR, RL, RR]`` at ``(px_i, py_i)``. Inputs: wheel torques ``T_i``
+[N m], achieved steer ``delta_f``, ``delta_r`` [rad] (one per axle, no Ackermann), ``V_b``
+[m/s], its rate ``a_b`` [m/s^2] and a per-wheel ``locked`` flag (Rajamani 2012 secs. 2.3, 13;
+Pacejka 2012 sec. 1.3)::
 
-States (15): ``u, v, r, psi, x, y, x_belt``, the wheel spins ``omega_i`` [rad/s] and the
-longitudinal slips ``kappa_i`` [-] (a relaxation-length state, irs_vehicle_sim.tyre), wheels in
-the order ``[FL, FR, RL, RR]`` at body positions ``(px_i, py_i)``, ``px = +lf / -lr``,
-``py = +t/2 (left) / -t/2 (right)``.  Inputs: wheel torques ``T_i`` [N m] (motor torque,
-positive drives forward, the motors brake by reversing it), the achieved front and rear steer
-``delta_f``, ``delta_r`` [rad] (both wheels of an axle alike: no Ackermann, the rig's servos
-drive one axle each), the belt speed ``V_b`` [m/s] and its rate ``a_b`` [m/s^2], and per wheel a
-``locked`` flag (a friction brake holding the wheel: ``omega_i = 0``).
-
-Equations (Rajamani, Vehicle Dynamics and Control, 2nd ed. 2012, secs. 2.3 and 13; Pacejka
-2012 sec. 1.3)::
-
-    wheel i contact velocity (body)  (u - r py_i, v + r px_i); wheel frame, rotated by -delta_i:
-        V_cx = (u - r py_i) cos(d_i) + (v + r px_i) sin(d_i)
-        V_cy = -(u - r py_i) sin(d_i) + (v + r px_i) cos(d_i)
-    tyre (wheel frame)  (F_xw, F_yw) = tyre_forces(kappa_F,i, V_cy / max(|V_cx|, v_low), F_z,i,
-                                                   mu_i)
-        kappa_F,i = kappa_i + (k_d(V_cx) / C_k) (omega_i R - V_cx)   (low-speed damping, tyre.py)
-    body forces         F_x,i = F_xw cos(d_i) - F_yw sin(d_i)
-                        F_y,i = F_xw sin(d_i) + F_yw cos(d_i)
+    V_cx = (u - r py_i) cos(d_i) + (v + r px_i) sin(d_i)      (contact velocity, wheel frame)
+    V_cy = -(u - r py_i) sin(d_i) + (v + r px_i) cos(d_i)
+    (F_xw, F_yw) = tyre_forces(kappa_F,i, V_cy / max(|V_cx|, v_low), F_z,i, mu_i)   (tyre.py)
+    F_x,i = F_xw cos(d_i) - F_yw sin(d_i),   F_y,i = F_xw sin(d_i) + F_yw cos(d_i)
     m (du/dt - v r) = sum F_x,i + m a_b cos(psi)       (belt frame accelerates at -a_b along x)
     m (dv/dt + u r) = sum F_y,i - m a_b sin(psi)
     I_z dr/dt       = sum (px_i F_y,i - py_i F_x,i)
     J domega_i/dt   = T_i - R F_xw,i - f_r F_z,i R tanh(omega_i R / v_rr)     (0 if locked)
     sigma_eff,i dkappa_i/dt = (omega_i R - V_cx) - max(|V_cx|, v_low) kappa_i
-        sigma_eff,i = max(sigma_min, sigma f(p_i) / p_i)   (shorter when saturated, tyre.py)
     dpsi/dt = r,  dx/dt = u cos(psi) - v sin(psi) - V_b,  dy/dt = u sin(psi) + v cos(psi)
-    dx_belt/dt = u cos(psi) - v sin(psi)
 
-Quasi-static load transfer (no suspension dynamics; the lateral transfer is shared by the axles
-in proportion to their static loads, i.e. roll stiffness distributed like the weight --
-assumed, because the 1:10 chassis' roll stiffnesses are unknown)::
-
-    F_z,i = m g l_other / (2 L)  -+  m a_x h / (2 L)  -+  m a_y h l_other / (t L)
-
-with ``a_x = sum F_x / m``, ``a_y = sum F_y / m`` the inertial accelerations from the tyre
-forces of the **previous step** (one step, 1 ms, of delay breaks the algebraic loop; the
-chassis' pitch and roll modes are far slower), front loses load when accelerating, the outer
-(right for ``a_y > 0``) wheels gain it; loads are clipped at 0 (a lifted wheel).
-
-Integration: classic fourth-order Runge-Kutta with the step ``dt`` (1 ms at 1 kHz), inputs, loads
-and frictions held over the step (zero-order hold, docs/conventions.md).  RK4 because it is
-explicit, fixed-step and bit-deterministic, and its error at 1 kHz is far below the model's
-uncertainty: the fastest mode (wheel spin against the relaxed slip, ~sqrt(R^2 F_z C_k /
-(J sigma)) = 280 rad/s with the defaults, and 175 1/s for the regularised lateral slip at
-standstill) has ``|lambda dt| < 0.3``, well inside RK4's stability region (2.8); below
-``V_low,d`` = 0.3 m/s the low-speed damping adds ``R^2 k_d F_z / J`` = 1500 1/s to a free
-wheel's spin at rest (with rolling resistance: eigenvalue -1720 1/s at 7 N, -2220 at the 9 N a
-hard-braked front wheel carries; RK4's limit -2785 1/s is reached at 11.3 N per wheel, so a
-heavier car or a larger ``k_d`` needs a smaller step) and the saturated relaxation length at
-most 150 1/s to the slip (tyre.py); ``solve_ivp``
-per step would add adaptive-step machinery and Python overhead for nothing.
-
-Parameters: mass, yaw inertia, axle distances, track, wheel radius and the axle cornering
-stiffnesses are the ``irs_iwt`` preset's (irs_models/config/presets.yaml), so at small slip this
-model is the preset's bicycle model (tested); the tyre's cornering stiffness per unit load is set
-per axle to ``c_f / (2 F_z,f0)``, ``c_r / (2 F_z,r0)``.  The rest is assumed (see
-:class:`TwoTrackParams`).  Aerodynamic drag is left out: at 1.2 m/s on a 1:10 body it is about
-5 mN (``0.5 rho c_d A V^2`` with ``c_d A = 0.005 m^2``), against 0.56 N of rolling resistance.
+It exists to study braking and steering of the torque car on the rig with the load transfer and
+wheel spin a bicycle model lacks; at small slip it reduces to
+``irs_models.torque_car.torque_car_bicycle()`` (tested). Load transfer: :meth:`TwoTrack.loads`;
+integration (RK4, 1 ms): :class:`TwoTrack`; parameters: :class:`TwoTrackParams`.
 """
 
 from __future__ import annotations
@@ -76,6 +34,7 @@ from dataclasses import dataclass, field, fields, replace
 import numpy as np
 
 from irs_common.field_checks import check_numbers
+from irs_models.torque_car import torque_car_bicycle
 
 from .surface import SurfaceSpec
 from .tyre import (TyreParams, damped_slip, lateral_slip, relaxation_length, slip_rate,
@@ -92,7 +51,15 @@ _G = 9.81
 
 @dataclass
 class TwoTrackParams:
-    """Parameters of the two-track car (defaults: the ``irs_iwt`` preset's car).
+    """Parameters of the two-track car (defaults: the ``irs_iwt`` preset's car on rubber tyres).
+
+    Mass, yaw inertia, axle distances, track and wheel radius are the ``irs_iwt`` preset's
+    (irs_models/config/presets.yaml); the axle cornering stiffnesses are the rubber 1:10 tyres'
+    (irs_models.torque_car: 69.4 and 80.3 N/rad, not the preset's Eq. 6 fit); the tyre's
+    cornering stiffness per unit load is set per axle to ``c_f / (2 F_z,f0)``,
+    ``c_r / (2 F_z,r0)``. The rest is assumed (below). Aerodynamic drag is left out: at 1.2 m/s
+    on a 1:10 body it is about 5 mN (``0.5 rho c_d A V^2`` with ``c_d A = 0.005 m^2``), against
+    0.56 N of rolling resistance.
 
     Attributes
     ----------
@@ -107,7 +74,8 @@ class TwoTrackParams:
     wheel_radius : float
         Effective rolling radius R [m] (irs_iwt: 0.033).
     c_f, c_r : float
-        Axle cornering stiffness at the static load [N/rad] (irs_iwt: 31.0006 / 19.13).
+        Axle cornering stiffness at the static load [N/rad] (69.42 / 80.28: the rubber 1:10
+        tyres' 4.95 / 5.72 /rad per unit load, irs_models.torque_car).
     cg_height : float
         c.g. height h [m] (0.04: assumed, a 1:10 touring chassis with hub motors carries its
         mass low, 30-45 mm above the ground).
@@ -132,8 +100,8 @@ class TwoTrackParams:
     lr: float = 0.15
     track: float = 0.17
     wheel_radius: float = 0.033
-    c_f: float = 31.0006
-    c_r: float = 19.13
+    c_f: float = field(default_factory=lambda: torque_car_bicycle().c_f)
+    c_r: float = field(default_factory=lambda: torque_car_bicycle().c_r)
     cg_height: float = 0.04
     wheel_inertia: float = 5e-5
     rolling_resistance: float = 0.02
@@ -218,6 +186,20 @@ class TwoTrackOutputs:
 class TwoTrack:
     """The two-track car on the belt (module docstring), stepped by RK4.
 
+    Classic fourth-order Runge-Kutta with the step ``dt`` (1 ms at 1 kHz), inputs, loads and
+    frictions held over the step (zero-order hold, docs/conventions.md): explicit, fixed-step and
+    bit-deterministic, with an error at 1 kHz far below the model's uncertainty. The fastest mode
+    (wheel spin against the relaxed slip, ~sqrt(R^2 F_z C_k / (J sigma)) = 280 rad/s with the
+    defaults, and 523 1/s for the regularised lateral slip at standstill) has ``|lambda dt| <
+    0.3``, well inside RK4's stability region (2.8). Below ``V_low,d`` = 0.3 m/s the low-speed
+    damping ``kappa_F,i = kappa_i + (k_d(V_cx) / C_k) (omega_i R - V_cx)`` (tyre.py) adds
+    ``R^2 k_d F_z / J`` = 1500 1/s to a free wheel's spin at rest (with rolling resistance:
+    eigenvalue -1720 1/s at 7 N, -2220 at the 9 N a hard-braked front wheel carries; RK4's limit
+    -2785 1/s is reached at 11.3 N per wheel, so a heavier car or a larger ``k_d`` needs a
+    smaller step), and the saturated relaxation length ``sigma_eff,i = max(sigma_min,
+    sigma f(p_i) / p_i)`` at most 150 1/s to the slip. ``solve_ivp`` per step would add
+    adaptive-step machinery and Python overhead for nothing.
+
     Parameters
     ----------
     params : TwoTrackParams, optional
@@ -294,7 +276,19 @@ class TwoTrack:
 
     # ------------------------------------------------------------------ model
     def loads(self, acc=None) -> tuple:
-        """Normal loads ``F_z,i`` [N] for the inertial accelerations ``(a_x, a_y)`` [m/s^2]."""
+        """Normal loads ``F_z,i`` [N] for the inertial accelerations ``(a_x, a_y)`` [m/s^2].
+
+        Quasi-static load transfer (no suspension dynamics; the lateral transfer is shared by the
+        axles in proportion to their static loads, i.e. roll stiffness distributed like the
+        weight: assumed, because the 1:10 chassis' roll stiffnesses are unknown)::
+
+            F_z,i = m g l_other / (2 L)  -+  m a_x h / (2 L)  -+  m a_y h l_other / (t L)
+
+        with ``a_x = sum F_x / m``, ``a_y = sum F_y / m`` from the tyre forces of the
+        **previous step** (one step, 1 ms, of delay breaks the algebraic loop; the chassis'
+        pitch and roll modes are far slower). The front loses load when accelerating, the outer
+        (right for ``a_y > 0``) wheels gain it; loads are clipped at 0 (a lifted wheel).
+        """
         p = self.params
         ax, ay = self._acc if acc is None else acc
         L = p.wheelbase

@@ -1,93 +1,22 @@
-"""Combined-slip tyre of the 1:10 torque car on the belt (ROS-free).
+"""Combined-slip tyre of the 1:10 torque car on the belt: TMeasy (Rill), relaxed slip (ROS-free).
 
-Slip quantities
----------------
-The contact point of a wheel moves over the **belt surface** with velocity ``(V_cx, V_cy)`` in
-the wheel frame (x along the wheel's heading, y to its left) [m/s]; the wheel spins at ``omega``
-[rad/s] with effective rolling radius ``R`` [m].
+Slips of a wheel whose contact point moves over the belt at ``(V_cx, V_cy)`` [m/s] (wheel frame)
+and spins at ``omega`` [rad/s] with radius ``R`` [m]: lateral ``s_y = V_cy / max(|V_cx|, v_low)``
+(tan of the slip angle), longitudinal ``kappa`` a state with relaxation length ``sigma`` (Pacejka,
+Tyre and Vehicle Dynamics, 3rd ed. 2012, sec. 7.2)::
 
-Lateral slip (algebraic, as in the linear bicycle model)::
+    sigma dkappa/dt = (omega R - V_cx) - max(|V_cx|, v_low) kappa     (steady: (omega R - V)/|V|)
 
-    s_y = V_cy / max(|V_cx|, v_low)            (= tan(alpha) with alpha = atan(V_cy/|V_cx|))
-
-Longitudinal slip (a state: Pacejka, Tyre and Vehicle Dynamics, 3rd ed. 2012, sec. 7.2, the
-single-contact-point transient model with relaxation length ``sigma``)::
-
-    sigma dkappa/dt = (omega R - V_cx) - max(|V_cx|, v_low) kappa
-
-In steady state ``kappa = (omega R - V_cx) / |V_cx|``, the usual practical slip (> 0 driving,
--1 for a locked wheel rolling forward).  The relaxation length keeps the wheel's spin equation
-non-stiff at 1 kHz (the algebraic slip's time constant ``J |V| / (R^2 F_z C_k)`` is a fraction of
-a millisecond for a 1:10 wheel), and ``max(|V_cx|, v_low)`` is the low-speed regularisation: at
-standstill (``V_cx = omega = 0``) both slips are 0 and finite, and ``kappa`` relaxes with the
-time constant ``sigma / v_low``.
-
-Low speed and standstill
-------------------------
-Near standstill the relaxed slip is a spring: ``sigma kappa`` is the carcass' longitudinal
-deflection and ``F_x = C_k F_z kappa`` its force, a stiffness ``C_k F_z / sigma`` per wheel
-(14,000 N/m for the whole car, ``omega_n = sqrt(C_k g / sigma)`` = 70 rad/s) damped only by
-``v_low / sigma`` = 5 1/s (damping ratio 0.04).  And a locked wheel that slid to a stop arrives
-with ``kappa`` near -1: a virtual deflection 15 times the one its sliding force can hold, which
-a ``sigma / v_low`` = 0.2 s relaxation releases at the full sliding force.  Together they made a
-stopped car rock over the belt as a sliding limit cycle (+-0.1 to 0.4 m/s, 0.2-0.4 s period).
-The damping alone (change 1) does not end it: with it the car still swung at 0.12-0.23 m/s
-0.2 s after a locked-wheel stop (mu 0.3, 0.8, split), because the slip of -1 keeps the force
-saturated, where a damper on the slip speed adds little.  Two changes:
-
-1. **Low-speed damping** (Pacejka, Tyre and Vehicle Dynamics, 3rd ed. 2012, sec. 7.2.2, the
-   damping ``k_Vlow`` of the transient slip model used in MF-Tyre/MF-Swift): the slip that
-   enters the force formula is::
-
-       kappa_F = kappa + (k_Vlow / C_Fk) (omega R - V_cx),
-       k_Vlow  = 0.5 k_Vlow0 (1 + cos(pi |V_cx| / V_low,d))   for |V_cx| < V_low,d, else 0
-
-   i.e. a viscous force ``k_Vlow (omega R - V_cx)`` [N] on the slip speed, faded in smoothly
-   below ``V_low,d`` and exactly zero at driving speed (the bicycle limit at 1.2 m/s and the
-   sliding friction are untouched).  Here ``k_Vlow0 = k_d F_z`` with ``k_d`` per unit load
-   [s/m], so ``k_Vlow / C_Fk = k_d / C_k`` does not depend on the load.  The form (the slip
-   correction and the cosine fade) was checked against a public MATLAB implementation of a
-   four-wheel MF model (``kappa_corr = kappa + kVlow Vsx / C_Fk``, ``kVlow = 0.5 kVlow0 (1 +
-   cos(pi |u| / Vlow))`` with ``kVlow0 = 770 N s/m, Vlow = 4 m/s`` for a passenger car), not
-   against the book's text itself, which was not available here.
-   **Choice of k_d**: a held car at rest is a mass on the four slip springs; per unit mass,
-   with the regularised relaxation, ``u'' + (g k_d + v_low/sigma) u' + (C_k g / sigma +
-   g k_d v_low / sigma) u = 0``.  Damping ratio 0.7 needs ``g k_d + 5 = 1.4 sqrt(4905 +
-   5 g k_d)``, ``k_d = 10.0 s/m`` (``k_Vlow0`` = 70 N s/m per wheel at 7 N; the
-   passenger-car value above, 770 N s/m at about 4 kN, is 0.19 s/m per unit load: a light
-   damping, not one chosen for a damping ratio).  ``V_low,d = 0.3 m/s``: assumed, a quarter
-   of the belt speed, because the car rebounds from a locked-wheel stop at up to 0.2 m/s,
-   which a 0.1 m/s fade would miss.
-   With a free wheel the damper adds ``R^2 k_Vlow0 / J`` = 1500 1/s to its spin mode:
-   ``|lambda dt|`` = 1.7 at 1 kHz with rolling resistance, inside RK4's stability limit 2.78
-   up to 11.3 N per wheel (two_track.py); this bounds ``k_d`` from above.
-
-2. **Relaxation length shrinking with saturation, near standstill**: the carcass deflection
-   cannot exceed what the contact patch holds, ``F / C_x`` with the carcass stiffness
-   ``C_x = C_k F_z / sigma`` (Pacejka 2012 sec. 7.2: ``sigma = C_Fk / C_x``).  With the secant
-   stiffness of the force formula, ``F / kappa = C_k F_z f(p) / p``, a saturated tyre's
-   relaxation length is ``sigma_sat = max(sigma_min, sigma f(p) / p)``; it is faded in with
-   the same weight ``w = 0.5 (1 + cos(pi |V_cx| / V_low,d))`` as the damping::
-
-       sigma_eff = sigma - w (sigma - sigma_sat)       (= sigma for |V_cx| >= V_low,d)
-
-   so the slip a locked wheel carries into the stop (about -1) is released in milliseconds
-   instead of ``sigma / v_low`` = 0.2 s.  That the relaxation length falls with slip is
-   measured (Higuchi and Pacejka, "The relaxation length concept at large wheel slip and
-   camber", Vehicle System Dynamics 27 suppl., 1997); the secant form is this module's
-   choice (the tangent is 0 at the peak and negative past it), not a formula checked against
-   the book, and it is applied only below ``V_low,d`` so that the model at driving speed
-   (the bicycle limit, ABS at 1.2 m/s) is the one before, to the bit.  ``sigma_min = 2 mm``:
-   assumed, of the order of half a 1:10 tyre's contact length; it bounds the slip state's
-   rate ``max(|V_cx|, v_low) / sigma_eff`` to 150 1/s below 0.3 m/s (``|lambda dt|`` = 0.15).
-   At zero slip ``sigma_eff = sigma`` with zero derivative (``f(p)/p`` is even in the slip).
-
-   Measured (irs_vehicle_sim/test/test_sim_two_track.py): a car braked on locked wheels from
-   1.2 m/s is at rest over the belt (``|u| < 0.01 m/s``, no further sign change above
-   1 mm/s) within 0.2 s of the stop on mu 0.3, 0.8 and split 0.8/0.3; before, it rocked at
-   +-0.1 to 0.4 m/s for 1.3-1.6 s.  What is left: on mu 0.8 the car still rebounds backwards
-   by up to 0.28 m/s for about 0.1 s after the stop (the slip state's lag behind the sliding
-   contact; the carcass spring alone would give about ``F / sqrt(K m)`` = 0.1 m/s).
+Forces: TMeasy's characteristic and combined-slip normalisation (Rill, Road Vehicle Dynamics,
+CRC 2012, sec. 3.4; :func:`tmeasy_curve`, :func:`tyre_forces`). Per direction it takes the
+initial stiffness ``dF0 = C F_z``, the peak ``(s_M, mu F_z)`` and the sliding ``(s_S,
+r_S mu F_z)``, each set on its own. Friction scaling: the peak slips at the reference friction
+``mu_ref`` scale as ``(mu / mu_ref)^q``; Rill scales them (and ``s_S``) with ``mu / mu_ref``,
+which puts the peak slip in proportion to mu. Burckhardt's dry asphalt, wet asphalt and snow
+(peaks 0.170, 0.131, 0.060 at mu 1.17, 0.80, 0.19) give q = 0.56 by least squares in log; their
+locked / peak ratios are 0.64-0.68, hence ``r_S = 0.65``. Parameter sources:
+:class:`TyreParams`; the low-speed damping and the saturating relaxation length that bring a
+stopped car to rest: :func:`damped_slip`, :func:`relaxation_length` (and docs/torque_car.md).
 """
 
 from __future__ import annotations
@@ -97,43 +26,65 @@ from dataclasses import dataclass
 
 from irs_common.field_checks import check_numbers
 
-__all__ = ['TyreParams', 'magic_shape', 'tyre_forces', 'lateral_slip', 'slip_rate',
-           'sliding_ratio', 'low_speed_damping', 'damped_slip', 'relaxation_length']
+#: Highest surface friction (irs_vehicle_sim.surface refuses more) [-].
+MU_MAX = 2.0
+
+__all__ = ['MU_MAX', 'TyreParams', 'tmeasy_curve', 'tyre_forces', 'lateral_slip', 'slip_rate',
+           'slip_scale', 'peak_slips', 'low_speed_damping', 'damped_slip', 'relaxation_length']
 
 
 @dataclass
 class TyreParams:
-    """Tyre parameters (see the module docstring for sources).
+    """Tyre parameters; slips at the reference friction ``mu_ref``, forces per unit load.
 
     Attributes
     ----------
     c_kappa : float
-        Longitudinal slip stiffness per unit normal load C_k [1/unit slip] (default 10).
+        Longitudinal slip stiffness per unit load ``dF0x / F_z`` [1/unit slip] (default 10:
+        assumed; Pacejka 2012 gives 15-20 for car tyres, a soft 1:10 tyre is softer).
     c_alpha : float
-        Cornering stiffness per unit normal load C_a [1/rad] (default 2.2: the irs_iwt front
-        axle's 31 N/rad over its static load 2 x 7.0 N; the two-track model sets it per axle).
-    shape_c : float
-        Magic-formula shape factor C, 1 < C < 2 (default 1.41: sliding/peak 0.80).
-    shape_e : float
-        Magic-formula curvature factor E, E < 1 (default 0).
+        Cornering stiffness per unit load ``dF0y / F_z`` [1/rad] (default 4.95: f1tenth_gym's
+        1:10 rubber tyre, irs_models.torque_car; the two-track model sets it per axle).
+    peak_slip_x, peak_slip_y : float
+        Slip of the force peak at ``mu_ref`` [-] (defaults 0.16 and 0.33, i.e. 18.3 deg). Chosen
+        so that ``dF0 s_M / F_M >= 2`` at mu_ref (TMeasy's curve is concave from zero only then:
+        its curvature at zero is ``-2 (rho - 2) F_M / s_M^2``, ``rho = dF0 s_M / F_M``), which
+        with ``c_kappa`` = 10 needs 0.16 (Burckhardt's asphalt: 0.13-0.17) and with the front
+        axle's 4.95 /rad needs 0.323; 18 deg is inside the 10-20 deg of rubber RC tyres.
+    sliding_slip_x, sliding_slip_y : float
+        Slip from which the force is the sliding force [-] (default 1.0: a locked wheel, and
+        45 deg sideways), above the peak slip at the highest friction (mu 2). Not scaled with
+        mu (Rill scales it as the peak slip): Burckhardt's curves fall until the wheel locks on
+        every surface.
+    sliding_ratio_x, sliding_ratio_y : float
+        Sliding / peak force ``r_S`` [-] (default 0.65 both: Burckhardt's locked / peak 0.64-0.68;
+        equal in both directions because a fully sliding patch has one Coulomb friction).
+    mu_ref : float
+        Friction at which the slips above hold [-] (default 0.8, the dry belt).
+    slip_mu_exponent : float
+        q in ``s(mu) = s(mu_ref) (mu / mu_ref)^q`` [-] (default 0.56; 1 = Rill's, 0 = fixed).
     relaxation_length : float
-        Longitudinal relaxation length sigma [m] (default 0.02).
+        Longitudinal relaxation length sigma [m] (default 0.02, of the order of the radius).
     v_low : float
         Low-speed regularisation speed [m/s] (default 0.1).
     low_speed_damping : float
-        Low-speed damping per unit load ``k_d = k_Vlow0 / F_z`` [s/m] (default 10: damping
-        ratio 0.7 of a held car at rest; 0 switches it off).
+        Low-speed damping per unit load ``k_d`` [s/m] (default 10; 0 switches it off).
     v_low_damping : float
-        Speed ``V_low,d`` below which the low-speed damping fades in [m/s] (default 0.3).
+        Speed below which the damping and the saturated relaxation fade in [m/s] (0.3).
     relaxation_length_min : float
-        Shortest relaxation length ``sigma_min`` of a saturated tyre [m] (default 0.002;
-        ``>= relaxation_length`` keeps sigma constant, the model before).
+        Shortest relaxation length of a saturated tyre [m] (0.002).
     """
 
     c_kappa: float = 10.0
-    c_alpha: float = 2.2
-    shape_c: float = 1.41
-    shape_e: float = 0.0
+    c_alpha: float = 4.95
+    peak_slip_x: float = 0.16
+    peak_slip_y: float = 0.33
+    sliding_slip_x: float = 1.0
+    sliding_slip_y: float = 1.0
+    sliding_ratio_x: float = 0.65
+    sliding_ratio_y: float = 0.65
+    mu_ref: float = 0.8
+    slip_mu_exponent: float = 0.56
     relaxation_length: float = 0.02
     v_low: float = 0.1
     low_speed_damping: float = 10.0
@@ -141,15 +92,24 @@ class TyreParams:
     relaxation_length_min: float = 0.002
 
     def __post_init__(self):
-        check_numbers(self, ('c_kappa', 'c_alpha', 'relaxation_length', 'v_low', 'v_low_damping',
-                             'relaxation_length_min'), above=0.0)
-        check_numbers(self, ('low_speed_damping',), at_least=0.0)
-        check_numbers(self, ('shape_c', 'shape_e'))
-        if not 1.0 < self.shape_c < 2.0:
-            raise ValueError(f'TyreParams.shape_c must be in (1, 2) so the force has a peak and '
-                             f'a positive sliding value, got {self.shape_c!r}.')
-        if self.shape_e >= 1.0:
-            raise ValueError(f'TyreParams.shape_e must be < 1, got {self.shape_e!r}.')
+        check_numbers(self, ('c_kappa', 'c_alpha', 'peak_slip_x', 'peak_slip_y',
+                             'sliding_slip_x', 'sliding_slip_y', 'sliding_ratio_x',
+                             'sliding_ratio_y', 'mu_ref', 'relaxation_length', 'v_low',
+                             'v_low_damping', 'relaxation_length_min'), above=0.0)
+        check_numbers(self, ('low_speed_damping', 'slip_mu_exponent'), at_least=0.0)
+        if self.slip_mu_exponent > 1.0:
+            raise ValueError(f'TyreParams.slip_mu_exponent must be in [0, 1], got '
+                             f'{self.slip_mu_exponent!r}.')
+        top = (MU_MAX / self.mu_ref) ** self.slip_mu_exponent
+        for axis in 'xy':
+            sm, ss = getattr(self, f'peak_slip_{axis}'), getattr(self, f'sliding_slip_{axis}')
+            if not sm * max(1.0, top) < ss:
+                raise ValueError(f'TyreParams.peak_slip_{axis} must be below sliding_slip_{axis}'
+                                 f' up to mu {MU_MAX} (times {top:.3g}), got {sm!r} and {ss!r}.')
+            if getattr(self, f'sliding_ratio_{axis}') > 1.0:
+                raise ValueError(f'TyreParams.sliding_ratio_{axis} must be in (0, 1] (sliding '
+                                 f'force at most the peak), got '
+                                 f'{getattr(self, f"sliding_ratio_{axis}")!r}.')
 
     @classmethod
     def from_dict(cls, d: dict) -> 'TyreParams':
@@ -163,20 +123,61 @@ class TyreParams:
         return cls(**d)
 
 
-def magic_shape(p: float, params: TyreParams) -> float:
-    """Normalised force magnitude ``f(p)`` [-] for the normalised slip ``p >= 0``.
+def tmeasy_curve(s: float, df0: float, s_m: float, f_m: float, s_s: float, f_s: float) -> float:
+    """TMeasy's force characteristic ``F(s)`` for a slip ``s >= 0`` (Rill 2012, sec. 3.4).
 
-    ``f(p) = sin(C atan(B p - E (B p - atan(B p))))`` with ``B = 1/C``: slope 1 at 0, peak 1,
-    sliding value ``sin(C pi / 2)``.
+    ::
+
+        s <= s_M:        F = dF0 s / (1 + sigma (sigma + dF0 s_M / F_M - 2)),  sigma = s / s_M
+        s_M < s < s_S:   F = F_M - (F_M - F_S) sigma^2 (3 - 2 sigma),  sigma = (s-s_M)/(s_S-s_M)
+        s >= s_S:        F = F_S
+
+    Slope ``dF0`` at zero, peak ``F_M`` at ``s_M``, sliding ``F_S`` from ``s_S`` on.
     """
-    c = params.shape_c
-    bp = p / c
-    return math.sin(c * math.atan(bp - params.shape_e * (bp - math.atan(bp))))
+    if s <= s_m:
+        sig = s / s_m
+        return df0 * s / (1.0 + sig * (sig + df0 * s_m / f_m - 2.0))
+    if s < s_s:
+        sig = (s - s_m) / (s_s - s_m)
+        return f_m - (f_m - f_s) * sig * sig * (3.0 - 2.0 * sig)
+    return f_s
 
 
-def sliding_ratio(params: TyreParams) -> float:
-    """Sliding / peak friction ratio ``sin(C pi / 2)`` [-] (``f`` for ``p -> inf``, E < 1)."""
-    return math.sin(0.5 * math.pi * params.shape_c)
+def slip_scale(mu: float, params: TyreParams) -> float:
+    """``(mu / mu_ref)^q`` [-]: the factor on the slips at friction ``mu``."""
+    return (mu / params.mu_ref) ** params.slip_mu_exponent
+
+
+def peak_slips(mu: float, params: TyreParams) -> tuple:
+    """``(s_Mx, s_My)`` [-]: the pure-slip peaks at friction ``mu`` (``s_My`` = tan of the
+    peak slip angle).
+    """
+    k = slip_scale(mu, params)
+    return params.peak_slip_x * k, params.peak_slip_y * k
+
+
+def _combined(kappa, s_y, mu, params, ca):
+    """``(F, cos phi, sin phi, dF0 s_N)`` per unit load of the slips ``(kappa, -s_y)``."""
+    k = slip_scale(mu, params)
+    sxm, sym = params.peak_slip_x * k, params.peak_slip_y * k
+    sxs, sys_ = params.sliding_slip_x, params.sliding_slip_y     # not scaled (class docstring)
+    dfx, dfy = params.c_kappa, ca
+    # normalising factors (Rill 2012 sec. 3.4.2): equal weight to the peak slips and to the
+    # slips the initial stiffnesses would need to reach the peak force mu
+    hx, hy = mu / dfx, mu / dfy
+    nx = sxm / (sxm + sym) + hx / (hx + hy)
+    ny = sym / (sxm + sym) + hy / (hx + hy)
+    sxn, syn = kappa / nx, -s_y / ny
+    s = math.hypot(sxn, syn)
+    if s < 1e-15:
+        return 0.0, 1.0, 0.0, 0.0
+    c, sn = sxn / s, syn / s
+    df0 = math.hypot(dfx * nx * c, dfy * ny * sn)
+    f_m = mu                                   # isotropic peak friction
+    s_m = math.hypot(sxm / nx * c, sym / ny * sn)
+    f_s = mu * math.hypot(params.sliding_ratio_x * c, params.sliding_ratio_y * sn)
+    s_s = math.hypot(sxs / nx * c, sys_ / ny * sn)
+    return tmeasy_curve(s, df0, s_m, f_m, s_s, f_s), c, sn, df0 * s
 
 
 def lateral_slip(v_cx: float, v_cy: float, params: TyreParams) -> float:
@@ -196,16 +197,30 @@ def slip_rate(kappa: float, omega_r: float, v_cx: float, params: TyreParams,
     return ((omega_r - v_cx) - max(abs(v_cx), params.v_low) * kappa) / sigma
 
 
+def _fade(v_cx: float, params: TyreParams) -> float:
+    """``w = 0.5 (1 + cos(pi |V_cx| / V_low,d))`` for ``|V_cx| < V_low,d``, else 0 [-]."""
+    v = abs(v_cx)
+    if v >= params.v_low_damping:
+        return 0.0
+    return 0.5 * (1.0 + math.cos(math.pi * v / params.v_low_damping))
+
+
 def low_speed_damping(v_cx: float, params: TyreParams) -> float:
-    """Faded damping per unit load ``0.5 k_d (1 + cos(pi |V_cx| / V_low,d))`` [s/m], 0 for
-    ``|V_cx| >= V_low,d`` (module docstring, Pacejka 2012 sec. 7.2.2).
+    """Faded damping per unit load ``w k_d`` [s/m] (0 for ``|V_cx| >= V_low,d``).
+
+    Pacejka 2012 sec. 7.2.2 (MF-Tyre's ``k_Vlow``, form checked against a public MF
+    implementation): at rest the relaxed slip is a spring ``C_k F_z / sigma`` damped only by
+    ``v_low / sigma`` (ratio 0.04), and a stopped car rocked over the belt. ``k_d = 10 s/m``
+    gives the held car damping ratio 0.7: ``g k_d + v_low/sigma = 1.4 sqrt(C_k g / sigma +
+    g k_d v_low / sigma)``. A free wheel at rest gets ``R^2 k_d F_z / J`` = 1500 1/s, inside
+    RK4's limit at 1 kHz up to 11.3 N per wheel (two_track.py).
     """
     return params.low_speed_damping * _fade(v_cx, params)
 
 
 def damped_slip(kappa: float, omega_r: float, v_cx: float, params: TyreParams) -> float:
-    """Slip for the force formula ``kappa + (k_d(V_cx) / C_k) (omega R - V_cx)`` [-]: the
-    relaxed slip plus the low-speed damping (equal to ``kappa`` for ``|V_cx| >= V_low,d``).
+    """Slip for the force ``kappa + (w k_d / C_k) (omega R - V_cx)`` [-]: the relaxed slip
+    plus the low-speed damping (:func:`low_speed_damping`; ``kappa`` at driving speed).
     """
     k = low_speed_damping(v_cx, params)
     if k == 0.0:
@@ -213,36 +228,42 @@ def damped_slip(kappa: float, omega_r: float, v_cx: float, params: TyreParams) -
     return kappa + k * (omega_r - v_cx) / params.c_kappa
 
 
-def _fade(v_cx: float, params: TyreParams) -> float:
-    """``0.5 (1 + cos(pi |V_cx| / V_low,d))`` for ``|V_cx| < V_low,d``, else 0 [-]."""
-    v = abs(v_cx)
-    if v >= params.v_low_damping:
-        return 0.0
-    return 0.5 * (1.0 + math.cos(math.pi * v / params.v_low_damping))
-
-
 def relaxation_length(kappa: float, s_y: float, v_cx: float, mu: float, params: TyreParams,
                       c_alpha: float | None = None) -> float:
-    """Relaxation length [m] ``sigma - w (sigma - sigma_sat)``, ``w`` the low-speed fade,
-    ``sigma_sat = max(sigma_min, sigma f(p) / p)`` the saturated tyre's, ``p = |(C_k kappa,
-    -C_a s_y)| / mu`` (module docstring); ``sigma`` for ``|V_cx| >= V_low,d`` or zero slip.
+    """Relaxation length [m] ``sigma - w (sigma - max(sigma_min, sigma F / (dF0 s)))``.
+
+    The carcass cannot hold more deflection than its force: ``sigma_sat = sigma`` times the
+    secant over the initial stiffness of the combined characteristic (relaxation length falling
+    with slip: Higuchi and Pacejka 1997; the secant form is this module's choice), faded in
+    with the low-speed weight ``w``, so a locked wheel's slip of about -1 is released in
+    milliseconds when the car stops; exactly ``sigma`` for ``|V_cx| >= V_low,d`` or zero slip.
     """
     sigma = params.relaxation_length
     w = _fade(v_cx, params)
     if w == 0.0:
         return sigma
-    ca = params.c_alpha if c_alpha is None else c_alpha
-    p = math.hypot(params.c_kappa * kappa, ca * s_y) / mu if mu > 0.0 else math.inf
-    if p < 1e-9:
-        return sigma
-    ratio = magic_shape(p, params) / p if math.isfinite(p) else 0.0
+    if mu <= 0.0:
+        ratio = 0.0
+    else:
+        f, _c, _s, lin = _combined(kappa, s_y, mu, params,
+                                   params.c_alpha if c_alpha is None else c_alpha)
+        if lin < 1e-12:
+            return sigma
+        ratio = f / lin
     sat = min(sigma, max(params.relaxation_length_min, sigma * ratio))
     return sigma - w * (sigma - sat)
 
 
 def tyre_forces(kappa: float, s_y: float, fz: float, mu: float, params: TyreParams,
                 c_alpha: float | None = None):
-    """Wheel-frame tyre forces ``(F_x, F_y)`` [N] (module docstring equations).
+    """Wheel-frame tyre forces ``(F_x, F_y)`` [N] (Rill 2012 sec. 3.4, combined slip).
+
+    The slips ``(kappa, -s_y)`` are normalised per direction, ``s_N = |(kappa / n_x,
+    -s_y / n_y)|`` with ``n_x = s_Mx / (s_Mx + s_My) + (mu / C_k) / (mu / C_k + mu / C_a)``
+    (``n_y`` alike); the characteristic's parameters are blended over the direction ``phi`` of
+    the normalised slip (``dF0 = |(C_k n_x cos phi, C_a n_y sin phi)|``, ``s_M = |(s_Mx / n_x
+    cos phi, s_My / n_y sin phi)|``, ``F_M = mu``, ``F_S``, ``s_S`` alike) and ``(F_x, F_y) =
+    F_z F(s_N) (cos phi, sin phi)``. Pure slip gives each direction's curve exactly.
 
     Parameters
     ----------
@@ -251,19 +272,16 @@ def tyre_forces(kappa: float, s_y: float, fz: float, mu: float, params: TyrePara
     s_y : float
         Lateral slip ``V_cy / max(|V_cx|, v_low)`` [-].
     fz : float
-        Normal load [N] (negative loads give zero force: the wheel has lifted).
+        Normal load [N] (a negative load gives zero force: the wheel has lifted).
     mu : float
-        Surface friction coefficient [-] (> 0).
+        Surface (peak) friction coefficient [-] (> 0).
     c_alpha : float, optional
         Cornering stiffness per unit load [1/rad]; default ``params.c_alpha``.
     """
-    ca = params.c_alpha if c_alpha is None else c_alpha
     if fz <= 0.0 or mu <= 0.0:
         return 0.0, 0.0
-    phx = params.c_kappa * kappa
-    phy = -ca * s_y
-    mag = math.hypot(phx, phy)
-    if mag < 1e-12:
+    f, c, s, lin = _combined(kappa, s_y, mu, params,
+                             params.c_alpha if c_alpha is None else c_alpha)
+    if lin == 0.0:
         return 0.0, 0.0
-    scale = fz * mu * magic_shape(mag / mu, params) / mag
-    return scale * phx, scale * phy
+    return fz * f * c, fz * f * s

@@ -1,57 +1,16 @@
 """``vehicle_sim`` node: the simulated IRS rig on ROS topics (thin wrapper of :mod:`.rig`).
 
-Clock modes (parameter ``clock_mode``, read-only):
-
-- ``realtime``: a wall timer advances the rig by as many steps as wall time has passed, each with
-  the latest commands received, like the hardware. Stamps are ``t_start + k dt`` (ROS time).
-- ``lockstep``: the rig is the clock. It publishes ``/clock`` = t_k and every output stamped t_k,
-  then waits until every input listed in ``lockstep_inputs`` has delivered a command stamped t_k
-  (the answer to the measurement of t_k) before it steps to t_{k+1}. Inputs not listed use the
-  latest value received. A run is therefore bit-for-bit reproducible whatever the machine load.
-  If nothing arrives for ``lockstep_resend_period`` s of wall time (a subscriber matched late and
-  missed step k), step k's outputs are published again; consumers ignore stamps they have seen.
-
-Start in real time: with ``autostart`` the rig holds the car at its start pose (publishing its
-sensors stamped with the current time, the simulation not advancing) until every input in
-``start_inputs`` has delivered a command, so a graph started by hand in any order does not lose
-the car while its nodes are still joining. ``rig/start`` (std_srvs/Trigger) starts it at once.
-
-Message budget per step (see docs/architecture.md): ``arm/joint_states``, ``belt/speed`` and, in
-lock-step, ``/clock`` every step; the ground truth (``ground_truth/odom``,
-``ground_truth/sensor_point``) every ``ground_truth_decimation`` steps and ``steering/state``
-every ``actuator_state_decimation`` steps (0 = off: simulation-only extras a real-time run can
-drop); ``rig/status`` on a change and every ``status_period`` s. In real time the rig measures its
-own loop (deadline misses, loop latency: :mod:`irs_common.loop_timing`) and publishes it on
-``rig/timing`` (diagnostic_msgs/DiagnosticArray) every second.
-
-Commands that are NaN, inf or out of range are replaced by the safe value (steer 0 rad, drive 0 V,
-driver speed held) with a throttled warning; the counts are on ``rig/status``. In real time a
-steering or drive command older than ``command_timeout`` is stale and the safe value is used too.
-
-The torque car (``plant: two_track``, docs/torque_car.md): the rig also subscribes
-``wheels/torque_command`` (irs_msgs/WheelTorqueCommand, the lock-step input ``wheels``) and
-publishes ``wheels/encoders`` (irs_msgs/WheelEncoders) every step and the tyres' ground truth
-``rig/tyre_truth`` (irs_msgs/TyreState) every ``ground_truth_decimation`` steps; the driver's
-speed command is ignored. A non-finite wheel torque is replaced by 0 N m (that wheel coasts), a
-stale one (real time, ``command_timeout``) or none yet by 0 N m on every wheel and no wheel
-locked, each with a throttled warning. The other plants have none of these topics.
-
-Stamps of commands (irs_common.stamp_gate): one stamped more than ``future_tolerance`` s ahead of
-the rig's time (lock-step: the current step; real time: the node clock) is dropped and counted as
-rejected (it is not applied and does not refresh the stale timer). In lock-step a command for an
-earlier step is a resend duplicate and ignored. In real time a command older than the last one of
-its input is ignored as out of order, unless it is more than 1 s older (a restarted publisher):
-then it is taken; a command with the same stamp as the last is taken (``ros2 topic pub`` sends
-stamp 0 every time).
-
-``rig/reset`` (std_srvs/Trigger): after the car left the belt (or at any time), put the car back
-at its start pose and clear the rig's latched fault (:meth:`RigSimulation.reset_to_start`; time
-runs on, the belt keeps its speed); ``rig/status`` says ``car_on_belt`` again. The treadmill
-regulator's own latched fault is reset through its ``treadmill/reset_fault``.
-
-Writable parameters (``ros2 param set``, applied at once): ``command_timeout``,
-``lockstep_resend_period``.
+In ``lockstep`` the rig is the clock: it publishes ``/clock`` = t_k and every output stamped t_k,
+and steps to t_{k+1} once each listed input has answered step k, so a run is reproducible to the
+bit whatever the machine load. In ``realtime`` a wall timer steps it with the latest commands,
+like the hardware. Bad, stale or future-stamped commands get the safe value (steer 0 rad, drive
+0 V) and, past ``stall_grace``, the rig's controlled stop (:mod:`.safe_stop`). The node exists so
+that the controllers, the estimator and the recorder see the same topics from the simulation
+as from the hardware. Clock modes, start, message budget, stamps, the torque car's topics and
+the services: :class:`VehicleSimNode`; parameters: docs/parameters.md; topics:
+docs/architecture.md; stop and recovery: docs/safety.md.
 """
+import dataclasses
 import math
 import time
 
@@ -61,6 +20,7 @@ from nav_msgs.msg import Odometry
 from rclpy.node import Node
 from rosgraph_msgs.msg import Clock
 from sensor_msgs.msg import JointState
+from std_msgs.msg import Empty
 from std_srvs.srv import Trigger
 
 from irs_common import qos
@@ -73,12 +33,13 @@ from irs_common.stamp_gate import FUTURE, OLD, StampGate
 from irs_common.stamp_sync import StampSync
 from irs_common.stamps import from_ns, to_ns
 from irs_msgs.msg import (BeltSpeed, DriverCommand, RigStatus, SteeringActuatorState,
-                          SteeringCommand, TreadmillDriveCommand, TyreState, WheelEncoders,
-                          WheelTorqueCommand)
+                          SteeringCommand, TreadmillDriveCommand, TreadmillState, TyreState,
+                          WheelEncoders, WheelTorqueCommand)
 
 from .rig import RigInputs, RigSimulation
 from .rig_params import NODE_PARAMS, rig_config, vehicle_sim_parameter_table
 from .rig_torque_car import NOT_LOCKED, ZERO_TORQUE
+from .safe_stop import HOLDING, RECOVERING, STOPPING, SafeStop, SafeStopParams
 
 #: lock-step input name -> (topic, message type)
 INPUTS = {
@@ -87,15 +48,79 @@ INPUTS = {
     'driver': ('driver/command', DriverCommand),
     'wheels': ('wheels/torque_command', WheelTorqueCommand),    # plant two_track only
 }
-#: Safe value of an input whose commands are stale (real time).
+#: Safe value of an input whose commands are stale (real time; steering and drive are held,
+#: then the controlled stop of :mod:`.safe_stop` applies its own).
 SAFE = {'steering': (0.0, 0.0), 'drive': 0.0, 'wheels': (ZERO_TORQUE, NOT_LOCKED)}
+#: treadmill/state fault codes that do not stop the rig (irs_treadmill.safety.FaultCode
+#: INVALID_INPUT: one rejected reading, cleared by the next valid one).
+TREADMILL_PASSING_FAULTS = (6,)
 
 ARM_JOINTS = ['arm_joint1', 'arm_joint2', 'arm_joint3']
 WHEELS = ['wheel_front_left', 'wheel_front_right', 'wheel_rear_left', 'wheel_rear_right']
 
 
 class VehicleSimNode(Node):
-    """Publishes what the rig's sensors report; takes steering, drive and driver commands."""
+    """Publishes what the rig's sensors report; takes steering, drive and driver commands.
+
+    Clock modes (parameter ``clock_mode``, read-only):
+
+    - ``realtime``: a wall timer advances the rig by as many steps as wall time has passed, each
+      with the latest commands received, like the hardware. Stamps are ``t_start + k dt`` (ROS
+      time).
+    - ``lockstep``: the rig is the clock. It publishes ``/clock`` = t_k and every output stamped
+      t_k, then waits until every input listed in ``lockstep_inputs`` has delivered a command
+      stamped t_k (the answer to the measurement of t_k) before it steps to t_{k+1}. Inputs not
+      listed use the latest value received. A run is therefore bit-for-bit reproducible whatever
+      the machine load. If nothing arrives for ``lockstep_resend_period`` s of wall time (a
+      subscriber matched late and missed step k), step k's outputs are published again; consumers
+      ignore stamps they have seen.
+
+    Start in real time: with ``autostart`` the rig holds the car at its start pose (publishing its
+    sensors stamped with the current time, the simulation not advancing) until every input in
+    ``start_inputs`` has delivered a command, so a graph started by hand in any order does not lose
+    the car while its nodes are still joining. ``rig/start`` (std_srvs/Trigger) starts it at once.
+
+    Message budget per step (see docs/architecture.md): ``arm/joint_states``, ``belt/speed`` and,
+    in lock-step, ``/clock`` every step; the ground truth (``ground_truth/odom``,
+    ``ground_truth/sensor_point``) every ``ground_truth_decimation`` steps and ``steering/state``
+    every ``actuator_state_decimation`` steps (0 = off: simulation-only extras a real-time run can
+    drop); ``rig/status`` on a change and every ``status_period`` s. In real time the rig measures
+    its own loop (deadline misses, loop latency: :mod:`irs_common.loop_timing`) and publishes it on
+    ``rig/timing`` (diagnostic_msgs/DiagnosticArray) every second.
+
+    Commands that are NaN, inf or out of range are replaced by the safe value (steer 0 rad, drive 0
+    V, driver speed held) with a throttled warning; the counts are on ``rig/status``. In real time
+    a steering or drive command older than ``command_timeout`` is held, and one silent for longer
+    than ``stall_grace`` (or a fault on ``treadmill/state``) brings the rig to its controlled stop,
+    car and belt together (:mod:`.safe_stop`; ``rig/status`` says which, and why, in one log line).
+
+    The torque car (``plant: two_track``, docs/torque_car.md): the rig also subscribes
+    ``wheels/torque_command`` (irs_msgs/WheelTorqueCommand, the lock-step input ``wheels``) and
+    publishes ``wheels/encoders`` (irs_msgs/WheelEncoders) every step and the tyres' ground truth
+    ``rig/tyre_truth`` (irs_msgs/TyreState) every ``ground_truth_decimation`` steps; the driver's
+    speed command is ignored. A non-finite wheel torque is replaced by 0 N m (that wheel coasts), a
+    stale one (real time, ``command_timeout``) or none yet by 0 N m on every wheel and no wheel
+    locked, each with a throttled warning. The other plants have none of these topics.
+
+    Stamps of commands (irs_common.stamp_gate): one stamped more than ``future_tolerance`` s ahead
+    of the rig's time (lock-step: the current step; real time: the node clock) is dropped and
+    counted as rejected (it is not applied and does not refresh the stale timer). In lock-step a
+    command for an earlier step is a resend duplicate and ignored. In real time a command older
+    than the last one of its input is ignored as out of order, unless it is more than 1 s older (a
+    restarted publisher): then it is taken; a command with the same stamp as the last is taken
+    (``ros2 topic pub`` sends stamp 0 every time).
+
+    ``rig/reset`` (std_srvs/Trigger): after the car left the belt (or at any time), put the car
+    back at its start pose and clear the rig's latched fault (:meth:`RigSimulation.reset_to_start`;
+    time runs on, the belt keeps its speed); ``rig/status`` says ``car_on_belt`` again (a stop
+    stays). ``rig/recover`` (std_srvs/Trigger, real time): the whole rig running again from any
+    fault: the car held at its start pose, the treadmill reset (``treadmill/reset``,
+    std_msgs/Empty), the belt brought up to ``u0`` by the rig, then the car released
+    (docs/safety.md).
+
+    Writable parameters (``ros2 param set``, applied at once): ``command_timeout``,
+    ``stall_grace``, ``lockstep_resend_period``.
+    """
 
     def __init__(self, **node_options):
         super().__init__('vehicle_sim', **node_options)
@@ -117,6 +142,12 @@ class VehicleSimNode(Node):
         self._check_input_names('start_inputs', self.start_inputs)
         self.status_every = max(1, int(round(self.p['status_period'] / self.config.dt)))
         self.sim = RigSimulation(self.config)
+        self.safe = SafeStop(SafeStopParams(
+            command_timeout=self.p['command_timeout'], stall_grace=self._grace(),
+            belt_gain=self.config.belt.gain / self.config.belt.pole,
+            u_max=self.config.belt.u_max, u0=self.config.u0))
+        self.plant_speed = (self.config.bicycle['speed'] if self.config.plant == 'bicycle'
+                            else self.config.identified.speed)
         self.dt_ns = int(round(self.config.dt * 1e9))
         if abs(self.dt_ns * 1e-9 - self.config.dt) > 1e-15:
             raise ValueError(f'dt = {self.config.dt} s is not a whole number of nanoseconds')
@@ -174,6 +205,12 @@ class VehicleSimNode(Node):
         self.timer = None
         self.create_service(Trigger, 'rig/start', self._on_start)
         self.create_service(Trigger, 'rig/reset', self._on_reset)
+        self.create_service(Trigger, 'rig/recover', self._on_recover)
+        # the treadmill's fault stops the rig (real time); recover resets it (std_msgs/Empty on
+        # treadmill/reset: a service call from a callback would wait on this executor)
+        self.create_subscription(TreadmillState, 'treadmill/state', self._on_treadmill_state,
+                                 qos.SENSOR)
+        self.pub_treadmill_reset = self.create_publisher(Empty, 'treadmill/reset', qos.COMMAND)
         self.holding = False
         self.status_k = -1
         if self.p['autostart']:
@@ -185,6 +222,10 @@ class VehicleSimNode(Node):
             f"rig up: {self.p['clock_mode']}, dt = {self.config.dt} s, plant = {self.config.plant}"
             + (f', lock-step inputs {list(self.required)}' if self.lockstep else ''))
 
+
+    def _grace(self) -> float:
+        """The stall grace in effect [s]: ``stall_grace``, at least ``command_timeout``."""
+        return max(self.p['stall_grace'], self.p['command_timeout'])
 
     def _check_input_names(self, what, names):
         unknown = set(names) - set(self.inputs)
@@ -244,7 +285,7 @@ class VehicleSimNode(Node):
             self.timer = self.create_timer(0.01, begin)
         else:
             self.stamp0_ns = self.get_clock().now().nanoseconds
-            self.wall0 = self.next_timing = time.monotonic()
+            self.wall0 = self.next_timing = self.tick_now = time.monotonic()
             self.timer = self.create_timer(self.config.dt, self._realtime_tick)
 
     def _start_waits(self) -> dict:
@@ -252,7 +293,7 @@ class VehicleSimNode(Node):
         pubs = {'/clock': self.pub_clock, 'arm/joint_states': self.pub_arm,
                 'belt/speed': self.pub_belt, 'steering/state': self.pub_act,
                 'ground_truth/odom': self.pub_odom, 'ground_truth/sensor_point': self.pub_point,
-                'rig/status': self.pub_status}
+                'rig/status': self.pub_status, 'treadmill/reset': self.pub_treadmill_reset}
         if self.torque_car:
             pubs.update({'wheels/encoders': self.pub_encoders, 'rig/tyre_truth': self.pub_tyre})
         waits = {}
@@ -287,11 +328,44 @@ class VehicleSimNode(Node):
         self.get_logger().info(f'rig/reset: {response.message}')
         if self.started and not self.holding:
             self._publish_status(self.sim.outputs, from_ns(self._stamp_ns()))
-            self.last_fault = (self.sim.outputs.fault, self.sim.outputs.fault_reason)
+            self.last_fault = (self.sim.outputs.fault, self.sim.outputs.fault_reason,
+                               self.safe.state, self.safe.late)
         return response
+
+    def _on_recover(self, _request, response):
+        if self.lockstep or not self.started or self.holding:
+            response.success = False
+            response.message = ('not running in real time (lock-step runs restart with '
+                                'rig/reset; before the start the car is held anyway)')
+            return response
+        was = self.safe.cause or self.sim.outputs.fault_reason or 'no fault'
+        self.sim.reset_to_start()
+        self.sim.path_rate = 1.0
+        self.safe.recover()
+        self.stale_inputs.clear()
+        self.pub_treadmill_reset.publish(Empty())
+        response.success = True
+        response.message = (
+            f'recovering: treadmill fault reset, car held at its start pose until the belt runs '
+            f'at {self.config.u0} m/s and the steering and drive commands are fresh; was: {was}')
+        self.get_logger().info(f'rig/recover: {response.message}')
+        return response
+
+    def _on_treadmill_state(self, msg):
+        if self.lockstep or not self.started or self.holding:
+            return
+        if msg.mode == TreadmillState.MODE_FAULT \
+                and msg.fault_code not in TREADMILL_PASSING_FAULTS:
+            cause = self.safe.stop(f'treadmill fault {msg.fault_code}: {msg.fault_text}')
+            if cause:
+                self._announce_stop(cause)
 
     def _on_parameter(self, name, value):
         self.p[name] = value    # read where used (watchdog, stale check)
+        if name in ('command_timeout', 'stall_grace'):
+            self.safe.params = dataclasses.replace(
+                self.safe.params, command_timeout=self.p['command_timeout'],
+                stall_grace=self._grace())
         self.get_logger().info(f'parameter {name} = {value!r} applied')
 
     # ---------------------------------------------------------------- inputs
@@ -350,52 +424,92 @@ class VehicleSimNode(Node):
         return self.stamp0_ns + self.sim.k * self.dt_ns
 
     def _fresh_latest(self) -> dict:
-        """Latest commands, with stale steering/drive replaced by the safe value (real time)."""
+        """Latest commands (real time: late steering/drive held, stale wheel torques zero; the
+        safe-stop state updated from the inputs' ages at this step's time).
+        """
         latest = dict(self.latest)
         if self.lockstep:
             return latest
-        now = time.monotonic()
-        if self.torque_car and 'wheels' not in self.received_at and self.started:
-            self.warner.warn('wheels-missing', 'no wheel torque command yet: using 0 N m on '
-                             'every wheel (the car coasts)', now)
-        for name in ('steering', 'drive', 'wheels'):
-            if name not in self.inputs:
-                continue
-            safe = SAFE[name]
-            seen = self.received_at.get(name)
-            stale = seen is not None and now - seen > self.p['command_timeout']
-            if stale:
-                latest[name] = safe
-                if name not in self.stale_inputs:    # once per transition, at most 1/s
-                    self.warner.warn(
-                        f'{name}-stale', f'{name} command stale (none for {now - seen:.3f} s > '
-                        f"{self.p['command_timeout']} s): using the safe value {safe}", now)
-            elif name in self.stale_inputs:
-                self.info_warner.warn(f'{name}-fresh', f'{name} commands are fresh again', now)
-            if stale:
-                self.stale_inputs.add(name)
+        # the wall time of this tick (the inputs' ages are real ages, whatever the rig's own
+        # lag), and how far the step being taken is behind real time
+        now = self.tick_now
+        if self.torque_car:
+            self._wheels_fresh(latest, now)
+        held = self.safe.late
+        cause = self.safe.watch(now, self.received_at,
+                                now - self.wall0 - self.sim.k * self.config.dt)
+        if cause:
+            self._announce_stop(cause)
+        elif self.safe.late != held:
+            if self.safe.late:
+                self.warner.warn('late', f'{self.safe.late} command late (> command_timeout '
+                                 f"{self.p['command_timeout']} s): its last value is held for "
+                                 f"up to stall_grace {self.p['stall_grace']} s", time.monotonic())
             else:
-                self.stale_inputs.discard(name)
+                self.info_warner.warn('fresh', f'{held} commands fresh again', time.monotonic())
         return latest
+
+    def _wheels_fresh(self, latest: dict, now: float) -> None:
+        """Torque car: no or stale wheel torque command -> 0 N m on every wheel, no lock."""
+        seen = self.received_at.get('wheels')
+        if seen is None:
+            if self.started:
+                self.warner.warn('wheels-missing', 'no wheel torque command yet: using 0 N m on '
+                                 'every wheel (the car coasts)', time.monotonic())
+            return
+        if now - seen <= self.p['command_timeout']:
+            if 'wheels' in self.stale_inputs:
+                self.stale_inputs.discard('wheels')
+                self.info_warner.warn('wheels-fresh', 'wheels commands are fresh again', now)
+            return
+        latest['wheels'] = SAFE['wheels']
+        if 'wheels' not in self.stale_inputs:    # once per transition, at most 1/s
+            self.stale_inputs.add('wheels')
+            self.warner.warn('wheels-stale', f'wheels command stale (none for {now - seen:.3f} '
+                             f"s > {self.p['command_timeout']} s): using 0 N m on every wheel",
+                             time.monotonic())
+
+    def _announce_stop(self, cause: str) -> None:
+        """The one log line of a stop (rig/status carries the cause until recover)."""
+        self.get_logger().error(f'controlled stop: {cause}; steer 0, the belt coasts and the '
+                                "car's speed follows it; call rig/recover to restart")
 
     def _inputs(self, values: dict) -> RigInputs:
         merged = {**self._fresh_latest(), **values}
+        if self.safe.state >= STOPPING:
+            return self._safe_inputs()
         front, rear = merged['steering']
         torque, locked = merged['wheels']
         return RigInputs(front_steer=front, rear_steer=rear, drive_voltage=merged['drive'],
                          speed_cmd=merged['driver'], wheel_torque=torque, wheel_locked=locked)
+
+    def _safe_inputs(self) -> RigInputs:
+        """The rig's own commands during a stop or a recovery (:mod:`.safe_stop`)."""
+        drive, speed, self.sim.path_rate = self.safe.commands(self.sim.outputs, self.plant_speed)
+        return RigInputs(0.0, 0.0, drive, speed, ZERO_TORQUE, NOT_LOCKED)
 
     def _done(self) -> bool:
         return self.p['max_steps'] > 0 and self.sim.k >= self.p['max_steps']
 
     def _step(self, values: dict):
         out = self.sim.step(self._inputs(values))
+        if self.safe.state == RECOVERING:
+            out = self._recovering()
         for reason in out.input_warnings:
             kind = ('wheels' if reason.startswith('wheel_torque') else 'steering'
                     if 'steer' in reason else 'drive' if 'drive' in reason else 'driver')
             self.rejected[kind] += 1
             self.warner.warn(kind, f'rejected command: {reason}', time.monotonic())
         self._publish_outputs()
+
+    def _recovering(self):
+        """Hold the car at its start pose; release it once the belt is up to speed."""
+        out = self.sim.reset_to_start()
+        if self.safe.ready(out.belt_speed_measured, self.tick_now, self.received_at):
+            self.pub_treadmill_reset.publish(Empty())   # the regulator restarts from here
+            self.get_logger().info(f'rig/recover: belt at {out.belt_speed_measured:.3f} m/s, '
+                                   'car released')
+        return out
 
     def _lockstep_step(self, values):
         if self._done():
@@ -419,7 +533,8 @@ class VehicleSimNode(Node):
             self.last_progress = time.monotonic()
 
     def _realtime_tick(self):
-        due = int((time.monotonic() - self.wall0) / self.config.dt)
+        self.tick_now = time.monotonic()
+        due = int((self.tick_now - self.wall0) / self.config.dt)
         if due - self.sim.k > 1:
             self.timing.late_ticks += 1    # the tick came late: steps are taken back to back
         for _ in range(min(due - self.sim.k, 100)):   # catch up, at most 0.1 s per tick
@@ -502,9 +617,9 @@ class VehicleSimNode(Node):
             ws.velocity = [float(w) for w in out.wheel_speeds]
             self.pub_wheels.publish(ws)
 
-        fault = (out.fault, out.fault_reason)
+        fault = (out.fault, out.fault_reason, self.safe.state, self.safe.late)
         if fault != self.last_fault or (k % self.status_every == 0 and k != self.status_k):
-            if out.fault and fault != self.last_fault:
+            if out.fault and (self.last_fault is None or out.fault_reason != self.last_fault[1]):
                 self.get_logger().error(f'rig fault: {out.fault_reason}')
             self.last_fault = fault
             self._publish_status(out, stamp)
@@ -549,6 +664,9 @@ class VehicleSimNode(Node):
         st.rejected_drive_count = self.rejected['drive']
         st.step = self.sim.k
         st.run_complete = self.run_complete
+        st.safe_state = self.safe.state
+        st.stop_cause = self.safe.cause
+        st.late_inputs = self.safe.late if self.safe.state == HOLDING else ''
         self.pub_status.publish(st)
 
 

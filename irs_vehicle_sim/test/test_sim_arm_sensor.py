@@ -98,7 +98,7 @@ def test_pots_resolve_ten_times_finer_than_the_encoders_paper_sec_3_2():
 
 
 def _reference_measure(sensor, rng, x, y, psi):
-    """The earlier numpy implementation: three normal(0, sigma) draws per call, np.round."""
+    """The plain numpy reference: three normal(0, sigma) draws per call, np.round."""
     th = np.array(sensor.true_angles(x, y, psi), dtype=float)
     p = sensor.params
     if p.enable_noise and p.noise_std > 0.0:

@@ -1,5 +1,5 @@
 """RigSimulation.reset_to_start: the car back at its start pose, the off-belt fault cleared, the
-clock running on (for a rig/reset service; issue 10).
+clock running on (for a rig/reset service).
 """
 import math
 

@@ -71,7 +71,7 @@ def test_locked_flags_lock_the_wheels_and_the_car_slides_near_mu_g():
     np.testing.assert_array_equal(counts[2:], np.broadcast_to(counts[1], counts[2:].shape))
     assert np.all(r['slip'][-1] < -0.9)      # sliding (relaxed slip towards -1)
     decel = (r['u'][100] - r['u'][-1]) / 0.2
-    assert 0.75 * mu * G < decel < 1.02 * mu * G
+    assert 0.6 * mu * G < decel < 1.02 * mu * G      # sliding friction: 0.65 of the peak
     assert r['wheel_locked'].all()
 
 
@@ -127,7 +127,7 @@ def test_any_torque_command_gives_finite_limited_torques_and_state(torque, locke
     ({'surface.wet': True}, "unknown parameter(s) ['wet'] in section 'surface'"),
     ({'two_track.torque_limit': -0.1}, 'two_track.torque_limit must be a finite torque > 0'),
     ({'two_track.mass': 0.0}, 'two_track: TwoTrackParams.mass must be'),
-    ({'two_track.shape_c': 2.5}, 'shape_c must be in (1, 2)'),
+    ({'two_track.peak_slip_x': 1.5}, 'peak_slip_x must be below sliding_slip_x'),
     ({'encoders.window': 0}, 'encoders: EncoderParams.window must be an integer >= 1'),
 ])
 def test_bad_torque_car_parameters_are_refused_with_one_sentence(params, words):

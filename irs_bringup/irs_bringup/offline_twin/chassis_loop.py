@@ -110,10 +110,10 @@ class ChassisLoop(ClosedLoop):
             inputs, ctl = self.step_commands(out)
             cmds.append((*inputs.wheel_torque, *inputs.wheel_locked, inputs.front_steer,
                          inputs.rear_steer, inputs.drive_voltage, ctl.v_hat, ctl.r_ref,
-                         ctl.ok))
+                         ctl.ok, ctl.v_ref, *ctl.slip_target))
             out = self.rig.step(inputs)
         a = np.array(rows, dtype=float)
-        c = np.array(cmds, dtype=float).reshape(-1, 14)
+        c = np.array(cmds, dtype=float).reshape(-1, 19)
         tyre = np.array(tyres, dtype=float).reshape(-1, 3, 4)
         return {'time': a[:, 0], 'x': a[:, 1], 'y': a[:, 2], 'psi': a[:, 3], 'u': a[:, 4],
                 'yaw_rate': a[:, 5], 'belt_speed': a[:, 6], 'fault': a[:, 7].astype(bool),
@@ -121,5 +121,5 @@ class ChassisLoop(ClosedLoop):
                 'encoder_velocity': tyre[:, 2], 'torque': c[:, 0:4],
                 'locked': c[:, 4:8].astype(bool), 'front_steer': c[:, 8], 'rear_steer': c[:, 9],
                 'drive_voltage': c[:, 10], 'v_hat': c[:, 11], 'r_ref': c[:, 12],
-                'input_ok': c[:, 13].astype(bool)}
+                'input_ok': c[:, 13].astype(bool), 'v_ref': c[:, 14], 'slip_target': c[:, 15:19]}
 

@@ -37,14 +37,15 @@ def chassis_loop_config(exp: Experiment) -> ChassisLoopConfig:
         default_drive_voltage=float(rig.get('default_drive_voltage', 0.0)))
 
 
-def offline_run(name_or_path) -> dict:
+def offline_run(experiment) -> dict:
     """The experiment's loop without ROS: arrays as :meth:`ClosedLoop.run` returns them (the
     torque car's, with a ``chassis_controller``: as :meth:`ChassisLoop.run` returns them).
 
+    ``experiment``: a loaded :class:`~irs_bringup.experiment.Experiment`, or a name or path.
     A parameter the cores refuse (what the tables could not check) is an
     :class:`~irs_bringup.experiment.ExperimentError` line naming the file.
     """
-    exp = load_experiment(str(name_or_path))
+    exp = experiment if isinstance(experiment, Experiment) else load_experiment(str(experiment))
     torque_car = exp.node('irs_control', 'chassis_controller') is not None
     try:
         loop = ChassisLoop(chassis_loop_config(exp)) if torque_car \

@@ -4,19 +4,17 @@
 
 Runs ``figure10_mrc_with_actuator``, ``figure10_mrc_without_actuator`` and ``figure10_pi``
 (lock-step, recorded), reads each bag back and writes ``figure10.png`` and
-``figure10_metrics.md`` (:mod:`.report`). ``--offline`` runs the same cores without ROS
-(:mod:`irs_bringup.offline_twin`). ``make demo`` runs this command.
+``figure10_metrics.md`` (:mod:`.report`) into ``--out`` (default ``<runs-dir>/figure10``).
+``--offline`` runs the same cores without ROS (:mod:`irs_bringup.offline_twin`); its report goes
+to ``<runs-dir>/figure10-offline`` by default, never over the graph's. ``make demo`` runs this
+command. Exit codes: docs/cli.md.
 """
 import argparse
 from pathlib import Path
 import sys
 
-from irs_bag.run_series import lateral_run
-from irs_bringup.experiment import ExperimentError
-from irs_bringup.experiment_cli import COMPOSED_HELP, run_experiment
-from irs_bringup.offline_twin.from_experiment import offline_run
-
-from .report import write_report
+from irs_bringup.experiment_cli import COMPOSED_HELP
+from irs_common.cli import Interrupted, RunFailed, run_cli
 
 FIGURE10 = {'mrc_with_actuator': 'figure10_mrc_with_actuator',
             'mrc_without_actuator': 'figure10_mrc_without_actuator',
@@ -24,15 +22,21 @@ FIGURE10 = {'mrc_with_actuator': 'figure10_mrc_with_actuator',
 
 
 def figure10(out_dir, offline=False, runs_dir='runs', log=print, composed=False) -> int:
+    from irs_bag.run_series import lateral_run
+    from irs_bringup.experiment_cli import run_experiment
+    from irs_bringup.offline_twin.from_experiment import offline_run
+
+    from .report import write_report
     runs = {}
     for key, name in FIGURE10.items():
         if offline:
             runs[key] = offline_run(name)
             continue
         result = run_experiment(name, runs_dir=runs_dir, log=log, composed=composed)
+        if result.interrupted:
+            raise Interrupted(result.interrupted)
         if not result.completed:
-            log(f'[figure10] {name} did not complete: {result.message}')
-            return 1
+            raise RunFailed(f'{name} did not complete: {result.message}')
         runs[key] = lateral_run(result.bag_dir)
     out = Path(out_dir)
     metrics = write_report(
@@ -47,23 +51,24 @@ def figure10(out_dir, offline=False, runs_dir='runs', log=print, composed=False)
     return 0
 
 
-def main(argv=None) -> int:
+def _main(argv) -> int:
     parser = argparse.ArgumentParser(prog='figure10', description=__doc__.splitlines()[0])
     parser.add_argument('--offline', action='store_true', help='simulate the cores without ROS')
     parser.add_argument('--composed', action='store_true', help=COMPOSED_HELP)
     parser.add_argument('--runs-dir', default='runs', help='where run directories go')
     parser.add_argument('--out', default=None,
-                        help='report directory (default: <runs-dir>/figure10)')
+                        help='report directory (default: <runs-dir>/figure10, offline '
+                        '<runs-dir>/figure10-offline)')
     args = parser.parse_args(argv)
     if args.offline and args.composed:
         parser.error('--composed runs the graph, --offline runs the cores without it: pick one')
-    out = args.out or str(Path(args.runs_dir) / 'figure10')
-    try:
-        return figure10(out, offline=args.offline, runs_dir=args.runs_dir,
-                        composed=args.composed)
-    except ExperimentError as exc:
-        print(f'figure10: {exc}', file=sys.stderr)
-        return 2
+    default = 'figure10-offline' if args.offline else 'figure10'
+    out = args.out or str(Path(args.runs_dir) / default)
+    return figure10(out, offline=args.offline, runs_dir=args.runs_dir, composed=args.composed)
+
+
+def main(argv=None) -> int:
+    return run_cli('figure10', _main, argv)
 
 
 if __name__ == '__main__':

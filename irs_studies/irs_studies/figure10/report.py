@@ -16,36 +16,8 @@ and writes the report. A run is a dict of 1-D numpy arrays ``time, y_s, referenc
 steer_achieved`` (``steer_cmd`` may have length N or N+1 for N+1 time samples; non-finite reference
 samples, e.g. the last sample of a ClosedLoop record, are held from the previous sample).
 
-Default scenario (``DEFAULT_*`` below, docs/figure10.md)
---------------------------------------------------------
-V = 1.2 m/s, ds = 0.33 m, identified plant (Eq. 6), rig.yaml defaults: the servo (7 Hz loop,
-slew limit 1.16 rad/s at the wheel, friction dead zone, linkage; docs/vehicle_sim.md),
-17 ms delay, 0.175 deg backlash, 15 deg saturation, arm pot noise
-and 12-bit ADC quantisation on; treadmill regulator on. Reference: a 0.02 m step at 0.5 s,
-8 s record. Why 0.02 m and not a 0.1 m step (the paper's axis is labelled at 0.1 m but the
-step size is not printed): the MRC-with-actuator design commands about 7.2 rad of steer per
-metre of step in the linear range, so steps above ~0.036 m hit the 15 deg limit; at 0.05 m
-and above all three designs saturate for most of the transient, the responses become
-saturation-limited (rise times converge, the MRC designs' differences blur) and model
-following is impossible by construction. 0.02 m is the largest "round" step where both MRC
-designs stay linear (peak steer ~8 deg), i.e. where the paper's comparison of the designs
-is meaningful; the study (:mod:`.figure10_study`) covers 0.01-0.2 m.
-
-Metric windows
---------------
-The step is the first change of the reference: ``t_step`` = first sample whose reference
-differs from the first finite reference value ``y0``; ``setpoint`` = the reference right
-after the change. The *step window* runs from ``t_step`` to the next reference change (or
-the end of the record). Within it (``irs_control.metrics``): rise time 10-90 %, overshoot
-[%], 2 % settling time (from ``t_step``; nan if not settled by the window end), oscillation
-count (set-point crossings after the first; ``crossings_2pct``: the same with a +-2 % of
-step hysteresis band, so noise/backlash jitter does not count), residual oscillation = peak-to-peak
-of ``y_s``
-over ``[t_step + RESIDUAL_DELAY, window end]`` (3 s after the step: the model has settled
-to 0.02 % by then), ISE vs model = ``int (y_s - y_model)^2 dt`` over the step window
-[m^2 s], also normalised by ``delta^2`` [s] and as ``max |y_s - y_model| / |delta|``,
-peak |steer command| and peak |achieved steer| [deg] over the step window, and the time
-the command sits at the steer limit [s].
+Default scenario (V = 1.2 m/s, ds = 0.33 m, the identified plant, a 0.02 m step at 0.5 s):
+:func:`simulate_offline`; metric windows and definitions: :func:`run_metrics`.
 """
 from __future__ import annotations
 
@@ -169,7 +141,7 @@ def _align(x, n):
 
 
 def step_window(time, reference):
-    """``(y0, setpoint, t_step, t_end, i0, i1)`` of the first reference step (see module doc).
+    """``(y0, setpoint, t_step, t_end, i0, i1)`` of the first reference step (:func:`run_metrics`).
 
     ``i0:i1`` is the index slice of the step window.
     """
@@ -198,7 +170,21 @@ def band_crossings(y, setpoint, band) -> int:
 
 
 def run_metrics(run: dict, steer_limit: float = STEER_LIMIT) -> dict:
-    """Figure-10 metrics of one run on its first reference step (see module doc)."""
+    """Figure-10 metrics of one run on its first reference step.
+
+    The step is the first change of the reference: ``t_step`` = first sample whose reference
+    differs from the first finite reference value ``y0``; ``setpoint`` = the reference right after
+    the change. The *step window* runs from ``t_step`` to the next reference change (or the end of
+    the record). Within it (``irs_control.metrics``): rise time 10-90 %, overshoot [%], 2 %
+    settling time (from ``t_step``; nan if not settled by the window end), oscillation count
+    (set-point crossings after the first; ``crossings_2pct``: the same with a +-2 % of step
+    hysteresis band, so noise/backlash jitter does not count), residual oscillation = peak-to-peak
+    of ``y_s`` over ``[t_step + RESIDUAL_DELAY, window end]`` (3 s after the step: the model has
+    settled to 0.02 % by then), ISE vs model = ``int (y_s - y_model)^2 dt`` over the step window
+    [m^2 s], also normalised by ``delta^2`` [s] and as ``max |y_s - y_model| / |delta|``, peak
+    |steer command| and peak |achieved steer| [deg] over the step window, and the time the command
+    sits at the steer limit [s].
+    """
     t = np.asarray(run['time'], dtype=float)
     y = np.asarray(run['y_s'], dtype=float)
     n = t.size
@@ -350,7 +336,21 @@ def simulate_offline(step: float = DEFAULT_STEP, duration: float = DEFAULT_DURAT
                      rig: dict | None = None, controllers: dict | None = None,
                      step_time: float = DEFAULT_STEP_TIME, regulator: dict | None = None,
                      names=RUN_NAMES) -> dict:
-    """``{name: ClosedLoop run}`` of the designs on a reference step (default scenario)."""
+    """``{name: ClosedLoop run}`` of the designs on a reference step (default scenario).
+
+    Default scenario (``DEFAULT_*``, docs/figure10.md): V = 1.2 m/s, ds = 0.33 m, identified plant
+    (Eq. 6), rig.yaml defaults: the servo (7 Hz loop, slew limit 1.16 rad/s at the wheel, friction
+    dead zone, linkage; docs/vehicle_sim.md), 17 ms delay, 0.175 deg backlash, 15 deg saturation,
+    arm pot noise and 12-bit ADC quantisation on; treadmill regulator on. Reference: a 0.02 m step
+    at 0.5 s, 8 s record. Why 0.02 m and not a 0.1 m step (the paper's axis is labelled at 0.1 m
+    but the step size is not printed): the MRC-with-actuator design commands about 7.2 rad of steer
+    per metre of step in the linear range, so steps above ~0.036 m hit the 15 deg limit; at 0.05 m
+    and above all three designs saturate for most of the transient, the responses become
+    saturation-limited (rise times converge, the MRC designs' differences blur) and model following
+    is impossible by construction. 0.02 m is the largest step of round size where both MRC designs
+    stay linear (peak steer ~8 deg), i.e. where the paper's comparison of the designs is
+    meaningful; the study (:mod:`.figure10_study`) covers 0.01-0.2 m.
+    """
     from irs_bringup.offline_twin.lateral_loop import ClosedLoop, LoopConfig
 
     rig = DEFAULT_RIG if rig is None else rig

@@ -3,40 +3,17 @@ r"""Figure 10 at two step sizes and both anti-windup choices, with seed statisti
 ``python -m irs_studies.figure10.seeds [--img-dir docs/img] [--runs-dir DIR] [--seeds 8]
 [--jobs 2] [--no-graph]``
 
-Why: the arm noise makes single-run metrics depend on the noise seed (issue 12: 2 % settling
-times 1.41-1.55 s across seeds for one configuration, "not within 8 s" for another seed), and the
+Why: the arm noise makes single-run metrics depend on the noise seed (2 % settling
+times of 1.41-1.55 s across seeds for one configuration, not settled within 8 s for another
+seed), and the
 paper describes no anti-windup although the choice decides the large-step results. So every
 case -- design x step x anti-windup -- is run for ``N`` seeds of the arm-sensor noise
 (``vehicle_sim`` parameter ``seed`` = 0 .. N-1) and each metric is reported as the median and
 the spread (min-max) over the seeds.
 
-Cases: the three designs of Figure 10 (``figure10_*`` experiment files: MRC/RST with and without
-the actuator, PI Kp = 5, Ki = 3), steps 0.02 m (the linear range, docs/figure10.md) and 0.1 m (the
-paper's axis scale, every design saturates at the 15 deg steer limit), anti-windup
-``back_calculation`` (the project's default) and ``clip`` (none; lateral_controller parameter
-``anti_windup``). The runs are :class:`~irs_bringup.offline_twin.lateral_loop.ClosedLoop`, the
-offline closed loop of the same cores with the experiment files' parameters, which the lock-step
-graph reproduces to the bit (``tests/test_figure10_graph.py``); :func:`reproduce_figures` also runs
-two cases through the graph and reports the largest difference.
-
-Metrics per run (:func:`irs_studies.figure10.report.run_metrics`, step window = step to record
-end): overshoot [%], 2 % settling time [s] (NaN = not settled within the record), 10-90 % rise
-time [s], RMS model-following error ``sqrt(ISE / window length)`` [m], crossings of the +-2 %
-band [-].
-
-Noise-dominated (a flag per metric and case), when any of:
-
-* the metric is undefined (NaN: not settled) for some seeds but not all;
-* its spread over the seeds ``max - min`` exceeds ``SPREAD_LIMIT = 20 %`` of ``|median|`` and
-  the metric's print resolution (``METRICS`` floor: 0.5 % overshoot, 0.02 s settling, 5 ms
-  rise, 0.02 mm RMS error, one band crossing);
-* for the band metrics (settling time, band crossings): the settling band ``+-2 % |step|`` lies
-  inside the *noise band*, the 95th percentile over seeds and time of ``|y_s - mean over seeds|``
-  from 3 s after the step to the end (the seed-to-seed scatter of the true y_s once the model
-  has settled to 0.02 %).
-
-The thresholds are choices (assumed: 20 % is well beyond the rounding of a printed table and
-well below the differences the paper's claims rest on).
+Cases (three designs x steps 0.02 and 0.1 m x anti-windup ``back_calculation`` and ``clip``):
+:func:`seed_study`; metrics per run: :func:`irs_studies.figure10.report.run_metrics`; when a
+metric is flagged noise-dominated: :func:`seed_stats`.
 """
 from __future__ import annotations
 
@@ -126,7 +103,21 @@ def seed_stats(values, band_inside_noise: bool = False, floor: float = 0.0) -> d
     """Median, min, max, number of finite values and the noise-dominated flag of one metric.
 
     ``values``: the metric over the seeds (NaN = undefined, e.g. not settled); ``floor``: the
-    spread that never counts (the metric's print resolution); see the module docstring.
+    spread that never counts (the metric's print resolution); the rule is below.
+
+    Noise-dominated (a flag per metric and case), when any of:
+
+    * the metric is undefined (NaN: not settled) for some seeds but not all;
+    * its spread over the seeds ``max - min`` exceeds ``SPREAD_LIMIT = 20 %`` of ``|median|`` and
+      the metric's print resolution (``METRICS`` floor: 0.5 % overshoot, 0.02 s settling, 5 ms
+      rise, 0.02 mm RMS error, one band crossing);
+    * for the band metrics (settling time, band crossings): the settling band ``+-2 % |step|`` lies
+      inside the *noise band*, the 95th percentile over seeds and time of ``|y_s - mean over
+      seeds|`` from 3 s after the step to the end (the seed-to-seed scatter of the true y_s once
+      the model has settled to 0.02 %).
+
+    The thresholds are choices (assumed: 20 % is well beyond the rounding of a printed table and
+    well below the differences the paper's claims rest on).
     """
     v = np.asarray(values, dtype=float)
     fin = v[np.isfinite(v)]
@@ -148,7 +139,18 @@ def seed_stats(values, band_inside_noise: bool = False, floor: float = 0.0) -> d
 
 def seed_study(steps=STUDY_STEPS, seeds=N_SEEDS, aw=AW_CHOICES, designs=RUN_NAMES, jobs=1,
                duration=None):
-    """Run every case; ``({key: metrics}, {key: trace})`` with key ``(design, step, aw, seed)``."""
+    """Run every case; ``({key: metrics}, {key: trace})`` with key ``(design, step, aw, seed)``.
+
+    Cases: the three designs of Figure 10 (``figure10_*`` experiment files: MRC/RST with and
+    without the actuator, PI Kp = 5, Ki = 3), steps 0.02 m (the linear range, docs/figure10.md) and
+    0.1 m (the paper's axis scale, every design saturates at the 15 deg steer limit), anti-windup
+    ``back_calculation`` (the project's default) and ``clip`` (none; lateral_controller parameter
+    ``anti_windup``). The runs are :class:`~irs_bringup.offline_twin.lateral_loop.ClosedLoop`, the
+    offline closed loop of the same cores with the experiment files' parameters, which the
+    lock-step graph reproduces to the bit (``tests/test_figure10_graph.py``);
+    :func:`reproduce_figures` also runs two cases through the graph and reports the largest
+    difference.
+    """
     cases = [(d, s, a, k) + ((duration,) if duration is not None else ())
              for s in steps for a in aw for d in designs for k in range(int(seeds))]
     if jobs > 1:

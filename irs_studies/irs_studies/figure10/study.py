@@ -16,14 +16,8 @@ with the actuator non-idealities switched on cumulatively and one at a time, arm
 on/off; (3) a step-size sweep 0.01-0.2 m, all non-idealities on and "linear" (lag only).
 Metrics: :func:`irs_studies.figure10.report.run_metrics`.
 
-Seed statistics at 0.02 m and 0.1 m with both anti-windup choices, the two PNGs and the
-numbers of the all-figures command: :func:`reproduce_figures` (:mod:`.figure10_seeds`).
-
-Saturation: the controllers clip their command at ``steer_limit`` (15 deg, with
-anti-windup) in the paper's design, which makes the rig's saturation element redundant. In
-the conditions "without saturation" the controller limit is raised to 0.5 rad (28.6 deg,
-just below the rig's 30 deg command-reject threshold) and the rig saturation is off; "with
-saturation" is the paper's 15 deg limit in both.
+Seed statistics at 0.02 m and 0.1 m with both anti-windup choices: :mod:`.seeds`. How
+"without saturation" is set up: :func:`rig_params`.
 """
 from __future__ import annotations
 
@@ -55,6 +49,12 @@ def rig_params(lag=True, delay=False, backlash=False, saturation=False, rate_lim
 
     The servo's gear ratio alone does not change the wheel's response (horn and reference scale
     alike), so with friction, linkage and rate limit off the servo loop is the plain lag.
+
+    Saturation: the controllers clip their command at ``steer_limit`` (15 deg, with anti-windup) in
+    the paper's design, which makes the rig's saturation element redundant. In the conditions
+    "without saturation" the controller limit is raised to 0.5 rad (28.6 deg, just below the rig's
+    30 deg command-reject threshold) and the rig saturation is off; "with saturation" is the
+    paper's 15 deg limit in both.
     """
     p = {'actuator_front.enable_lag': lag, 'actuator_front.enable_delay': delay,
          'actuator_front.enable_backlash': backlash,

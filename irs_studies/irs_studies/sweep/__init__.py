@@ -1,1 +1,1 @@
-"""Design sweeps: a scenario's offline closed loop over parameter spaces, on Dask (issue 14)."""
+"""Design sweeps: a scenario's offline closed loop over parameter spaces, on Dask."""

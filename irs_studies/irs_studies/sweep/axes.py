@@ -60,14 +60,40 @@ def point_key(grid: dict, seed: int) -> str:
     return json.dumps({**grid, 'seed': int(seed)}, sort_keys=True)
 
 
-def sweep_points(sweep: SweepModel) -> list[dict]:
-    """Every point: ``{'point', 'seed', <axis>: value, ..., 'overrides': {path: value}}``.
+def count_points(sweep: SweepModel) -> int:
+    """How many points the sweep has (grid sizes times seeds), without generating them."""
+    n = len(sweep.seed_list)
+    for a in sweep.axes:
+        if a.kind in GRID_KINDS:
+            n *= _axis_len(a)
+    return n
+
+
+def _axis_len(axis) -> int:
+    if axis.kind == 'values':
+        return len(axis.values)
+    if axis.kind in ('range', 'log_range'):
+        return (axis.range or axis.log_range).num
+    return len(axis.cases)
+
+
+def override_paths(sweep: SweepModel) -> set:
+    """Every ``<node>.<parameter>`` some point of the sweep sets (no point generated)."""
+    paths = set(sweep.fixed) | {'rig.seed'}
+    for a in sweep.axes:
+        paths |= set(a.set)
+        for case in (a.cases or {}).values():
+            paths |= set(case)
+    return paths
+
+
+def iter_points(sweep: SweepModel):
+    """The points of :func:`sweep_points`, one at a time (a sweep of any size in little memory).
 
     Overrides apply in order: ``fixed``, then the axes in file order, then ``rig.seed``.
     """
     grid_axes = [a for a in sweep.axes if a.kind in GRID_KINDS]
     mc_axes = [a for a in sweep.axes if a.kind not in GRID_KINDS]
-    points = []
     for combo in itertools.product(*(axis_values(a) for a in grid_axes)):
         grid = dict(zip((a.name for a in grid_axes), combo))
         for seed in sweep.seed_list:
@@ -78,6 +104,10 @@ def sweep_points(sweep: SweepModel) -> list[dict]:
             for a in sweep.axes:
                 overrides.update(axis_overrides(a, values[a.name]))
             overrides['rig.seed'] = int(seed)
-            points.append({'point': point_key(grid, seed), 'seed': int(seed), **values,
-                           'overrides': overrides})
-    return points
+            yield {'point': point_key(grid, seed), 'seed': int(seed), **values,
+                   'overrides': overrides}
+
+
+def sweep_points(sweep: SweepModel) -> list[dict]:
+    """Every point: ``{'point', 'seed', <axis>: value, ..., 'overrides': {path: value}}``."""
+    return list(iter_points(sweep))

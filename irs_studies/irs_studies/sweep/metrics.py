@@ -1,31 +1,16 @@
 r"""The metrics a sweep can compute per point (no rclpy).
 
-Simulation metrics (from the offline closed loop's record; :func:`simulation_metrics`):
-
-* the Figure 10 step metrics of :func:`irs_studies.figure10.report.run_metrics` (which calls
-  :mod:`irs_control.metrics`): ``rise_time`` [s], ``overshoot_percent`` [%], ``settling_time``
-  [s] (2 %, nan = not settled in the record), ``oscillation_count``, ``crossings_2pct``,
-  ``residual_oscillation`` [m], ``ise_vs_model`` [m^2 s] (against the reference model Bm/Am of
-  Eq. 21 driven by the same reference), ``ise_norm`` = ISE / step^2 [s], ``max_dev_rel`` [-],
-  ``peak_steer_cmd_deg``, ``peak_steer_achieved_deg`` [deg], ``time_at_limit`` [s];
-* ``off_belt`` [0/1]: the rig raised a fault (car off the belt or beyond the arm's reach) at any
-  sample;
-* ``settled`` [0/1]: the 2 % settling time is finite (the response came to rest near the step).
-
-Linear metrics (python-control, :func:`linear_metrics`) of the loop the point actually runs::
+Simulation metrics (:func:`simulation_metrics`, from the offline closed loop's record): the
+Figure 10 step metrics of :func:`irs_studies.figure10.report.run_metrics` (rise time [s],
+overshoot [%], settling time [s], ISE against the reference model [m^2 s], peak steer [deg],
+...), ``off_belt`` and ``settled`` [0/1]. Linear metrics (:func:`linear_metrics`, python-control)
+of the loop the point actually runs::
 
     L(s) = C(s) Pa(s) P(s) e^{-s tau}
-    C = S/R (MRC/RST design of the point; R u = T u_c - S y)  or  (kp s + ki)/s (PI)
-    Pa = w_a/(s + w_a),  w_a = 2 pi lag_hz     (the rig's actuator lag, if enabled)
-    P  = the rig's lateral plant (Eq. 6 with the rig's gain, or its bicycle preset), steer -> y_s
-    tau = the rig's actuator delay [s] (if enabled)
 
-* ``stable`` [0/1]: every closed-loop pole of ``L/(1+L)`` with the delay as a 5th-order Pade
-  approximation (``control.pade``) has ``Re s < 0`` (continuous loop: the 1 kHz sampling,
-  backlash, rate limit and saturation are not in it -- the simulation metrics have them);
-* ``gain_margin_db`` [dB], ``phase_margin_deg`` [deg], ``crossover_hz`` [Hz] (gain crossover):
-  ``control.stability_margins`` of ``L`` as a frequency response (``control.frd``, 2000 points
-  from 0.01 to 1000 rad/s) with the delay exact; inf when there is no crossing.
+with the point's controller, the rig's actuator lag, plant and delay: ``stable`` [0/1], gain
+and phase margins [dB, deg] and the crossover [Hz]. They exist so that a sweep's table holds
+both what the rig does and what the linear design promises, side by side.
 """
 from __future__ import annotations
 
@@ -49,7 +34,18 @@ OMEGA = np.logspace(-2, 3, 2000)   # [rad/s] frequency grid of the margins
 
 
 def simulation_metrics(run: dict) -> dict:
-    """Figure 10 metrics, ``off_belt`` and ``settled`` of one ClosedLoop record."""
+    """Figure 10 metrics, ``off_belt`` and ``settled`` of one ClosedLoop record.
+
+    * the Figure 10 step metrics of :func:`irs_studies.figure10.report.run_metrics` (which calls
+      :mod:`irs_control.metrics`): ``rise_time`` [s], ``overshoot_percent`` [%], ``settling_time``
+      [s] (2 %, nan = not settled in the record), ``oscillation_count``, ``crossings_2pct``,
+      ``residual_oscillation`` [m], ``ise_vs_model`` [m^2 s] (against the reference model Bm/Am of
+      Eq. 21 driven by the same reference), ``ise_norm`` = ISE / step^2 [s], ``max_dev_rel`` [-],
+      ``peak_steer_cmd_deg``, ``peak_steer_achieved_deg`` [deg], ``time_at_limit`` [s];
+    * ``off_belt`` [0/1]: the rig raised a fault (car off the belt or beyond the arm's reach) at
+      any sample;
+    * ``settled`` [0/1]: the 2 % settling time is finite (the response came to rest near the step).
+    """
     from ..figure10.report import run_metrics
     m = run_metrics(run)
     out = {k: float(m[k]) for k in FIGURE10_METRICS}
@@ -76,8 +72,22 @@ def _plant_tf(rig):
 
 
 def linear_metrics(ctl_params: dict | None, rig) -> dict:
-    """``stable``, margins and crossover of the point's loop (module docstring); nan without a
-    controller.
+    """``stable``, margins and crossover of the point's loop; nan without a controller.
+
+    Loop of the point::
+
+        L(s) = C(s) Pa(s) P(s) e^{-s tau}
+        C = S/R (MRC/RST design of the point; R u = T u_c - S y)  or  (kp s + ki)/s (PI)
+        Pa = w_a/(s + w_a),  w_a = 2 pi lag_hz     (the rig's actuator lag, if enabled)
+        P  = the rig's lateral plant, steer -> y_s (Eq. 6 with the rig's gain, or its preset)
+        tau = the rig's actuator delay [s] (if enabled)
+
+    * ``stable`` [0/1]: every closed-loop pole of ``L/(1+L)`` with the delay as a 5th-order Pade
+      approximation (``control.pade``) has ``Re s < 0`` (continuous loop: the 1 kHz sampling,
+      backlash, rate limit and saturation are not in it -- the simulation metrics have them);
+    * ``gain_margin_db`` [dB], ``phase_margin_deg`` [deg], ``crossover_hz`` [Hz] (gain crossover):
+      ``control.stability_margins`` of ``L`` as a frequency response (``control.frd``, 2000 points
+      from 0.01 to 1000 rad/s) with the delay exact; inf when there is no crossing.
     """
     nan = {k: math.nan for k in LINEAR_METRICS}
     if ctl_params is None:

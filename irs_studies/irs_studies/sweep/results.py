@@ -53,14 +53,19 @@ def write_part(out: Path, rows: list[dict]) -> Path | None:
     return path
 
 
-def merge(out: Path, order: list[str]) -> list[dict]:
-    """All rows in ``order`` of point keys (the first row of a key wins), written to
-    ``results.parquet``; returns them.
+def merge(out: Path, order) -> list[dict]:
+    """All rows in ``order`` (an iterable of point keys; the first row of a key wins), written
+    to ``results.parquet``; returns them. ``order`` is read only until every row is placed.
     """
     by_key = {}
     for r in read_parts(out):
         by_key.setdefault(r['point'], r)
-    rows = [by_key[k] for k in order if k in by_key]
+    rows = []
+    for key in order:
+        if len(rows) == len(by_key):
+            break
+        if key in by_key:
+            rows.append(by_key[key])
     if rows:
         pq.write_table(pa.Table.from_pylist(rows), Path(out) / 'results.parquet')
     return rows

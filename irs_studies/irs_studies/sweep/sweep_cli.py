@@ -1,9 +1,9 @@
 """``sweep``: a scenario's offline closed loop over whole parameter spaces, on Dask.
 
-    ./irs run irs_bringup sweep <sweep.yaml|name> [--out DIR] [--workers N | --scheduler ADDR |
-                                                   --serial] [--limit N] [--no-plots]
-    ./irs run irs_bringup sweep list                          installed sweep files
-    ./irs run irs_bringup sweep similitude [--out DIR]        1:10 car vs full-size presets
+    ./irs run irs_studies sweep <sweep.yaml|name> [--out DIR] [--workers N | --scheduler ADDR |
+                                                   --serial] [--limit N] [--no-plots] [--force]
+    ./irs run irs_studies sweep list                          installed sweep files
+    ./irs run irs_studies sweep similitude [--out DIR]        1:10 car vs full-size presets
 
 A sweep file (format: :mod:`irs_studies.sweep.sweep_file`) names the scenario (an experiment
 file, run offline through :class:`irs_bringup.offline_twin.lateral_loop.ClosedLoop`), the axes, the
@@ -11,14 +11,18 @@ seeds and the metrics. The points run on a local Dask cluster (every core, one w
 each) unless ``--scheduler tcp://host:8786`` names a distributed one, or ``--serial`` runs them
 in this process. Results go to ``DIR`` (default ``runs/sweeps/<name>``): Parquet parts as points
 complete, ``results.parquet``, ``summary.md`` and the plots. Running the same command again
-skips the points already in ``DIR`` (an interrupted sweep resumes). A bad sweep file or argument
-gives one line on stderr and exit code 2.
+skips the points already in ``DIR`` (an interrupted sweep resumes). Before anything runs, one
+line gives the sweep's size (points x duration); above the limits of
+:func:`.runner.check_size` the sweep is refused unless ``--force``. A bad sweep file or argument
+gives one line on stderr and exit code 2; exit codes: docs/cli.md.
 """
 from __future__ import annotations
 
 import argparse
 from pathlib import Path
 import sys
+
+from irs_common.cli import InputError, run_cli
 
 COMMANDS = ('run', 'list', 'similitude')
 
@@ -35,6 +39,8 @@ def build_parser() -> argparse.ArgumentParser:
     g.add_argument('--serial', action='store_true', help='run the points in this process')
     p.add_argument('--limit', type=int, help='run at most N of the missing points')
     p.add_argument('--no-plots', action='store_true', help='no PNGs (summary and Parquet only)')
+    p.add_argument('--force', action='store_true',
+                   help='run a sweep above the size limit (points x duration; docs/sweeps.md)')
     sub.add_parser('list', help='installed sweep files')
     from . import similitude_cli
     similitude_cli.add_arguments(sub.add_parser('similitude', help=similitude_cli.HELP))
@@ -50,6 +56,14 @@ def _check_out(out: Path, text: str) -> None:
                          'or delete it')
 
 
+def inside(out: Path, name: str) -> Path:
+    """``out / name``, refused (:class:`InputError`) unless it stays inside ``out``."""
+    path = (Path(out) / name).resolve()
+    if not path.is_relative_to(Path(out).resolve()):
+        raise InputError(f'{name}: an output file must stay inside the results directory {out}')
+    return path
+
+
 def write_outputs(rows, sweep, out: Path, plots: bool = True, log=print) -> list[Path]:
     """``summary.md`` and the sweep's plots into ``out``; returns the written paths."""
     from .metrics import METRICS
@@ -60,34 +74,35 @@ def write_outputs(rows, sweep, out: Path, plots: bool = True, log=print) -> list
         units = {a.name: a.unit for a in sweep.axes}
         for plot in sweep.plots:
             name = plot.file or f'sweep_{sweep.name}_{plot.metric}.png'
-            title = (f'Sweep {sweep.name}: {plot.metric}\n{sweep.description} '
-                     f'(scenario {sweep.scenario}, mean over {len(sweep.seed_list)} seed(s))')
-            written.append(heatmap(rows, plot, METRICS, out / name, title, units))
+            seeds = len(sweep.seed_list)
+            title = f'{sweep.name}: {plot.metric} (mean of {seeds} seed{"s" * (seeds > 1)})'
+            written.append(heatmap(rows, plot, METRICS, inside(out, name), title, units))
     for p in written:
         log(f'[sweep] wrote {p}')
     return written
 
 
 def run(args) -> int:
-    from .runner import prepare, run_sweep
+    from .runner import check_size, prepare, run_sweep
     from .sweep_file import load_sweep
     if args.workers is not None and args.workers < 1:
-        raise ValueError(f'--workers must be at least 1, got {args.workers}')
+        raise InputError(f'--workers must be at least 1, got {args.workers}')
     if args.limit is not None and args.limit < 0:
-        raise ValueError(f'--limit must be >= 0, got {args.limit}')
+        raise InputError(f'--limit must be >= 0, got {args.limit}')
     sweep, path = load_sweep(args.sweep)
     out = args.out or Path('runs') / 'sweeps' / sweep.name
     text = path.read_text()
     _check_out(out, text)
     prep = prepare(sweep, path)
+    print(f'[sweep] {sweep.name}: {prep.size_line()}, scenario {sweep.scenario} offline -> {out}',
+          flush=True)
+    check_size(prep, force=args.force, limit=args.limit)
     out.mkdir(parents=True, exist_ok=True)
     (out / 'sweep.yaml').write_text(text)
-    print(f'[sweep] {sweep.name}: {len(prep.points)} points ({len(sweep.seed_list)} seed(s)), '
-          f'scenario {sweep.scenario} offline, {prep.duration:g} s each -> {out}', flush=True)
     rows = run_sweep(prep, out, workers=args.workers, scheduler=args.scheduler,
                      serial=args.serial, limit=args.limit)
     write_outputs(rows, sweep, out, plots=not args.no_plots)
-    missing = len(prep.points) - len(rows)
+    missing = prep.count - len(rows)
     if missing:
         print(f'[sweep] {missing} point(s) not run yet (--limit); run again to continue')
     return 0
@@ -102,24 +117,21 @@ def list_sweeps() -> int:
     return 0
 
 
-def main(argv=None) -> int:
+def _main(argv) -> int:
     argv = list(sys.argv[1:] if argv is None else argv)
     if argv and argv[0] not in COMMANDS and not argv[0].startswith('-'):
         argv.insert(0, 'run')       # `sweep <file>` = `sweep run <file>`
     args = build_parser().parse_args(argv)
-    from .sweep_file import SweepError
-    try:
-        if args.cmd == 'list':
-            return list_sweeps()
-        if args.cmd == 'similitude':
-            from . import similitude_cli
-            return similitude_cli.run(args)
-        return run(args)
-    except (SweepError, ValueError, OSError) as exc:
-        print(f'sweep: {" ".join(str(exc).split())}', file=sys.stderr)
-        return 2
-    except KeyboardInterrupt:
-        return 130
+    if args.cmd == 'list':
+        return list_sweeps()
+    if args.cmd == 'similitude':
+        from . import similitude_cli
+        return similitude_cli.run(args)
+    return run(args)
+
+
+def main(argv=None) -> int:
+    return run_cli('sweep', _main, argv)
 
 
 if __name__ == '__main__':

@@ -1,41 +1,14 @@
 """Sweep files: a scenario, the axes over it, the metrics and the plots (pydantic; no rclpy).
 
-A sweep file (YAML, see ``config/sweeps/``)::
-
-    name: actuator_speed                  # plain name: the results directory's
-    description: one line
-    scenario: figure10_mrc_with_actuator  # an experiment file (name or path), run OFFLINE
-    duration: 5.0                         # [s] optional: overrides the experiment's duration
-    fixed:                                # overrides of every point: <node>.<parameter>: value
-      rig.plant: bicycle
-    axes:                                 # the Cartesian product of these is the set of points
-      - name: design                      # categorical: each value names a set of overrides
-        cases:
-          mrc_with_actuator: {controller.mode: mrc, controller.include_actuator: true}
-          pi: {controller.mode: pi}
-      - name: actuator_hz                 # numeric: values, range (linear) or log_range
-        unit: Hz                          # optional, for tables and plots
-        log_range: {start: 1.0, stop: 20.0, num: 6}
-        set:                              # parameter -> factor: parameter = factor * value
-          rig.actuator_front.lag_hz: 1.0
-          controller.actuator_pole: 6.283185307179586   # redesign at each point (2 pi f)
-      - name: gain_factor                 # Monte Carlo: one draw per seed (see seeds)
-        normal: {mean: 1.0, std: 0.1}
-        set: {rig.identified.gain: 12.5308}
-    seeds: 3                              # n -> seeds 0..n-1, or a list; rig.seed = seed
-    metrics: [ise_norm, overshoot_percent, stable, gain_margin_db, off_belt]
-    plots:
-      - {kind: heatmap, x: speed, y: actuator_hz, metric: ise_norm, facet: design, log: true}
-      - {kind: boundary, x: speed, y: actuator_hz, metric: stable, threshold: 0.5, facet: design}
-
-Parameter paths are ``<node>.<flat parameter name>`` with node one of ``rig`` (vehicle_sim),
-``estimator``, ``controller``, ``reference``, ``regulator``, ``driver``. Every point builds its
-controller from its own parameters (:func:`irs_control.controller_factory.make_controller`), so
-an axis that sets a *design* parameter (``controller.actuator_pole``, ``controller.speed``,
-``controller.plant_gain``, ...) redesigns the controller at each point, while an axis that sets
-only rig parameters leaves the design at its nominal values: that choice is the file's.
-:func:`load_sweep` raises :class:`SweepError` with one line naming the file, the key and what is
-wrong.
+A sweep file (YAML, ``config/sweeps/``) names a scenario (an experiment file, run offline), the
+overrides every point shares (``fixed``), the axes whose Cartesian product is the set of points
+(categorical ``cases``; numeric ``values``, ``range``, ``log_range``; Monte Carlo ``normal``,
+``uniform``, one draw per seed), the seeds, the metrics and the plots. Parameter paths are
+``<node>.<flat parameter name>``. Every point builds its controller from its own parameters, so
+an axis that sets a design parameter redesigns the controller at each point. It exists so that a
+design study is one reviewed file, validated before anything runs: :func:`load_sweep` raises
+:class:`SweepError` with one line naming the file, the key and what is wrong. An annotated
+example: :class:`SweepModel`; the format in short: docs/sweeps.md.
 """
 from __future__ import annotations
 
@@ -47,13 +20,15 @@ from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_valida
     model_validator
 import yaml
 
+from irs_common.cli import InputError, did_you_mean
+
 #: Nodes a parameter path may name, and the LoopConfig field each maps to.
 NODES = {'rig': 'rig', 'estimator': 'estimator', 'controller': 'controller',
          'reference': 'reference', 'regulator': 'regulator', 'driver': 'driver'}
 SAFE_NAME = re.compile(r'[A-Za-z0-9][A-Za-z0-9_-]{0,99}')
 
 
-class SweepError(ValueError):
+class SweepError(InputError):
     """The sweep file is missing, unreadable or inconsistent (message: one line)."""
 
 
@@ -183,9 +158,48 @@ class PlotModel(_Strict):
     vmax: float | None = None  # clip the colour scale at this value (heat map)
     file: str | None = None    # PNG name; default sweep_<name>_<metric>.png
 
+    @field_validator('file')
+    @classmethod
+    def _file(cls, value):
+        """A plain file name: the PNG goes into the results directory, nowhere else."""
+        if value is not None and not re.fullmatch(r'[A-Za-z0-9][A-Za-z0-9_.-]{0,99}\.png', value):
+            raise ValueError(f'{value!r}: a plain PNG file name expected (letters, digits, _ - .; '
+                             'no folder: the plots go into the results directory)')
+        return value
+
 
 class SweepModel(_Strict):
-    """The whole sweep file (format: the module docstring)."""
+    """The whole sweep file.
+
+    A sweep file (YAML, see ``config/sweeps/``)::
+
+        name: actuator_speed                  # plain name: the results directory's
+        description: one line
+        scenario: figure10_mrc_with_actuator  # an experiment file (name or path), run OFFLINE
+        duration: 5.0                         # [s] optional: overrides the experiment's duration
+        fixed:                                # overrides of every point: <node>.<parameter>: value
+          rig.plant: bicycle
+        axes:                                 # the Cartesian product of these is the set of points
+          - name: design                      # categorical: each value names a set of overrides
+            cases:
+              mrc_with_actuator: {controller.mode: mrc, controller.include_actuator: true}
+              pi: {controller.mode: pi}
+          - name: actuator_hz                 # numeric: values, range (linear) or log_range
+            unit: Hz                          # optional, for tables and plots
+            log_range: {start: 1.0, stop: 20.0, num: 6}
+            set:                              # parameter -> factor: parameter = factor * value
+              rig.actuator_front.lag_hz: 1.0
+              controller.actuator_pole: 6.283185307179586   # redesign at each point (2 pi f)
+          - name: gain_factor                 # Monte Carlo: one draw per seed (see seeds)
+            normal: {mean: 1.0, std: 0.1}
+            set: {rig.identified.gain: 12.5308}
+        seeds: 3                              # n -> seeds 0..n-1, or a list; rig.seed = seed
+        metrics: [ise_norm, overshoot_percent, stable, gain_margin_db, off_belt]
+        plots:
+          - {kind: heatmap, x: speed, y: actuator_hz, metric: ise_norm, facet: design, log: true}
+          - {kind: boundary, x: speed, y: actuator_hz, metric: stable, threshold: 0.5,
+             facet: design}
+    """
 
     name: str
     description: str = ''
@@ -272,8 +286,8 @@ def find_sweep(name_or_path: str) -> Path:
     except Exception:  # noqa: BLE001 - no ament index: only paths work
         raise SweepError(f"sweep file '{name_or_path}' does not exist") from None
     if not candidate.is_file():
-        names = ', '.join(sorted(x.stem for x in candidate.parent.glob('*.yaml')))
-        raise SweepError(f"no sweep '{name_or_path}'; installed: {names or 'none'}")
+        names = [x.stem for x in candidate.parent.glob('*.yaml')]
+        raise SweepError(did_you_mean(name_or_path, names, 'sweep', 'sweep list'))
     return candidate
 
 

@@ -1,17 +1,18 @@
-"""``torque_car``: metrics and figures of the torque car's experiments (issue 13).
+"""``torque_car``: metrics and figures of the torque car's experiments.
 
-    ./irs run irs_bringup torque_car runs/torque_braking_abs_low-<time> ... [--out docs/img]
-    ./irs run irs_bringup torque_car --run [--out docs/img]     # run the nine experiments first
+    ./irs run irs_studies torque_car runs/torque_braking_abs_low-<time> ... [--out DIR]
+    ./irs run irs_studies torque_car --run [--out DIR]     # run the experiments first
 
 Each argument is a run directory (``<run>/bag``), a bag directory or an ``.mcap`` file of one of
 the experiments in :data:`EXPERIMENTS`; the experiment is told by the bag's metadata (else by
 the run directory's name). It prints the metrics tables (:mod:`.metrics`, Markdown), writes them
-to ``--metrics`` (JSON, default ``runs/torque_car/metrics.json``) and the figures
-(:mod:`.plots`) to ``--out``: ``torque_braking_<surface>.png`` (locked against ABS, per surface),
+to ``--metrics`` (JSON, default ``<out>/metrics.json``) and the figures (:mod:`.plots`) to
+``--out`` (default ``runs/torque_car``): ``torque_braking_<surface>.png`` (locked wheels, the
+fixed-target and the peak-seeking ABS, per surface: high, low, split and a mid-stop step),
 ``torque_split_yaw.png`` and ``torque_step_steer.png``. ``--run`` runs the experiments through
 the graph (lock-step, one after the other, bags under ``--runs-dir``) and then does the same
 with their bags. A bad file or argument is one line on stderr and exit code 2; an experiment
-that did not complete is one line, the others go on, exit code 1.
+that did not complete is one line, the others go on, exit code 1 (docs/cli.md).
 """
 from __future__ import annotations
 
@@ -21,18 +22,18 @@ import math
 import sys
 from pathlib import Path
 
+from irs_common.cli import InputError, RunFailed, run_cli
+
 from .metrics import braking_metrics, run_kind, step_steer_metrics
 from .report import braking_table, step_steer_table
 from .series import load_run
 
 __all__ = ['EXPERIMENTS', 'main', 'analyse']
 
-EXPERIMENTS = (
-    'torque_braking_locked_high', 'torque_braking_abs_high',
-    'torque_braking_locked_low', 'torque_braking_abs_low',
-    'torque_braking_locked_split', 'torque_braking_abs_split', 'torque_braking_chassis_split',
-    'torque_step_steer_open', 'torque_step_steer_chassis',
-)
+EXPERIMENTS = tuple(
+    [f'torque_braking_{mode}_{surface}' for surface in ('high', 'low', 'split', 'step')
+     for mode in ('locked', 'abs', 'abspeak')]
+    + ['torque_braking_chassis_split', 'torque_step_steer_open', 'torque_step_steer_chassis'])
 PROG = 'torque_car'
 
 
@@ -54,17 +55,21 @@ def analyse(paths, out_dir=None, warn=print) -> dict:
     """
     braking, steer, bags = {}, {}, {}
     for path in paths:
-        run = load_run(path)
-        if run.warnings:
-            warn(f'{PROG}: warning: ' + '; '.join(run.warnings))
-        kind = run_kind(run.name)
-        if kind['kind'] == 'braking':
-            braking[run.name] = (run, braking_metrics(run), kind)
-        elif kind['kind'] == 'step_steer':
-            steer[run.name] = (run, step_steer_metrics(run), kind)
-        else:
-            warn(f'{PROG}: {path}: experiment {run.name!r} is not a torque-car experiment '
-                 f'(torque_braking_<mode>_<surface>, torque_step_steer_<mode>): skipped')
+        try:
+            run = load_run(path)
+            if run.warnings:
+                warn(f'{PROG}: warning: ' + '; '.join(run.warnings))
+            kind = run_kind(run.name)
+            if kind['kind'] == 'braking':
+                braking[run.name] = (run, braking_metrics(run), kind)
+            elif kind['kind'] == 'step_steer':
+                steer[run.name] = (run, step_steer_metrics(run), kind)
+        except ValueError as exc:   # the run at `path` is not what the study reads
+            raise InputError(str(exc)) from None
+        if kind['kind'] not in ('braking', 'step_steer'):
+            warn(f'{PROG}: warning: {path}: experiment {run.name!r} is not a torque-car '
+                 'experiment (torque_braking_<mode>_<surface>, torque_step_steer_<mode>): '
+                 'skipped')
             continue
         bags[run.name] = str(run.path)
     figures = _figures(braking, steer, Path(out_dir)) if out_dir is not None else []
@@ -101,8 +106,8 @@ def run_experiments(names, runs_dir: Path, warn=print) -> list:
         print(f'{PROG}: running {name} ({i}/{len(names)})', flush=True)
         try:
             bags.append(run_experiment(name, runs_dir))
-        except (RuntimeError, ValueError, OSError) as exc:
-            warn(f'{PROG}: {exc}')
+        except (RunFailed, InputError, OSError) as exc:
+            warn(f'{PROG}: error: {exc}')
     return bags
 
 
@@ -112,42 +117,35 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument('--run', action='store_true',
                    help='run the experiments through the graph first (see --experiments)')
     p.add_argument('--experiments', nargs='+', default=list(EXPERIMENTS), metavar='NAME',
-                   help='experiments for --run (default: all nine)')
+                   help=f'experiments for --run (default: all {len(EXPERIMENTS)})')
     p.add_argument('--runs-dir', type=Path, default=Path('runs'),
                    help='where --run puts its runs (default runs/)')
     p.add_argument('--out', type=Path, default=Path('runs/torque_car'),
                    help='directory for the PNG figures (default runs/torque_car)')
-    p.add_argument('--metrics', type=Path, default=Path('runs/torque_car/metrics.json'),
-                   help='metrics JSON (default runs/torque_car/metrics.json)')
+    p.add_argument('--metrics', type=Path, default=None,
+                   help='metrics JSON (default <out>/metrics.json)')
     return p
 
 
-def main(argv=None) -> int:
+def _main(argv) -> int:
     args = build_parser().parse_args(argv)
+    args.metrics = args.metrics or args.out / 'metrics.json'
 
     def warn(line):
         print(line, file=sys.stderr, flush=True)
 
     paths, failed = list(args.paths), False
-    try:
-        if args.run:
-            bags = run_experiments(args.experiments, args.runs_dir, warn)
-            failed = len(bags) < len(args.experiments)
-            paths += bags
-        if not paths:
-            warn(f'{PROG}: no runs given (paths or --run)')
-            return 2
-        res = analyse(paths, args.out, warn)
-        if not res['braking'] and not res['step_steer']:
-            warn(f'{PROG}: none of the runs is a torque-car experiment')
-            return 2
-        args.metrics.parent.mkdir(parents=True, exist_ok=True)
-        args.metrics.write_text(json.dumps(_json_safe(res), indent=1) + '\n')
-    except (ValueError, OSError) as exc:
-        warn(f'{PROG}: {exc}')
-        return 2
-    except KeyboardInterrupt:
-        return 130
+    if args.run:
+        bags = run_experiments(args.experiments, args.runs_dir, warn)
+        failed = len(bags) < len(args.experiments)
+        paths += bags
+    if not paths:
+        raise InputError('no runs given (paths or --run)')
+    res = analyse(paths, args.out, warn)
+    if not res['braking'] and not res['step_steer']:
+        raise InputError('none of the runs is a torque-car experiment')
+    args.metrics.parent.mkdir(parents=True, exist_ok=True)
+    args.metrics.write_text(json.dumps(_json_safe(res), indent=1) + '\n')
     if res['braking']:
         print(braking_table(res['braking']))
     if res['step_steer']:
@@ -156,6 +154,10 @@ def main(argv=None) -> int:
         print(f'{PROG}: wrote {f}')
     print(f'{PROG}: wrote {args.metrics}')
     return 1 if failed else 0
+
+
+def main(argv=None) -> int:
+    return run_cli(PROG, _main, argv)
 
 
 if __name__ == '__main__':

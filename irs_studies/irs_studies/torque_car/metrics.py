@@ -1,53 +1,13 @@
 """Metrics of the torque car's braking and step-steer runs (pure numpy on a :class:`~.series.Run`).
 
-Braking (``braking_metrics``), all from the rig's ground truth unless said otherwise:
-
-* brake start ``t_b`` [s]: the first torque command with a wheel ``locked`` or with the mean of
-  the four torques below ``-brake_threshold`` (half the run's ``brake.torque``, else 0.05 N m;
-  speed control and differential torque average to a few mN m, a braking command to -T_brake);
-* stop ``t_s``: the first ``rig/tyre_truth`` sample after ``t_b`` with ``u < u_stop``
-  (0.02 m/s, linearly interpolated); stopping time ``t_s - t_b``; stopping distance
-  ``x_belt(t_s) - x_belt(t_b)`` [m] (distance over the belt surface, interpolated); mean
-  deceleration ``u(t_b) / (t_s - t_b)`` [m/s^2]; ``stopped`` False (and NaN) if it never stops;
-* slip per wheel (``slip``, kappa of ``rig/tyre_truth``): mean and min over the braking
-  samples with ``u > v_min`` (0.1 m/s, where the ABS works; below it slip is meaningless);
-* estimated slip per wheel, as the controller sees it: ``lambda_i = (omega_enc,i R - v_hat) /
-  max(v_hat, v_min)`` with the encoder speeds and ``v_hat`` = the arm-speed estimate, the
-  *median* over the braking samples with ``u > v_min`` (the encoder's 0.61 rad/s step is
-  0.02 m/s of rim speed, 20 % slip at 0.1 m/s, so single samples near the stop are wild and a
-  mean follows them): the slips the controller reports on ``chassis/status``
-  (``slip_est_source = 'chassis/status'``), else recomputed here from ``/wheels/encoders``,
-  ``/pose`` and ``/belt/speed`` with :class:`irs_control.abs_control.ArmSpeedEstimator`
-  (``'recomputed'``); NaN without them;
-* a wheel locked: ``|omega_i| R < lock_speed`` (0.01 m/s) while ``u > v_min`` between ``t_b``
-  and the stop (after it the friction brakes hold the wheels while the car rocks on its
-  tyres); the time it spent so [s];
-* peak ``|r|`` [rad/s] after ``t_b`` and the heading ``psi`` [rad] at the stop and at the end
-  (``ground_truth/odom``);
-* the car's ``x`` on the treadmill [m] (``ground_truth/odom``): at ``t_b``, its minimum after
-  ``t_b``, the drift back at the stop ``x(t_b) - x(t_s)`` (about ``V_b (t_s - t_b)`` minus the
-  stopping distance) and by the end of the run ``x(t_b) - min x``, and the smallest distance
-  to a belt end over the run, ``L/2 - max |x|`` (L/2 = ``BELT_HALF_LENGTH``);
-* the measured belt speed (``belt/speed``) at ``t_b``, its minimum between ``t_b`` and ``t_s``
-  and at ``t_s`` [m/s].
-
-Step steer (``step_steer_metrics``): steer start ``t_0`` = the first ``steering/command``
-sample with ``|front| > |amplitude| / 2`` (amplitude = the largest ``|front|``); the yaw-rate
-reference ``r_ref(t)`` = the bicycle model's steady-state yaw rate for the commanded front steer
-at the car's speed ``u`` (:meth:`irs_control.chassis_control.ChassisController.
-yaw_rate_reference`, the chassis controller's own reference); on ``ground_truth/odom``'s yaw
-rate ``r`` over ``[t_0, end]``:
-
-* ISE ``int (r - r_ref)^2 dt`` [rad^2/s] (trapezoidal);
-* the reference follows the car's speed, which changes during the run (the speed loop and the
-  treadmill regulator), so the step response is taken against the reference of the same
-  instant: ``r_ref0`` = the reference just after the step; overshoot
-  ``100 max(0, max(sign(r_ref0) (r - r_ref))) / |r_ref0|`` [%]; 90 % rise time = the first
-  time after ``t_0`` with ``sign(r_ref0) r >= 0.9 |r_ref(t)|`` minus ``t_0`` [s]; steady-state
-  error = mean ``r - r_ref`` over the last 20 % of the window [rad/s], and ``r_ref_end`` the
-  mean reference there;
-* the largest rear steer command [rad] and differential torque
-  ``dT = (T_FR + T_RR - T_FL - T_RL) / 4`` [N m] (the per-wheel share, + = more drive right).
+Braking (:func:`braking_metrics`, from the rig's ground truth unless said otherwise): brake
+start ``t_b`` [s], stopping time [s], stopping distance over the belt [m], mean deceleration
+[m/s^2], true and estimated slip per wheel [-], wheel lock, peak yaw rate [rad/s], heading
+[rad], the car's drift on the treadmill [m] and the belt speed [m/s]. Step steer
+(:func:`step_steer_metrics`): ISE of the yaw rate against the bicycle model's steady-state
+reference [rad^2/s], overshoot [%], 90 % rise time [s], steady-state error [rad/s], largest
+rear steer [rad] and differential torque [N m]. They exist so that the torque car's runs are
+compared by numbers computed one way; the definitions are in the two functions.
 """
 from __future__ import annotations
 
@@ -64,6 +24,7 @@ __all__ = ['U_STOP', 'V_MIN', 'LOCK_SPEED', 'WHEELS', 'brake_start', 'crossing_t
 U_STOP = 0.02           # [m/s] the car has stopped below this speed over the belt
 V_MIN = 0.1             # [m/s] ABS threshold: slips are evaluated above it
 LOCK_SPEED = 0.01       # [m/s] a wheel whose rim speed |omega| R is below this is locked
+V_REF_CHECK = 0.2       # [m/s] the reference speed's error is taken above this speed
 WHEELS = ('FL', 'FR', 'RL', 'RR')
 _NAN = float('nan')
 
@@ -147,12 +108,62 @@ def _estimated_slip_means(run, tb: float, t_end: float) -> dict:
             'slip_est_source': source if ok else 'none'}
 
 
+def _reference_metrics(run, tb: float, t_end: float) -> dict:
+    out = {'v_ref_error_max': _NAN, 'slip_target_mean': _NAN}
+    if not run.has('status'):
+        return out
+    st, tyre = run.series['status'], run.series['tyre']
+    u = np.interp(st['t'], tyre['t'], tyre['u'])
+    w = (st['t'] >= tb) & (st['t'] <= t_end) & (u > V_REF_CHECK)
+    if w.any() and np.isfinite(st['v_ref'][w]).all():
+        out['v_ref_error_max'] = float(np.max(np.abs(st['v_ref'][w] - u[w])))
+    if w.any() and np.isfinite(st['target'][w]).all():
+        out['slip_target_mean'] = float(np.mean(st['target'][w]))
+    return out
+
+
 def _at(t, ts, xs) -> float:
     return float(np.interp(t, ts, xs)) if math.isfinite(t) and len(ts) else _NAN
 
 
 def braking_metrics(run) -> dict:
-    """Braking metrics of ``run`` (module docstring); needs ``tyre`` and ``cmd`` series."""
+    """Braking metrics of ``run``; needs ``tyre`` and ``cmd`` series.
+
+    All from the rig's ground truth unless said otherwise:
+
+    * brake start ``t_b`` [s]: the first torque command with a wheel ``locked`` or with the mean of
+      the four torques below ``-brake_threshold`` (half the run's ``brake.torque``, else 0.05 N m;
+      speed control and differential torque average to a few mN m, a braking command to -T_brake);
+    * stop ``t_s``: the first ``rig/tyre_truth`` sample after ``t_b`` with ``u < u_stop`` (0.02
+      m/s, linearly interpolated); stopping time ``t_s - t_b``; stopping distance ``x_belt(t_s) -
+      x_belt(t_b)`` [m] (distance over the belt surface, interpolated); mean deceleration ``u(t_b)
+      / (t_s - t_b)`` [m/s^2]; ``stopped`` False (and NaN) if it never stops;
+    * slip per wheel (``slip``, kappa of ``rig/tyre_truth``): mean and min over the braking samples
+      with ``u > v_min`` (0.1 m/s, where the ABS works; below it slip is meaningless);
+    * estimated slip per wheel, as the controller sees it: ``lambda_i = (omega_enc,i R - v_hat) /
+      max(v_hat, v_min)`` with the encoder speeds and ``v_hat`` = the arm-speed estimate, the
+      *median* over the braking samples with ``u > v_min`` (the encoder's 0.61 rad/s step is 0.02
+      m/s of rim speed, 20 % slip at 0.1 m/s, so single samples near the stop are wild and a mean
+      follows them): the slips the controller reports on ``chassis/status`` (``slip_est_source =
+      'chassis/status'``), else recomputed here from ``/wheels/encoders``, ``/pose`` and
+      ``/belt/speed`` with :class:`irs_control.abs_control.ArmSpeedEstimator` (``'recomputed'``);
+      NaN without them;
+    * the ABS's reference speed (``v_ref`` of ``chassis/status``, from the wheels): its largest
+      error ``max |v_ref - u|`` [m/s] over the status samples between ``t_b`` and the stop with ``u
+      > 0.2 m/s``, and the mean slip target over them (the peak seeker's; -0.10 fixed); NaN without
+      them and for locked wheels (then the estimated slips too: held wheels tell nothing);
+    * a wheel locked: ``|omega_i| R < lock_speed`` (0.01 m/s) while ``u > v_min`` between ``t_b``
+      and the stop (after it the friction brakes hold the wheels while the car rocks on its tyres);
+      the time it spent so [s];
+    * peak ``|r|`` [rad/s] after ``t_b`` and the heading ``psi`` [rad] at the stop and at the end
+      (``ground_truth/odom``);
+    * the car's ``x`` on the treadmill [m] (``ground_truth/odom``): at ``t_b``, its minimum after
+      ``t_b``, the drift back at the stop ``x(t_b) - x(t_s)`` (about ``V_b (t_s - t_b)`` minus the
+      stopping distance) and by the end of the run ``x(t_b) - min x``, and the smallest distance to
+      a belt end over the run, ``L/2 - max |x|`` (L/2 = ``BELT_HALF_LENGTH``);
+    * the measured belt speed (``belt/speed``) at ``t_b``, its minimum between ``t_b`` and ``t_s``
+      and at ``t_s`` [m/s].
+    """
     if not run.has('tyre', 'cmd'):
         raise ValueError(f'{run.path}: a braking run needs /rig/tyre_truth and '
                          '/wheels/torque_command')
@@ -174,6 +185,10 @@ def braking_metrics(run) -> dict:
     out['slip_mean'] = slip.mean(axis=0).tolist() if slip.size else [_NAN] * 4
     out['slip_min'] = slip.min(axis=0).tolist() if slip.size else [_NAN] * 4
     out.update(_estimated_slip_means(run, tb, t_end))
+    out.update(_reference_metrics(run, tb, t_end))
+    if run_kind(run.name)['mode'] == 'locked':
+        # the friction brakes hold the wheels: the controller's reference and slips are moot
+        out.update(slip_est_median=[_NAN] * 4, v_ref_error_max=_NAN, slip_target_mean=_NAN)
     after = (t >= tb) & (t <= t_end) & (u > V_MIN)
     rim = np.abs(tyre['omega']) * wheel_radius(run)
     locked = (rim < LOCK_SPEED) & after[:, None]
@@ -261,7 +276,25 @@ def step_steer_series(run) -> dict:
 
 
 def step_steer_metrics(run) -> dict:
-    """Step-steer metrics of ``run`` (module docstring)."""
+    """Step-steer metrics of ``run``.
+
+    Steer start ``t_0`` = the first ``steering/command`` sample with ``|front| > |amplitude| / 2``
+    (amplitude = the largest ``|front|``); the yaw-rate reference ``r_ref(t)`` = the bicycle
+    model's steady-state yaw rate for the commanded front steer at the car's speed ``u``
+    (:meth:`irs_control.chassis_control.ChassisController. yaw_rate_reference`, the chassis
+    controller's own reference); on ``ground_truth/odom``'s yaw rate ``r`` over ``[t_0, end]``:
+
+    * ISE ``int (r - r_ref)^2 dt`` [rad^2/s] (trapezoidal);
+    * the reference follows the car's speed, which changes during the run (the speed loop and the
+      treadmill regulator), so the step response is taken against the reference of the same
+      instant: ``r_ref0`` = the reference just after the step; overshoot ``100 max(0,
+      max(sign(r_ref0) (r - r_ref))) / |r_ref0|`` [%]; 90 % rise time = the first time after
+      ``t_0`` with ``sign(r_ref0) r >= 0.9 |r_ref(t)|`` minus ``t_0`` [s]; steady-state error =
+      mean ``r - r_ref`` over the last 20 % of the window [rad/s], and ``r_ref_end`` the mean
+      reference there;
+    * the largest rear steer command [rad] and differential torque ``dT = (T_FR + T_RR - T_FL -
+      T_RL) / 4`` [N m] (the per-wheel share, + = more drive right).
+    """
     s = step_steer_series(run)
     w = s['t'] >= s['t0']
     t, r, ref = s['t'][w], s['r'][w], s['r_ref'][w]

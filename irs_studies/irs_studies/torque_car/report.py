@@ -23,7 +23,8 @@ def braking_table(rows: dict) -> str:
     head = ('| run | u at brake [m/s] | stop [m] | stop [s] | mean decel [m/s^2] | '
             'slip mean FL/FR/RL/RR (truth) | slip min | slip median (controller) | '
             'wheel locked [s] | peak yaw rate [rad/s] | heading at stop [rad] | '
-            'drift back at stop / by the end [m] | to belt end [m] | belt speed min [m/s] |')
+            'drift back at stop / by the end [m] | to belt end [m] | belt speed min [m/s] | '
+            'ref. speed error max [m/s] | mean slip target |')
     lines = [head, '|' + '---|' * (head.count('|') - 1)]
     for name, m in rows.items():
         lines.append(' | '.join([
@@ -34,7 +35,8 @@ def braking_table(rows: dict) -> str:
             _f(m['peak_yaw_rate'], '{:.3f}'), _f(m['heading_at_stop'], '{:.3f}'),
             _wheels((m['drift_at_stop'], m['drift_back']), '{:.3f}'),
             _f(m['belt_end_margin'], '{:.2f}'),
-            _f(m['belt_speed_min'], '{:.3f}')]) + ' |')
+            _f(m['belt_speed_min'], '{:.3f}'), _f(m.get('v_ref_error_max'), '{:.3f}'),
+            _f(m.get('slip_target_mean'), '{:.3f}')]) + ' |')
     return '\n'.join(lines)
 
 

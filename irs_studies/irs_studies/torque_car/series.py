@@ -1,30 +1,10 @@
 """A torque-car run's bag as arrays (no rclpy): one time base per topic, by header stamp.
 
-``load_run(path)`` reads a run directory (``<run>/bag``), a bag directory or an ``.mcap`` file
-and returns a :class:`Run`: the experiment's ``name`` (from the bag's ``irs_experiment``
-metadata, else the run directory's name without its ``-<time>`` suffix), the flat parameters of
-every node (from the same metadata; empty without it) and ``series``: topic key -> ``{'t': [s],
-field: array}``. Vectors of the four wheels are ``(N, 4)`` arrays, wheels FL, FR, RL, RR.
-
-=========  ==========================  ============================================
-key        topic                       fields
-=========  ==========================  ============================================
-tyre       /rig/tyre_truth             slip, omega [rad/s], mu, fx [N], x_belt [m], u [m/s]
-enc        /wheels/encoders            velocity [rad/s]
-cmd        /wheels/torque_command      torque [N m], locked
-odom       /ground_truth/odom          x, y [m], yaw [rad], r [rad/s]
-pose       /pose                       x, y [m], yaw [rad]  (the arm's measurement)
-velocity   /velocity                   r [rad/s]  (the arm's yaw rate)
-belt       /belt/speed                 speed [m/s]  (the belt encoder)
-steer      /steering/command           front, rear [rad]
-act        /steering/state             front, rear [rad]  (achieved)
-status     /chassis/status             v_hat [m/s], braking, slip  (the controller's view;
-                                       DiagnosticArray key/values ``v_hat``, ``braking``,
-                                       ``slip_FL`` ...; NaN where absent)
-=========  ==========================  ============================================
-
-A topic missing from the bag is missing from ``series``. Messages whose stamp repeats (a
-lock-step resend) are kept once (the last one).
+:func:`load_run` reads a run directory, a bag directory or an ``.mcap`` file into a :class:`Run`:
+the experiment's name, every node's flat parameters (from the bag's ``irs_experiment``
+metadata) and ``series``, topic key -> ``{'t': [s], field: array}`` in SI units (the wheels'
+vectors as ``(N, 4)`` arrays, FL, FR, RL, RR). It exists so that the torque car's metrics and
+plots read one set of arrays, not the bag; the topics and fields: :func:`load_run`.
 """
 from __future__ import annotations
 
@@ -80,8 +60,10 @@ TOPICS = {
     'act': ('/steering/state', {'front': lambda m: m.front_achieved,
                                 'rear': lambda m: m.rear_achieved}),
     'status': ('/chassis/status', {
-        'v_hat': lambda m: _kv(m, 'v_hat'), 'braking': lambda m: _kv(m, 'braking'),
-        'slip': lambda m: [_kv(m, f'slip_{w}') for w in ('FL', 'FR', 'RL', 'RR')]}),
+        'v_hat': lambda m: _kv(m, 'v_hat'), 'v_ref': lambda m: _kv(m, 'v_ref'),
+        'braking': lambda m: _kv(m, 'braking'),
+        'slip': lambda m: [_kv(m, f'slip_{w}') for w in ('FL', 'FR', 'RL', 'RR')],
+        'target': lambda m: [_kv(m, f'slip_target_{w}') for w in ('FL', 'FR', 'RL', 'RR')]}),
 }
 
 
@@ -148,7 +130,34 @@ def _stamp_s(msg) -> float:
 
 
 def load_run(path) -> Run:
-    """Read the run at ``path`` (see the module docstring).
+    """Read the run at ``path``.
+
+    ``load_run(path)`` reads a run directory (``<run>/bag``), a bag directory or an ``.mcap`` file
+    and returns a :class:`Run`: the experiment's ``name`` (from the bag's ``irs_experiment``
+    metadata, else the run directory's name without its ``-<time>`` suffix), the flat parameters of
+    every node (from the same metadata; empty without it) and ``series``: topic key -> ``{'t': [s],
+    field: array}``. Vectors of the four wheels are ``(N, 4)`` arrays, wheels FL, FR, RL, RR.
+
+    =========  ==========================  ============================================
+    key        topic                       fields
+    =========  ==========================  ============================================
+    tyre       /rig/tyre_truth             slip, omega [rad/s], mu, fx [N], x_belt [m], u [m/s]
+    enc        /wheels/encoders            velocity [rad/s]
+    cmd        /wheels/torque_command      torque [N m], locked
+    odom       /ground_truth/odom          x, y [m], yaw [rad], r [rad/s]
+    pose       /pose                       x, y [m], yaw [rad]  (the arm's measurement)
+    velocity   /velocity                   r [rad/s]  (the arm's yaw rate)
+    belt       /belt/speed                 speed [m/s]  (the belt encoder)
+    steer      /steering/command           front, rear [rad]
+    act        /steering/state             front, rear [rad]  (achieved)
+    status     /chassis/status             v_hat (arm), v_ref (wheels) [m/s], braking, slip,
+                                           target (the controller's view; DiagnosticArray
+                                           key/values ``v_hat``, ``v_ref``, ``braking``,
+                                           ``slip_FL``, ``slip_target_FL`` ...; NaN where absent)
+    =========  ==========================  ============================================
+
+    A topic missing from the bag is missing from ``series``. Messages whose stamp repeats (a
+    lock-step resend) are kept once (the last one).
 
     Raises
     ------

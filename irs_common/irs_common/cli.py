@@ -1,0 +1,221 @@
+"""What every IRS command shares: exit codes, one-line errors, signals (no rclpy, no heavy import).
+
+:func:`run_cli` is the top level of every console script: ``main = lambda argv=None:
+run_cli('sweep', _main, argv)``. It installs :class:`SignalGuard` first, runs the command and turns
+whatever ends it into one line on stderr, ``<prog>: error: <what>``, and an exit code of
+:data:`EXIT_CODES` (the table of docs/cli.md):
+
+* :class:`InputError` (a bad file, argument, bag; the message names it): exit 2;
+* :class:`RunFailed` (a run the command needs did not complete): exit 1;
+* ``OSError`` (a file that cannot be read or written, a refused connection): exit 2;
+* SIGINT, SIGTERM, SIGHUP: the command's clean-up runs, then exit 128 + the signal number;
+* anything else is a bug: ``<prog>: internal error: <type>: <message>`` with a request to report
+  it (:data:`BUG_HINT`), exit 70 (``IRS_TRACEBACK=1`` prints the traceback as well).
+
+Signals: the first SIGINT/SIGTERM/SIGHUP raises :class:`Interrupted` in the main thread (or calls
+the command's own stop hook, :meth:`SignalGuard.on_first`); a second one, while the command
+cleans up, runs the guard's force-exit hooks (e.g. SIGKILL to the node processes) and ends the
+process at once with ``os._exit(128 + signum)``.
+"""
+from __future__ import annotations
+
+import os
+import signal
+import sys
+import traceback
+
+EXIT_OK = 0           # done
+EXIT_FAILED = 1       # ran to its end, but the result is a failure (a run did not complete, ...)
+EXIT_INPUT = 2        # bad input: usage, file, parameter, bag, or the system refused a file/peer
+EXIT_BUG = 70         # internal error (EX_SOFTWARE): a bug, reported with BUG_HINT
+SIGNALS = (signal.SIGINT, signal.SIGTERM, signal.SIGHUP)
+
+#: exit code -> meaning (docs/cli.md renders this table).
+EXIT_CODES = {
+    EXIT_OK: 'done',
+    EXIT_FAILED: 'ran, but the result is a failure (a run did not complete, a part failed)',
+    EXIT_INPUT: 'bad input: usage, file, parameter, bag, output path, unreachable peer; '
+                'one line says what',
+    EXIT_BUG: 'internal error: a bug; the line asks for a report',
+    128 + signal.SIGHUP: 'stopped by SIGHUP',
+    128 + signal.SIGINT: 'stopped by SIGINT (Ctrl-C)',
+    128 + signal.SIGTERM: 'stopped by SIGTERM',
+}
+
+BUG_HINT = ('this is a bug in IRS: please report it with the command line and this message '
+            '(IRS_TRACEBACK=1 prints the traceback)')
+
+
+class InputError(ValueError):
+    """What the user gave (file, argument, bag, output path) is wrong; the message, one line,
+    says what and where. Every command's own error class derives from it.
+    """
+
+
+class RunFailed(RuntimeError):
+    """A run the command needs did not complete (a node died, the car left the belt); the
+    message says which and why. Exit code 1.
+    """
+
+
+class Interrupted(KeyboardInterrupt):
+    """A signal asked the command to stop (``signum``); exit code ``128 + signum``."""
+
+    def __init__(self, signum: int = signal.SIGINT):
+        super().__init__(signal.Signals(signum).name)
+        self.signum = int(signum)
+
+    @property
+    def exit_code(self) -> int:
+        return 128 + self.signum
+
+
+def one_line(text) -> str:
+    """``text`` (an exception or a string) on one line, whitespace collapsed."""
+    return ' '.join(str(text).split())
+
+
+def os_error_text(exc: OSError) -> str:
+    """An ``OSError`` as a sentence: ``<file>: <strerror>`` where both are known."""
+    what = exc.strerror or one_line(exc) or type(exc).__name__
+    name = exc.filename if exc.filename is not None else None
+    return f'{name}: {what}' if name else one_line(exc) or what
+
+
+class SignalGuard:
+    """SIGINT/SIGTERM/SIGHUP handling of a command (module docstring).
+
+    ``on_first(signum)``, when set, is called on the first signal instead of raising
+    :class:`Interrupted` (a command with its own polling loop, e.g. the experiment runner, sets a
+    flag there and stops at its next check). ``force_hooks`` run on a second signal before the
+    process exits.
+    """
+
+    def __init__(self):
+        self.signum = None            # the first signal received
+        self.on_first = None
+        self.force_hooks = []
+        self.ending = False           # the command has returned: any signal leaves at once
+        self._old = {}
+
+    def install(self) -> 'SignalGuard':
+        import threading
+        if threading.current_thread() is threading.main_thread():
+            self._old = {sig: signal.signal(sig, self._handle) for sig in SIGNALS}
+        return self
+
+    def restore(self):
+        for sig, handler in self._old.items():
+            signal.signal(sig, handler)
+        self._old = {}
+
+    def _handle(self, signum, _frame):
+        if self.signum is not None or self.ending:
+            self.force_exit(signum)
+        self.signum = signum
+        if self.on_first is not None:
+            self.on_first(signum)
+            return
+        raise Interrupted(signum)
+
+    def force_exit(self, signum):
+        """A second signal: run the hooks, leave at once (no clean-up, no traceback)."""
+        for hook in list(self.force_hooks):
+            try:
+                hook()
+            except Exception:  # noqa: BLE001 -- leaving anyway
+                pass
+        try:
+            sys.stderr.write(f'{os.path.basename(sys.argv[0] or "irs")}: '
+                             f'{signal.Signals(signum).name} again: stopped at once\n')
+            sys.stderr.flush()
+        except Exception:  # noqa: BLE001
+            pass
+        os._exit(128 + signum)
+
+
+#: The guard of the running command (set by :func:`run_cli`); None outside a command.
+GUARD: SignalGuard | None = None
+
+
+def current_guard() -> SignalGuard | None:
+    return GUARD
+
+
+def error(prog: str, text) -> None:
+    """Print ``<prog>: error: <text>`` (one line) on stderr."""
+    print(f'{prog}: error: {one_line(text)}', file=sys.stderr, flush=True)
+
+
+def warning(prog: str, text) -> None:
+    """Print ``<prog>: warning: <text>`` (one line) on stderr."""
+    print(f'{prog}: warning: {one_line(text)}', file=sys.stderr, flush=True)
+
+
+def run_cli(prog: str, main, argv=None) -> int:
+    """Run ``main(argv)`` as the command ``prog``; its exit code (module docstring).
+
+    ``argv`` None (the console script: ``sys.argv``): the guard stays installed to the end of
+    the process; given (called in-process): the previous handlers are restored on return.
+    """
+    global GUARD
+    guard = GUARD = SignalGuard().install()
+    try:
+        code = main(argv)
+        if guard.signum is not None:     # stopped through on_first: the command returned
+            return 128 + guard.signum
+        return EXIT_OK if code is None else int(code)
+    except Interrupted as exc:
+        print(f'{prog}: interrupted ({signal.Signals(exc.signum).name})', file=sys.stderr,
+              flush=True)
+        return exc.exit_code
+    except KeyboardInterrupt:
+        print(f'{prog}: interrupted (SIGINT)', file=sys.stderr, flush=True)
+        return 128 + signal.SIGINT
+    except InputError as exc:
+        error(prog, exc)
+        return EXIT_INPUT
+    except RunFailed as exc:
+        error(prog, exc)
+        return EXIT_FAILED
+    except BrokenPipeError:
+        # the reader of stdout left (``experiment list | head``): no more output, no message
+        os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
+        return EXIT_FAILED
+    except OSError as exc:
+        error(prog, os_error_text(exc))
+        return EXIT_INPUT
+    except SystemExit:
+        raise
+    except BaseException as exc:  # noqa: BLE001 -- the catch-all: anything else is a bug
+        if os.environ.get('IRS_TRACEBACK'):
+            traceback.print_exc()
+        print(f'{prog}: internal error: {type(exc).__name__}: {one_line(exc)[:300]}; {BUG_HINT}',
+              file=sys.stderr, flush=True)
+        return EXIT_BUG
+    finally:
+        guard.on_first = None
+        if GUARD is guard:
+            GUARD = None
+        if argv is None:
+            guard.ending = True     # the process's main: a signal from here on leaves at once
+        else:
+            guard.restore()         # called in-process (tests, other commands)
+
+
+def did_you_mean(name: str, names, what: str, listing: str = '') -> str:
+    """``no <what> '<name>' (did you mean X?); installed: ...`` as one sentence: the names if
+    there are at most 8, else their number and ``listing`` (the command that lists them).
+    """
+    import difflib
+    names = sorted(names)
+    close = difflib.get_close_matches(name, names, n=3, cutoff=0.5)
+    if close:   # only the near-best: a shared prefix alone does not make a suggestion
+        best = difflib.SequenceMatcher(None, name, close[0]).ratio()
+        close = [c for c in close if difflib.SequenceMatcher(None, name, c).ratio() > best - 0.1]
+    hint = f" (did you mean {' or '.join(close)}?)" if close else ''
+    if len(names) <= 8:
+        known = f"installed: {', '.join(names) or 'none'}"
+    else:
+        known = f'{len(names)} installed' + (f' ({listing} lists them)' if listing else '')
+    return f"no {what} '{name}'{hint}; {known}"

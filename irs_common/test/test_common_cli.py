@@ -1,0 +1,97 @@
+"""irs_common.cli: what ends a command is one line and an exit code of the docs/cli.md table."""
+import signal
+import subprocess
+import sys
+import textwrap
+
+import pytest
+
+from irs_common.cli import (BUG_HINT, EXIT_BUG, EXIT_CODES, EXIT_FAILED, EXIT_INPUT, InputError,
+                            Interrupted, RunFailed, did_you_mean, run_cli)
+
+
+def _raise(exc):
+    def main(_argv):
+        raise exc
+    return main
+
+
+@pytest.mark.parametrize('exc,code,line', [
+    (InputError('exp.yaml: duration: expected a number'), EXIT_INPUT,
+     'prog: error: exp.yaml: duration: expected a number\n'),
+    (RunFailed('figure10_pi did not complete: node died'), EXIT_FAILED,
+     'prog: error: figure10_pi did not complete: node died\n'),
+    (FileNotFoundError(2, 'No such file or directory', 'missing.yaml'), EXIT_INPUT,
+     'prog: error: missing.yaml: No such file or directory\n'),
+    (Interrupted(signal.SIGTERM), 143, 'prog: interrupted (SIGTERM)\n'),
+    (KeyboardInterrupt(), 130, 'prog: interrupted (SIGINT)\n'),
+])
+def test_known_endings_are_one_line_and_their_code(capsys, exc, code, line):
+    assert run_cli('prog', _raise(exc), []) == code
+    out, err = capsys.readouterr()
+    assert (out, err) == ('', line)
+    assert code in EXIT_CODES
+
+
+@pytest.mark.parametrize('exc', [ZeroDivisionError('division by zero'), KeyError('x'),
+                                 ValueError('a bug that raises ValueError'),
+                                 AttributeError("'NoneType' object has no attribute 'y'")])
+def test_anything_else_is_a_bug_in_one_line_with_the_hint(capsys, exc):
+    assert run_cli('prog', _raise(exc), []) == EXIT_BUG
+    err = capsys.readouterr().err
+    assert err.startswith(f'prog: internal error: {type(exc).__name__}: ')
+    assert err.endswith(f'; {BUG_HINT}\n') and err.count('\n') == 1
+
+
+def test_return_value_and_usage_exit_pass_through(capsys):
+    assert run_cli('prog', lambda _a: None, []) == 0
+    assert run_cli('prog', lambda _a: 1, []) == 1
+    with pytest.raises(SystemExit):
+        run_cli('prog', lambda _a: sys.exit(2), [])
+
+
+def test_in_process_call_gives_the_handlers_back():
+    before = {s: signal.getsignal(s) for s in (signal.SIGINT, signal.SIGTERM, signal.SIGHUP)}
+    run_cli('prog', lambda _a: 0, [])
+    assert {s: signal.getsignal(s) for s in before} == before
+
+
+def test_did_you_mean():
+    names = [f'experiment_{i}' for i in range(20)] + ['figure10_pi']
+    text = did_you_mean('figure10_pii', names, 'experiment', 'experiment list')
+    assert text.startswith("no experiment 'figure10_pii' (did you mean figure10_pi")
+    assert text.endswith('; 21 installed (experiment list lists them)')
+    assert did_you_mean('x', ['a', 'b'], 'sweep') == "no sweep 'x'; installed: a, b"
+
+
+SCRIPT = textwrap.dedent("""
+    import os, signal, sys, time
+    from irs_common.cli import run_cli, current_guard
+
+    def main(argv):
+        guard = current_guard()
+        guard.force_hooks.append(lambda: print('hook ran', flush=True))
+        try:
+            print('ready', flush=True)
+            while True:
+                time.sleep(0.01)
+        finally:
+            print('cleaning up', flush=True)
+            while True:              # a clean-up that never ends: only a second signal helps
+                time.sleep(0.01)
+
+    sys.exit(run_cli('prog', main))
+""")
+
+
+def test_a_second_signal_during_clean_up_leaves_at_once(tmp_path):
+    proc = subprocess.Popen([sys.executable, '-c', SCRIPT], stdout=subprocess.PIPE,
+                            stderr=subprocess.PIPE, text=True)
+    assert proc.stdout.readline() == 'ready\n'
+    proc.send_signal(signal.SIGINT)
+    assert proc.stdout.readline() == 'cleaning up\n'
+    proc.send_signal(signal.SIGTERM)
+    out, err = proc.communicate(timeout=30)
+    assert proc.returncode == 128 + signal.SIGTERM
+    assert out == 'hook ran\n' and 'SIGTERM again: stopped at once' in err
+    assert 'Traceback' not in err
