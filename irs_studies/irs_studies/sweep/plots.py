@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import math
 from pathlib import Path
+import textwrap
 
 import numpy as np
 
@@ -107,10 +108,19 @@ def is_binary(metric, units, values) -> bool:
     return units.get(metric) == '0/1' or (finite.size > 0 and np.isin(finite, (0.0, 1.0)).all())
 
 
+def _clip_top(v: np.ndarray) -> float:
+    """The top of the colour scale for values ``v``: their maximum, unless it lies further
+    above the :data:`CLIP_PERCENTILE` th percentile p_hi than the width p_hi - p_lo of the
+    percentile band (p_lo: 100 - :data:`CLIP_PERCENTILE`), an outlier: then p_hi.
+    """
+    lo, hi = np.percentile(v, [100 - CLIP_PERCENTILE, CLIP_PERCENTILE])
+    return float(hi) if v.max() - hi > max(hi - lo, 1e-12) else float(v.max())
+
+
 def colour_scale(plot, values, diverged_mask, units):
     """``(cmap, norm, extend)`` of ``plot`` for ``values`` (every panel's cells): two colours
-    for a 0/1 metric; else viridis from the smallest finite value to :data:`CLIP_PERCENTILE`
-    of the points that did not diverge (or ``plot.vmax``), linear or log10, cells above it in
+    for a 0/1 metric; else viridis over the points that did not diverge, from their minimum to
+    :func:`_clip_top` of them (or ``plot.vmax``), linear or log10, cells above in
     :data:`OVER_COLOUR`.
     """
     from matplotlib.colors import BoundaryNorm, ListedColormap, LogNorm, Normalize
@@ -124,7 +134,8 @@ def colour_scale(plot, values, diverged_mask, units):
     pool = values[ok] if ok.any() else values[np.isfinite(values)]
     if pool.size == 0:
         pool = np.array([0.0, 1.0])
-    top = float(np.percentile(pool, CLIP_PERCENTILE, method='higher'))
+    top = _clip_top(np.log10(pool) if plot.log and (pool > 0).all() else pool)
+    top = 10 ** top if plot.log and (pool > 0).all() else top
     vmax = plot.vmax if plot.vmax is not None else top
     vmin = float(pool.min())
     if plot.log and vmin > 0:
@@ -155,7 +166,9 @@ def heatmap(rows, plot, units, path: Path, title: str = '', sweep_units=None) ->
     gone = [diverged(rows, plot.x, plot.y, w) for w in wheres]
     cmap, norm, extend = colour_scale(plot, np.concatenate([g[2].ravel() for g in grids]),
                                       np.concatenate([d.ravel() for d in gone]), units)
-    binary = extend == 'neither' and hasattr(norm, 'boundaries')
+    binary = hasattr(norm, 'boundaries')
+    if binary:      # two colours already tell stable / off the belt apart: no crosses
+        gone = [np.zeros_like(d) for d in gone]
     width = max(4.3 * len(facets) + 1.6, 7.0)
     fig, axes = plt.subplots(1, len(facets), figsize=(width, 4.6),
                              squeeze=False, sharey=True, constrained_layout=True)
@@ -172,7 +185,8 @@ def heatmap(rows, plot, units, path: Path, title: str = '', sweep_units=None) ->
                 for i in range(nx):
                     v = Z[j, i]
                     rgb = cmap(norm(v))[:3] if np.isfinite(v) else (0.85,) * 3
-                    ax.text(i, j, _fmt(v), ha='center', va='center', fontsize=7,
+                    ax.text(i, j, _fmt(v), ha='center', va='center',
+                            fontsize=7 if len(xs) * len(facets) <= 12 else 6,
                             color='w' if np.mean(rgb) < 0.5 else 'k',
                             bbox=dict(boxstyle='round,pad=0.1', fc='w', ec='none', alpha=0.6)
                             if D[j, i] else None)
@@ -205,15 +219,13 @@ def heatmap(rows, plot, units, path: Path, title: str = '', sweep_units=None) ->
     if any(d.any() for d in gone):
         notes.insert(0, 'crossed: diverged (off the belt or unstable)')
     if extend == 'max':
-        notes.insert(0, f'pink: above {norm.vmax:.3g} (colour clipped at the '
-                        f'{CLIP_PERCENTILE:g}th percentile of the points that did not diverge)'
+        notes.insert(0, f'pink: above {norm.vmax:.3g} (the colour scale spans the points that '
+                        'did not diverge, clipped at an outlier)'
                      if plot.vmax is None else f'pink: above {plot.vmax:g}')
     if plot.kind == 'boundary':
         notes.insert(0, f'black line: {plot.metric} = {plot.threshold:g}, hatched: below')
     fig.suptitle(title or plot.metric, fontsize=10, fontweight='bold')
-    fig.get_layout_engine().set(h_pad=0.1)
-    axes[0][0].annotate('; '.join(notes), (0, 0), xycoords='figure fraction',
-                        xytext=(6, 4), textcoords='offset points', fontsize=7, color='0.3')
+    fig.supxlabel(textwrap.fill('; '.join(notes), int(width * 17)), fontsize=7, color='0.3')
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
     fig.savefig(path, dpi=110)
