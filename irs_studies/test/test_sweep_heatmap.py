@@ -36,7 +36,7 @@ def test_diverged_points_do_not_set_the_colour_scale(tmp_path, figures):
     mesh = fig.axes[0].collections[0]
     assert mesh.norm.vmin == pytest.approx(0.005)
     assert 0.04 <= mesh.norm.vmax <= 0.05          # a decade at least, never up to 1e6
-    assert tuple(mesh.cmap.get_over()[:3]) != tuple(mesh.cmap(1.0)[:3])       # beyond the scale: marked
+    assert tuple(mesh.cmap.get_over()[:3]) != tuple(mesh.cmap(1.0)[:3])   # beyond: marked
     crosses = [ln for ln in fig.axes[0].get_lines() if len(ln.get_xdata()) == 2]
     assert len(crosses) == 2                                    # one X over the diverged cell
     assert all(abs(np.mean(ln.get_xdata()) - 2) < 1e-9 for ln in crosses)
