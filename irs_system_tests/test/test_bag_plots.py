@@ -308,3 +308,20 @@ def test_run_info_names_the_controller():
         'controller unknown'
     assert run_name('runs/fig10-2026/bag') == 'fig10-2026'
     assert run_name('runs/fig10-2026/bag/bag_0.mcap') == 'fig10-2026'
+
+
+def test_views_read_the_bag_once(small_bag, tmp_path, monkeypatch):
+    """``experiment run``'s plots and run.rrd come from one pass over the bag's messages."""
+    from irs_bag.reader import BagReader
+    from irs_bag.views import write_views
+    passes = []
+    real = BagReader.messages
+
+    def counted(self, *args, **kwargs):
+        passes.append(args)
+        return real(self, *args, **kwargs)
+    monkeypatch.setattr(BagReader, 'messages', counted)
+    written = write_views(small_bag, tmp_path / 'run', log=pytest.fail)
+    assert sorted(p.name for p in written) == ['belt.png', 'car_position.png', 'lateral.png',
+                                               'run.rrd', 'steering.png']
+    assert len(passes) == 1
