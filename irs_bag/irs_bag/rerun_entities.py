@@ -1,8 +1,8 @@
 """The rerun entities of an IRS run, built from bag columns (rerun-sdk 0.41).
 
-One code path for ``run.rrd`` (:mod:`irs_bag.rerun_export`) and the live view
-(:mod:`irs_bag.live_view`): both read the columns of :data:`SPEC` and send them with
-:func:`send` (rerun's columnar ``send_columns``, one call per entity). Entities (treadmill frame,
+What ``run.rrd`` (:mod:`irs_bag.rerun_export`) holds, apart from reading the bag: the columns
+of :data:`SPEC` are sent with :func:`send` (rerun's columnar ``send_columns``, one call per
+entity), to any recording stream (a file, a viewer). Entities (treadmill frame,
 metres; the view is 3-D with z up and everything at z = 0, so the top-down camera shows x forward
 and y to the left as in docs/conventions.md):
 

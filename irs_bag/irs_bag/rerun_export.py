@@ -1,6 +1,6 @@
 """``bag rerun <bag> --out file.rrd``: a rerun recording of an IRS run (rerun-sdk 0.41).
 
-The entities are those of :mod:`irs_bag.rerun_entities` (the live view sends the same): the belt,
+The entities are those of :mod:`irs_bag.rerun_entities`: the belt,
 the arm and the car in a 3-D top view (treadmill frame, z up), and the lateral, steering and belt
 time series, on the timeline ``time`` (seconds from the first message, from ``header.stamp``: sim
 time in lock-step runs). The bag's columns are read once (:func:`irs_bag.columns.read_columns`)

@@ -2,7 +2,7 @@
 
 The experiment runner writes the MCAP metadata record ``irs_experiment`` (experiment name,
 ``node_parameters`` as JSON, start time). The plots put :attr:`RunInfo.title` (run and
-controller) on every figure, and the rerun export and the live view draw the arm and the car
+controller) on every figure, and the rerun export draws the arm and the car
 with the rig's own geometry (``vehicle_sim`` parameters ``arm.*``, ``car.length``,
 ``car.width``). A bag without that record (recorded by hand) gets the defaults of
 docs/conventions.md and the controller ``'controller unknown'``.
