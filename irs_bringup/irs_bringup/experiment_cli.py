@@ -37,18 +37,8 @@ def _post_process(result, log=print):
     except BagError as exc:
         log(f'[experiment] bag unreadable: {exc}')
         return written
-    try:
-        from irs_bag.plots import make_plots
-        written += make_plots(result.bag_dir, result.run_dir / 'plots')
-    except Exception as exc:  # plots must never hide the run's result
-        log(f'[experiment] plots failed: {exc}')
-    try:
-        from irs_bag.rerun_export import export_rrd
-        rrd = result.run_dir / 'run.rrd'
-        export_rrd(result.bag_dir, rrd)
-        written.append(rrd)
-    except Exception as exc:
-        log(f'[experiment] rerun export failed: {exc}')
+    from irs_bag.views import write_views      # plots and run.rrd from one read of the bag
+    written += write_views(result.bag_dir, result.run_dir, log)
     for path in written:
         log(f'[experiment] wrote {path}')
     return written

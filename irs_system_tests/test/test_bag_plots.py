@@ -18,7 +18,7 @@ def _stamp(msg, k):
     return msg
 
 
-def make_bag(path, topics=None, clock=False):
+def make_bag(path, topics=None, clock=False, metadata=None):
     """A bag with every topic the plots and the rerun export use, N samples at 1 kHz (plus
     /clock at every step with ``clock``, as a lock-step experiment records it).
     """
@@ -35,6 +35,8 @@ def make_bag(path, topics=None, clock=False):
 
     geom = ArmGeometry()
     with BagWriter(path, chunk_size=64 * 1024) as w:
+        if metadata is not None:
+            w.add_metadata('irs_experiment', metadata)
         for k in range(N):
             t = k * DT_NS * 1e-9
             y = 0.1 * math.sin(2 * math.pi * t)
@@ -56,7 +58,7 @@ def make_bag(path, topics=None, clock=False):
             st.front_commanded, st.front_achieved = cmd.front_angle, 0.9 * cmd.front_angle
             msgs['/steering/state'] = st
             belt = _stamp(BeltSpeed(), k)
-            belt.speed, belt.encoder_count = 1.0 + 0.1 * t, k
+            belt.speed, belt.encoder_count = 1.0 + 0.1 * t + 0.0075 * (k % 2), k
             msgs['/belt/speed'] = belt
             ts = _stamp(TreadmillState(), k)
             ts.belt_speed, ts.drive_voltage = belt.speed, 12.0
@@ -88,7 +90,7 @@ def test_an_extra_clock_topic_changes_nothing(small_bag, tmp_path):
     """
     import numpy as np
 
-    from irs_bag.plots import load_series, make_plots
+    from irs_bag.plots import load_columns, make_plots
     from irs_bag.reader import BagReader
     from irs_bag.rerun_export import export_rrd
     from irs_bag.run_series import lateral_run
@@ -100,7 +102,11 @@ def test_an_extra_clock_topic_changes_nothing(small_bag, tmp_path):
     assert set(a) == set(b) and len(a['time']) == N
     for k in a:
         assert np.array_equal(a[k], b[k], equal_nan=True), k
-    assert load_series(small_bag) == load_series(with_clock)
+    ca, cb = load_columns(small_bag), load_columns(with_clock)
+    assert set(ca) == set(cb)
+    for suffix in ca:
+        for k in ca[suffix]:
+            assert np.array_equal(ca[suffix][k], cb[suffix][k], equal_nan=True), (suffix, k)
     assert [p.name for p in make_plots(with_clock, tmp_path / 'p')] == \
         [p.name for p in make_plots(small_bag, tmp_path / 'q')]
     assert export_rrd(with_clock, tmp_path / 'c.rrd') == export_rrd(small_bag, tmp_path / 'd.rrd')
@@ -154,6 +160,8 @@ def rrd_arm_strips(rrd):
     for c in RrdReader(str(rrd)).stream().to_chunks():
         if c.entity_path.lstrip('/') == 'world/arm':
             batch = c.to_record_batch()
+            if 'time' not in batch.schema.names:      # the static colour and radius
+                continue
             times = batch.column('time').cast('int64').to_pylist()
             rows = batch.column('LineStrips3D:strips').to_pylist()
             strips += [(t, row[0]) for t, row in zip(times, rows)]
@@ -235,3 +243,85 @@ def test_cli_plots_rerun_and_errors(small_bag, tmp_path):
     assert _bag('frobnicate').returncode == 2
     res = _bag('--help')
     assert res.returncode == 0 and 'play' in res.stdout
+
+
+def _lines(ax):
+    return {ln.get_label(): ln for ln in ax.get_lines()}
+
+
+def test_plots_show_what_matters(tmp_path):
+    """Titles name the run and its controller; sensed and ground truth in distinct styles with
+    the truth drawn over a translucent sensed line; the top view zoomed to the path with x and
+    y on their own axes; the belt's averaged speed beside the raw encoder steps.
+    """
+    import json
+
+    import numpy as np
+
+    from irs_bag.plots import make_figures
+    params = {'lateral_controller': {'mode': 'pi', 'kp': 0.5, 'ki': 2.0},
+              'vehicle_sim': {'car.length': 0.5}}
+    run = tmp_path / 'step_run'
+    bag = make_bag(run / 'bag', metadata={'experiment_name': 'step',
+                                          'node_parameters': json.dumps(params)})
+    figs = make_figures(bag)
+    assert set(figs) == {'lateral', 'steering', 'belt', 'car_position'}
+    for fig in figs.values():
+        assert fig.get_suptitle() == 'step_run | PI (kp 0.5, ki 2)'
+
+    lat = _lines(figs['lateral'].axes[0])
+    truth, sensed = lat['y_s ground truth'], lat['y_s sensed (arm)']
+    assert truth.get_color() != sensed.get_color()
+    assert truth.get_linewidth() > sensed.get_linewidth()
+    assert truth.get_zorder() > sensed.get_zorder() and sensed.get_alpha() < 1
+    assert lat['reference'].get_linestyle() == '--'
+
+    steer = _lines(figs['steering'].axes[0])
+    cmd, inp = steer['command (controller)'], steer['servo input']
+    assert cmd.get_linewidth() > inp.get_linewidth() and inp.get_linestyle() == '--'
+
+    top, ax_x, ax_y = figs['car_position'].axes
+    xs = np.concatenate([ln.get_xdata() for ln in top.get_lines()[:2]])
+    ys = np.concatenate([ln.get_ydata() for ln in top.get_lines()[:2]])
+    (x0, x1), (y0, y1) = top.get_xlim(), top.get_ylim()
+    assert x0 < xs.min() and xs.max() < x1 and y0 < ys.min() and ys.max() < y1
+    span = max(np.ptp(xs), np.ptp(ys))
+    assert x1 - x0 < 1.5 * span and y1 - y0 < 1.5 * span    # not the 2.44 m belt
+    assert ax_x.get_ylabel() == 'x [m]' and ax_y.get_ylabel() == 'y [m]'
+
+    speed = _lines(figs['belt'].axes[0])
+    raw = speed['belt speed, encoder (raw)'].get_ydata()
+    avg = speed['belt speed, 0.1 s moving average'].get_ydata()
+    assert np.ptp(np.diff(raw)) > 0.01 and np.ptp(np.diff(avg)) < 0.002
+
+
+def test_run_info_names_the_controller():
+    from irs_bag.run_info import controller_label, run_info_from_metadata, run_name
+    assert controller_label({'lateral_controller': {'mode': 'mrc'}}) == \
+        'MRC with actuator model'
+    assert controller_label({'lateral_controller': {'mode': 'mrc', 'include_actuator': False,
+                                                    'plant': 'bicycle'}}) == \
+        'MRC without actuator model, design plant bicycle'
+    assert controller_label({'excitation': {}}) == 'open loop (excitation)'
+    assert run_info_from_metadata('r', None).controller == 'controller unknown'
+    assert run_info_from_metadata('r', {'node_parameters': 'not json'}).controller == \
+        'controller unknown'
+    assert run_name('runs/fig10-2026/bag') == 'fig10-2026'
+    assert run_name('runs/fig10-2026/bag/bag_0.mcap') == 'fig10-2026'
+
+
+def test_views_read_the_bag_once(small_bag, tmp_path, monkeypatch):
+    """``experiment run``'s plots and run.rrd come from one pass over the bag's messages."""
+    from irs_bag.reader import BagReader
+    from irs_bag.views import write_views
+    passes = []
+    real = BagReader.messages
+
+    def counted(self, *args, **kwargs):
+        passes.append(args)
+        return real(self, *args, **kwargs)
+    monkeypatch.setattr(BagReader, 'messages', counted)
+    written = write_views(small_bag, tmp_path / 'run', log=pytest.fail)
+    assert sorted(p.name for p in written) == ['belt.png', 'car_position.png', 'lateral.png',
+                                               'run.rrd', 'steering.png']
+    assert len(passes) == 1

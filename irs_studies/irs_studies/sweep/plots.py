@@ -2,10 +2,11 @@
 
 * :func:`grid` -- the mean over seeds (and over any axis not named) of a metric on an ``x`` by
   ``y`` grid of axis values; NaN where no point ran or every one was refused.
-* :func:`heatmap` -- one panel per ``facet`` value, the metric coloured (optionally log10), the
-  values written in the cells; ``boundary`` plots add the contour where the metric crosses the
-  threshold (``matplotlib.contour`` on the grid: the metric linearly interpolated between grid
-  points) and hatch the cells beyond it.
+* :func:`heatmap` -- one panel per ``facet`` value, the metric coloured (optionally log10; the
+  scale clipped at a percentile of the points that did not diverge, 0/1 metrics in two
+  colours), diverged points crossed out, the values written in the cells; ``boundary`` plots
+  add the contour where the metric crosses the threshold (``matplotlib.contour`` on the grid:
+  the metric linearly interpolated between grid points) and hatch the cells below it.
 * :func:`summary_markdown` -- per metric and facet, the x-by-y table of :func:`grid`.
 """
 from __future__ import annotations
@@ -81,57 +82,124 @@ def _label(units, name):
     return f'{name} [{units[name]}]' if units.get(name) else name
 
 
+#: Colour-scale clip of a heat map: this percentile of the points that did not diverge.
+CLIP_PERCENTILE = 95.0
+#: The two colours of a 0/1 metric (0, 1) and the colour of cells beyond the clip.
+BINARY_COLOURS = ('#c0504d', '#4f81bd')
+OVER_COLOUR = '#e377c2'
+
+
+def diverged(rows, x, y, where=None):
+    """``D[j, i]`` True where any run at ``(xs[i], ys[j])`` diverged: ``off_belt`` = 1 or
+    ``stable`` = 0 (the metrics the rows carry; False where they carry neither).
+    """
+    def bad(r):
+        off, st = r.get('off_belt'), r.get('stable')
+        return (off is not None and off == off and off >= 0.5) or \
+            (st is not None and st == st and st < 0.5)
+    marked = [dict(r, _diverged=float(bad(r))) for r in rows]
+    _, _, D = grid(marked, x, y, '_diverged', where)
+    return np.nan_to_num(D) > 0
+
+
+def is_binary(metric, units, values) -> bool:
+    """A 0/1 metric: its unit says so, or every value is 0 or 1."""
+    finite = values[np.isfinite(values)]
+    return units.get(metric) == '0/1' or (finite.size > 0 and np.isin(finite, (0.0, 1.0)).all())
+
+
+def _clip_top(v: np.ndarray) -> float:
+    """The top of the colour scale for values ``v``: their maximum, unless it lies further
+    above the :data:`CLIP_PERCENTILE` th percentile p_hi than the width p_hi - p_lo of the
+    percentile band (p_lo: 100 - :data:`CLIP_PERCENTILE`), an outlier: then p_hi.
+    """
+    lo, hi = np.percentile(v, [100 - CLIP_PERCENTILE, CLIP_PERCENTILE])
+    return float(hi) if v.max() - hi > max(hi - lo, 1e-12) else float(v.max())
+
+
+def colour_scale(plot, values, diverged_mask, units):
+    """``(cmap, norm, extend)`` of ``plot`` for ``values`` (every panel's cells): two colours
+    for a 0/1 metric; else viridis over the points that did not diverge, from their minimum to
+    :func:`_clip_top` of them (or ``plot.vmax``), linear or log10, cells above in
+    :data:`OVER_COLOUR`.
+    """
+    from matplotlib.colors import BoundaryNorm, ListedColormap, LogNorm, Normalize
+    import matplotlib
+    if is_binary(plot.metric, units, values):
+        cmap = ListedColormap(BINARY_COLOURS).with_extremes(bad='0.85')
+        return cmap, BoundaryNorm([-0.5, 0.5, 1.5], 2), 'neither'
+    ok = np.isfinite(values) & (~diverged_mask if diverged_mask.any() else True)
+    if plot.log:
+        ok &= values > 0
+    pool = values[ok] if ok.any() else values[np.isfinite(values)]
+    if pool.size == 0:
+        pool = np.array([0.0, 1.0])
+    top = _clip_top(np.log10(pool) if plot.log and (pool > 0).all() else pool)
+    top = 10 ** top if plot.log and (pool > 0).all() else top
+    vmax = plot.vmax if plot.vmax is not None else top
+    vmin = float(pool.min())
+    if plot.log and vmin > 0:
+        norm = LogNorm(vmin=vmin, vmax=max(vmax, vmin * 10))
+    else:
+        norm = Normalize(vmin=vmin, vmax=vmax if vmax > vmin else vmin + 1.0)
+    cmap = matplotlib.colormaps['viridis'].with_extremes(bad='0.85', over=OVER_COLOUR)
+    return cmap, norm, 'max' if np.nanmax(values) > norm.vmax else 'neither'
+
+
 def heatmap(rows, plot, units, path: Path, title: str = '', sweep_units=None) -> Path:
     """Write the heat map (or boundary) ``plot`` (a :class:`.sweep_file.PlotModel`) to ``path``.
 
     ``units``: metric -> unit; ``sweep_units``: axis name -> unit (axis labels). Cells are
     evenly spaced, one per axis value (ticks name the values: sweeps are often log-spaced or
-    uneven); the boundary contour is interpolated between cell centres.
+    uneven); colours as :func:`colour_scale`; cells where a run diverged (:func:`diverged`)
+    are crossed out; ``title`` is one line; a caption under the panels says what grey, the
+    cross and the boundary mean. The boundary contour is interpolated between cell centres.
     """
     import matplotlib
     matplotlib.use('Agg')
     import matplotlib.pyplot as plt
-    from matplotlib.colors import LogNorm, Normalize
     from matplotlib.patches import Rectangle
     sweep_units = sweep_units or {}
     facets = _axis_order(rows, plot.facet) if plot.facet else [None]
-    grids = [grid(rows, plot.x, plot.y, plot.metric, {plot.facet: f} if plot.facet else None)
-             for f in facets]
-    allz = np.concatenate([g[2].ravel() for g in grids])
-    finite = allz[np.isfinite(allz)]
-    vmax = plot.vmax if plot.vmax is not None else (float(finite.max()) if finite.size else 1.0)
-    if plot.log and finite.size and (finite > 0).any():
-        vmin = float(finite[finite > 0].min())
-        norm = LogNorm(vmin=vmin, vmax=max(vmax, vmin * 10))
-    else:
-        norm = Normalize(vmin=float(finite.min()) if finite.size else 0.0, vmax=vmax)
-    cmap = plt.get_cmap('viridis').with_extremes(bad='0.85')   # grey: no result
+    wheres = [{plot.facet: f} if plot.facet else None for f in facets]
+    grids = [grid(rows, plot.x, plot.y, plot.metric, w) for w in wheres]
+    gone = [diverged(rows, plot.x, plot.y, w) for w in wheres]
+    cmap, norm, extend = colour_scale(plot, np.concatenate([g[2].ravel() for g in grids]),
+                                      np.concatenate([d.ravel() for d in gone]), units)
+    binary = hasattr(norm, 'boundaries')
+    if binary:      # two colours already tell stable / off the belt apart: no crosses
+        gone = [np.zeros_like(d) for d in gone]
     width = max(4.3 * len(facets) + 1.6, 7.0)
-    fig, axes = plt.subplots(1, len(facets), figsize=(width, 4.8),
+    fig, axes = plt.subplots(1, len(facets), figsize=(width, 4.6),
                              squeeze=False, sharey=True, constrained_layout=True)
     mesh = None
-    for ax, f, (xs, ys, Z) in zip(axes[0], facets, grids):
+    for ax, f, (xs, ys, Z), D in zip(axes[0], facets, grids, gone):
         nx, ny = len(xs), len(ys)
-        Zc = np.ma.masked_invalid(np.clip(Z, None, vmax) if plot.vmax is not None else Z)
-        mesh = ax.pcolormesh(np.arange(nx + 1) - 0.5, np.arange(ny + 1) - 0.5, Zc, norm=norm,
-                             cmap=cmap, shading='flat')
+        mesh = ax.pcolormesh(np.arange(nx + 1) - 0.5, np.arange(ny + 1) - 0.5,
+                             np.ma.masked_invalid(Z), norm=norm, cmap=cmap, shading='flat')
+        for j, i in zip(*np.nonzero(D)):
+            ax.plot([i - 0.45, i + 0.45], [j - 0.45, j + 0.45], color='k', lw=0.8)
+            ax.plot([i - 0.45, i + 0.45], [j + 0.45, j - 0.45], color='k', lw=0.8)
         if nx * ny <= 100:
             for j in range(ny):
                 for i in range(nx):
                     v = Z[j, i]
-                    dark = np.isfinite(v) and np.mean(cmap(norm(min(v, vmax)))[:3]) < 0.5
-                    ax.text(i, j, _fmt(v), ha='center', va='center', fontsize=7,
-                            color='w' if dark else 'k')
+                    rgb = cmap(norm(v))[:3] if np.isfinite(v) else (0.85,) * 3
+                    ax.text(i, j, _fmt(v), ha='center', va='center',
+                            fontsize=7 if len(xs) * len(facets) <= 12 else 6,
+                            color='w' if np.mean(rgb) < 0.5 else 'k',
+                            bbox=dict(boxstyle='round,pad=0.1', fc='w', ec='none', alpha=0.6)
+                            if D[j, i] else None)
         if plot.kind == 'boundary':
             for j in range(ny):
                 for i in range(nx):
                     if Z[j, i] < plot.threshold:
                         ax.add_patch(Rectangle((i - 0.5, j - 0.5), 1, 1, fill=False,
-                                               hatch='//', edgecolor='r', lw=0))
+                                               hatch='//', edgecolor='0.2', lw=0))
             if np.isfinite(Z).sum() >= 4 and nx > 1 and ny > 1:
                 try:
                     ax.contour(np.arange(nx), np.arange(ny), np.ma.masked_invalid(Z),
-                               levels=[plot.threshold], colors='r', linewidths=2)
+                               levels=[plot.threshold], colors='k', linewidths=2)
                 except ValueError:
                     pass
         ax.set_xticks(np.arange(nx), [_fmt(v) if isinstance(v, float) else str(v) for v in xs],
@@ -141,14 +209,23 @@ def heatmap(rows, plot, units, path: Path, title: str = '', sweep_units=None) ->
         ax.set_xlabel(_label(sweep_units, plot.x))
         if ax is axes[0][0]:
             ax.set_ylabel(_label(sweep_units, plot.y))
-        ax.set_title(f'{plot.facet} = {f}' if plot.facet else plot.metric, fontsize=9)
+        if plot.facet:
+            ax.set_title(f'{plot.facet} = {f}', fontsize=9)
     label = f'{plot.metric} [{units.get(plot.metric, "")}]' + (' (log scale)' if plot.log else '')
-    fig.colorbar(mesh, ax=axes[0].tolist(), label=label, shrink=0.9)
-    extra = (f'\nred: boundary {plot.metric} = {plot.threshold:g}, hatched: {plot.metric} < '
-             f'{plot.threshold:g}' if plot.kind == 'boundary' else '')
-    text = (title or plot.metric) + extra + '; grey: no result (refused point)'
-    fig.suptitle('\n'.join(textwrap.fill(line, int(width * 15)) for line in text.split('\n')),
-                 fontsize=9)
+    bar = fig.colorbar(mesh, ax=axes[0].tolist(), label=label, shrink=0.9, extend=extend)
+    if binary:
+        bar.set_ticks([0, 1], labels=['0 (no)', '1 (yes)'])
+    notes = ['grey: no result (refused point)']
+    if any(d.any() for d in gone):
+        notes.insert(0, 'crossed: diverged (off the belt or unstable)')
+    if extend == 'max':
+        notes.insert(0, f'pink: above {norm.vmax:.3g} (the colour scale spans the points that '
+                        'did not diverge, clipped at an outlier)'
+                     if plot.vmax is None else f'pink: above {plot.vmax:g}')
+    if plot.kind == 'boundary':
+        notes.insert(0, f'black line: {plot.metric} = {plot.threshold:g}, hatched: below')
+    fig.suptitle(title or plot.metric, fontsize=10, fontweight='bold')
+    fig.supxlabel(textwrap.fill('; '.join(notes), int(width * 17)), fontsize=7, color='0.3')
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
     fig.savefig(path, dpi=110)

@@ -74,8 +74,8 @@ def write_outputs(rows, sweep, out: Path, plots: bool = True, log=print) -> list
         units = {a.name: a.unit for a in sweep.axes}
         for plot in sweep.plots:
             name = plot.file or f'sweep_{sweep.name}_{plot.metric}.png'
-            title = (f'Sweep {sweep.name}: {plot.metric}\n{sweep.description} '
-                     f'(scenario {sweep.scenario}, mean over {len(sweep.seed_list)} seed(s))')
+            seeds = len(sweep.seed_list)
+            title = f'{sweep.name}: {plot.metric} (mean of {seeds} seed{"s" * (seeds > 1)})'
             written.append(heatmap(rows, plot, METRICS, inside(out, name), title, units))
     for p in written:
         log(f'[sweep] wrote {p}')
