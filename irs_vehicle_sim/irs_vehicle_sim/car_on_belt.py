@@ -36,8 +36,6 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
-import numpy as np
-
 from irs_common.field_checks import check_numbers
 from irs_models.constants import BELT_HALF_LENGTH, BELT_HALF_WIDTH
 
@@ -100,8 +98,8 @@ def off_belt_edge(x: float, y: float, params: CarParams) -> str:
 
 
 def wheel_speeds(u: float, v: float, r: float, delta_f: float, delta_r: float,
-                 params: CarParams) -> np.ndarray:
-    """Kinematic wheel angular speeds ``[FL, FR, RL, RR]`` [rad/s] (see module docstring).
+                 params: CarParams) -> tuple:
+    """Kinematic wheel angular speeds ``(FL, FR, RL, RR)`` [rad/s] (see module docstring).
 
     Parameters
     ----------
@@ -115,12 +113,12 @@ def wheel_speeds(u: float, v: float, r: float, delta_f: float, delta_r: float,
     p = params
     h = 0.5 * p.track
     pos = ((p.lf, h, delta_f), (p.lf, -h, delta_f), (-p.lr, h, delta_r), (-p.lr, -h, delta_r))
-    out = np.empty(4)
-    for i, (px, py, d) in enumerate(pos):
+    out = []
+    for px, py, d in pos:
         vx = u - r * py
         vy = v + r * px
-        out[i] = (vx * math.cos(d) + vy * math.sin(d)) / p.wheel_radius
-    return out
+        out.append((vx * math.cos(d) + vy * math.sin(d)) / p.wheel_radius)
+    return tuple(out)
 
 
 class CarOnBelt:
