@@ -341,11 +341,17 @@ class DiscreteRstController(InputGuard):
                 )
         else:
             self._L = np.zeros(n)
-        self._x = np.zeros(n)
+        # The per-step law runs on plain floats (numpy on a 4-state vector costs more than the
+        # arithmetic): the rows of Phi, Gamma, and C, D, L as tuples, the state as a list.
+        self._rows = tuple((tuple(float(a) for a in self._Ad[i]), float(self._Bd[i, 0]),
+                            float(self._Bd[i, 1]), float(self._L[i])) for i in range(n))
+        self._Ct = tuple(float(c) for c in self._C)
+        self._D0, self._D1 = float(self._D[0]), float(self._D[1])
+        self._x = [0.0] * n
 
     def reset(self) -> None:
         """Zero the controller state."""
-        self._x[:] = 0.0
+        self._x = [0.0] * len(self._x)
 
     def linear_state_space(self):
         """``(Ad, Bd, Cd, Dd)`` of the linear (unsaturated) law from the measurement y [m] to
@@ -358,7 +364,7 @@ class DiscreteRstController(InputGuard):
     @property
     def state(self) -> np.ndarray:
         """Copy of the internal controller state."""
-        return self._x.copy()
+        return np.array(self._x, dtype=float)
 
     def step(self, reference: float, measurement: float) -> ControlOutput:
         """Advance one sample: compute the steer for ``u_c = reference``, ``y = measurement``.
@@ -382,11 +388,19 @@ class DiscreteRstController(InputGuard):
         if meas_problem is not None:
             return self._measurement_invalid(ref, ref_problem, meas_problem)
         x = self._x
-        w = np.array([ref, measurement], dtype=float)
-        u = float(self._C @ x + self._D @ w)
+        y = float(measurement)
+        u = self._D0 * ref + self._D1 * y
+        for c, xi in zip(self._Ct, x):
+            u += c * xi
         u_sat = min(max(u, self.u_min), self.u_max)
-        x_next = self._Ad @ x + self._Bd @ w + self._L * (u_sat - u)
-        if not (math.isfinite(u) and np.all(np.isfinite(x_next))):
+        e = u_sat - u
+        x_next = []
+        for row, b0, b1, li in self._rows:
+            acc = b0 * ref + b1 * y + li * e
+            for a, xi in zip(row, x):
+                acc += a * xi
+            x_next.append(acc)
+        if not (math.isfinite(u) and all(map(math.isfinite, x_next))):
             return self._invalid(ref, f'controller state became non-finite (u = {u!r}): state '
                                       'reset, zero steer')
         self._x = x_next

@@ -25,7 +25,7 @@ from irs_common.node_edge import EdgeGate, StaleTimer
 from irs_common.params import declare_table
 from irs_common.stamp_gate import OK, REPEAT, RESET, StampGate
 from irs_common.stamp_sync import StampSync
-from irs_common.stamps import to_ns
+from irs_common.stamps import clock_now_ns, to_ns
 from irs_msgs.msg import LateralControllerStatus, LateralReference, SteeringCommand
 
 from .controller_factory import make_controller
@@ -139,11 +139,11 @@ class LateralControllerNode(Node):
     def _on_reference(self, msg):
         stamp_ns = to_ns(msg.header.stamp)
         if self.sync is not None:
-            if self.edge.admit('reference', stamp_ns, self.get_clock().now().nanoseconds):
+            if self.edge.admit('reference', stamp_ns, clock_now_ns(self.get_clock())):
                 for _, vals in self.sync.add('ref', stamp_ns, msg.lateral_position):
                     self._control_step(vals['y'], vals['ref'])
             return
-        now_ns = self.get_clock().now().nanoseconds
+        now_ns = clock_now_ns(self.get_clock())
         verdict = self.ref_gate.check(stamp_ns, now_ns)
         if verdict == OK or verdict == RESET or verdict == REPEAT:
             self.reference = msg.lateral_position    # screened by the controller at each step
@@ -153,7 +153,7 @@ class LateralControllerNode(Node):
     def _on_measurement(self, msg):
         if self.sync is not None:
             stamp_ns = to_ns(msg.header.stamp)
-            if self.edge.admit('measurement', stamp_ns, self.get_clock().now().nanoseconds):
+            if self.edge.admit('measurement', stamp_ns, clock_now_ns(self.get_clock())):
                 for _, vals in self.sync.add('y', stamp_ns, msg):
                     self._control_step(vals['y'], vals['ref'])
         else:

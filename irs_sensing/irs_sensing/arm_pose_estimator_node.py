@@ -31,7 +31,7 @@ from irs_common.orientation import quaternion_from_yaw
 from irs_common.input_checks import ThrottledWarner
 from irs_common.node_edge import EdgeGate, StaleTimer
 from irs_common.params import declare_table
-from irs_common.stamps import to_ns, to_sec
+from irs_common.stamps import clock_now_ns, to_ns, to_sec
 from irs_msgs.msg import SensingStatus
 
 from .calibration import CalibrationError
@@ -123,7 +123,7 @@ class ArmPoseEstimatorNode(Node):
 
     def _on_joints(self, msg):
         stamp_ns = to_ns(msg.header.stamp)
-        now_ns = self.get_clock().now().nanoseconds
+        now_ns = clock_now_ns(self.get_clock())
         # a repeated step is answered again by the answer cache (StampGate.take_step)
         if not self.edge.take_step(stamp_ns, now_ns, self.answer):
             return

@@ -45,7 +45,7 @@ DEFAULT_FUTURE_TOLERANCE = 0.5
 
 
 def _real(v) -> bool:
-    return isinstance(v, numbers.Real) and not isinstance(v, bool)
+    return type(v) is float or (isinstance(v, numbers.Real) and not isinstance(v, bool))
 
 
 def reading_problem(theta1, theta2, theta3, stamp, belt_speed=0.0) -> Optional[str]:

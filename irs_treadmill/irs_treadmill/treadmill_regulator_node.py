@@ -26,7 +26,7 @@ from irs_common.node_edge import EdgeGate
 from irs_common.params import declare_table
 from irs_common.stamp_gate import FUTURE
 from irs_common.stamp_sync import StampSync
-from irs_common.stamps import to_ns
+from irs_common.stamps import clock_now_ns, to_ns
 from irs_msgs.msg import BeltSpeed, TreadmillDriveCommand, TreadmillState
 
 from .regulator import BeltSpeedRegulator
@@ -138,7 +138,7 @@ class TreadmillRegulatorNode(Node):
         if self.p['sync_belt_speed']:
             self._add('belt', msg)
         else:
-            now_ns = self.get_clock().now().nanoseconds
+            now_ns = clock_now_ns(self.get_clock())
             stamp_ns = to_ns(msg.header.stamp)
             if stamp_ns - now_ns > self.edge.future_tolerance_ns:
                 self.edge.drop('belt speed', FUTURE, stamp_ns, now_ns)
@@ -148,7 +148,7 @@ class TreadmillRegulatorNode(Node):
 
     def _add(self, name, msg):
         stamp_ns = to_ns(msg.header.stamp)
-        now_ns = self.get_clock().now().nanoseconds
+        now_ns = clock_now_ns(self.get_clock())
         if not self.edge.admit(name, stamp_ns, now_ns):
             return
         for stamp_ns, vals in self.sync.add(name, stamp_ns, msg):

@@ -24,8 +24,6 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
-import numpy as np
-
 from irs_common.field_checks import check_numbers
 from irs_models.constants import BELT_HALF_LENGTH, BELT_HALF_WIDTH
 
@@ -93,8 +91,8 @@ def off_belt_edge(x: float, y: float, params: CarParams) -> str:
 
 
 def wheel_speeds(u: float, v: float, r: float, delta_f: float, delta_r: float,
-                 params: CarParams) -> np.ndarray:
-    """Kinematic wheel angular speeds ``[FL, FR, RL, RR]`` [rad/s].
+                 params: CarParams) -> tuple:
+    """Kinematic wheel angular speeds ``(FL, FR, RL, RR)`` [rad/s].
 
     Wheel speeds (independent-wheel-torque, 4WS car; kinematic, no longitudinal slip): the contact
     point of wheel i at body position ``(px_i, py_i)`` moves over the belt surface with body-frame
@@ -104,7 +102,7 @@ def wheel_speeds(u: float, v: float, r: float, delta_f: float, delta_r: float,
         omega_i = [ (u - r py_i) cos(delta_i) + (v + r px_i) sin(delta_i) ] / R_w
 
     with ``px = +lf`` (front) / ``-lr`` (rear), ``py = +track/2`` (left) / ``-track/2`` (right).
-    Order ``[FL, FR, RL, RR]`` [rad/s], positive = rolling forward.
+    Order ``(FL, FR, RL, RR)`` [rad/s], positive = rolling forward.
 
     Parameters
     ----------
@@ -118,12 +116,12 @@ def wheel_speeds(u: float, v: float, r: float, delta_f: float, delta_r: float,
     p = params
     h = 0.5 * p.track
     pos = ((p.lf, h, delta_f), (p.lf, -h, delta_f), (-p.lr, h, delta_r), (-p.lr, -h, delta_r))
-    out = np.empty(4)
-    for i, (px, py, d) in enumerate(pos):
+    out = []
+    for px, py, d in pos:
         vx = u - r * py
         vy = v + r * px
-        out[i] = (vx * math.cos(d) + vy * math.sin(d)) / p.wheel_radius
-    return out
+        out.append((vx * math.cos(d) + vy * math.sin(d)) / p.wheel_radius)
+    return tuple(out)
 
 
 class CarOnBelt:

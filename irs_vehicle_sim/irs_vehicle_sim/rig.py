@@ -68,6 +68,8 @@ def sanitize_steer(value: float, reject_limit: float = DEFAULT_STEER_REJECT_RAD)
 
     Non-finite values and ``|value| > reject_limit`` are replaced by 0 rad.
     """
+    if type(value) is float and abs(value) <= reject_limit:   # the common case, answered first
+        return value, None
     return _screen(value, 'steer command', lambda v: abs(v) <= reject_limit,
                    lambda v: f'{v:.4f} rad exceeds the accepted range +-{reject_limit:.4f} rad',
                    0.0, 'using 0 rad')
@@ -75,6 +77,8 @@ def sanitize_steer(value: float, reject_limit: float = DEFAULT_STEER_REJECT_RAD)
 
 def sanitize_voltage(value: float, u_max: float):
     """Safe drive voltage [V] and a reason; non-finite or outside [0, u_max] -> 0 V."""
+    if type(value) is float and 0.0 <= value <= u_max:
+        return value, None
     return _screen(value, 'drive voltage', lambda v: 0.0 <= v <= u_max,
                    lambda v: f'{v:.3f} V is outside [0, {u_max:.3f}] V', 0.0, 'using 0 V')
 
@@ -83,9 +87,22 @@ def sanitize_speed(value: float, u_max: float, fallback: float):
     """Safe driver speed command [m/s] and a reason; non-finite or outside [0, u_max] ->
     ``fallback`` (the last accepted command: stopping the car on a moving belt is not safe).
     """
+    if type(value) is float and 0.0 <= value <= u_max:
+        return value, None
     return _screen(value, 'speed command', lambda v: 0.0 <= v <= u_max,
                    lambda v: f'{v:.3f} m/s is outside [0, {u_max:.3f}] m/s', fallback,
                    f'holding {fallback:.3f} m/s')
+
+
+def _snapshot(state):
+    """A shallow copy of a mutable state dataclass (``dataclasses.replace`` without its
+    per-field work: the outputs keep the values of this step while the model moves on).
+    """
+    if not hasattr(state, '__dict__'):
+        return replace(state)
+    copy = object.__new__(type(state))
+    copy.__dict__.update(state.__dict__)
+    return copy
 
 
 # ----------------------------------------------------------------------------- data
@@ -567,8 +584,8 @@ class RigSimulation:
             pl = self.plant
             x, y, psi = self.car.x, pl.y_cg, pl.psi
             u, v, r, y_s = self.car.u, pl.lateral_velocity, pl.yaw_rate, pl.y_s
-            ws = tuple(float(w) for w in wheel_speeds(
-                u, v, r, self.act_front.achieved, self.act_rear.achieved, self.config.car))
+            ws = wheel_speeds(u, v, r, self.act_front.achieved, self.act_rear.achieved,
+                              self.config.car)
         edge = off_belt_edge(x, y, self.config.car)
         arm_fault = False
         try:
@@ -583,8 +600,8 @@ class RigSimulation:
                 self._fault_reason = 'arm_reach'
         return RigOutputs(
             time=self.time, arm_angles=ang, belt_speed_measured=self.belt.measured_speed,
-            belt_speed=self.belt.speed, actuator_front=replace(self.act_front.state),
-            actuator_rear=replace(self.act_rear.state), x=x, y=y, psi=psi, u=u, v=v,
+            belt_speed=self.belt.speed, actuator_front=_snapshot(self.act_front.state),
+            actuator_rear=_snapshot(self.act_rear.state), x=x, y=y, psi=psi, u=u, v=v,
             yaw_rate=r, y_s=y_s, wheel_speeds=ws, off_belt=bool(edge), off_belt_edge=edge,
             arm_fault=arm_fault, fault=bool(self._fault_reason),
             fault_reason=self._fault_reason, input_warnings=warnings, applied_inputs=applied,

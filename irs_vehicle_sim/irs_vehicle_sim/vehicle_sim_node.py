@@ -31,7 +31,7 @@ from irs_common.orientation import quaternion_from_yaw
 from irs_common.params import declare_table
 from irs_common.stamp_gate import FUTURE, OLD, StampGate
 from irs_common.stamp_sync import StampSync
-from irs_common.stamps import from_ns, to_ns
+from irs_common.stamps import clock_now_ns, from_ns, to_ns
 from irs_msgs.msg import (BeltSpeed, DriverCommand, RigStatus, SteeringActuatorState,
                           SteeringCommand, TreadmillDriveCommand, TreadmillState, TyreState,
                           WheelEncoders, WheelTorqueCommand)
@@ -252,7 +252,7 @@ class VehicleSimNode(Node):
         def hold_tick():
             missing = [n for n in self.start_inputs if n not in self.received_at]
             if missing:
-                self.stamp0_ns = self.get_clock().now().nanoseconds
+                self.stamp0_ns = clock_now_ns(self.get_clock())
                 self._publish_outputs()
                 return
             self.get_logger().info(f'inputs {list(self.start_inputs)} present: starting')
@@ -284,7 +284,7 @@ class VehicleSimNode(Node):
                 self.timer = self.create_timer(0.05, self._lockstep_watchdog)
             self.timer = self.create_timer(0.01, begin)
         else:
-            self.stamp0_ns = self.get_clock().now().nanoseconds
+            self.stamp0_ns = clock_now_ns(self.get_clock())
             self.wall0 = self.next_timing = self.tick_now = time.monotonic()
             self.timer = self.create_timer(self.config.dt, self._realtime_tick)
 
@@ -397,7 +397,7 @@ class VehicleSimNode(Node):
         if self.lockstep:
             now_ns = self._stamp_ns()
         else:
-            now_ns = self.get_clock().now().nanoseconds
+            now_ns = clock_now_ns(self.get_clock())
         verdict = self.gates[name].check(stamp, now_ns)
         if verdict == FUTURE or verdict == OLD:
             self._reject_stamp(name, verdict, stamp, now_ns)
