@@ -146,6 +146,45 @@ def colour_scale(plot, values, diverged_mask, units):
     return cmap, norm, 'max' if np.nanmax(values) > norm.vmax else 'neither'
 
 
+def _cross(ax, D) -> None:
+    """A cross over every cell where ``D`` is true (a diverged run)."""
+    for j, i in zip(*np.nonzero(D)):
+        ax.plot([i - 0.45, i + 0.45], [j - 0.45, j + 0.45], color='k', lw=0.8)
+        ax.plot([i - 0.45, i + 0.45], [j + 0.45, j - 0.45], color='k', lw=0.8)
+
+
+def _values(ax, Z, D, cmap, norm, fontsize: int) -> None:
+    """Each cell's value written in it, light on dark colours; on a white box where crossed."""
+    ny, nx = Z.shape
+    for j in range(ny):
+        for i in range(nx):
+            v = Z[j, i]
+            rgb = cmap(norm(v))[:3] if np.isfinite(v) else (0.85,) * 3
+            ax.text(i, j, _fmt(v), ha='center', va='center', fontsize=fontsize,
+                    color='w' if np.mean(rgb) < 0.5 else 'k',
+                    bbox=dict(boxstyle='round,pad=0.1', fc='w', ec='none', alpha=0.6)
+                    if D[j, i] else None)
+
+
+def _boundary(ax, Z, threshold: float) -> None:
+    """Cells below ``threshold`` hatched, and the contour ``Z = threshold`` between the cells'
+    centres (where at least 4 cells have a value on a grid of at least 2 x 2).
+    """
+    from matplotlib.patches import Rectangle
+    ny, nx = Z.shape
+    for j in range(ny):
+        for i in range(nx):
+            if Z[j, i] < threshold:
+                ax.add_patch(Rectangle((i - 0.5, j - 0.5), 1, 1, fill=False, hatch='//',
+                                       edgecolor='0.2', lw=0))
+    if np.isfinite(Z).sum() >= 4 and nx > 1 and ny > 1:
+        try:
+            ax.contour(np.arange(nx), np.arange(ny), np.ma.masked_invalid(Z),
+                       levels=[threshold], colors='k', linewidths=2)
+        except ValueError:
+            pass
+
+
 def heatmap(rows, plot, units, path: Path, title: str = '', sweep_units=None) -> Path:
     """Write the heat map (or boundary) ``plot`` (a :class:`.sweep_file.PlotModel`) to ``path``.
 
@@ -158,7 +197,6 @@ def heatmap(rows, plot, units, path: Path, title: str = '', sweep_units=None) ->
     import matplotlib
     matplotlib.use('Agg')
     import matplotlib.pyplot as plt
-    from matplotlib.patches import Rectangle
     sweep_units = sweep_units or {}
     facets = _axis_order(rows, plot.facet) if plot.facet else [None]
     wheres = [{plot.facet: f} if plot.facet else None for f in facets]
@@ -177,31 +215,11 @@ def heatmap(rows, plot, units, path: Path, title: str = '', sweep_units=None) ->
         nx, ny = len(xs), len(ys)
         mesh = ax.pcolormesh(np.arange(nx + 1) - 0.5, np.arange(ny + 1) - 0.5,
                              np.ma.masked_invalid(Z), norm=norm, cmap=cmap, shading='flat')
-        for j, i in zip(*np.nonzero(D)):
-            ax.plot([i - 0.45, i + 0.45], [j - 0.45, j + 0.45], color='k', lw=0.8)
-            ax.plot([i - 0.45, i + 0.45], [j + 0.45, j - 0.45], color='k', lw=0.8)
+        _cross(ax, D)
         if nx * ny <= 100:
-            for j in range(ny):
-                for i in range(nx):
-                    v = Z[j, i]
-                    rgb = cmap(norm(v))[:3] if np.isfinite(v) else (0.85,) * 3
-                    ax.text(i, j, _fmt(v), ha='center', va='center',
-                            fontsize=7 if len(xs) * len(facets) <= 12 else 6,
-                            color='w' if np.mean(rgb) < 0.5 else 'k',
-                            bbox=dict(boxstyle='round,pad=0.1', fc='w', ec='none', alpha=0.6)
-                            if D[j, i] else None)
+            _values(ax, Z, D, cmap, norm, 7 if nx * len(facets) <= 12 else 6)
         if plot.kind == 'boundary':
-            for j in range(ny):
-                for i in range(nx):
-                    if Z[j, i] < plot.threshold:
-                        ax.add_patch(Rectangle((i - 0.5, j - 0.5), 1, 1, fill=False,
-                                               hatch='//', edgecolor='0.2', lw=0))
-            if np.isfinite(Z).sum() >= 4 and nx > 1 and ny > 1:
-                try:
-                    ax.contour(np.arange(nx), np.arange(ny), np.ma.masked_invalid(Z),
-                               levels=[plot.threshold], colors='k', linewidths=2)
-                except ValueError:
-                    pass
+            _boundary(ax, Z, plot.threshold)
         ax.set_xticks(np.arange(nx), [_fmt(v) if isinstance(v, float) else str(v) for v in xs],
                       fontsize=8)
         ax.set_yticks(np.arange(ny), [_fmt(v) if isinstance(v, float) else str(v) for v in ys],
