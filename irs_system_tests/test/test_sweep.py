@@ -23,7 +23,7 @@ name: small
 description: test sweep
 scenario: figure10_mrc_with_actuator
 duration: 0.4
-fixed: {reference.signal.start_time: 0.1}
+fixed: {reference.signal.start_time: 0.1, rig.actuator_front.enable_radio_frame: false}
 axes:
   - name: design
     cases:

@@ -74,8 +74,8 @@ def test_cli_module_exits_2_without_traceback(tmp_path):
 
 
 def test_paper_method_holds_with_the_papers_servo():
-    """With the servo configured as the paper's model (a 4.6 Hz lag, the old 6.98 rad/s slew at
-    the wheel, no friction or linkage), the paper's way -- steer command, actuator a 4.6 Hz lag
+    """With the servo configured as the paper's model (a 4.6 Hz lag, a 6.98 rad/s slew at the
+    wheel, no friction, minimum drive or linkage, the 17 ms delay constant), the paper's way -- steer command, actuator a 4.6 Hz lag
     -- recovers Eq. 6's gain and response within the tolerances, with the arm's noise and
     quantisation, the backlash and the delay on (the offline loop of the same cores, the full
     12 s sweep under the PI). The single zeros and poles are not held: Eq. 6's set nearly
@@ -87,7 +87,8 @@ def test_paper_method_holds_with_the_papers_servo():
     exp.node('irs_vehicle_sim', 'vehicle_sim').params.update({
         'actuator_front.lag_hz': 4.6, 'actuator_front.rate_limit': 6.981,
         'actuator_front.gear_ratio': 1.0, 'actuator_front.enable_friction': False,
-        'actuator_front.enable_linkage_geometry': False})
+        'actuator_front.enable_linkage_geometry': False, 'actuator_front.min_drive': 0.0,
+        'actuator_front.enable_radio_frame': False})
     run = cycle._run_experiment(exp, None, offline=True)
     assert run['params']['vehicle_sim']['arm.enable_noise'] is True
     (_title, paper), _ = vehicle_cli.reports(vehicle_cli.identify(run))
