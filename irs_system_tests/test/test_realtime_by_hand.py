@@ -17,31 +17,14 @@ import pytest
 from geometry_msgs.msg import PointStamped
 from irs_common import qos
 from irs_msgs.msg import RigStatus
-from irs_bringup.processes import NodeSpec
 
-from ament_index_python.packages import get_package_share_directory
-
-
-def share(package, rel):
-    return f'{get_package_share_directory(package)}/{rel}'
+from irs_system_tests.realtime_loop import REALTIME, loop_specs
 
 
-REALTIME = share('irs_bringup', 'config/realtime.yaml')
 #: The README's order: the rig, the estimator, the treadmill regulator, the controller, the
 #: reference generator (a step of 0.02 m, 2 s after the reference generator starts).
-README_ORDER = [
-    NodeSpec('irs_vehicle_sim', 'vehicle_sim',
-             params_files=[share('irs_vehicle_sim', 'config/rig.yaml'), REALTIME]),
-    NodeSpec('irs_sensing', 'arm_pose_estimator',
-             params_files=[share('irs_sensing', 'config/sensing.yaml')]),
-    NodeSpec('irs_treadmill', 'treadmill_regulator',
-             params_files=[share('irs_treadmill', 'config/treadmill.yaml')]),
-    NodeSpec('irs_control', 'lateral_controller',
-             params_files=[share('irs_control', 'config/lateral_controller.yaml')]),
-    NodeSpec('irs_control', 'reference_generator',
-             params_files=[share('irs_control', 'config/reference_generator.yaml')],
-             params={'signal.type': 'step', 'signal.amplitude': 0.02, 'signal.start_time': 2.0}),
-]
+README_ORDER = loop_specs(rig_files=[REALTIME], reference_params={
+    'signal.type': 'step', 'signal.amplitude': 0.02, 'signal.start_time': 2.0})
 
 
 @pytest.mark.exclusive   # five processes at 1 kHz in real time: no other test beside it

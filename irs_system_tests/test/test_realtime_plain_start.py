@@ -15,30 +15,13 @@ import time
 import numpy as np
 import pytest
 
-from ament_index_python.packages import get_package_share_directory
+from irs_system_tests.realtime_loop import loop_specs
 from geometry_msgs.msg import PointStamped, PoseStamped
-from irs_bringup.processes import NodeSpec
 from irs_common import qos
 from irs_msgs.msg import BeltSpeed, RigStatus, SteeringActuatorState
 
 
-def share(package, rel):
-    return f'{get_package_share_directory(package)}/{rel}'
-
-
-PLAIN = [
-    NodeSpec('irs_vehicle_sim', 'vehicle_sim', params_files=[share('irs_vehicle_sim',
-                                                                   'config/rig.yaml')],
-             params={'clock_mode': 'realtime'}),
-    NodeSpec('irs_sensing', 'arm_pose_estimator',
-             params_files=[share('irs_sensing', 'config/sensing.yaml')]),
-    NodeSpec('irs_treadmill', 'treadmill_regulator',
-             params_files=[share('irs_treadmill', 'config/treadmill.yaml')]),
-    NodeSpec('irs_control', 'lateral_controller',
-             params_files=[share('irs_control', 'config/lateral_controller.yaml')]),
-    NodeSpec('irs_control', 'reference_generator',
-             params_files=[share('irs_control', 'config/reference_generator.yaml')]),
-]
+PLAIN = loop_specs(rig_params={'clock_mode': 'realtime'})
 
 #: Half of the belt's length less the treadmill's end margin [m] (docs/safety.md).
 CLEAR_OF_ENDS = 1.2192 - 0.15

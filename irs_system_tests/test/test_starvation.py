@@ -33,27 +33,12 @@ from std_srvs.srv import Trigger
 
 from irs_common import qos
 from irs_msgs.msg import RigStatus
-from irs_bringup.processes import NodeSpec
 
-from ament_index_python.packages import get_package_share_directory
-
-
-def share(package, rel):
-    return f'{get_package_share_directory(package)}/{rel}'
+from irs_system_tests.realtime_loop import REALTIME, loop_specs
 
 
-REALTIME = share('irs_bringup', 'config/realtime.yaml')
-GRAPH = [
-    NodeSpec('irs_vehicle_sim', 'vehicle_sim',
-             params_files=[share('irs_vehicle_sim', 'config/rig.yaml'), REALTIME],
-             params={'status_period': 0.01}),
-    NodeSpec('irs_sensing', 'arm_pose_estimator',
-             params_files=[share('irs_sensing', 'config/sensing.yaml')]),
-    NodeSpec('irs_treadmill', 'treadmill_regulator',
-             params_files=[share('irs_treadmill', 'config/treadmill.yaml')]),
-    NodeSpec('irs_control', 'lateral_controller',
-             params_files=[share('irs_control', 'config/lateral_controller.yaml')]),
-]
+GRAPH = loop_specs(rig_files=[REALTIME], rig_params={'status_period': 0.01},
+                   reference=False)
 END_CLEARANCE = 1.2192 - 0.225     # [m] |x| of the c.g. at which the car leaves a belt end
 
 

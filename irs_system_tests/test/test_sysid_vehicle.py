@@ -75,11 +75,12 @@ def test_cli_module_exits_2_without_traceback(tmp_path):
 
 def test_paper_method_holds_with_the_papers_servo():
     """With the servo configured as the paper's model (a 4.6 Hz lag, a 6.98 rad/s slew at the
-    wheel, no friction, minimum drive or linkage, the 17 ms delay constant), the paper's way -- steer command, actuator a 4.6 Hz lag
-    -- recovers Eq. 6's gain and response within the tolerances, with the arm's noise and
-    quantisation, the backlash and the delay on (the offline loop of the same cores, the full
-    12 s sweep under the PI). The single zeros and poles are not held: Eq. 6's set nearly
-    cancels, and the PI's sweep fixes them no better than the response (vehicle_fit).
+    wheel, no friction, minimum drive or linkage, the 17 ms delay constant), the paper's way --
+    steer command, actuator a 4.6 Hz lag -- recovers Eq. 6's gain and response within the
+    tolerances, with the arm's noise and quantisation, the backlash and the delay on (the offline
+    loop of the same cores, the full 12 s sweep under the PI). The single zeros and poles are not
+    held: Eq. 6's set nearly cancels, and the PI's sweep fixes them no better than the response
+    (vehicle_fit).
     """
     from irs_sysid import cycle, vehicle_cli
 
