@@ -38,6 +38,7 @@ def readme_commands() -> list:
             continue
         argv = shlex.split(line, comments=True)
         argv = [re.sub(r'\$(\w+)', lambda m: env[m.group(1)], a) for a in argv]
+        argv = argv[:-1] if argv[-1:] == ['&'] else argv       # started in the background
         if argv[:1] == ['make'] or argv[:2] == ['./irs', 'run'] and '<' not in argv[2]:
             out.append((line.strip(), argv))
     return out
