@@ -132,7 +132,7 @@ class ExperimentRunner:
     """
 
     def __init__(self, exp: Experiment, runs_dir='runs', log=print, graph_timeout=60.0,
-                 stall_timeout=30.0, progress=True, rt_priority=0):
+                 stall_timeout=30.0, progress=True, rt_priority=0, view=None):
         self.exp = exp
         self.run_dir = new_run_dir(runs_dir, exp.name)
         self.log = log
@@ -142,6 +142,7 @@ class ExperimentRunner:
         self.procs = {}
         self.members = {}    # container process label -> its node names
         self.rt_priority = int(rt_priority)
+        self.view = view         # live view: a rerun URL or an .rrd path (None = no view)
         self.dt = _rig_dt(exp)
         self.phase = 'created'   # -> starting -> running -> stopping -> done (for observers)
         self.stop_signal = None  # set by request_stop: the signal number (0: asked, no signal)
@@ -183,6 +184,16 @@ class ExperimentRunner:
         params = {'topics': list(self.exp.record_topics), 'output': str(bag_dir),
                   'metadata': json.dumps(experiment_metadata(self.exp))}
         return NodeSpec('irs_bag', 'recorder', 'recorder', params=params)
+
+    def _view_spec(self):
+        """The ``live_view`` node (:mod:`irs_bag.live_view_node`): ``view`` ending in ``.rrd``
+        is a file to write, anything else the URL of a rerun viewer.
+        """
+        target = str(self.view)
+        where = {'save': target} if target.endswith('.rrd') else {'url': target}
+        params = {'metadata': json.dumps(experiment_metadata(self.exp)),
+                  'run_name': self.run_dir.name, **where}
+        return NodeSpec('irs_bag', 'live_view', 'live_view', params=params)
 
     def _check_alive(self):
         for name, proc in self.procs.items():
@@ -276,6 +287,8 @@ class ExperimentRunner:
                 extra.append((exp.record_process, self._recorder_spec(bag_dir)))
             elif bag_dir is not None:
                 self.procs['recorder'] = NodeProcess(self._recorder_spec(bag_dir), logs)
+            if self.view is not None:      # its own process: never in the loop's executor
+                self.procs['live_view'] = NodeProcess(self._view_spec(), logs)
             self._check_stop()
             self._start_nodes(logs, env, extra)
             self.log(f'[experiment] {exp.name}: started {len(self.procs)} processes, '
