@@ -34,6 +34,9 @@ from .run_info import run_info_from_metadata
 
 __all__ = ['LiveViewNode', 'main']
 
+#: Seconds the node waits at shutdown for its last batches to reach the viewer or the file.
+FLUSH_TIMEOUT = 2.0
+
 
 def _types() -> dict:
     from geometry_msgs.msg import PointStamped, PoseStamped
@@ -81,6 +84,8 @@ class LiveViewNode(Node):
                          durability=DurabilityPolicy.VOLATILE)
         self.feeds = []
         for suffix, msg_type in _types().items():
+            if suffix not in self.p['topics']:
+                continue
             check_is_valid_msg_type(msg_type)
             with self.handle:
                 handle = _rclpy.Subscription(self.handle, msg_type, suffix,
@@ -116,9 +121,11 @@ class LiveViewNode(Node):
     def destroy_node(self):
         try:
             self.tick()
-            self.rec.flush()
-            self.rec.disconnect()
+            self.rec.flush(timeout_sec=FLUSH_TIMEOUT)
+        except RuntimeError as exc:         # no viewer at 'url': what was not sent is dropped
+            self.get_logger().warning(f'rerun: {" ".join(str(exc).split())}')
         finally:
+            self.rec.disconnect()
             for f in self.feeds:
                 f.handle.destroy_when_not_in_use()
             self.feeds = []

@@ -1,10 +1,24 @@
 """Parameter table of the ``live_view`` node (no rclpy)."""
 from irs_common.params import Param
 
+#: The topics the entities are made of (irs_bag.rerun_entities.SPEC), relative names.
+TOPICS = ['ground_truth/odom', 'pose', 'arm/joint_states', 'ground_truth/sensor_point',
+          'lateral_position', 'lateral/reference', 'steering/command', 'steering/state',
+          'belt/speed', 'treadmill/state']
+
+
+def _known_topics(value):
+    bad = [t for t in value if t not in TOPICS]
+    return f"not topics of the view: {', '.join(bad)} (known: {', '.join(TOPICS)})" if bad \
+        else None
+
 #: rerun's default gRPC URL: a viewer started with ``rerun`` on this machine.
 DEFAULT_URL = 'rerun+http://127.0.0.1:9876/proxy'
 
 NODE_PARAMS = [
+    Param('topics', TOPICS, 'topics to show (a subset of the default; each one the view takes '
+          'is one more DDS reader for its publisher)', '-', read_only=True,
+          validator=_known_topics),
     Param('url', DEFAULT_URL, 'rerun viewer to stream to (its gRPC proxy URL)', '-',
           read_only=True),
     Param('save', '', "write an .rrd file here instead of streaming to 'url' ('' = stream)",
