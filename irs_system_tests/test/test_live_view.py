@@ -1,4 +1,10 @@
 """``experiment run --view``: the live_view node streams a running graph to a rerun sink."""
+import signal
+import socket
+import subprocess
+import sys
+from pathlib import Path
+
 import numpy as np
 
 from irs_bag.columns import read_columns
@@ -22,16 +28,31 @@ def _entity(rrd, path, column):
     return np.asarray(t)[order], np.asarray(v)[order]
 
 
+def _free_port() -> int:
+    with socket.socket() as s:
+        s.bind(('127.0.0.1', 0))
+        return s.getsockname()[1]
+
+
 def test_view_streams_the_entities_of_run_rrd_while_the_graph_runs(tmp_path):
-    """A lock-step Figure 10 run with ``view=<file>.rrd``: the live recording holds every entity
-    of run.rrd, about 100 Hz of series rows (one message in 10 of the 1 kHz topics; best effort
-    may lose some), and its lateral values are the bag's own values.
+    """A lock-step Figure 10 run with ``--view <url>`` streaming over gRPC to a rerun server
+    (``rerun --port P --save live.rrd``: the viewer's receiving end, headless): the live
+    recording holds every entity of run.rrd, about 100 Hz of series rows (one message in 10 of
+    the 1 kHz topics; best effort may lose some), and its lateral values are the bag's own.
     """
     from irs_bag.live_view_params import DEFAULT_URL
     assert DEFAULT_VIEW_URL == DEFAULT_URL
-    live = tmp_path / 'live.rrd'
-    result = run_experiment('figure10_mrc_with_actuator', runs_dir=tmp_path, composed=True,
-                            duration=DURATION, view=str(live), log=lambda *_: None)
+    live, port = tmp_path / 'live.rrd', _free_port()
+    rerun_exe = Path(sys.executable).with_name('rerun')
+    sink = subprocess.Popen([str(rerun_exe), '--port', str(port), '--save', str(live)],
+                            stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    try:
+        result = run_experiment('figure10_mrc_with_actuator', runs_dir=tmp_path, composed=True,
+                                duration=DURATION, view=f'rerun+http://127.0.0.1:{port}/proxy',
+                                log=lambda *_: None)
+    finally:
+        sink.send_signal(signal.SIGINT)        # the server ends the .rrd file and exits
+        sink.wait(timeout=30)
     assert result.completed, result.message
     assert result.exit_codes.get('live_view') == 0, result.exit_codes
     assert (result.run_dir / 'run.rrd').is_file()
