@@ -1,8 +1,9 @@
 """``live_view`` node: a running graph streamed to a rerun viewer (or an ``.rrd`` file).
 
-It subscribes to the topics of :data:`irs_bag.rerun_entities.SPEC` (relative names: the node's
-namespace is the graph's) and feeds :class:`irs_bag.live_view.LiveFeed`, whose batches go to
-rerun every ``period`` s (one ``send_columns`` per entity). Start a viewer with ``rerun``, then
+It subscribes to the topics of :data:`irs_bag.rerun_entities.SPEC`, or the subset ``topics``
+(relative names: the node's namespace is the graph's), and feeds
+:class:`irs_bag.live_view.LiveFeed`, whose batches go to rerun every ``period`` s (one
+``send_columns`` per entity). Start a viewer with ``rerun``, then
 ``./irs run irs_bag live_view`` (or ``experiment run <name> --view``); ``-p save:=x.rrd``
 writes a file instead.
 
