@@ -69,3 +69,29 @@ def test_view_streams_the_entities_of_run_rrd_while_the_graph_runs(tmp_path):
     assert np.ptp(y) > 0.005           # the 0.02 m steps are in it, not a constant
     tc, _ = _entity(live, 'world/car', 'Boxes3D:centers')
     assert 0.3 * DURATION * 30 <= len(tc) <= DURATION * 30 + 10, len(tc)
+
+
+def test_view_with_offline_is_refused_in_one_line(capsys):
+    import pytest
+    from irs_bringup.experiment_cli import main
+    with pytest.raises(SystemExit) as info:
+        main(['run', 'figure10_pi', '--offline', '--view'])
+    assert info.value.code == 2
+    assert '--offline runs no graph' in capsys.readouterr().err
+
+
+def test_view_argument_picks_a_url_or_a_file(tmp_path):
+    """``--view`` alone: rerun's default URL; a value ending in .rrd: a file for ``save``."""
+    from irs_bringup.experiment import load_experiment
+    from irs_bringup.experiment_cli import build_parser
+    from irs_bringup.experiment_runner import ExperimentRunner
+    args = build_parser().parse_args(['run', 'figure10_pi', '--view'])
+    assert args.view == DEFAULT_VIEW_URL
+    assert build_parser().parse_args(['run', 'figure10_pi']).view is None
+    exp = load_experiment('figure10_pi')
+    spec = ExperimentRunner(exp, runs_dir=tmp_path, view='x/live.rrd')._view_spec()
+    assert (spec.package, spec.executable, spec.params['save']) == ('irs_bag', 'live_view',
+                                                                     'x/live.rrd')
+    assert 'url' not in spec.params
+    spec = ExperimentRunner(exp, runs_dir=tmp_path, view=DEFAULT_VIEW_URL)._view_spec()
+    assert spec.params['url'] == DEFAULT_VIEW_URL and 'save' not in spec.params
