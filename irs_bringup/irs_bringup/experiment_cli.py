@@ -149,6 +149,10 @@ def _main(argv) -> int:
         parser.error('--composed runs the graph, --offline runs the cores without it: pick one')
     if args.offline and args.view is not None:
         parser.error('--view streams a running graph; --offline runs no graph')
+    if args.view is not None and not (args.view.endswith('.rrd') or args.view.startswith(
+            ('rerun://', 'rerun+http://', 'rerun+https://'))):
+        parser.error(f'--view {args.view}: neither a rerun URL (rerun+http://host:port/proxy) '
+                     'nor an .rrd file')
     if not 0 <= args.rt_priority <= 99:
         parser.error('--rt-priority must be 0..99')
     if args.offline:

@@ -71,13 +71,17 @@ def test_view_streams_the_entities_of_run_rrd_while_the_graph_runs(tmp_path):
     assert 0.3 * DURATION * 30 <= len(tc) <= DURATION * 30 + 10, len(tc)
 
 
-def test_view_with_offline_is_refused_in_one_line(capsys):
+def test_view_with_offline_or_a_bad_url_is_refused_in_one_line(capsys):
     import pytest
     from irs_bringup.experiment_cli import main
     with pytest.raises(SystemExit) as info:
         main(['run', 'figure10_pi', '--offline', '--view'])
     assert info.value.code == 2
     assert '--offline runs no graph' in capsys.readouterr().err
+    with pytest.raises(SystemExit) as info:
+        main(['run', 'figure10_pi', '--view', 'localhost:9876'])
+    assert info.value.code == 2
+    assert 'neither a rerun URL' in capsys.readouterr().err
 
 
 def test_view_argument_picks_a_url_or_a_file(tmp_path):
