@@ -108,10 +108,11 @@ class ExperimentRunner:
     Order of events:
 
     1. a run directory ``<runs>/<name>-<time>/`` with ``logs/`` (one log per node) and ``bag/``;
-    2. the recorder (if the experiment records) and every node start through their ament-resolved
-       executables, with the experiment's parameter files and overrides plus the clock parameters;
-       nodes that share a ``process:`` name start together in one ``container`` process
-       (composition: one executor, the nodes still separate on topics);
+    2. the recorder (if the experiment records), the ``live_view`` (with ``view``: a rerun URL
+       or an ``.rrd`` path, :mod:`irs_bag.live_view_node`) and every node start through their
+       ament-resolved executables, with the experiment's parameter files and overrides plus the
+       clock parameters; nodes that share a ``process:`` name start together in one
+       ``container`` process (composition: one executor, the nodes still separate on topics);
     3. the runner waits until every node is in the graph and every topic has its expected
        publishers and subscriptions (``experiment.expected_endpoints``), then calls ``rig/start``;
     4. it follows the run (the rig's ``rig/status``, 10 Hz of simulated time, in lock-step; wall
@@ -190,7 +191,8 @@ class ExperimentRunner:
         is a file to write, anything else the URL of a rerun viewer.
         """
         target = str(self.view)
-        where = {'save': target} if target.endswith('.rrd') else {'url': target}
+        where = ({'save': str(Path(target).resolve())} if target.endswith('.rrd')
+                 else {'url': target})
         params = {'metadata': json.dumps(experiment_metadata(self.exp)),
                   'run_name': self.run_dir.name, **where}
         return NodeSpec('irs_bag', 'live_view', 'live_view', params=params)
