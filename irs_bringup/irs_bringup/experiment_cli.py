@@ -50,11 +50,12 @@ def _post_process(result, log=print):
 
 
 def run_experiment(name, runs_dir='runs', plots=True, log=print, rt_priority=0, composed=False,
-                   duration=None, view=None):
+                   duration=None, view=None, view_topics=None):
     """Run one experiment through the graph; returns the RunResult. ``composed``: every node
     and the recorder in one process (:meth:`~.experiment.Experiment.composed`); ``duration``
     [s]: instead of the file's; ``view``: a rerun viewer URL or an ``.rrd`` path for the
-    ``live_view`` node (docs/plots.md), None = no live view.
+    ``live_view`` node (docs/plots.md), None = no live view; ``view_topics``: its ``topics``
+    (None = all).
     """
     from .experiment_runner import ExperimentRunner
     exp = load_experiment(name)
@@ -63,7 +64,7 @@ def run_experiment(name, runs_dir='runs', plots=True, log=print, rt_priority=0, 
     if composed:
         exp = exp.composed()
     result = ExperimentRunner(exp, runs_dir=runs_dir, log=log, rt_priority=rt_priority,
-                              view=view).run()
+                              view=view, view_topics=view_topics).run()
     log(f'[experiment] {exp.name}: {result.message}; simulated {result.sim_time:.3f} s in '
         f'{result.wall_time:.1f} s wall; run directory {result.run_dir}')
     if plots and result.interrupted is None:
@@ -133,6 +134,10 @@ def build_parser() -> argparse.ArgumentParser:
                        help='stream the run to a rerun viewer while it runs (default URL '
                        f'{DEFAULT_VIEW_URL}: a viewer started with `rerun`); a path ending in '
                        '.rrd writes that file instead')
+    p_run.add_argument('--view-topics', metavar='T1,T2', type=lambda t: [
+        x.strip() for x in t.split(',') if x.strip()], help='the topics the live view takes '
+        '(default: all of its ten); ground_truth/odom,ground_truth/sensor_point,steering/state '
+        'keeps a composed loop in-process (docs/plots.md)')
     sub.add_parser('recover', help='call rig/recover (docs/safety.md) and wait until the rig runs')
     return parser
 
@@ -153,6 +158,8 @@ def _main(argv) -> int:
             ('rerun://', 'rerun+http://', 'rerun+https://'))):
         parser.error(f'--view {args.view}: neither a rerun URL (rerun+http://host:port/proxy) '
                      'nor an .rrd file')
+    if args.view_topics is not None and args.view is None:
+        parser.error('--view-topics needs --view')
     if not 0 <= args.rt_priority <= 99:
         parser.error('--rt-priority must be 0..99')
     if args.offline:
@@ -161,7 +168,8 @@ def _main(argv) -> int:
         return 0
     result = run_experiment(args.experiment, args.runs_dir, plots=not args.no_plots,
                             rt_priority=args.rt_priority, composed=args.composed,
-                            duration=args.duration, view=args.view)
+                            duration=args.duration, view=args.view,
+                            view_topics=args.view_topics)
     if result.interrupted is not None:
         return 128 + result.interrupted if result.interrupted else EXIT_FAILED
     return 0 if result.completed else EXIT_FAILED

@@ -133,7 +133,8 @@ class ExperimentRunner:
     """
 
     def __init__(self, exp: Experiment, runs_dir='runs', log=print, graph_timeout=60.0,
-                 stall_timeout=30.0, progress=True, rt_priority=0, view=None):
+                 stall_timeout=30.0, progress=True, rt_priority=0, view=None,
+                 view_topics=None):
         self.exp = exp
         self.run_dir = new_run_dir(runs_dir, exp.name)
         self.log = log
@@ -144,6 +145,7 @@ class ExperimentRunner:
         self.members = {}    # container process label -> its node names
         self.rt_priority = int(rt_priority)
         self.view = view         # live view: a rerun URL or an .rrd path (None = no view)
+        self.view_topics = view_topics   # its topics (None = the node's default: all)
         self.dt = _rig_dt(exp)
         self.phase = 'created'   # -> starting -> running -> stopping -> done (for observers)
         self.stop_signal = None  # set by request_stop: the signal number (0: asked, no signal)
@@ -195,6 +197,8 @@ class ExperimentRunner:
                  else {'url': target})
         params = {'metadata': json.dumps(experiment_metadata(self.exp)),
                   'run_name': self.run_dir.name, **where}
+        if self.view_topics is not None:
+            params['topics'] = list(self.view_topics)
         return NodeSpec('irs_bag', 'live_view', 'live_view', params=params)
 
     def _check_alive(self):

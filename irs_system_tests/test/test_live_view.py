@@ -82,6 +82,10 @@ def test_view_with_offline_or_a_bad_url_is_refused_in_one_line(capsys):
         main(['run', 'figure10_pi', '--view', 'localhost:9876'])
     assert info.value.code == 2
     assert 'neither a rerun URL' in capsys.readouterr().err
+    with pytest.raises(SystemExit) as info:
+        main(['run', 'figure10_pi', '--view-topics', 'pose'])
+    assert info.value.code == 2
+    assert '--view-topics needs --view' in capsys.readouterr().err
 
 
 def test_view_argument_picks_a_url_or_a_file(tmp_path):
@@ -99,3 +103,10 @@ def test_view_argument_picks_a_url_or_a_file(tmp_path):
     assert 'url' not in spec.params
     spec = ExperimentRunner(exp, runs_dir=tmp_path, view=DEFAULT_VIEW_URL)._view_spec()
     assert spec.params['url'] == DEFAULT_VIEW_URL and 'save' not in spec.params
+    assert 'topics' not in spec.params                     # the node's default: all
+    args = build_parser().parse_args(['run', 'figure10_pi', '--view', '--view-topics',
+                                      'ground_truth/odom, steering/state'])
+    assert args.view_topics == ['ground_truth/odom', 'steering/state']
+    spec = ExperimentRunner(exp, runs_dir=tmp_path, view=DEFAULT_VIEW_URL,
+                            view_topics=args.view_topics)._view_spec()
+    assert spec.params['topics'] == ['ground_truth/odom', 'steering/state']
