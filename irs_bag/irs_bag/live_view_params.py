@@ -6,6 +6,12 @@ TOPICS = ['ground_truth/odom', 'pose', 'arm/joint_states', 'ground_truth/sensor_
           'lateral_position', 'lateral/reference', 'steering/command', 'steering/state',
           'belt/speed', 'treadmill/state']
 
+#: The default: the topics no node of the loop reads. A topic that an outside process subscribes
+#: to goes through DDS for the loop's own nodes too (no in-process handover), which in a composed
+#: real-time run raised the control latency from about 0.5 ms to 50 ms (docs/plots.md).
+OUTSIDE_THE_LOOP = ['ground_truth/odom', 'ground_truth/sensor_point', 'steering/state',
+                    'treadmill/state']
+
 
 def _known_topics(value):
     bad = [t for t in value if t not in TOPICS]
@@ -16,8 +22,9 @@ def _known_topics(value):
 DEFAULT_URL = 'rerun+http://127.0.0.1:9876/proxy'
 
 NODE_PARAMS = [
-    Param('topics', TOPICS, 'topics to show (a subset of the default; each one the view takes '
-          'is one more DDS reader for its publisher)', '-', read_only=True,
+    Param('topics', OUTSIDE_THE_LOOP, 'topics to show, any of the run.rrd topics (the default: '
+          'those no loop node reads; each other one takes the in-process handover off that '
+          'topic)', '-', read_only=True,
           validator=_known_topics),
     Param('url', DEFAULT_URL, 'rerun viewer to stream to (its gRPC proxy URL)', '-',
           read_only=True),

@@ -141,9 +141,10 @@ def test_batches_shorter_than_a_bin_do_not_raise_the_3d_rate():
 
 
 def test_the_nodes_topic_list_is_the_entities_spec():
-    from irs_bag.live_view_params import NODE_PARAMS, TOPICS
+    from irs_bag.live_view_params import NODE_PARAMS, OUTSIDE_THE_LOOP, TOPICS
     from irs_bag.rerun_entities import SPEC
     assert TOPICS == list(SPEC)
     topics = next(p for p in NODE_PARAMS if p.name == 'topics')
+    assert set(OUTSIDE_THE_LOOP) < set(TOPICS) and topics.default == OUTSIDE_THE_LOOP
     assert topics.validator(['pose', 'belt/speed']) is None
     assert 'wheel_speeds' in topics.validator(['pose', 'wheel_speeds'])

@@ -40,7 +40,7 @@ def test_view_streams_the_entities_of_run_rrd_while_the_graph_runs(tmp_path):
     recording holds every entity of run.rrd, about 100 Hz of series rows (one message in 10 of
     the 1 kHz topics; best effort may lose some), and its lateral values are the bag's own.
     """
-    from irs_bag.live_view_params import DEFAULT_URL
+    from irs_bag.live_view_params import DEFAULT_URL, TOPICS
     assert DEFAULT_VIEW_URL == DEFAULT_URL
     live, port = tmp_path / 'live.rrd', _free_port()
     rerun_exe = Path(sys.executable).with_name('rerun')
@@ -49,6 +49,7 @@ def test_view_streams_the_entities_of_run_rrd_while_the_graph_runs(tmp_path):
     try:
         result = run_experiment('figure10_mrc_with_actuator', runs_dir=tmp_path, composed=True,
                                 duration=DURATION, view=f'rerun+http://127.0.0.1:{port}/proxy',
+                                view_topics=TOPICS,
                                 log=lambda *_: None)
     finally:
         sink.send_signal(signal.SIGINT)        # the server ends the .rrd file and exits
