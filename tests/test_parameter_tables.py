@@ -60,6 +60,7 @@ NODE_CLASSES = {
     'driver': 'irs_bringup.driver.driver_node:DriverNode',
     'excitation': 'irs_sysid.excitation_node:ExcitationNode',
     'recorder': 'irs_bag.recorder_node:Recorder',
+    'live_view': 'irs_bag.live_view_node:LiveViewNode',
 }
 RCLPY_PARAMETERS = {'use_sim_time', 'start_type_description_service'}
 

@@ -6,6 +6,7 @@ commands:
   experiment run <name> --composed       the same with every node in one process
   experiment run <name> --offline        the same cores without ROS: traces, metrics, plots
   experiment run <name> --duration 3     any of these for 3 s instead of the file's duration
+  experiment run <name> --view [URL]     stream the run to a rerun viewer while it runs
   experiment recover                     rig/recover: the running rig back from any fault
 
 Every run writes into its own folder under --runs-dir (default runs/): <name>-<time>/ for the
@@ -17,6 +18,10 @@ import sys
 from irs_common.cli import EXIT_FAILED, InputError, run_cli
 
 from .experiment import experiments_dir, load_experiment
+
+#: rerun's default gRPC URL (irs_bag.live_view_params.DEFAULT_URL; not imported: the CLI
+#: parses its arguments before any ROS or rerun import).
+DEFAULT_VIEW_URL = 'rerun+http://127.0.0.1:9876/proxy'
 
 COMPOSED_HELP = ('every node and the recorder in one process (one executor, messages handed over '
                  'in-process; the same lock-step bag, several times faster)')
@@ -45,10 +50,12 @@ def _post_process(result, log=print):
 
 
 def run_experiment(name, runs_dir='runs', plots=True, log=print, rt_priority=0, composed=False,
-                   duration=None):
+                   duration=None, view=None, view_topics=None):
     """Run one experiment through the graph; returns the RunResult. ``composed``: every node
     and the recorder in one process (:meth:`~.experiment.Experiment.composed`); ``duration``
-    [s]: instead of the file's.
+    [s]: instead of the file's; ``view``: a rerun viewer URL or an ``.rrd`` path for the
+    ``live_view`` node (docs/plots.md), None = no live view; ``view_topics``: its ``topics``
+    (None = all).
     """
     from .experiment_runner import ExperimentRunner
     exp = load_experiment(name)
@@ -56,7 +63,8 @@ def run_experiment(name, runs_dir='runs', plots=True, log=print, rt_priority=0, 
         exp = exp.with_duration(duration)
     if composed:
         exp = exp.composed()
-    result = ExperimentRunner(exp, runs_dir=runs_dir, log=log, rt_priority=rt_priority).run()
+    result = ExperimentRunner(exp, runs_dir=runs_dir, log=log, rt_priority=rt_priority,
+                              view=view, view_topics=view_topics).run()
     log(f'[experiment] {exp.name}: {result.message}; simulated {result.sim_time:.3f} s in '
         f'{result.wall_time:.1f} s wall; run directory {result.run_dir}')
     if plots and result.interrupted is None:
@@ -122,6 +130,14 @@ def build_parser() -> argparse.ArgumentParser:
     p_run.add_argument('--rt-priority', type=int, default=0, metavar='N',
                        help='run every node process with SCHED_FIFO priority N (1-99; needs root '
                        'or CAP_SYS_NICE; 0 = normal scheduling)')
+    p_run.add_argument('--view', nargs='?', const=DEFAULT_VIEW_URL, metavar='URL',
+                       help='stream the run to a rerun viewer while it runs (default URL '
+                       f'{DEFAULT_VIEW_URL}: a viewer started with `rerun`); a path ending in '
+                       '.rrd writes that file instead')
+    p_run.add_argument('--view-topics', metavar='T1,T2', type=lambda t: [
+        x.strip() for x in t.split(',') if x.strip()], help='the topics the live view takes '
+        '(default: all of its ten); ground_truth/odom,ground_truth/sensor_point,steering/state '
+        'keeps a composed loop in-process (docs/plots.md)')
     sub.add_parser('recover', help='call rig/recover (docs/safety.md) and wait until the rig runs')
     return parser
 
@@ -136,6 +152,14 @@ def _main(argv) -> int:
         return 0 if recover() else EXIT_FAILED
     if args.offline and args.composed:
         parser.error('--composed runs the graph, --offline runs the cores without it: pick one')
+    if args.offline and args.view is not None:
+        parser.error('--view streams a running graph; --offline runs no graph')
+    if args.view is not None and not (args.view.endswith('.rrd') or args.view.startswith(
+            ('rerun://', 'rerun+http://', 'rerun+https://'))):
+        parser.error(f'--view {args.view}: neither a rerun URL (rerun+http://host:port/proxy) '
+                     'nor an .rrd file')
+    if args.view_topics is not None and args.view is None:
+        parser.error('--view-topics needs --view')
     if not 0 <= args.rt_priority <= 99:
         parser.error('--rt-priority must be 0..99')
     if args.offline:
@@ -144,7 +168,8 @@ def _main(argv) -> int:
         return 0
     result = run_experiment(args.experiment, args.runs_dir, plots=not args.no_plots,
                             rt_priority=args.rt_priority, composed=args.composed,
-                            duration=args.duration)
+                            duration=args.duration, view=args.view,
+                            view_topics=args.view_topics)
     if result.interrupted is not None:
         return 128 + result.interrupted if result.interrupted else EXIT_FAILED
     return 0 if result.completed else EXIT_FAILED

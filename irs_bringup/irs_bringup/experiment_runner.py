@@ -115,10 +115,11 @@ class ExperimentRunner:
     Order of events:
 
     1. a run directory ``<runs>/<name>-<time>/`` with ``logs/`` (one log per node) and ``bag/``;
-    2. the recorder (if the experiment records) and every node start through their ament-resolved
-       executables, with the experiment's parameter files and overrides plus the clock parameters;
-       nodes that share a ``process:`` name start together in one ``container`` process
-       (composition: one executor, the nodes still separate on topics);
+    2. the recorder (if the experiment records), the ``live_view`` (with ``view``: a rerun URL
+       or an ``.rrd`` path, :mod:`irs_bag.live_view_node`) and every node start through their
+       ament-resolved executables, with the experiment's parameter files and overrides plus the
+       clock parameters; nodes that share a ``process:`` name start together in one
+       ``container`` process (composition: one executor, the nodes still separate on topics);
     3. the runner waits until every node is in the graph and every topic has its expected
        publishers and subscriptions (``experiment.expected_endpoints``), then calls ``rig/start``;
     4. it follows the run (the rig's ``rig/status``, 10 Hz of simulated time, in lock-step; wall
@@ -139,7 +140,8 @@ class ExperimentRunner:
     """
 
     def __init__(self, exp: Experiment, runs_dir='runs', log=print, graph_timeout=60.0,
-                 stall_timeout=30.0, progress=True, rt_priority=0):
+                 stall_timeout=30.0, progress=True, rt_priority=0, view=None,
+                 view_topics=None):
         self.exp = exp
         self.run_dir = new_run_dir(runs_dir, exp.name)
         self.log = log
@@ -150,6 +152,8 @@ class ExperimentRunner:
         self.devices = {}    # device processes (emulators): started first, stopped last
         self.members = {}    # container process label -> its node names
         self.rt_priority = int(rt_priority)
+        self.view = view         # live view: a rerun URL or an .rrd path (None = no view)
+        self.view_topics = view_topics   # its topics (None = the node's default: all)
         self.dt = _rig_dt(exp)
         self.phase = 'created'   # -> starting -> running -> stopping -> done (for observers)
         self.stop_signal = None  # set by request_stop: the signal number (0: asked, no signal)
@@ -211,6 +215,19 @@ class ExperimentRunner:
         params = {'topics': list(self.exp.record_topics), 'output': str(bag_dir),
                   'metadata': json.dumps(experiment_metadata(self.exp))}
         return NodeSpec('irs_bag', 'recorder', 'recorder', params=params)
+
+    def _view_spec(self):
+        """The ``live_view`` node (:mod:`irs_bag.live_view_node`): ``view`` ending in ``.rrd``
+        is a file to write, anything else the URL of a rerun viewer.
+        """
+        target = str(self.view)
+        where = ({'save': str(Path(target).resolve())} if target.endswith('.rrd')
+                 else {'url': target})
+        params = {'metadata': json.dumps(experiment_metadata(self.exp)),
+                  'run_name': self.run_dir.name, **where}
+        if self.view_topics is not None:
+            params['topics'] = list(self.view_topics)
+        return NodeSpec('irs_bag', 'live_view', 'live_view', params=params)
 
     def _check_alive(self):
         for name, proc in [*self.procs.items(), *self.devices.items()]:
@@ -312,6 +329,8 @@ class ExperimentRunner:
                 extra.append((exp.record_process, self._recorder_spec(bag_dir)))
             elif bag_dir is not None:
                 self.procs['recorder'] = NodeProcess(self._recorder_spec(bag_dir), logs)
+            if self.view is not None:      # its own process: never in the loop's executor
+                self.procs['live_view'] = NodeProcess(self._view_spec(), logs)
             self._check_stop()
             self._start_devices(logs)
             self._start_nodes(logs, env, extra)

@@ -1,0 +1,113 @@
+"""``experiment run --view``: the live_view node streams a running graph to a rerun sink."""
+import signal
+import socket
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+
+from irs_bag.columns import read_columns
+from irs_bag.rerun_entities import ENTITY_PATHS
+from irs_bringup.experiment_cli import DEFAULT_VIEW_URL, run_experiment
+
+DURATION = 3.0           # [s] simulated (lock-step)
+
+
+def _entity(rrd, path, column):
+    """``(time [s], values)`` of one entity's temporal rows in an .rrd file."""
+    from rerun.chunk import RrdReader
+    t, v = [], []
+    for c in RrdReader(str(rrd)).stream().to_chunks():
+        if c.entity_path.lstrip('/') != path or c.is_static:
+            continue
+        batch = c.to_record_batch()
+        t += [x.total_seconds() for x in batch.column('time').to_pylist()]
+        v += [row[0] for row in batch.column(column).to_pylist()]
+    order = np.argsort(t)
+    return np.asarray(t)[order], np.asarray(v)[order]
+
+
+def _free_port() -> int:
+    with socket.socket() as s:
+        s.bind(('127.0.0.1', 0))
+        return s.getsockname()[1]
+
+
+def test_view_streams_the_entities_of_run_rrd_while_the_graph_runs(tmp_path):
+    """A lock-step Figure 10 run with ``--view <url>`` streaming over gRPC to a rerun server
+    (``rerun --port P --save live.rrd``: the viewer's receiving end, headless): the live
+    recording holds every entity of run.rrd, about 100 Hz of series rows (one message in 10 of
+    the 1 kHz topics; best effort may lose some), and its lateral values are the bag's own.
+    """
+    from irs_bag.live_view_params import DEFAULT_URL, TOPICS
+    assert DEFAULT_VIEW_URL == DEFAULT_URL
+    live, port = tmp_path / 'live.rrd', _free_port()
+    rerun_exe = Path(sys.executable).with_name('rerun')
+    sink = subprocess.Popen([str(rerun_exe), '--port', str(port), '--save', str(live)],
+                            stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    try:
+        result = run_experiment('figure10_mrc_with_actuator', runs_dir=tmp_path, composed=True,
+                                duration=DURATION, view=f'rerun+http://127.0.0.1:{port}/proxy',
+                                view_topics=TOPICS,
+                                log=lambda *_: None)
+    finally:
+        sink.send_signal(signal.SIGINT)        # the server ends the .rrd file and exits
+        sink.wait(timeout=30)
+    assert result.completed, result.message
+    assert result.exit_codes.get('live_view') == 0, result.exit_codes
+    assert (result.run_dir / 'run.rrd').is_file()
+    from irs_bag.rerun_export import rrd_entity_paths
+    assert set(ENTITY_PATHS) <= rrd_entity_paths(live)
+    assert rrd_entity_paths(result.run_dir / 'run.rrd') <= rrd_entity_paths(live) | {'world',
+                                                                                       ''}
+    t, y = _entity(live, 'series/lateral/ground_truth', 'Scalars:scalars')
+    assert 0.3 * DURATION * 100 <= len(t) <= DURATION * 100 + 2, len(t)
+    assert 0.0 <= t[0] and t[-1] <= DURATION + 1e-9
+    assert t[-1] - t[0] > 0.5 * DURATION
+    bag_y = read_columns(result.bag_dir, {'ground_truth/sensor_point': {'y': 'point.y'}})
+    assert set(y) <= set(bag_y['ground_truth/sensor_point']['y'])     # exact: CDR doubles
+    assert np.ptp(y) > 0.005           # the 0.02 m steps are in it, not a constant
+    tc, _ = _entity(live, 'world/car', 'Boxes3D:centers')
+    assert 0.3 * DURATION * 30 <= len(tc) <= DURATION * 30 + 10, len(tc)
+
+
+def test_view_with_offline_or_a_bad_url_is_refused_in_one_line(capsys):
+    import pytest
+    from irs_bringup.experiment_cli import main
+    with pytest.raises(SystemExit) as info:
+        main(['run', 'figure10_pi', '--offline', '--view'])
+    assert info.value.code == 2
+    assert '--offline runs no graph' in capsys.readouterr().err
+    with pytest.raises(SystemExit) as info:
+        main(['run', 'figure10_pi', '--view', 'localhost:9876'])
+    assert info.value.code == 2
+    assert 'neither a rerun URL' in capsys.readouterr().err
+    with pytest.raises(SystemExit) as info:
+        main(['run', 'figure10_pi', '--view-topics', 'pose'])
+    assert info.value.code == 2
+    assert '--view-topics needs --view' in capsys.readouterr().err
+
+
+def test_view_argument_picks_a_url_or_a_file(tmp_path):
+    """``--view`` alone: rerun's default URL; a value ending in .rrd: a file for ``save``."""
+    from irs_bringup.experiment import load_experiment
+    from irs_bringup.experiment_cli import build_parser
+    from irs_bringup.experiment_runner import ExperimentRunner
+    args = build_parser().parse_args(['run', 'figure10_pi', '--view'])
+    assert args.view == DEFAULT_VIEW_URL
+    assert build_parser().parse_args(['run', 'figure10_pi']).view is None
+    exp = load_experiment('figure10_pi')
+    spec = ExperimentRunner(exp, runs_dir=tmp_path, view='x/live.rrd')._view_spec()
+    assert (spec.package, spec.executable) == ('irs_bag', 'live_view')
+    assert spec.params['save'] == str(Path('x/live.rrd').resolve())     # the runner's cwd
+    assert 'url' not in spec.params
+    spec = ExperimentRunner(exp, runs_dir=tmp_path, view=DEFAULT_VIEW_URL)._view_spec()
+    assert spec.params['url'] == DEFAULT_VIEW_URL and 'save' not in spec.params
+    assert 'topics' not in spec.params                     # the node's default: all
+    args = build_parser().parse_args(['run', 'figure10_pi', '--view', '--view-topics',
+                                      'ground_truth/odom, steering/state'])
+    assert args.view_topics == ['ground_truth/odom', 'steering/state']
+    spec = ExperimentRunner(exp, runs_dir=tmp_path, view=DEFAULT_VIEW_URL,
+                            view_topics=args.view_topics)._view_spec()
+    assert spec.params['topics'] == ['ground_truth/odom', 'steering/state']
