@@ -133,7 +133,7 @@ def realtime(seconds: float) -> list:
 
 def soak() -> list:
     """``soak_realtime``: 10 minutes process per node at 1 kHz, recorder on, SCHED_FIFO 50
-    (issue 9's target; not in the default sections: ``--only soak``).
+    (not in the default sections: ``--only soak``).
     """
     _domain(30)
     r = _run_experiment('soak_realtime', 50)

@@ -1,4 +1,4 @@
-"""Benchmark of the sweep tool (issue 14): points/s with 1 and 2 Dask workers, offline steps/s.
+"""Benchmark of the sweep tool: points/s with 1 and 2 Dask workers, offline steps/s.
 
     ./irs exec python bench/sweep.py                  # 12 points of the actuator x speed sweep
     ./irs exec python bench/sweep.py --points 24 --duration 5

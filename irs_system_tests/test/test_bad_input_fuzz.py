@@ -1,4 +1,4 @@
-"""Property-style fuzz of every input topic of the data-driven nodes, on their topics (issue 10).
+"""Property-style fuzz of every input topic of the data-driven nodes, on their topics.
 
 One long-lived node process per node type; hypothesis draws the messages (fields from floats with
 NaN, +-inf, +-1e308, subnormals; stamps zero, now, a day ahead, the largest time, 0.3 s and 5 s

@@ -1,4 +1,4 @@
-"""Stamps and clocks at the nodes' edges (issue 10), on their topics.
+"""Stamps and clocks at the nodes' edges, on their topics.
 
 - One message stamped a day ahead is dropped (not answered) and never silences the node: the
   next genuine message is answered (estimator, lateral controller, treadmill regulator).

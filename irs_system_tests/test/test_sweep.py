@@ -1,4 +1,4 @@
-"""The sweep tool (issue 14): Dask equals one by one, resume, Monte Carlo draws, bad files.
+"""The sweep tool: Dask equals one by one, resume, Monte Carlo draws, bad files.
 
 Short on purpose: points of 0.4 s of simulated time (400 closed-loop steps each, the step at
 0.1 s).
