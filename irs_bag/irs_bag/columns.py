@@ -151,6 +151,16 @@ class _Plan:
             one = self.get
             self.get = lambda m: (one(m),)
 
+    def take(self, msg, log_ns: int) -> None:
+        """Append ``msg``'s fields (NaN where the message lacks one) and its log time [ns]."""
+        if self.get is None:
+            self.bind(msg)
+        try:
+            self.rows.append(self.get(msg))
+        except (AttributeError, IndexError, TypeError):
+            self.rows.append((np.nan,) * self.nbase)
+        self.log_ns.append(log_ns)
+
     def columns(self) -> Dict[str, np.ndarray]:
         n = len(self.rows)
         if self.stamped:
@@ -213,13 +223,7 @@ def read_columns(bag, spec: Spec) -> Columns:
                 raise BagError(f'cannot decode a {m.type!r} message on {m.topic} '
                                f'({type(exc).__name__}: {exc})') from None
             for plan in plans[m.topic]:
-                if plan.get is None:
-                    plan.bind(msg)
-                try:
-                    plan.rows.append(plan.get(msg))
-                except (AttributeError, IndexError, TypeError):
-                    plan.rows.append((np.nan,) * plan.nbase)
-                plan.log_ns.append(m.log_time_ns)
+                plan.take(msg, m.log_time_ns)
     return {s: p.columns() for s, p in by_suffix.items() if p.rows}
 
 

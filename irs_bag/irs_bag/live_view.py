@@ -38,14 +38,7 @@ class LiveFeed:
 
     def add(self, suffix: str, msg, recv_ns: int = 0) -> None:
         """Keep ``msg`` (a message of the topic ``suffix`` of SPEC), received at ``recv_ns``."""
-        plan = self._plans[suffix]
-        if plan.get is None:
-            plan.bind(msg)
-        try:
-            plan.rows.append(plan.get(msg))
-        except (AttributeError, IndexError, TypeError):
-            plan.rows.append((np.nan,) * plan.nbase)
-        plan.log_ns.append(recv_ns)
+        self._plans[suffix].take(msg, recv_ns)
         self.fed += 1
 
     def take(self) -> Columns:
