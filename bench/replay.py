@@ -11,7 +11,9 @@ For every rate factor R it writes nothing new: one synthetic bag (``--topics`` J
 (``topics: ['/bench/*']``), and the benchmark prints
 
 - the player's timing error (|actual - due| mean / p99 / max in ms, measured by the player),
-- messages published vs. recorded, drops the recorder reported, and the recorded rate.
+- messages published vs. recorded, drops the recorder reported, and the recorded rate;
+- the recorder's CPU (user + system time of its process, start-up and discovery included) per
+  offered message.
 
 Uses its own ROS_DOMAIN_ID (``--domain``) and a temporary directory.
 """
@@ -47,6 +49,12 @@ def make_bench_bag(path, topics: int, hz: int, seconds: float) -> int:
     return n * topics
 
 
+def _cpu_s(pid: int) -> float:
+    """User + system CPU time [s] of process ``pid`` so far (``/proc/<pid>/stat``)."""
+    fields = Path(f'/proc/{pid}/stat').read_text().rsplit(')', 1)[1].split()
+    return (int(fields[11]) + int(fields[12])) / os.sysconf('SC_CLK_TCK')
+
+
 def run(args) -> int:
     from irs_bag.reader import BagReader
     from irs_bringup.executables import resolve_executable
@@ -72,6 +80,7 @@ def run(args) -> int:
             play = subprocess.run([bag_exe, 'play', str(src), '--rate', f'{rate:g}',
                                    '--wait-for-subscribers', '1', '--quiet'],
                                   capture_output=True, text=True, env=env, timeout=600)
+            cpu = _cpu_s(rec.pid)
         finally:
             rec.send_signal(2)
             rec_out, _ = rec.communicate(timeout=60)
@@ -81,11 +90,13 @@ def run(args) -> int:
             got = r.message_count
             dur = r.duration_ns * 1e-9
             drops = r.bag_metadata['custom_data'].get('irs.dropped_messages', '?')
-        rows.append((rate, m.groups() if m else ('?', '?', '?'), got, drops, dur))
+        rows.append((rate, m.groups() if m else ('?', '?', '?'), got, drops, dur,
+                     1e6 * cpu / total))
         print(f'rate {rate:g}x ({args.topics * args.hz * rate:.0f} msg/s offered): timing error '
               f'mean {rows[-1][1][0]} ms, p99 {rows[-1][1][1]} ms, max {rows[-1][1][2]} ms; '
               f'recorded {got}/{total}, drops reported {drops}, '
-              f'{got / dur if dur else 0:.0f} msg/s over {dur:.2f} s', flush=True)
+              f'{got / dur if dur else 0:.0f} msg/s over {dur:.2f} s; recorder CPU '
+              f'{rows[-1][5]:.1f} us per message', flush=True)
         if rec.returncode != 0:
             print(f'recorder exited {rec.returncode}:\n{rec_out[-2000:]}', flush=True)
     print(json.dumps({'rows': rows}))

@@ -19,14 +19,16 @@ Sections (each a function below; results go to ``bench/results/<time>.json`` and
 - ``offline`` (bench/offline.py): the offline twin of the graph in steps/s against a
   vectorised linear reference: the identified plant stepped by our core and by
   ``scipy.signal.dlsim``;
-- ``replay``: ``bag play`` timing error at 1x and what the recorder keeps of 13 topics x 1 kHz
-  (replay);
+- ``replay``: ``bag play`` timing error at 1x, what the recorder keeps of 13 topics x 1 kHz and
+  its CPU per message (replay);
 - ``sweep``: bench/sweep.py -- points/s of 12 points of the actuator x speed sweep serially and
   on 1 and 2 Dask workers, and 100 linear plants stepped at once (BatchLti) against dlsim;
 - ``hil`` (bench/hil.py): real time at 1 kHz through the emulated board's link and drive, next
   to ``vehicle_sim`` in the same run: deadline misses, ADC-sample-to-servo latency, frames lost;
-- ``soak`` (only with ``--only soak``, 10 min): ``soak_realtime`` process per node with
-  SCHED_FIFO 50 and the recorder on: misses, latency, CPU, and the messages the bag kept and lost;
+- ``soak`` (only with ``--only soak [--soak-deployments recorder per_node]``, 10 min each):
+  ``soak_realtime`` with SCHED_FIFO 50 and the recorder on, (a) the loop composed and the
+  standalone recorder in its own process, (b) process per node: misses, latency, CPU per process
+  (the recorder's included), and the messages the bag kept and lost;
 - ``starvation`` (only with ``--only starvation``, about 8 min; bench/starvation.py): one process
   of each real-time deployment stopped for 0.2-5 s: car kept, controlled stop or lost;
 - ``soak_hour`` (only with ``--only soak_hour [--soak-minutes N]``; bench/soak_hour.py): the
@@ -89,7 +91,7 @@ def _bag_figures(bag_dir) -> dict:
 def _run_experiment(path_or_name, rt_priority=0, duration=None, runs_dir=None, composed=False):
     from irs_bringup.experiment import load_experiment
     from irs_bringup.experiment_runner import ExperimentRunner
-    exp = load_experiment(path_or_name)
+    exp = path_or_name if not isinstance(path_or_name, str) else load_experiment(path_or_name)
     if composed:
         exp = exp.composed()
     if duration is not None:
@@ -131,13 +133,30 @@ def realtime(seconds: float) -> list:
     return rows
 
 
-def soak() -> list:
-    """``soak_realtime``: 10 minutes process per node at 1 kHz, recorder on, SCHED_FIFO 50
-    (not in the default sections: ``--only soak``).
+def soak(deployments=('recorder', 'per_node')) -> list:
+    """``soak_realtime`` for 10 minutes at 1 kHz, recorder on, SCHED_FIFO 50.
+
+    Not in the default sections (``--only soak``). Two deployments:
+
+    - ``recorder``: the five nodes composed in one process and the standalone recorder in its
+      own process, so that every recorded message crosses DDS: what the recorder keeps and costs;
+    - ``per_node``: one process per node and the recorder (the debugging deployment).
     """
-    _domain(30)
-    r = _run_experiment('soak_realtime', 50)
-    return [_realtime_row('soak_realtime SCHED_FIFO (600 s)', r)]
+    from dataclasses import replace
+
+    from irs_bringup.experiment import load_experiment
+    rows = []
+    for deployment in deployments:
+        _domain(30 + len(rows))
+        exp = load_experiment('soak_realtime')
+        if deployment == 'recorder':
+            exp = replace(exp.composed('loop'), record_process=None)
+            label = 'soak_realtime composed, recorder apart, SCHED_FIFO (600 s)'
+        else:
+            label = 'soak_realtime process per node SCHED_FIFO (600 s)'
+        r = _run_experiment(exp, 50)
+        rows.append(_realtime_row(label, r))
+    return rows
 
 
 def _message_class(type_name: str):
@@ -205,7 +224,8 @@ def replay(seconds: float) -> list:
     rows = json.loads(lines[-1])['rows']
     return [{'name': 'replay 1x + recorder, 13 topics x 1 kHz', 'rate': r[0],
              'timing_error_ms': {'mean': r[1][0], 'p99': r[1][1], 'max': r[1][2]},
-             'recorded': r[2], 'drops_reported': r[3], 'duration_s': r[4]} for r in rows]
+             'recorded': r[2], 'drops_reported': r[3], 'duration_s': r[4],
+             'recorder_cpu_us_per_message': r[5]} for r in rows]
 
 
 def hil(seconds: float) -> list:
@@ -239,6 +259,9 @@ def main(argv=None) -> int:
     ap.add_argument('--out', default=str(HERE / 'results'), help='folder for the JSON file')
     ap.add_argument('--soak-minutes', type=float, default=60.0,
                     help='length of the soak_hour run [min] (default 60)')
+    ap.add_argument('--soak-deployments', nargs='+', choices=('recorder', 'per_node'),
+                    default=['recorder', 'per_node'],
+                    help='deployments of the 10-minute soak (default both)')
     a = ap.parse_args(argv)
     floor_s, rt_s, replay_s = (5.0, 20.0, 3.0) if a.quick else (10.0, 60.0, 5.0)
     results = {'started': datetime.datetime.now().isoformat(timespec='seconds'),
@@ -247,7 +270,8 @@ def main(argv=None) -> int:
         print(f'== {section}', flush=True)
         fn = globals()[section]
         args = {'floor': (floor_s,), 'realtime': (rt_s,), 'replay': (replay_s,),
-                'hil': (rt_s / 2,), 'soak_hour': (a.soak_minutes,)}.get(section, ())
+                'hil': (rt_s / 2,), 'soak_hour': (a.soak_minutes,),
+                'soak': (a.soak_deployments,)}.get(section, ())
         results[section] = fn(*args)
     write_results(results, a.out)
     return 0

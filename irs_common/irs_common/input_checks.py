@@ -150,6 +150,7 @@ class ThrottledWarner:
     _last: dict = field(default_factory=dict)
     _suppressed: dict = field(default_factory=dict)
     _episodes: dict = field(default_factory=dict)
+    _settling: dict = field(default_factory=dict)
 
     def warn(self, key: str, text: str, now: float) -> bool:
         last = self._last.get(key)
@@ -171,6 +172,7 @@ class ThrottledWarner:
         calls until :meth:`end` closes it; episodes that start more often than once a
         ``period`` (a condition that flaps) are throttled as :meth:`warn`. True when it logged.
         """
+        self._settling.pop(key, None)
         if key in self._episodes:
             self._episodes[key] += 1
             return False
@@ -191,9 +193,27 @@ class ThrottledWarner:
         log_end(f'{text} ({n + 1} in the episode)')
         return True
 
+    def end_settled(self, key: str, log_end: Callable[[str], object], text: str, now: float,
+                    settle: float = 1.0) -> bool:
+        """Close the episode of ``key`` once the condition has been gone for ``settle`` [s].
+
+        Call it for every good sample while :meth:`in_episode`. The first good sample starts the
+        settling time; a :meth:`once` within ``settle`` s (the input stale again) continues the
+        episode and counts it, so a flapping input logs one line at the start of the episode
+        and one at its end (with the count), not a pair of lines a second. True when it logged.
+        """
+        if key not in self._episodes:
+            return False
+        since = self._settling.setdefault(key, now)
+        if 0.0 <= now - since < settle:
+            return False
+        del self._settling[key]
+        return self.end(key, log_end, text, now)
+
     def forget_episodes(self) -> None:
         """Close every open episode without a log line (a reset that restarts the reports)."""
         self._episodes.clear()
+        self._settling.clear()
 
     def in_episode(self, key: str) -> bool:
         return key in self._episodes

@@ -106,3 +106,24 @@ def test_throttled_warner_throttles_flapping_episodes():
         w.once('bad', 'bad', k * 0.02)
         w.end('bad', ends.append, 'good', k * 0.02 + 0.01)
     assert len(lines) == 2 and len(ends) == 2     # 2 s: at most one of each a second
+
+
+def test_a_flapping_input_is_one_episode_ended_once_it_settles():
+    """Stale, fresh, stale ... every 0.3 s for 10 s (a starved graph after a stop): one line at
+    the start and one once it has stayed fresh for the settling time, with the count.
+    """
+    lines, ends = [], []
+    w = ThrottledWarner(lines.append, period=1.0)
+    t = 0.0
+    for _ in range(34):
+        w.once('stale', 'input stale', t)
+        for k in range(3):                    # three fresh samples 0.1 s apart, then stale
+            w.end_settled('stale', ends.append, 'input fresh again', t + 0.1 * (k + 1))
+        t += 0.3
+    assert lines == ['input stale (reported once while it lasts)'] and ends == []
+    for k in range(12):                       # fresh for 1.2 s: the episode ends once
+        w.end_settled('stale', ends.append, 'input fresh again', t + 0.1 * k, settle=1.0)
+    assert ends == ['input fresh again (34 in the episode)']
+    assert not w.in_episode('stale')
+    assert w.once('stale', 'input stale', t + 5.0)   # a later episode is logged again
+    assert len(lines) == 2

@@ -138,6 +138,9 @@ class ChassisControllerNode(Node):
         self.core.update_pose(to_ns(pose.header.stamp), pose.pose.position.x,
                               yaw_from_quaternion(q.x, q.y, q.z, q.w), belt.speed)
 
+    def _log_info(self, text):
+        self.get_logger().info(text)
+
     def _step(self, stamp_ns, vals, now_ns):
         if not self.edge.take_step(stamp_ns, now_ns, self.answer):
             return
@@ -147,6 +150,9 @@ class ChassisControllerNode(Node):
         out = self.core.step(stamp_ns, enc.velocity, vals['vel'].twist.angular.z)
         if out.ok:
             self.last_enc_time = self.get_clock().now()
+            if self.warner.in_episode('stale'):   # logged once fresh for 1 s (flapping: one)
+                self.warner.end_settled('stale', self._log_info, 'wheel encoders fresh again',
+                                        time.monotonic())
         else:
             self.warner.warn(out.reason, f'bad input ({out.reason}): zero torque, zero steer',
                              time.monotonic())
@@ -203,7 +209,7 @@ class ChassisControllerNode(Node):
         age = (now - self.last_enc_time).nanoseconds * 1e-9
         if age > self.p['stale_timeout']:
             self.core.reset_controllers()
-            self.warner.warn('stale', f'wheel encoders stale ({age:.3f} s old): zero torque, '
+            self.warner.once('stale', f'wheel encoders stale ({age:.3f} s old): zero torque, '
                              'zero steer', time.monotonic())
             self._publish(now.to_msg(), (0.0,) * 4, (False,) * 4, 0.0, 0.0, None, reason=STALE)
 

@@ -179,6 +179,9 @@ class LateralControllerNode(Node):
             if self.warner.in_episode('invalid'):
                 self.warner.end('invalid', self._log_info, 'valid measurements again',
                                 time.monotonic())
+            if self.warner.in_episode('stale'):   # logged once fresh for 1 s (flapping: one)
+                self.warner.end_settled('stale', self._log_info, 'lateral measurement fresh '
+                                        'again', time.monotonic())
             status.error = float(out.reference - y)
             if out.reason:
                 self.warner.warn('reference', out.reason, time.monotonic())
@@ -212,7 +215,7 @@ class LateralControllerNode(Node):
         if age > self.p['stale_timeout']:
             self.state = LateralControllerStatus.STATE_STALE    # logged once per transition
             self.controller.reset()                             # restart from rest
-            self.warner.warn('stale', f'lateral measurement stale ({age:.3f} s old): zero steer, '
+            self.warner.once('stale', f'lateral measurement stale ({age:.3f} s old): zero steer, '
                              'controller reset', time.monotonic())
             status = LateralControllerStatus()
             status.header.stamp = now.to_msg()

@@ -84,7 +84,6 @@ class ArmPoseEstimatorNode(Node):
         self.stale_reported = False
         # rclpy's throttled logging costs ~1 ms per call: per-step warnings are throttled first.
         self.warner = ThrottledWarner(self.get_logger().warning, 1.0)
-        self.info_warner = ThrottledWarner(self._log_info, 1.0)
         self.edge = EdgeGate(self, future_tolerance, 'arm reading', self._reset_time_state,
                              self.warner)
         self.pub_pose = self.create_publisher(PoseStamped, 'pose', qos.SENSOR_PUB)
@@ -151,10 +150,12 @@ class ArmPoseEstimatorNode(Node):
         vx, vy, r = (est.u, est.v, est.yaw_rate) if est.velocity_valid else (NAN, NAN, NAN)
         self._publish(msg.header.stamp, est.x_cg, est.y_cg, est.psi, est.x_s, est.y_s, vx, vy, r)
         if self.last_state != SensingStatus.OK:
-            if self.stale_reported:
-                self.stale_reported = False
-                self.info_warner.warn('valid', 'arm input valid again', time.monotonic())
+            self.stale_reported = False
             self._status(msg.header.stamp, SensingStatus.OK, '', 0.0)
+        if self.warner.in_episode('stale'):
+            # logged once the input has stayed valid for 1 s: a flapping input is one episode
+            self.warner.end_settled('stale', self._log_info, 'arm input valid again',
+                                    time.monotonic())
 
     def _publish(self, stamp, x, y, psi, x_s, y_s, vx, vy, r):
         # lateral_position first: it closes the 1 kHz lateral loop; pose and velocity feed the
@@ -205,7 +206,7 @@ class ArmPoseEstimatorNode(Node):
             self.stale_reported = True
             age = t - self.estimator.last_valid_stamp
             reason = self.estimator.stale_reason(t)
-            self.warner.warn('stale', f'arm input stale: {reason}', time.monotonic())
+            self.warner.once('stale', f'arm input stale: {reason}', time.monotonic())
             self._status(now.to_msg(), SensingStatus.STALE, reason, age)
 
 
