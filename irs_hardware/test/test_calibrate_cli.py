@@ -77,8 +77,11 @@ def test_belt_counts_are_read_at_the_marks_with_the_belt_at_rest(devices, monkey
                  60.0, 'the belt does not run from the drive panel (enable line low?)')
         panel.write_setpoint(0)
         wait_for(lambda: status(tmp_path)['belt_speed'] == 0.0, 60.0, 'the belt does not stop')
-        time.sleep(0.2)
+        at_rest = status(tmp_path)     # a later report of the board: the count holds at rest
+        wait_for(lambda: status(tmp_path)['tick'] > at_rest['tick'], 10.0,
+                 'the board stopped reporting')
         seen['end'] = status(tmp_path)
+        assert seen['end']['belt_count'] == at_rest['belt_count']
         return ''
     monkeypatch.setattr('builtins.input', operator)
     out = tmp_path / 'cal.yaml'
