@@ -63,18 +63,46 @@ def quantise(value, step, offset):
     return step * (round(value / step - offset) + offset)
 
 
+class LinkActuators:
+    """The rig behind the hardware chain's outputs: each step's steer command through the servo
+    pulse's grid and the calibration residual, the torques clipped and on the motor command's
+    grid, the voltage on the set-point's, and steer and torques applied ``DELAY`` steps late
+    (the rig's other attributes are the wrapped rig's). The loop records the commands the
+    controller sent, as the graph's bag does.
+    """
+
+    def __init__(self, rig, offsets, residual):
+        self._rig = rig
+        self.offsets = offsets
+        _error, self.steer_offset, self.steer_gain, self.q_steer = residual
+        self.fifo = collections.deque([(0.0, (0.0,) * 4)] * DELAY)
+
+    def __getattr__(self, name):
+        return getattr(self._rig, name)
+
+    def step(self, inputs):
+        steer = quantise(inputs.front_steer, self.q_steer, self.offsets[3])
+        torque = tuple(quantise(min(TORQUE_LIMIT, max(-TORQUE_LIMIT, t)), Q_TORQUE, 0.0)
+                       for t in inputs.wheel_torque)
+        self.fifo.append((self.steer_offset + self.steer_gain * steer, torque))
+        steer, torque = self.fifo.popleft()
+        volts = quantise(inputs.drive_voltage, Q_VOLT, self.offsets[4])
+        return self._rig.step(replace(inputs, front_steer=steer, wheel_torque=torque,
+                                      drive_voltage=volts))
+
+
 class WheelLinkModel(ChassisLoop):
     """``vehicle_sim``'s offline torque-car loop with the hardware chain's latency, encoder
-    window, command resolution, ADC and calibration residual (module docstring); ``offsets``:
+    windows, command resolution, ADC and calibration residual (module docstring); ``offsets``:
     the grids' offsets (3 pots, steer, set-point) in [0, 1) steps.
     """
 
     def __init__(self, cfg, offsets, residual):
         cfg = replace(cfg, rig={**cfg.rig, 'arm.enable_quantization': False})
         super().__init__(cfg)
-        self.fifo = collections.deque([(0.0, (0.0,) * 4)] * DELAY)
+        self.rig = LinkActuators(self.rig, offsets, residual)
         self.offsets = offsets
-        self.pot_error, self.steer_offset, self.steer_gain, self.q_steer = residual
+        self.pot_error = residual[0]
         self.window = collections.deque(maxlen=self.rig.config.encoders['window'] + 1)
         self.belt_window = collections.deque(maxlen=BELT_WINDOW + 1)
         self.counts_per_rev = self.rig.config.encoders['counts_per_rev']
@@ -97,14 +125,7 @@ class WheelLinkModel(ChassisLoop):
                        zip(out.arm_angles, self.pot_error, self.offsets))
         measured = replace(out, arm_angles=angles, encoder_velocity=self._host_velocity(out),
                            belt_speed_measured=self._host_belt_speed(out))
-        inputs, ctl = super().step_commands(measured)
-        steer = quantise(inputs.front_steer, self.q_steer, self.offsets[3])
-        torque = tuple(quantise(min(TORQUE_LIMIT, max(-TORQUE_LIMIT, t)), Q_TORQUE, 0.0)
-                       for t in inputs.wheel_torque)
-        self.fifo.append((self.steer_offset + self.steer_gain * steer, torque))
-        steer, torque = self.fifo.popleft()
-        volts = quantise(inputs.drive_voltage, Q_VOLT, self.offsets[4])
-        return replace(inputs, front_steer=steer, wheel_torque=torque, drive_voltage=volts), ctl
+        return super().step_commands(measured)
 
 
 def metrics(run: dict, name: str) -> dict:
