@@ -10,6 +10,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from hypothesis import given, settings, strategies as st
 
 from irs_hardware import protocol as P
 from irs_hardware.calibrate_cli import calibrate_wheels
@@ -17,6 +18,7 @@ from irs_hardware.calibration import (CalibrationError, WheelCalibration, fit_wh
                                       load_calibration)
 from irs_hardware.emulator.board_core import BoardEmulator, BoardTruth, rig_config
 from irs_hardware.emulator.jig import board_reader, calibrate_emulated_wheels, wheel_operator
+from irs_hardware.driver import RigIO
 from irs_hardware.emulator.loopback import LoopbackIO
 from irs_hardware.hardware_rig import HardwareConfig, HardwareRig
 
@@ -198,3 +200,55 @@ def test_the_shipped_torque_car_calibration_is_the_procedure_on_the_emulators():
     # the rest is the lateral car's file (test_calibration: the procedure on the emulators)
     lateral = load_calibration(CONFIG / 'calibration_emulated.yaml')
     assert shipped.model_copy(update={'wheels': None}) == lateral
+
+
+class RecordingIO(RigIO):
+    """The devices as the core sees them, recording what it writes to the board."""
+
+    def __init__(self):
+        self.writes = []
+
+    def start(self, triggered):
+        pass
+
+    def read(self, timeout):
+        return []
+
+    def write_board(self, seq, pulse_us, enable, wheels=None):
+        self.writes.append((pulse_us, enable, wheels))
+
+    def write_drive(self, setpoint):
+        pass
+
+    def drive_status(self):
+        return 0, 0.0
+
+    @property
+    def bad_frames(self):
+        return 0
+
+    def close(self):
+        pass
+
+
+@settings(max_examples=300, deadline=None)
+@given(st.lists(st.floats(width=64), min_size=4, max_size=4),
+       st.lists(st.booleans(), min_size=4, max_size=4))
+def test_any_torque_command_gives_bounded_motor_commands_or_the_latch(torques, locked):
+    cal = load_calibration(CAL)
+    io = RecordingIO()
+    hw = HardwareRig(io, cal, HardwareConfig(wheels=True))
+    hw.command_wheels(torques, locked, 0.0)
+    _pulse, enable, _setpoint, wheels = hw.outputs()
+    fine = all(math.isfinite(t) and abs(t) <= 0.6 for t in torques) and not any(locked)
+    if fine:
+        assert hw.ok
+        limit = round(1000 * 0.3 / cal.wheels.torque_full_scale)          # 750 per-mille
+        assert all(isinstance(c, int) and abs(c) <= limit for c in wheels), wheels
+        applied = cal.wheels.torque(wheels)
+        assert all(abs(a - min(0.3, max(-0.3, t))) <= 0.5 * cal.wheels.torque_full_scale / 1000
+                   + 1e-15 for a, t in zip(applied, torques))
+    else:
+        assert not hw.ok and 'wheel torque command' in hw.fault
+        assert wheels == ZERO and not enable
+        assert io.writes[-1][1:] == (False, ZERO)          # the safe command went to the board
