@@ -62,6 +62,9 @@ NODE_TOPICS_BY_PARAMETER = {
     RIG_KEY: ('plant', {'two_track': {       # the torque car's rig (docs/torque_car.md)
         'pub': NODE_TOPICS[RIG_KEY]['pub'] + ['wheels/encoders', 'rig/tyre_truth'],
         'sub': NODE_TOPICS[RIG_KEY]['sub'] + ['wheels/torque_command']}}),
+    HARDWARE_RIG_KEY: ('wheels', {True: {    # the torque car on the real rig (docs/hardware.md)
+        'pub': NODE_TOPICS[HARDWARE_RIG_KEY]['pub'] + ['wheels/encoders'],
+        'sub': NODE_TOPICS[HARDWARE_RIG_KEY]['sub'] + ['wheels/torque_command']}}),
     ('irs_sysid', 'excitation'): ('target', {
         'steering': {'pub': ['steering/command'], 'sub': []},
         'drive': {'pub': ['treadmill/drive'], 'sub': []}}),

@@ -4,6 +4,8 @@
     calibrate servo --pulses 1100,1300,1450,1500,1550,1700,1900 --out cal.yaml [--base ...]
     calibrate belt  --port /dev/ttyACM0 --travel 4.88 --out cal.yaml [--base ...]
     calibrate drive --volts-full-scale 12.7 --out cal.yaml [--base ...]
+    calibrate wheels --port /dev/ttyACM0 --turns 10 --motor-constant 0.02 \
+                     --driver-full-scale 20 --motor-signs 1,-1,1,-1 --out cal.yaml [--base ...]
 
 ``pots``: for each pose of the file (``poses: [[x, y, psi], ...]`` [m, m, rad] in the
 treadmill frame, the arm on the jig's pins), the operator places the arm and presses Enter; the
@@ -16,9 +18,13 @@ drive's own panel, the board holding the enable line high, or by hand) over a ta
 ``--travel`` [m] and stops it at the end mark, Enter; counts per metre from the counter
 difference of a sample taken after each Enter (:func:`calibrate_belt`). The board is read
 and kept alive by a thread throughout (its watchdog stays fed while the operator works).
-``drive``: the voltage of the set-point's full scale (the drive's 15 mph setting). Other
-sections are kept from ``--base`` (a partial file is fine until all four are there, which the
-node needs). Docs: docs/hardware.md, "Calibration".
+``drive``: the voltage of the set-point's full scale (the drive's 15 mph setting). ``wheels``
+(the torque car, lifted off the belt, motors off): Enter, each wheel turned forward ``--turns``
+whole turns by hand, Enter; counts per revolution and each encoder's sign from the counters
+(:func:`calibrate_wheels`); the motors' torque constant at the wheel, the drivers' full-scale
+current and the motors' signs from their data sheets and wiring. Other sections are kept from
+``--base`` (a partial file is fine until pots, servo, belt and drive are there, which the node
+needs). Docs: docs/hardware.md, "Calibration".
 """
 from __future__ import annotations
 
@@ -38,7 +44,8 @@ from irs_models.arm_kinematics import ArmGeometry, inverse_kinematics
 
 from . import protocol as P
 from .calibration import (BeltCalibration, Calibration, CalibrationError, DriveCalibration,
-                          PotCalibration, ServoCalibration, fit_belt, fit_pots, fit_servo)
+                          PotCalibration, ServoCalibration, WheelCalibration, fit_belt,
+                          fit_pots, fit_servo, fit_wheel_encoders)
 
 
 def pose_angles(poses, geometry: ArmGeometry | None = None) -> np.ndarray:
@@ -78,6 +85,28 @@ def calibrate_belt(read_samples, mark, travel):
         counts.append(read_samples()[-1].belt)
     metres = travel() if callable(travel) else travel
     return fit_belt(counts[1] - counts[0], metres)
+
+
+def calibrate_wheels(read_samples, mark, turns: float, motor_constant: float,
+                     driver_full_scale: float, motor_signs) -> WheelCalibration:
+    """The wheels' section: :func:`fit_wheel_encoders` of the counters at the two marks
+    (``mark('start')``, ``mark('end')``; each count from a sample taken after the mark) over
+    ``turns`` forward turns of every wheel, and the motors' data-sheet constants.
+    """
+    counts = []
+    for which in ('start', 'end'):
+        mark(which)
+        read_samples()
+        last = read_samples()[-1]
+        if last.wheels is None:
+            raise CalibrationError("the board has no wheel counters (not the torque car's)")
+        counts.append(last.wheels)
+    delta = [((b - a + 2 ** 31) % 2 ** 32) - 2 ** 31 for a, b in zip(*counts)]
+    n, signs = fit_wheel_encoders(delta, turns)
+    return WheelCalibration(counts_per_rev=n, encoder_sign=signs,
+                            motor_constant=float(motor_constant),
+                            driver_full_scale=float(driver_full_scale),
+                            motor_sign=[int(v) for v in motor_signs])
 
 
 class BoardReader:
@@ -135,7 +164,9 @@ class BoardReader:
 
 
 SECTIONS = {'pots': PotCalibration, 'servo': ServoCalibration, 'belt': BeltCalibration,
-            'drive': DriveCalibration}
+            'drive': DriveCalibration, 'wheels': WheelCalibration}
+#: The sections every rig needs (``wheels``: the torque car only).
+REQUIRED = ('pots', 'servo', 'belt', 'drive')
 
 
 def _check(doc: dict, where) -> dict:
@@ -151,7 +182,7 @@ def _check(doc: dict, where) -> dict:
             err = exc.errors()[0]
             raise CalibrationError(f"{where}: {key}.{'.'.join(map(str, err['loc']))}: "
                                    f"{err['msg']}") from None
-    if set(doc) == set(SECTIONS):
+    if set(REQUIRED) <= set(doc):
         Calibration.model_validate(doc).check()
     return doc
 
@@ -177,7 +208,7 @@ def _servo(board, pulses):
 
 def _main(argv) -> int:
     ap = argparse.ArgumentParser(prog='calibrate', description=__doc__.split('\n')[0])
-    ap.add_argument('what', choices=('pots', 'servo', 'belt', 'drive'))
+    ap.add_argument('what', choices=('pots', 'servo', 'belt', 'drive', 'wheels'))
     ap.add_argument('--port', default='/dev/ttyACM0')
     ap.add_argument('--baud', type=int, default=1_000_000)
     ap.add_argument('--poses', type=Path)
@@ -185,6 +216,10 @@ def _main(argv) -> int:
     ap.add_argument('--travel', type=float)
     ap.add_argument('--samples', type=int, default=200)
     ap.add_argument('--volts-full-scale', type=float, default=12.7)
+    ap.add_argument('--turns', type=float)
+    ap.add_argument('--motor-constant', type=float)
+    ap.add_argument('--driver-full-scale', type=float)
+    ap.add_argument('--motor-signs', default='1,-1,1,-1')
     ap.add_argument('--out', type=Path, required=True)
     ap.add_argument('--base', type=Path)
     args = ap.parse_args(argv)
@@ -192,6 +227,10 @@ def _main(argv) -> int:
         ap.error('belt needs --travel: the taped length [m] > 0')
     if args.what == 'pots' and args.poses is None:
         ap.error('pots needs --poses: the jig poses file')
+    if args.what == 'wheels' and not (args.turns and args.motor_constant
+                                      and args.driver_full_scale):
+        ap.error('wheels needs --turns (whole turns of each wheel), --motor-constant [N m/A] '
+                 'and --driver-full-scale [A]')
     board = None
     try:
         doc = _base(args.base)
@@ -210,6 +249,14 @@ def _main(argv) -> int:
                                          args.travel).model_dump()
         elif args.what == 'drive':
             doc['drive'] = DriveCalibration(volts_full_scale=args.volts_full_scale).model_dump()
+        elif args.what == 'wheels':
+            prompts = {'start': 'car lifted, wheels still at their marks: press Enter ',
+                       'end': f'each wheel turned forward {args.turns:g} turns, at its mark: '
+                              'press Enter '}
+            doc['wheels'] = calibrate_wheels(
+                board.read, lambda w: input(prompts[w]), args.turns, args.motor_constant,
+                args.driver_full_scale, [int(v) for v in args.motor_signs.split(',')]
+            ).model_dump()
         args.out.write_text(yaml.safe_dump(_check(doc, args.out), sort_keys=False))
     except (CalibrationError, ValueError, KeyError, TypeError, yaml.YAMLError) as exc:
         raise InputError(exc) from exc   # a bad file, pose list or fit: one line, exit 2

@@ -1,5 +1,6 @@
 """The rig's calibration: ADC counts to joint angles, steer angle to servo pulse, encoder counts
-to belt travel, drive voltage to the drive's set-point register (no rclpy).
+to belt travel, drive voltage to the drive's set-point register, and for the torque car wheel
+encoder counts to wheel angle and wheel torque to motor command (no rclpy).
 
 Models (SI; counts and microseconds where the devices speak them)::
 
@@ -7,6 +8,8 @@ Models (SI; counts and microseconds where the devices speak them)::
     p       = centre + us_per_rad delta               servo: commanded steer [rad] -> pulse [us]
     s       = n_belt / counts_per_metre               belt encoder: counts -> belt travel [m]
     r       = round(10000 V / volts_full_scale)       drive: voltage [V] -> set-point [0.01 %]
+    n_j     = e_j m_j                                 wheel j: raw counts m_j -> forward counts
+    c_j     = round(1000 T_j / (s_j k_t I_fs))        wheel j: torque [N m] -> command [per-mille]
 
 Fits (:func:`fit_pots`, :func:`fit_servo`, :func:`fit_belt`) take what the calibration
 procedure measures (docs/hardware.md): ADC counts at known arm poses, wheel angles at known
@@ -27,11 +30,14 @@ from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_valida
 from irs_models.constants import STEER_LIMIT_DEG
 
 __all__ = ['PotCalibration', 'ServoCalibration', 'BeltCalibration', 'DriveCalibration',
-           'Calibration', 'fit_pots', 'fit_servo', 'fit_belt', 'load_calibration',
-           'save_calibration', 'wrap', 'CalibrationError', 'SETPOINT_FULL_SCALE']
+           'WheelCalibration', 'Calibration', 'fit_wheel_encoders', 'fit_pots', 'fit_servo',
+           'fit_belt', 'load_calibration', 'save_calibration', 'wrap', 'CalibrationError',
+           'SETPOINT_FULL_SCALE', 'MOTOR_FULL_SCALE']
 
 #: Drive set-point register at full scale (0.01 % steps).
 SETPOINT_FULL_SCALE = 10000
+#: Motor command at the drivers' full scale (per-mille steps).
+MOTOR_FULL_SCALE = 1000
 STEER_LIMIT = math.radians(STEER_LIMIT_DEG)
 
 
@@ -126,13 +132,66 @@ class DriveCalibration(_Strict):
         return setpoint * self.volts_full_scale / SETPOINT_FULL_SCALE
 
 
+def _signs(v):
+    if any(s not in (-1, 1) for s in v):
+        raise ValueError(f'each sign is 1 or -1, got {v}')
+    return v
+
+
+class WheelCalibration(_Strict):
+    """The torque car's wheels FL, FR, RL, RR (module docstring's last two lines).
+
+    ``counts_per_rev`` [counts] of each wheel's encoder (quadrature x4, through any gear);
+    ``encoder_sign`` e_j: +1 where the counter counts up as the wheel rolls forward (a mirrored
+    mounting counts down); ``motor_constant`` k_t [N m/A] at the wheel (the motor's torque
+    constant times its gear ratio); ``driver_full_scale`` I_fs [A]: the motor drivers' current
+    (torque mode) at a command of 1000 per-mille; ``motor_sign`` s_j: +1 where a positive
+    command drives the wheel forward.
+    """
+
+    counts_per_rev: int = Field(gt=0)
+    encoder_sign: list[int] = Field(min_length=4, max_length=4)
+    motor_constant: float = Field(gt=0.0, allow_inf_nan=False)
+    driver_full_scale: float = Field(gt=0.0, allow_inf_nan=False)
+    motor_sign: list[int] = Field(min_length=4, max_length=4)
+
+    @field_validator('encoder_sign', 'motor_sign')
+    @classmethod
+    def _sign(cls, v):
+        return _signs(v)
+
+    @property
+    def torque_full_scale(self) -> float:
+        """Wheel torque [N m] at a command of 1000 per-mille: ``k_t I_fs``."""
+        return self.motor_constant * self.driver_full_scale
+
+    def counts(self, raw) -> tuple:
+        """Forward counts of four raw counter values (each times its encoder sign)."""
+        return tuple(e * int(n) for e, n in zip(self.encoder_sign, raw))
+
+    def command(self, torques) -> tuple:
+        """Motor commands [per-mille] of four wheel torques [N m], clipped to +-1000."""
+        full = self.torque_full_scale
+        return tuple(int(min(MOTOR_FULL_SCALE, max(-MOTOR_FULL_SCALE,
+                                                   round(MOTOR_FULL_SCALE * t / (s * full)))))
+                     for s, t in zip(self.motor_sign, torques))
+
+    def torque(self, commands) -> tuple:
+        """Wheel torques [N m] of four motor commands [per-mille] (inverse of :meth:`command`)."""
+        full = self.torque_full_scale
+        return tuple(s * c * full / MOTOR_FULL_SCALE for s, c in zip(self.motor_sign, commands))
+
+
 class Calibration(_Strict):
-    """The whole calibration file (``config/calibration_emulated.yaml`` is one)."""
+    """The whole calibration file (``config/calibration_emulated.yaml`` is one; the torque car's,
+    ``config/calibration_emulated_torque_car.yaml``, adds ``wheels``).
+    """
 
     pots: PotCalibration
     servo: ServoCalibration
     belt: BeltCalibration
     drive: DriveCalibration
+    wheels: WheelCalibration | None = None
 
     def check(self) -> 'Calibration':
         """The servo reaches the +-15 deg steer limit inside its travel; else CalibrationError."""
@@ -165,7 +224,7 @@ def load_calibration(path) -> Calibration:
 
 
 def save_calibration(cal: Calibration, path) -> None:
-    Path(path).write_text(yaml.safe_dump(cal.model_dump(), sort_keys=False))
+    Path(path).write_text(yaml.safe_dump(cal.model_dump(exclude_none=True), sort_keys=False))
 
 
 def fit_pots(counts, angles) -> PotCalibration:
@@ -218,3 +277,23 @@ def fit_belt(count_delta: int, travel_m: float) -> BeltCalibration:
         raise CalibrationError(f'fit_belt needs a travel > 0 m and counts, got {count_delta} '
                                f'counts over {travel_m} m')
     return BeltCalibration(counts_per_metre=abs(count_delta) / travel_m)
+
+
+def fit_wheel_encoders(count_delta, turns: float) -> tuple:
+    """``(counts_per_rev, encoder_sign)`` from the raw count differences of the four wheels
+    each turned forward ``turns`` whole revolutions by hand. CalibrationError if a wheel did not
+    count, or the wheels disagree by more than half a count per revolution (a wrong encoder or
+    a miscounted turn).
+    """
+    d = [int(v) for v in count_delta]
+    if len(d) != 4 or not (math.isfinite(turns) and turns > 0.0) or 0 in d:
+        raise CalibrationError(f'fit_wheel_encoders needs 4 non-zero count differences and '
+                               f'turns > 0, got {d} over {turns} turns')
+    per_rev = [abs(v) / turns for v in d]
+    n = round(sum(per_rev) / 4.0)
+    off = [abs(p - n) for p in per_rev]
+    if max(off) > 0.5:
+        raise CalibrationError(f'wheel encoders: {", ".join(f"{p:.1f}" for p in per_rev)} '
+                               f'counts per revolution differ by more than 0.5 from {n}; turn '
+                               'each wheel exactly the same whole number of turns')
+    return n, [1 if v > 0 else -1 for v in d]

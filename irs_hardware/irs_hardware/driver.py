@@ -1,7 +1,8 @@
 """The driver interface between the hardware node's core and the rig's devices (no rclpy).
 
 :class:`RigIO` is all the core needs: analog inputs (three pots) and a counter (belt encoder)
-in, a servo pulse, an enable line and a drive set-point out. :class:`SerialModbusRig` is the
+in, a servo pulse, an enable line and a drive set-point out; on the torque car also four wheel
+encoder counters in and four motor commands out. :class:`SerialModbusRig` is the
 rig: the IRSL board on a serial port (:mod:`.protocol`) and the drive on Modbus
 (:mod:`.drive_modbus`). Failures surface as :class:`LinkError` (board) or
 :class:`~.drive_modbus.DriveError` (drive); the core's supervisor turns them into the safe state.
@@ -25,7 +26,8 @@ class LinkError(IOError):
 @dataclass(frozen=True)
 class Reading:
     """One sample of the board: ADC counts of the three pots, the belt counter, the board's
-    sample index ``tick``, the sequence number of the last command it applied, status bits.
+    sample index ``tick``, the sequence number of the last command it applied, status bits, and
+    on a board with wheels the four wheel counters (raw, wrapping at 2^32).
     """
 
     tick: int
@@ -34,6 +36,7 @@ class Reading:
     belt: int
     status: int
     received: float       # time.monotonic() of arrival
+    wheels: tuple | None = None
 
 
 class RigIO(ABC):
@@ -48,8 +51,10 @@ class RigIO(ABC):
         """Readings received so far, waiting up to ``timeout`` [s] for the first."""
 
     @abstractmethod
-    def write_board(self, seq: int, pulse_us: float, enable: bool) -> None:
-        """Servo pulse [us] and drive-enable line; ``seq`` = tick of the sample it answers."""
+    def write_board(self, seq: int, pulse_us: float, enable: bool, wheels=None) -> None:
+        """Servo pulse [us], drive-enable line and (torque car) four motor commands
+        [per-mille] or None; ``seq`` = tick of the sample it answers.
+        """
 
     @abstractmethod
     def write_drive(self, setpoint: int) -> None:
@@ -73,7 +78,8 @@ class SerialModbusRig(RigIO):
     """IRSL board over pyserial + Modbus drive over pymodbus."""
 
     def __init__(self, port: str, baud: int, drive: ModbusDrive, watchdog_ms: int = 25,
-                 safe_pulse_us: float = 1500.0):
+                 safe_pulse_us: float = 1500.0, wheels: bool = False):
+        self.wheels = wheels       # the torque car: the board must have 4 wheel counters
         self.port_name = port
         self.baud = baud
         self.drive = drive
@@ -85,8 +91,9 @@ class SerialModbusRig(RigIO):
         self.early = []            # samples that came with the INFO answer
 
     def start(self, triggered: bool) -> None:
-        """Drive: comm timeout, set-point 0, run; board: HELLO, INFO checked (1 s). The board's
-        watchdog arms with the first command the caller sends.
+        """Drive: comm timeout, set-point 0, run; board: HELLO, INFO checked (1 s; firmware
+        version, and the wheel counters the torque car needs). The board's watchdog arms with
+        the first command the caller sends.
         """
         import serial
         self.drive.start()
@@ -112,6 +119,10 @@ class SerialModbusRig(RigIO):
         if self.info.firmware != P.VERSION:
             raise LinkError(f'board at {self.port_name}: firmware {self.info.firmware}, the '
                             f'host speaks IRSL {P.VERSION}')
+        if self.wheels and self.info.wheel_counters < P.WHEELS:
+            raise LinkError(f'board at {self.port_name}: {self.info.wheel_counters} wheel '
+                            f'counters, the torque car needs {P.WHEELS} (a board without '
+                            'wheels, or the parameter wheels set by mistake)')
 
     def _write(self, data: bytes) -> None:
         import serial
@@ -143,12 +154,13 @@ class SerialModbusRig(RigIO):
         early, self.early = self.early, []
         msgs = early + self._messages(0.0 if early else timeout)
         now = time.monotonic()
-        return [Reading(m.tick, m.ack, m.adc, m.belt, m.status, now)
+        return [Reading(m.tick, m.ack, m.adc, m.belt, m.status, now, m.wheels)
                 for m in msgs if isinstance(m, P.Sample)]
 
-    def write_board(self, seq: int, pulse_us: float, enable: bool) -> None:
+    def write_board(self, seq: int, pulse_us: float, enable: bool, wheels=None) -> None:
         ticks = int(round(pulse_us * 1e-6 / P.PULSE_TICK))
-        self._write(P.encode(P.Command(seq & 0xFFFF, ticks, P.DRIVE_ENABLE if enable else 0)))
+        self._write(P.encode(P.Command(seq & 0xFFFF, ticks, P.DRIVE_ENABLE if enable else 0,
+                                       None if wheels is None else tuple(wheels))))
 
     def write_drive(self, setpoint: int) -> None:
         self.drive.write_setpoint(setpoint)

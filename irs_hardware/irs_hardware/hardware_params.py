@@ -15,8 +15,8 @@ CORE_PARAMS = [
     Param('dt', 0.001, "the board's sampling interval", 's', 1e-4, 0.05, read_only=True),
     Param('link_timeout', 0.02, 'real time: no board sample for this long latches the fault',
           's', 0.002, 10.0, writable=True),
-    Param('command_timeout', 0.1, 'real time: a steering command older than this latches the '
-          'fault', 's', 0.001, 3600.0, writable=True),
+    Param('command_timeout', 0.1, 'real time: a steering (or wheel torque) command older than '
+          'this latches the fault', 's', 0.001, 3600.0, writable=True),
     Param('steer_reject', math.radians(30.0), 'a steer command beyond this latches the fault '
           '(between the 15 deg limit and this it is clipped)', 'rad', 0.0, 3.2, read_only=True),
     Param('u_max', 12.7, 'drive voltage range [0, u_max]; outside latches the fault', 'V', 0.1,
@@ -25,13 +25,23 @@ CORE_PARAMS = [
           10000, read_only=True),
     Param('drive_keepalive', 0.1, "the drive's set-point is written again at least this often "
           "(its communication-loss stop)", 's', 0.001, 60.0, read_only=True),
+    Param('wheels', False, "the torque car's wheels: publish wheels/encoders, take "
+          'wheels/torque_command (the calibration needs a wheels section, the board 4 wheel '
+          'counters)', '-', read_only=True),
+    Param('wheel_window', 5, 'wheel speed = encoder counts over this many samples (as '
+          "vehicle_sim's encoders.window)", '1', 1, 10000, read_only=True),
+    Param('wheel_torque_limit', 0.3, "wheel torques are clipped to +-this (the motors' limit, "
+          "as vehicle_sim's two_track.torque_limit)", 'N m', 0.0, 100.0, read_only=True),
+    Param('wheel_torque_reject', 0.6, 'a wheel torque beyond this latches the fault', 'N m',
+          0.0, 100.0, read_only=True),
 ]
 
 NODE_PARAMS = CORE_PARAMS + node_only([
     Param('clock_mode', 'realtime', "'realtime' (the board samples by itself) or 'lockstep' "
           '(the board samples once per step: emulator only)', '-', read_only=True),
     Param('lockstep_inputs', ['steering'], "lock-step: inputs whose command for step k must "
-          "arrive before step k+1: any of 'steering', 'drive'", '-', read_only=True),
+          "arrive before step k+1: any of 'steering', 'drive', 'wheels' (with wheels)", '-',
+          read_only=True),
     Param('lockstep_resend_period', 0.5, 'lock-step: publish the step again after this long '
           'without progress', 's', 0.01, 3600.0, read_only=True),
     Param('start_subscribers', '', "lock-step: publish step 0 once these of the rig's topics "
@@ -74,7 +84,8 @@ def hardware_parameter_table() -> list:
 def hardware_problem(values: dict):
     """``None``, or why the table's values do not fit together (``declare_table(check=...)``):
     the clock mode is one of the two; the board's watchdog and the link timeout span at least
-    two samples (one late sample is no fault); the drive hears from the node (keep-alive and
+    two samples (one late sample is no fault); the wheel torques the motors take are not
+    refused; the drive hears from the node (keep-alive and
     drive thread) before its own communication-loss stop ends the run (0 = no such stop).
     """
     v = {**{p.name: p.default for p in NODE_PARAMS}, **values}
@@ -83,6 +94,10 @@ def hardware_problem(values: dict):
     for name in ('board_watchdog', 'link_timeout'):
         if v[name] < 2 * v['dt']:
             return f"{name} = {v[name]:g} s is shorter than two samples (2 dt = {2 * v['dt']:g} s)"
+    if v['wheel_torque_reject'] < v['wheel_torque_limit']:
+        return (f"wheel_torque_reject = {v['wheel_torque_reject']:g} N m is below "
+                f"wheel_torque_limit = {v['wheel_torque_limit']:g} N m: a torque the motors "
+                'take would latch the fault')
     comm = v['drive_comm_timeout']
     for name in ('drive_keepalive', 'drive_period'):
         if comm > 0 and v[name] >= comm:

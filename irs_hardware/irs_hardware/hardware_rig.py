@@ -4,21 +4,27 @@ supervisor (no rclpy).
 Measurements of a board reading ``k`` (its ``tick``): the joint angles through the pot
 calibration (NaN where a pot reads a rail: wiper off its track or broken), the belt travel
 ``s_k = n_k / counts_per_metre`` and its speed over the last ``belt_window`` samples,
-``(s_k - s_{k-w}) / (w dt)`` [m/s].
+``(s_k - s_{k-w}) / (w dt)`` [m/s]; the torque car (``wheels``): each wheel's forward count
+``n_k`` (unwrapped from the board's 32-bit counter) and its speed over the last ``wheel_window``
+samples, ``2 pi (n_k - n_{k-w}) / (N w dt)`` [rad/s] (fewer samples until the window is full),
+as ``vehicle_sim``'s encoders.
 
 Commands: the steer angle [rad] is clipped to the +-15 deg limit and turned into a pulse by the
 servo calibration; the drive voltage [V] into the drive's set-point, sent on a change and every
-``drive_keepalive`` (the drive's communication-loss stop). A command that is not finite, a steer
-beyond ``steer_reject`` or a voltage outside [0, u_max] is refused.
+``drive_keepalive`` (the drive's communication-loss stop); the wheel torques [N m], clipped to
+``wheel_torque_limit``, into the motor commands [per-mille]. A command that is not finite, a steer
+beyond ``steer_reject``, a voltage outside [0, u_max], a wheel torque beyond
+``wheel_torque_reject`` or a wheel lock (the rig's wheels have no brake) is refused.
 
 Supervisor: the first of these latches a fault (:attr:`HardwareRig.fault`, its reason kept):
 a refused command; the link silent for ``link_timeout`` (real time) or a read or write error;
 a garbled frame from the board (CRC), or the board reporting a bad host frame or its own
-watchdog; a stale steering command (real time, ``command_timeout`` after the first); the
-drive's Modbus failing or reporting a trip. While latched, every output is the safe one: servo
-at the calibrated centre, enable line low (the board first: it stops the belt whatever the
-drive does), drive set-point 0 (:meth:`HardwareRig.outputs`), and :meth:`HardwareRig.reset`
-clears it only once the devices answer again.
+watchdog; a stale steering or wheel command (real time, ``command_timeout`` after the first);
+the drive's Modbus failing or reporting a trip; a board without the wheel counts the torque car
+needs. While latched, every output is the safe one: servo at the calibrated centre, enable line
+low and motor commands 0 (the board first: it stops the belt whatever the drive does), drive
+set-point 0 (:meth:`HardwareRig.outputs`), and :meth:`HardwareRig.reset` clears it only once
+the devices answer again.
 """
 from __future__ import annotations
 
@@ -35,6 +41,7 @@ from .drive_modbus import TRIPPED
 from . import protocol as P
 
 STEER_LIMIT = math.radians(STEER_LIMIT_DEG)
+ZERO_TORQUE = (0.0, 0.0, 0.0, 0.0)
 
 
 @dataclass
@@ -49,6 +56,10 @@ class HardwareConfig:
     belt_window: int = 10                  # [samples]
     drive_keepalive: float = 0.1           # [s] rewrite the set-point at least this often
     adc_full_scale: int = 65535            # [counts] a pot at 0 or this reads a rail
+    wheels: bool = False                   # the torque car's wheel channels
+    wheel_window: int = 5                  # [samples]
+    wheel_torque_limit: float = 0.3        # [N m] clipped (the motors' limit)
+    wheel_torque_reject: float = 0.6       # [N m] refused beyond
 
 
 @dataclass(frozen=True)
@@ -59,6 +70,8 @@ class Measurement:
     angles: tuple          # [rad], NaN where the pot reads a rail
     belt_speed: float      # [m/s]
     belt_count: int
+    wheel_counts: tuple = ()       # torque car: forward counts FL, FR, RL, RR
+    wheel_velocity: tuple = ()     # torque car: [rad/s]
 
 
 class HardwareRig:
@@ -71,8 +84,16 @@ class HardwareRig:
         self.fault = ''
         self.fault_time = math.nan
         self.faults = 0
-        self.refused = {'steering': 0, 'drive': 0}
+        self.refused = {'steering': 0, 'drive': 0, 'wheels': 0}
         self.counts = deque(maxlen=self.cfg.belt_window + 1)
+        if self.cfg.wheels and cal.wheels is None:
+            raise ValueError('wheels: the calibration has no wheels section (the torque car '
+                             "needs the encoders' counts per revolution and the motors' "
+                             'constants; docs/hardware.md)')
+        self.wheel_counts = deque(maxlen=self.cfg.wheel_window + 1)
+        self.wheel_raw = None              # the last raw counter values (unwrapping)
+        self.wheel_total = [0] * 4         # unwrapped forward counts
+        self.torque = ZERO_TORQUE
         self.last_tick = None
         self.lost_samples = 0
         self.steer = 0.0
@@ -99,7 +120,7 @@ class HardwareRig:
         if not self.fault:
             self.fault, self.fault_time = reason, now
             self.faults += 1
-        self.steer, self.voltage = 0.0, 0.0
+        self.steer, self.voltage, self.torque = 0.0, 0.0, ZERO_TORQUE
         self.write_board(None, now)
         self.send_drive(0, now)            # an error here changes nothing: already latched
 
@@ -113,6 +134,8 @@ class HardwareRig:
         self.fault = ''
         self.setpoint_sent = None
         self.counts.clear()
+        self.wheel_counts.clear()
+        self.wheel_raw = None
         self.last_tick = None
         self.bad_seen = self.io.bad_frames
         self.last_reading_time = now
@@ -140,7 +163,32 @@ class HardwareRig:
         (k0, c0), (k1, c1) = self.counts[0], self.counts[-1]
         speed = ((c1 - c0) / self.cal.belt.counts_per_metre / ((k1 - k0) * self.cfg.dt)
                  if k1 > k0 else 0.0)
-        return Measurement(reading.tick, angles, speed, reading.belt)
+        if not self.cfg.wheels:
+            return Measurement(reading.tick, angles, speed, reading.belt)
+        counts, velocity = self.measure_wheels(reading)
+        return Measurement(reading.tick, angles, speed, reading.belt, counts, velocity)
+
+    def measure_wheels(self, reading: Reading) -> tuple:
+        """``(forward counts, velocities [rad/s])`` of the wheels (module docstring); a reading
+        without wheel counts trips the fault (and measures 0).
+        """
+        if reading.wheels is None or len(reading.wheels) != 4:
+            self.trip('the board sent no wheel counts (a board without wheels?)',
+                      reading.received)
+            return (0, 0, 0, 0), (0.0, 0.0, 0.0, 0.0)
+        raw = reading.wheels
+        if self.wheel_raw is not None:
+            for j, (a, b) in enumerate(zip(self.wheel_raw, raw)):
+                self.wheel_total[j] += ((b - a + 2 ** 31) % 2 ** 32) - 2 ** 31
+        else:
+            self.wheel_total = list(raw)
+        self.wheel_raw = raw
+        counts = self.cal.wheels.counts(self.wheel_total)
+        self.wheel_counts.append((reading.tick, counts))
+        (k0, n0), (k1, n1) = self.wheel_counts[0], self.wheel_counts[-1]
+        scale = (2.0 * math.pi / (self.cal.wheels.counts_per_rev * (k1 - k0) * self.cfg.dt)
+                 if k1 > k0 else 0.0)
+        return counts, tuple(scale * (b - a) for a, b in zip(n0, n1))
 
     def check_link(self, now: float) -> bool:
         """Real time: trip if no reading for ``link_timeout``; True while the link is fine."""
@@ -169,6 +217,23 @@ class HardwareRig:
         if self.ok:
             self.voltage = value
 
+    def command_wheels(self, torques, locked, now: float) -> None:
+        """Wheel torques [N m] FL, FR, RL, RR and lock flags; refused (the fault) unless four
+        finite torques within ``wheel_torque_reject`` and no wheel locked.
+        """
+        values = tuple(float(t) for t in torques)
+        bad = (len(values) != 4 or not all(math.isfinite(t) for t in values)
+               or any(abs(t) > self.cfg.wheel_torque_reject for t in values))
+        if bad or any(locked):
+            self.refused['wheels'] += 1
+            why = ("a wheel lock (the rig's wheels have no brake)" if not bad else
+                   f'not 4 finite torques within +-{self.cfg.wheel_torque_reject:g} N m')
+            self.trip(f'wheel torque command {list(values)!r} N m refused ({why})', now)
+            return
+        if self.ok:
+            lim = self.cfg.wheel_torque_limit
+            self.torque = tuple(min(lim, max(-lim, t)) for t in values)
+
     def stop(self, now: float) -> None:
         """The run is over: the safe outputs from now on, without a fault."""
         self.stopped = True
@@ -176,13 +241,16 @@ class HardwareRig:
         self.send_drive(0, now)
 
     def outputs(self) -> tuple:
-        """``(pulse [us], enable, set-point)`` now: the safe ones while a fault is latched or
-        once stopped.
+        """``(pulse [us], enable, set-point, motor commands [per-mille] or None)`` now: the safe
+        ones (centre, low, 0, zeros) while a fault is latched or once stopped.
         """
+        wheels = None if not self.cfg.wheels else (0, 0, 0, 0)
         if not self.ok or self.stopped:
-            return self.cal.servo.centre_us, False, 0
+            return self.cal.servo.centre_us, False, 0, wheels
+        if wheels is not None:
+            wheels = self.cal.wheels.command(self.torque)
         return (self.cal.servo.pulse_us(self.steer), True,
-                self.cal.drive.setpoint(self.voltage))
+                self.cal.drive.setpoint(self.voltage), wheels)
 
     def write_outputs(self, seq, now: float) -> None:
         """Lock-step: the drive's set-point (when due, :meth:`drive_due`), then the board; the
@@ -199,13 +267,13 @@ class HardwareRig:
         """Servo pulse and enable line to the board, answering sample ``seq`` (None: the last
         answered one, a keep-alive); a link error trips the fault.
         """
-        pulse, enable, _ = self.outputs()
+        pulse, enable, _, wheels = self.outputs()
         if seq is None:
             seq = self.answered
         else:
             self.answered = seq
         try:
-            self.io.write_board(seq, pulse, enable)
+            self.io.write_board(seq, pulse, enable, wheels)
             self.board_time = now
             self.commands_sent += 1
         except LinkError as exc:

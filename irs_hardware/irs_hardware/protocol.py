@@ -12,15 +12,20 @@ costs one frame, never the stream. Types (host -> board: 0x0*, board -> host: 0x
 - ``HELLO`` (mode u8: 0 free-running sampler, 1 triggered; watchdog u16 [ms], counted in
   sampling intervals and armed by the first COMMAND; interval u16 [us]; safe pulse u16 [ticks of
   0.5 us]: the servo's calibrated centre) -> ``INFO`` (firmware u16, adc_bits u8, channels u8,
-  interval u16 [us], pulse tick u16 [ns], watchdog u16 [ms], wheel counters u8).
-- ``COMMAND`` (seq u16, servo pulse u16 [ticks of 0.5 us], flags u8: bit 0 drive enable; with
-  the torque car 4 x i16 wheel commands [per-mille of the motor drivers' range]).
+  interval u16 [us], pulse tick u16 [ns], watchdog u16 [ms], wheel counters u8: 4 on the torque
+  car's board, 0 without wheels; the host refuses a board short of the wheels it needs).
+- ``COMMAND`` (seq u16, servo pulse u16 [ticks of 0.5 us], flags u8: bit 0 drive enable; to a
+  board with wheels 4 x i16 motor commands [per-mille of the drivers' full scale, FL, FR, RL,
+  RR], which the board applies only while the enable line is high and sets to 0 in its safe
+  state; a COMMAND without them commands 0).
 - ``SAMPLE`` (tick u32 [sampling intervals], ack u16 = seq of the last command applied,
   adc 3 x u16 [counts], belt i32 [counts], status u8: bit 0 watchdog tripped, bit 1 a bad host
-  frame since the last sample, bit 2 sampler overrun; torque car: 4 x i32 wheel counts).
+  frame since the last sample, bit 2 sampler overrun; a board with wheels adds 4 x i32 wheel
+  encoder counts, wrapping at 2^32).
 
-At 1 kHz a SAMPLE is 24 bytes and a COMMAND 12 (:mod:`.link_budget`). Own firmware instead of
-Firmata: docs/hardware.md (16-bit ADC, CRC, sequence numbers, a watchdog, 1 kHz).
+At 1 kHz a SAMPLE is 24 bytes (40 with wheels) and a COMMAND 12 (20) (:mod:`.link_budget`).
+Own firmware instead of Firmata: docs/hardware.md (16-bit ADC, CRC, sequence numbers, a
+watchdog, 1 kHz).
 """
 from __future__ import annotations
 
@@ -40,6 +45,8 @@ WATCHDOG_TRIPPED, BAD_HOST_FRAME, OVERRUN = 0x01, 0x02, 0x04
 DRIVE_ENABLE = 0x01
 FRAME_OVERHEAD = 7           # sync 2 + version + type + length + crc 2
 MAX_PAYLOAD = 64
+#: Wheels of the torque car (FL, FR, RL, RR) and the motor command's full scale [per-mille].
+WHEELS, MOTOR_FULL_SCALE = 4, 1000
 
 _HELLO = struct.Struct('<BHHH')
 _INFO = struct.Struct('<HBBHHHB')
@@ -97,7 +104,7 @@ class Command:
     seq: int
     pulse_ticks: int
     flags: int = 0
-    wheels: tuple | None = None      # 4 x per-mille, torque car only
+    wheels: tuple | None = None      # 4 x per-mille, a board with wheels only
 
 
 @dataclass(frozen=True)
@@ -109,7 +116,7 @@ class Sample:
     adc: tuple                   # 3 x counts
     belt: int                    # counts
     status: int = 0
-    wheels: tuple | None = None  # 4 x counts, torque car only
+    wheels: tuple | None = None  # 4 x counts, a board with wheels only
 
 
 def encode(msg) -> bytes:

@@ -8,12 +8,15 @@ Publishes ``arm/joint_states`` (sensor_msgs/JointState, the three pot angles [ra
 ``rig/diagnostics`` (diagnostic_msgs/DiagnosticArray: link, board and drive health, the fault's
 ``time.monotonic()``) every second and at once on a fault, and ``rig/timing`` (real time:
 deadline misses and loop latency, as ``vehicle_sim``) every second. Takes ``steering/command``
-(front angle) and ``treadmill/drive`` (COMMAND QoS). Services ``rig/start`` and ``rig/reset``
-(std_srvs/Trigger; reset clears the latched fault once the devices answer again), and in real
-time ``rig/recover`` as on ``vehicle_sim`` (docs/safety.md): the reset plus ``treadmill/reset``
-(std_msgs/Empty, COMMAND QoS) for the regulator's latched fault; the car is the operator's to
-place (no rig holds a real car). ``rig/status`` says ``SAFE_STOPPED`` with the fault as
-``stop_cause`` while a fault is latched, ``SAFE_RUNNING`` otherwise.
+(front angle) and ``treadmill/drive`` (COMMAND QoS). The torque car (``wheels``): also
+``wheels/encoders`` (irs_msgs/WheelEncoders, forward counts and velocities [rad/s] over
+``wheel_window``; SENSOR_PUB, every sample, as ``vehicle_sim``'s) and ``wheels/torque_command``
+(irs_msgs/WheelTorqueCommand [N m], COMMAND QoS, the lock-step input ``wheels``). Services
+``rig/start`` and ``rig/reset`` (std_srvs/Trigger; reset clears the latched fault once the devices
+answer again), and in real time ``rig/recover`` as on ``vehicle_sim`` (docs/safety.md): the reset
+plus ``treadmill/reset`` (std_msgs/Empty, COMMAND QoS) for the regulator's latched fault; the car
+is the operator's to place (no rig holds a real car). ``rig/status`` says ``SAFE_STOPPED`` with the
+fault as ``stop_cause`` while a fault is latched, ``SAFE_RUNNING`` otherwise.
 
 Clock modes as ``vehicle_sim``: ``lockstep`` (the board in triggered mode: each step's commands,
 paired by stamp, go to the drive and then the board, whose answer is the next sample; /clock
@@ -45,7 +48,8 @@ from irs_common.params import declare_table
 from irs_common.stamp_gate import FUTURE, OLD, StampGate
 from irs_common.stamp_sync import StampSync
 from irs_common.stamps import from_ns, to_ns
-from irs_msgs.msg import BeltSpeed, RigStatus, SteeringCommand, TreadmillDriveCommand
+from irs_msgs.msg import (BeltSpeed, RigStatus, SteeringCommand, TreadmillDriveCommand,
+                          WheelEncoders, WheelTorqueCommand)
 
 from .calibration import CalibrationError, load_calibration
 from .driver import DriveError, LinkError, SerialModbusRig
@@ -56,7 +60,8 @@ from .paths import resolve
 
 ARM_JOINTS = ['arm_joint1', 'arm_joint2', 'arm_joint3']
 INPUTS = {'steering': ('steering/command', SteeringCommand),
-          'drive': ('treadmill/drive', TreadmillDriveCommand)}
+          'drive': ('treadmill/drive', TreadmillDriveCommand),
+          'wheels': ('wheels/torque_command', WheelTorqueCommand)}    # with wheels only
 
 
 class RigHardwareNode(Node):
@@ -67,22 +72,26 @@ class RigHardwareNode(Node):
         self.p = declare_table(self, NODE_PARAMS, on_change=self._on_parameter,
                                check=hardware_problem)
         self.lockstep = self.p['clock_mode'] == 'lockstep'
+        self.inputs = {n: v for n, v in INPUTS.items() if n != 'wheels' or self.p['wheels']}
         self.rig = self._make_rig()
         self.dt_ns = int(round(self.p['dt'] * 1e9))
         self.lock = threading.RLock()
         self.required = tuple(n for n in self.p['lockstep_inputs'] if n) if self.lockstep else ()
-        unknown = set(self.required) - set(INPUTS)
+        unknown = set(self.required) - set(self.inputs)
         if unknown:
             raise ValueError(f'lockstep_inputs: unknown input(s) {sorted(unknown)}; expected '
-                             f'some of {sorted(INPUTS)}')
+                             f'some of {sorted(self.inputs)}'
+                             + (" ('wheels' needs wheels: true)" if 'wheels' in unknown else ''))
         self.sync = StampSync(self.required) if self.required else None
         tol = int(round(self.p['future_tolerance'] * 1e9))
-        self.gates = {n: StampGate(tol) for n in INPUTS}
+        self.gates = {n: StampGate(tol) for n in self.inputs}
         self.received_at = {}
         self.pub_clock = self.create_publisher(Clock, '/clock', qos.CLOCK) if self.lockstep \
             else None
         self.pub_arm = self.create_publisher(JointState, 'arm/joint_states', qos.SENSOR_PUB)
         self.pub_belt = self.create_publisher(BeltSpeed, 'belt/speed', qos.SENSOR_PUB)
+        self.pub_encoders = self.create_publisher(WheelEncoders, 'wheels/encoders',
+                                                  qos.SENSOR_PUB) if self.p['wheels'] else None
         self.pub_status = self.create_publisher(RigStatus, 'rig/status', qos.STATUS)
         self.pub_diag = self.create_publisher(DiagnosticArray, 'rig/diagnostics', qos.STATUS)
         self.pub_timing = None if self.lockstep else self.create_publisher(
@@ -90,7 +99,7 @@ class RigHardwareNode(Node):
         self.timing = LoopTiming()
         self.arm_sent = {}
         self.last_steer_stamp = -1
-        for name, (topic, mtype) in INPUTS.items():
+        for name, (topic, mtype) in self.inputs.items():
             self.create_subscription(mtype, topic, lambda m, n=name: self._on_command(n, m),
                                      qos.COMMAND)
         self.create_service(Trigger, 'rig/start', self._on_start)
@@ -136,7 +145,7 @@ class RigHardwareNode(Node):
                             comm_timeout_ms=int(self.p['drive_comm_timeout'] * 1000))
         io = SerialModbusRig(self.p['port'], self.p['baud'], drive,
                              watchdog_ms=int(round(self.p['board_watchdog'] * 1000)),
-                             safe_pulse_us=cal.servo.centre_us)
+                             safe_pulse_us=cal.servo.centre_us, wheels=self.p['wheels'])
         return HardwareRig(io, cal, hardware_config(self.p))
 
     # ---------------------------------------------------------------- start, reset, stop
@@ -172,6 +181,8 @@ class RigHardwareNode(Node):
         waits = {}
         pubs = {'/clock': self.pub_clock, 'arm/joint_states': self.pub_arm,
                 'belt/speed': self.pub_belt, 'rig/status': self.pub_status}
+        if self.pub_encoders is not None:
+            pubs['wheels/encoders'] = self.pub_encoders
         for item in filter(None, self.p['start_subscribers'].split(',')):
             topic, _, count = item.partition('=')
             key = topic.strip() if topic.strip() == '/clock' else topic.strip().lstrip('/')
@@ -250,7 +261,10 @@ class RigHardwareNode(Node):
 
     # ---------------------------------------------------------------- inputs
     def _on_command(self, name, msg):
-        value = msg.front_angle if name == 'steering' else msg.voltage
+        if name == 'wheels':
+            value = (tuple(msg.torque), tuple(msg.locked))
+        else:
+            value = msg.front_angle if name == 'steering' else msg.voltage
         stamp = to_ns(msg.header.stamp)
         now = time.monotonic()
         with self.lock:
@@ -275,6 +289,8 @@ class RigHardwareNode(Node):
     def _apply(self, name, value, now):
         if name == 'steering':
             self.rig.command_steer(value, now)
+        elif name == 'wheels':
+            self.rig.command_wheels(*value, now)
         else:
             self.rig.command_drive(value, now)
 
@@ -382,11 +398,12 @@ class RigHardwareNode(Node):
                     self.drive_status = self.rig.drive_verdict(answer, time.monotonic())
 
     def _check_stale(self, now):
-        seen = self.received_at.get('steering')
-        if seen is not None and self.rig.ok and now - seen > self.rig.cfg.command_timeout:
-            self.rig.trip(f'steering command stale ({1e3 * (now - seen):.0f} ms > '
-                          f'{1e3 * self.rig.cfg.command_timeout:.0f} ms)', now)
-            self._publish_status(force=True)
+        for name in ('steering', 'wheels'):
+            seen = self.received_at.get(name)
+            if seen is not None and self.rig.ok and now - seen > self.rig.cfg.command_timeout:
+                self.rig.trip(f'{name} command stale ({1e3 * (now - seen):.0f} ms > '
+                              f'{1e3 * self.rig.cfg.command_timeout:.0f} ms)', now)
+                self._publish_status(force=True)
 
     # ---------------------------------------------------------------- outputs
     def _on_reading(self, reading):
@@ -415,6 +432,13 @@ class RigHardwareNode(Node):
             belt = BeltSpeed(speed=float(m.belt_speed), encoder_count=int(m.belt_count))
             belt.header.stamp, belt.header.frame_id = stamp, self.p['frame_id']
             outputs.append((self.pub_belt, belt))
+        if self.pub_encoders is not None:
+            enc = WheelEncoders(counts=[int(c) for c in m.wheel_counts],
+                                velocity=[float(v) for v in m.wheel_velocity],
+                                counts_per_rev=int(self.rig.cal.wheels.counts_per_rev),
+                                window=int(self.p['wheel_window']))
+            enc.header.stamp = stamp      # no frame, as vehicle_sim's
+            outputs.append((self.pub_encoders, enc))
         if not self.lockstep:
             self.arm_sent[self._stamp_ns()] = time.monotonic()
         for pub, msg in outputs:
@@ -459,6 +483,9 @@ class RigHardwareNode(Node):
                   'tick': rig.last_tick, 'drive_status': status, 'drive_belt_speed': speed,
                   'refused_steering': rig.refused['steering'],
                   'refused_drive': rig.refused['drive']}
+        if self.pub_encoders is not None:
+            values.update(refused_wheels=rig.refused['wheels'],    # the motor commands now
+                          wheel_commands=list(rig.outputs()[3]))
         level = DiagnosticStatus.ERROR if rig.fault else DiagnosticStatus.OK
         st = DiagnosticStatus(level=level, name='rig_hardware: devices', hardware_id='irs_rig',
                               message=rig.fault or 'ok',

@@ -20,6 +20,8 @@ def test_the_defaults_and_the_shipped_file_fit_together():
      'shorter than drive_comm_timeout = 0.5 s'),
     ({'drive_period': 0.2, 'drive_comm_timeout': 0.1, 'drive_keepalive': 0.05},
      'drive_period = 0.2 s is not shorter than drive_comm_timeout'),
+    ({'wheel_torque_limit': 0.5, 'wheel_torque_reject': 0.4}, 'wheel_torque_reject = 0.4 N m '
+     'is below wheel_torque_limit = 0.5 N m'),
 ])
 def test_values_that_do_not_fit_are_one_sentence(values, words):
     assert words in hardware_problem(values)

@@ -25,6 +25,8 @@ def test_round_trip_of_every_message():
 def test_frame_sizes_of_the_link_budget():
     assert len(P.encode(SAMPLE)) == 24
     assert len(P.encode(P.Command(1, 3000, 1))) == 12
+    assert len(P.encode(P.Sample(1, 2, (3, 4, 5), 6, 0, (7, 8, -9, 10)))) == 40
+    assert len(P.encode(P.Command(1, 3000, 1, (1000, -1000, 0, 5)))) == 20
 
 
 def test_garbage_between_frames_is_skipped_and_a_garbled_frame_counted():
@@ -55,3 +57,5 @@ def test_link_budget_rows_say_firmata_does_not_fit_and_irsl_does():
     assert rows['StandardFirmata @ 57600']['load'] > 1.0
     assert rows['IRSL @ 115200']['load'] > 1.0
     assert rows['IRSL @ 1000000']['load'] < 0.3
+    assert rows['IRSL torque car @ 115200']['load'] > 1.0
+    assert rows['IRSL torque car @ 1000000']['load'] == 0.4      # 40 B x 10 bit per ms

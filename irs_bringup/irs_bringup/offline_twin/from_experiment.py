@@ -40,20 +40,23 @@ def chassis_loop_config(exp: Experiment) -> ChassisLoopConfig:
 
 def hardware_loop(exp: Experiment):
     """The hardware loop of an experiment whose rig is ``rig_hardware``: its ``board`` device's
-    arguments build the emulated board, the node's parameters the core and its calibration.
+    arguments build the emulated board, the node's parameters the core and its calibration
+    (the torque car's loop with a ``chassis_controller``).
     """
     from irs_hardware.calibration import load_calibration
     from irs_hardware.emulator.board_main import board_from_args
     from irs_hardware.hardware_params import hardware_config
     from irs_hardware.paths import resolve
 
-    from .hardware_loop import EmulatedHardwareRig, HardwareClosedLoop
+    from .hardware_loop import EmulatedHardwareRig, HardwareChassisLoop, HardwareClosedLoop
     if 'board' not in exp.devices:
         raise ValueError('a rig_hardware experiment needs a devices.board entry (the emulator)')
     _package, _executable, args = exp.devices['board']
     node = node_parameters(exp.rig())
     rig = EmulatedHardwareRig(board_from_args(args), load_calibration(
         resolve(node.get('calibration', ''))), hardware_config(node))
+    if exp.node('irs_control', 'chassis_controller') is not None:
+        return HardwareChassisLoop(chassis_loop_config(exp), rig)
     return HardwareClosedLoop(loop_config_from_experiment(exp), rig)
 
 

@@ -7,18 +7,24 @@ belt, arm, belt and its encoder), stepped once per sampling interval with:
   emulated servo's own constants :class:`BoardTruth`, which the host knows only through its
   calibration), clipped to the servo's travel; pulse resolution 0.5 us;
 - drive voltage: the drive's output (the wire) while the board's enable line is high, else 0 V;
-- the car's own speed command from ``driver`` (a function of time; the person on the throttle).
+- the car's own speed command from ``driver`` (a function of time; the person on the throttle);
+- the torque car (``plant: two_track``, a board with 4 wheel counters): wheel torques
+  ``T_j = s_j c_j k_t I_fs / 1000`` [N m] of the motor commands ``c_j`` [per-mille] while the
+  enable line is high (the motor drivers' enable is that line), else 0 N m; the emulated motors
+  are ideal torque sources with the constants of :class:`BoardTruth`.
 
 Inputs read: the arm angles with the simulated pots' noise but without the simulator's
 quantiser, through each pot (340 deg electrical, its mounting) and a 16-bit ADC over 5.12 V,
-and the belt encoder's count. Firmware behaviour: ``HELLO`` starts the sampler, free-running
-(:meth:`BoardEmulator.tick` every interval) or triggered (one step and one ``SAMPLE`` per
-``COMMAND``: lock-step, deterministic; ``lockstep_delay`` D: the command answering sample k
-drives the servo from step k + D, the link's latency); the watchdog puts the outputs in the safe
-state (the HELLO's safe pulse, enable line low) when ``watchdog_ms / interval`` samples in a row
-went out without a good command, armed by the first command after HELLO and latched until the
-next HELLO: counted in the sampler's ticks, as a firmware counts them in its timer interrupt, so
-a stall of the emulator's process is no tick. A bad host frame sets a status bit. Faults on
+and the belt encoder's count; the torque car's wheel encoders' counts (the rig's own encoders,
+``encoders.counts_per_rev``) through each one's mounting sign, wrapping at 2^32. Firmware
+behaviour: ``HELLO`` starts the sampler, free-running (:meth:`BoardEmulator.tick` every
+interval) or triggered (one step and one ``SAMPLE`` per ``COMMAND``: lock-step, deterministic;
+``lockstep_delay`` D: the command answering sample k drives the servo and the motors from step
+k + D, the link's latency); the watchdog puts the outputs in the safe state (the HELLO's safe
+pulse, enable line low, motor commands 0) when ``watchdog_ms / interval`` samples in a row went
+out without a good command, armed by the first command after HELLO and latched until the next
+HELLO: counted in the sampler's ticks, as a firmware counts them in its timer interrupt, so a
+stall of the emulator's process is no tick. A bad host frame sets a status bit. Faults on
 request: garble or drop outgoing frames.
 """
 from __future__ import annotations
@@ -29,6 +35,7 @@ from dataclasses import dataclass
 
 from irs_common.loop_timing import LoopTiming
 from irs_vehicle_sim.rig import RigConfig, RigInputs, RigSimulation
+from irs_vehicle_sim.rig_torque_car import ZERO_TORQUE
 
 from .. import protocol as P
 from .wire import BELT_SPEED, BOARD_BEAT, DRIVE_VOLTAGE, ENABLE, Wire
@@ -50,6 +57,21 @@ class BoardTruth:
     servo_travel_us: float = 520.0                    # end stops at centre +- this
     interval_us: int = 1000
     firmware: int = 1
+    # the torque car's wheels FL, FR, RL, RR: the right side's encoders and motors mirrored
+    encoder_sign: tuple = (1, -1, 1, -1)
+    motor_sign: tuple = (1, -1, 1, -1)
+    motor_constant: float = 0.02     # [N m/A] at the wheel
+    driver_full_scale: float = 20.0  # [A] at 1000 per-mille
+
+    def wheel_torques(self, commands) -> tuple:
+        """Wheel torques [N m] of four motor commands [per-mille] (module docstring)."""
+        full = self.motor_constant * self.driver_full_scale / P.MOTOR_FULL_SCALE
+        return tuple(s * c * full for s, c in zip(self.motor_sign, commands))
+
+    def wheel_counters(self, counts) -> tuple:
+        """The board's 32-bit counter values of the encoders' forward counts."""
+        return tuple(((e * int(n) + 2 ** 31) % 2 ** 32) - 2 ** 31
+                     for e, n in zip(self.encoder_sign, counts))
 
     def adc_counts(self, angles) -> tuple:
         """ADC counts of three joint angles [rad] (NaN: the wiper at 0 V)."""
@@ -128,7 +150,9 @@ class BoardEmulator:
         self.enable = False
         self.safe_pulse = self._centre_ticks()
         self.pulse_ticks = self.safe_pulse
-        self.delayed = deque([self.pulse_ticks] * lockstep_delay)
+        self.wheels = P.WHEELS if config.plant == 'two_track' else 0
+        self.motor = (0, 0, 0, 0)     # motor commands in force [per-mille]
+        self.delayed = deque([(self.pulse_ticks, self.motor)] * lockstep_delay)
         self.tripped = False
         self.bad_pending = False
         self.safe_at = 0.0            # time the outputs last turned safe (None while not)
@@ -140,9 +164,13 @@ class BoardEmulator:
     def _centre_ticks(self) -> int:
         return int(round(self.truth.servo_centre_us * 1e-6 / P.PULSE_TICK))
 
-    def _set_outputs(self, pulse_ticks: int, enable: bool, now: float) -> None:
-        """Servo pulse and enable line; ``safe_at`` follows the safe state's start."""
+    def _set_outputs(self, pulse_ticks: int, enable: bool, now: float,
+                     motor=(0, 0, 0, 0)) -> None:
+        """Servo pulse, enable line and motor commands (0 while the enable line is low);
+        ``safe_at`` follows the safe state's start.
+        """
         self.pulse_ticks, self.enable = pulse_ticks, enable
+        self.motor = tuple(motor) if enable and self.wheels else (0, 0, 0, 0)
         safe = not enable and pulse_ticks == self.safe_pulse
         if not safe:
             self.safe_at = None
@@ -174,7 +202,7 @@ class BoardEmulator:
         self.safe_pulse = msg.safe_pulse
         self._set_outputs(self.safe_pulse, False, now)
         info = P.Info(self.truth.firmware, self.truth.adc_bits, 3, self.truth.interval_us,
-                      int(P.PULSE_TICK * 1e9), msg.watchdog_ms, 0)
+                      int(P.PULSE_TICK * 1e9), msg.watchdog_ms, self.wheels)
         out = [P.encode(info)]
         if self.triggered:
             out += self._emit(now)
@@ -183,7 +211,8 @@ class BoardEmulator:
     def _command(self, msg: P.Command, now: float) -> list:
         self.stats.commands += 1
         if not self.tripped:
-            self._set_outputs(msg.pulse_ticks, bool(msg.flags & P.DRIVE_ENABLE), now)
+            self._set_outputs(msg.pulse_ticks, bool(msg.flags & P.DRIVE_ENABLE), now,
+                              msg.wheels or (0, 0, 0, 0))
         self.ack = msg.seq
         self.armed = True
         self.since_command = 0
@@ -235,13 +264,14 @@ class BoardEmulator:
     def _step(self, now: float):
         t = self.sim.time
         speed = self.driver(t) if self.driver is not None else self.sim.config.u0
-        pulse = self.pulse_ticks
+        pulse, motor = self.pulse_ticks, self.motor
         if self.triggered and self.delayed:
-            self.delayed.append(pulse)
-            pulse = self.delayed.popleft()
+            self.delayed.append((pulse, motor))
+            pulse, motor = self.delayed.popleft()
         steer = self.truth.steer(pulse * P.PULSE_TICK * 1e6)
+        torque = self.truth.wheel_torques(motor) if self.wheels and self.enable else ZERO_TORQUE
         self.sim.step(RigInputs(front_steer=steer, drive_voltage=self.drive_voltage(now),
-                                speed_cmd=speed))
+                                speed_cmd=speed, wheel_torque=torque))
         self.tick_no += 1
         self._publish_wire(now)
 
@@ -262,8 +292,10 @@ class BoardEmulator:
         status = ((P.WATCHDOG_TRIPPED if self.tripped else 0)
                   | (P.BAD_HOST_FRAME if self.bad_pending else 0))
         self.bad_pending = False
+        wheels = (self.truth.wheel_counters(self.sim.outputs.encoder_counts) if self.wheels
+                  else None)
         return P.Sample(self.tick_no, self.ack, self.truth.adc_counts(self.arm_angles()),
-                        int(self.sim.belt.encoder.count), status)
+                        int(self.sim.belt.encoder.count), status, wheels)
 
     def _emit(self, now: float) -> list:
         self.stats.samples += 1

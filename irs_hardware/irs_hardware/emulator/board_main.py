@@ -13,11 +13,12 @@ time; a late wake-up skips the missed intervals, counted as ``loop_misses``, and
 world waits meanwhile). Triggered mode (lock-step) answers at once and applies each command
 ``--lockstep-delay`` steps later (the link's latency in whole samples). ``--control`` is a
 Unix datagram socket taking ``garble N``, ``drop N`` (the next N samples), ``silence S`` (the
-cable cut for S seconds: nothing in or out),
-``jig X Y PSI`` / ``jig off`` (the arm on a calibration jig at that pose [m, m, rad]) and
-``stop``; ``--status`` is rewritten every 50 ms with the board's state as JSON (servo pulse,
-enable line, ``safe_at``: the ``time.monotonic()`` the outputs last turned safe, watchdog,
-counts, loop misses, ADC-sample-to-servo latency and deadline misses).
+cable cut for S seconds: nothing in or out), ``jig X Y PSI`` / ``jig off`` (the arm on a
+calibration jig at that pose [m, m, rad]) and ``stop``; ``--status`` is rewritten every 50 ms
+with the board's state as JSON (servo pulse, enable line, the torque car's motor commands,
+``safe_at``: the ``time.monotonic()`` the outputs last turned safe, watchdog, counts, loop
+misses, ADC-sample-to-servo latency and deadline misses). With ``-p plant=two_track`` the board
+has the torque car's 4 wheel counters and motor outputs.
 ``--driver`` is the car's speed profile ``t:v,...`` [s:m/s], held between breakpoints.
 """
 from __future__ import annotations
@@ -325,6 +326,7 @@ class BoardLoop:
                'belt_count': int(board.sim.belt.encoder.count), 'y_s': board.sim.outputs.y_s,
                'x': board.sim.outputs.x,
                'steer_achieved': board.sim.outputs.actuator_front.achieved,
+               'wheels': board.wheels, 'motor_commands': list(board.motor),
                'timing': board.timing.summary()}
         tmp = self.status_path.with_suffix('.tmp')
         tmp.write_text(json.dumps(doc))

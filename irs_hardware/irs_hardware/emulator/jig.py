@@ -7,15 +7,22 @@ settled angle at each of :data:`SERVO_PULSES`, approached from 100 us below and 
 averaged (the middle of the play); the belt encoder's counts per metre by the procedure's
 :func:`~irs_hardware.calibrate_cli.calibrate_belt` (the belt run 2 m from the drive's panel and
 left to coast to rest, :func:`belt_operator`); the drive's full scale 12.7 V.
+``config/calibration_emulated_torque_car.yaml`` adds the wheels' section
+(:func:`calibrate_emulated_wheels`: each wheel of the lifted torque car turned 10 turns forward
+by hand, :func:`wheel_operator`; the motors' constants of :class:`BoardTruth` as from their
+data sheets): ``python -m irs_hardware.emulator.jig <out.yaml> torque_car``.
 """
 from __future__ import annotations
 
+import math
 import sys
+
+import numpy as np
 
 from irs_vehicle_sim.rig import RigInputs, RigSimulation
 
 from .. import protocol as P
-from ..calibrate_cli import calibrate_belt, calibrate_pots
+from ..calibrate_cli import calibrate_belt, calibrate_pots, calibrate_wheels
 from ..calibration import (BeltCalibration, Calibration, DriveCalibration, fit_servo,
                            save_calibration)
 from .board_core import BoardEmulator, BoardTruth, rig_config
@@ -87,5 +94,33 @@ def calibrate_emulated(params: dict | None = None, truth: BoardTruth | None = No
                        drive=DriveCalibration(volts_full_scale=12.7)).check()
 
 
+def wheel_operator(board: BoardEmulator, turns: float):
+    """``mark`` of the wheels' procedure on the emulated torque car: at the end mark every
+    wheel has been turned ``turns`` turns forward by hand (the car lifted: only the wheels'
+    encoders move), stopping a quarter count past its mark (a hand never stops on a count's
+    edge).
+    """
+    enc = board.sim.torque_car.encoders
+
+    def mark(which):
+        if which == 'end':
+            n = enc.params.counts_per_rev
+            enc.theta = enc.theta + 2.0 * math.pi * (turns + 0.25 / n)
+            enc.counts = np.floor(enc.theta * n / (2.0 * math.pi)).astype(np.int64)
+    return mark
+
+
+def calibrate_emulated_wheels(truth: BoardTruth | None = None, turns: float = 10.0):
+    """The wheels' section of the emulated torque car (module docstring)."""
+    truth = truth or BoardTruth()
+    board = BoardEmulator(rig_config({'plant': 'two_track', 'u0': 0.0, 'belt_speed0': 0.0}),
+                          truth)
+    return calibrate_wheels(board_reader(board), wheel_operator(board, turns), turns,
+                            truth.motor_constant, truth.driver_full_scale, truth.motor_sign)
+
+
 if __name__ == '__main__':
-    save_calibration(calibrate_emulated(), sys.argv[1])
+    cal = calibrate_emulated()
+    if sys.argv[2:] == ['torque_car']:
+        cal = cal.model_copy(update={'wheels': calibrate_emulated_wheels()})
+    save_calibration(cal, sys.argv[1])

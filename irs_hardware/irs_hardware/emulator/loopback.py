@@ -48,15 +48,15 @@ class LoopbackIO(RigIO):
         if not self.board_alive:
             raise LinkError('board gone')
         now = time.monotonic()
-        out = [Reading(m.tick, m.ack, m.adc, m.belt, m.status, now)
+        out = [Reading(m.tick, m.ack, m.adc, m.belt, m.status, now, m.wheels)
                for m in self.pending if isinstance(m, P.Sample)]
         self.pending = []
         return out
 
-    def write_board(self, seq, pulse_us, enable) -> None:
+    def write_board(self, seq, pulse_us, enable, wheels=None) -> None:
         ticks = int(round(pulse_us * 1e-6 / P.PULSE_TICK))
-        self._to_board(P.encode(P.Command(seq & 0xFFFF, ticks,
-                                          P.DRIVE_ENABLE if enable else 0)))
+        self._to_board(P.encode(P.Command(seq & 0xFFFF, ticks, P.DRIVE_ENABLE if enable else 0,
+                                          None if wheels is None else tuple(wheels))))
 
     def _drive_write(self, reg, value):
         if not self.drive_alive:
