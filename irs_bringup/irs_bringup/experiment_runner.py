@@ -334,8 +334,8 @@ class ExperimentRunner:
             self._check_stop()
             self._start_devices(logs)
             self._start_nodes(logs, env, extra)
-            self.log(f'[experiment] {exp.name}: started {len(self.procs)} processes, '
-                     f'logs in {logs}')
+            self.log(f'[experiment] {exp.name}: {exp.deployment_line()}; started '
+                     f'{len(self.procs)} processes, logs in {logs}')
             self._wait_for_graph(watcher)
             if self.rt_priority:
                 self.log(f'[experiment] {self.scheduling_report()}')

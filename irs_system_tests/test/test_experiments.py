@@ -390,11 +390,49 @@ def test_composed_puts_every_node_and_the_recorder_in_one_process_and_leaves_the
     assert 'recorder' not in quiet.composed().processes()
 
 
-def test_composed_and_offline_exclude_each_other(capsys):
+def test_default_deployment_composes_lockstep_files_that_place_no_node(tmp_path):
+    free = load_experiment(str(_write(tmp_path, _doc())))
+    assert free.deployed().processes() == free.composed().processes() == {
+        'vehicle_sim': 'graph', 'treadmill_regulator': 'graph', 'recorder': 'graph'}
+    assert free.deployed().deployment_line() == \
+        "composed: every node and the recorder in one process 'graph'"
+    # a file that places its nodes runs as written, the recorder included
+    placed = load_experiment(str(_write(tmp_path, _doc(
+        **{VS + 'process': 'rig_group', 'record__process': 'rig_group'}))))
+    assert placed.deployed().processes() == placed.processes() == {
+        'vehicle_sim': 'rig_group', 'treadmill_regulator': None, 'recorder': 'rig_group'}
+    assert placed.deployed().deployment_line() == \
+        "2 processes: 'rig_group' (vehicle_sim, recorder), treadmill_regulator"
+    only_recorder = load_experiment(str(_write(tmp_path, _doc(record__process='r'))))
+    assert only_recorder.deployed().processes()['vehicle_sim'] is None
+    # real time runs as written, whether it places its nodes or not
+    realtime = load_experiment(str(_write(tmp_path, _doc(clock='realtime'))))
+    assert set(realtime.deployed().processes().values()) == {None}
+    assert realtime.deployed('composed').processes() == free.composed().processes()
+    # process per node, whatever the file places
+    for exp in (free, placed, realtime):
+        assert set(exp.deployed('process_per_node').processes().values()) == {None}
+    assert placed.deployed('process_per_node').deployment_line() == \
+        'process per node (3 processes)'
+    with pytest.raises(ValueError, match="got 'together'"):
+        free.deployed('together')
+    # the installed files: Figure 10 places no node, the sysid and torque-car files one group
+    for name in ('figure10_pi', 'sysid_actuator_steps', 'torque_braking_abs_low'):
+        groups = set(load_experiment(name).deployed().processes().values())
+        assert len(groups) == 1 and None not in groups, (name, groups)
+    assert set(load_experiment('realtime_figure10').deployed().processes().values()) == {None}
+
+
+def test_deployment_options_exclude_each_other_and_offline(capsys):
+    for options in (['--offline', '--composed'], ['--offline', '--process-per-node']):
+        with pytest.raises(SystemExit) as info:
+            experiment_main(['run', 'figure10_pi', *options])
+        assert info.value.code == 2
+        assert 'pick one' in capsys.readouterr().err, options
     with pytest.raises(SystemExit) as info:
-        experiment_main(['run', 'figure10_pi', '--offline', '--composed'])
+        experiment_main(['run', 'figure10_pi', '--composed', '--process-per-node'])
     assert info.value.code == 2
-    assert 'pick one' in capsys.readouterr().err
+    assert 'not allowed with argument' in capsys.readouterr().err
 
 
 @pytest.mark.parametrize('case', sorted(BAD_FILES))
