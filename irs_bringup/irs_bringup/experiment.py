@@ -17,6 +17,7 @@ fastest deployment with the same bag to the bit (``irs_system_tests/test/test_de
 a file that places its nodes, and every real-time file, runs as written. ``--composed`` and
 ``--process-per-node`` choose either deployment for any file.
 """
+from copy import deepcopy
 from dataclasses import dataclass, field, replace
 import math
 from pathlib import Path
@@ -157,14 +158,16 @@ class Experiment:
         One ``container`` process runs the whole graph on one executor, with the in-process
         handover between its nodes: 5-7x faster in lock-step on this 2-core machine than one
         process per node (README, measured figures). The nodes stay separate ROS nodes on
-        topics; only the file's ``process:`` choices are replaced.
+        topics; only the file's ``process:`` choices are replaced (the nodes are copies).
         """
-        return replace(self, nodes=[replace(n, process=process) for n in self.nodes],
+        return replace(self, nodes=[replace(n, process=process) for n in deepcopy(self.nodes)],
                        record_process=process)
 
     def per_node(self) -> 'Experiment':
-        """A copy with every node, and the recorder, in a process of its own."""
-        return replace(self, nodes=[replace(n, process=None) for n in self.nodes],
+        """A copy with every node, and the recorder, in a process of its own (the nodes are
+        copies).
+        """
+        return replace(self, nodes=[replace(n, process=None) for n in deepcopy(self.nodes)],
                        record_process=None)
 
     def places_nodes(self) -> bool:

@@ -138,7 +138,8 @@ def test_the_car_leaving_the_belt_stops_the_run(tmp_path):
     rig.params.update({'u0': 1.2, 'belt_speed0': 1.2})   # ... under a car driving at 1.2 m/s
     driver = exp.node('irs_bringup', 'driver')
     driver.params.update({'profile.times': [0.0], 'profile.speeds': [1.2]})
-    result = ExperimentRunner(exp, runs_dir=tmp_path, progress=False).run()
+    result = ExperimentRunner(exp.deployed(), runs_dir=tmp_path, progress=False).run()
+    assert set(result.exit_codes) == {'graph'}, result.exit_codes
     assert not result.completed
     assert 'the car left the belt (off_belt:front)' in result.message, result.message
     assert result.sim_time < exp.duration
@@ -156,7 +157,8 @@ def test_stopping_the_runner_leaves_no_process_behind(tmp_path, sig):
     exe = resolve_executable('irs_bringup', 'experiment')
     log = open(tmp_path / 'runner.log', 'w')
     runner = subprocess.Popen(
-        [exe, 'run', 'figure10_pi', '--no-plots', '--runs-dir', str(tmp_path)],
+        [exe, 'run', 'figure10_pi', '--process-per-node', '--no-plots', '--runs-dir',
+         str(tmp_path)],
         stdout=log,
         stderr=subprocess.STDOUT,
         start_new_session=True,
@@ -383,6 +385,10 @@ def test_composed_puts_every_node_and_the_recorder_in_one_process_and_leaves_the
     # the loaded experiment is untouched, the rest of the copy is the same
     assert exp.processes()['vehicle_sim'] == 'rig_group' and exp.record_process is None
     assert [(n.name, n.params) for n in together.nodes] == [(n.name, n.params) for n in exp.nodes]
+    together.node('irs_vehicle_sim', 'vehicle_sim').params['x0'] = 0.5     # a copy of its own
+    assert exp.node('irs_vehicle_sim', 'vehicle_sim').params['x0'] == 0.3
+    exp.per_node().node('irs_vehicle_sim', 'vehicle_sim').params['x0'] = 0.5
+    assert exp.node('irs_vehicle_sim', 'vehicle_sim').params['x0'] == 0.3
     assert (together.name, together.duration, together.record_topics) == (
         exp.name, exp.duration, exp.record_topics)
     # without recording there is no recorder to place
