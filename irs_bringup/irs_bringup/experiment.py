@@ -122,6 +122,7 @@ class Experiment:
             params: {plant: identified}                              # overrides, flat names
             remaps: {}
             process: rig           # optional group: nodes with the same one share a process
+                                   # (none in the file: lock-step runs composed, deployed())
         record:
           topics: [arm/joint_states, ...]     # what the recorder writes to the bag ([] = no bag)
           process: loop                       # optional: the recorder composed with that group
