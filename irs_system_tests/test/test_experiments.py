@@ -439,6 +439,11 @@ def test_deployment_options_exclude_each_other_and_offline(capsys):
         experiment_main(['run', 'figure10_pi', '--composed', '--process-per-node'])
     assert info.value.code == 2
     assert 'not allowed with argument' in capsys.readouterr().err
+    from irs_studies.figure10.cli import main as figure10_main
+    with pytest.raises(SystemExit) as info:
+        figure10_main(['--offline', '--process-per-node'])
+    assert info.value.code == 2
+    assert 'pick one' in capsys.readouterr().err
 
 
 @pytest.mark.parametrize('case', sorted(BAD_FILES))
