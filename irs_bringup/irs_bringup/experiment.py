@@ -11,10 +11,13 @@ Clock handling is the runner's job: for ``lockstep`` it sets ``clock_mode: locks
 ``autostart: false`` and ``max_steps`` on the rig and ``use_sim_time: true`` on every other node;
 for ``realtime`` ``clock_mode: realtime``.
 
-Deployment is the file's choice (``process:``), and :meth:`Experiment.composed` (the runner's
-``--composed``) overrides it: every node and the recorder in one ``container`` process. Lock-step
-bags are the same to the bit either way (``irs_system_tests/test/test_deployments.py``).
+Deployment (:meth:`Experiment.deployed`): a lock-step file that places no node (no
+``process:``) runs composed, every node and the recorder in one ``container`` process, the
+fastest deployment with the same bag to the bit (``irs_system_tests/test/test_deployments.py``);
+a file that places its nodes, and every real-time file, runs as written. ``--composed`` and
+``--process-per-node`` choose either deployment for any file.
 """
+from copy import deepcopy
 from dataclasses import dataclass, field, replace
 import math
 from pathlib import Path
@@ -27,6 +30,9 @@ RIG_KEY = ('irs_vehicle_sim', 'vehicle_sim')
 #: The rigs: the simulator and the hardware node (docs/hardware.md), one per experiment.
 HARDWARE_RIG_KEY = ('irs_hardware', 'rig_hardware')
 RIG_KEYS = (RIG_KEY, HARDWARE_RIG_KEY)
+#: How :meth:`Experiment.deployed` places the nodes in processes (``experiment run``:
+#: nothing, ``--composed``, ``--process-per-node``).
+DEPLOYMENTS = ('default', 'composed', 'process_per_node')
 
 #: Topics each node executable publishes and subscribes (relative names), used to wait until the
 #: graph is connected and documented in docs/architecture.md.
@@ -119,6 +125,7 @@ class Experiment:
             params: {plant: identified}                              # overrides, flat names
             remaps: {}
             process: rig           # optional group: nodes with the same one share a process
+                                   # (none in the file: lock-step runs composed, deployed())
         record:
           topics: [arm/joint_states, ...]     # what the recorder writes to the bag ([] = no bag)
           process: loop                       # optional: the recorder composed with that group
@@ -155,10 +162,43 @@ class Experiment:
         One ``container`` process runs the whole graph on one executor, with the in-process
         handover between its nodes: 5-7x faster in lock-step on this 2-core machine than one
         process per node (README, measured figures). The nodes stay separate ROS nodes on
-        topics; only the file's ``process:`` choices are replaced.
+        topics; only the file's ``process:`` choices are replaced (the nodes are copies).
         """
-        return replace(self, nodes=[replace(n, process=process) for n in self.nodes],
+        return replace(self, nodes=[replace(n, process=process) for n in deepcopy(self.nodes)],
                        record_process=process)
+
+    def per_node(self) -> 'Experiment':
+        """A copy with every node, and the recorder, in a process of its own (the nodes are
+        copies).
+        """
+        return replace(self, nodes=[replace(n, process=None) for n in deepcopy(self.nodes)],
+                       record_process=None)
+
+    def places_nodes(self) -> bool:
+        """Whether the file names a ``process:`` group for a node or the recorder."""
+        return self.record_process is not None or any(n.process is not None for n in self.nodes)
+
+    def deployed(self, deployment: str = 'default') -> 'Experiment':
+        """The experiment as :data:`DEPLOYMENTS` ``deployment`` places it in processes.
+
+        ``default``: a lock-step experiment whose file places no node runs :meth:`composed`,
+        since lock-step bags are the same to the bit in either deployment and the composed one
+        runs several times faster; every other file as it places its nodes. Real-time files run
+        as written: the deployment is part of what a real-time run measures (the rig's deadline
+        misses), and no two real-time bags are the same, so the runner cannot prove that one
+        deployment stands for the other. ``composed``: :meth:`composed`; ``process_per_node``:
+        :meth:`per_node`.
+        """
+        if deployment == 'composed':
+            return self.composed()
+        if deployment == 'process_per_node':
+            return self.per_node()
+        if deployment != 'default':
+            raise ValueError(f'deployment: one of {", ".join(DEPLOYMENTS)} expected, '
+                             f'got {deployment!r}')
+        if self.clock == 'lockstep' and not self.places_nodes():
+            return self.composed()
+        return self
 
     def processes(self) -> dict:
         """``{node name: process group}`` (None: its own process), ``recorder`` included when
@@ -168,6 +208,25 @@ class Experiment:
         if self.record_topics:
             out['recorder'] = self.record_process
         return out
+
+    def deployment_line(self) -> str:
+        """How the nodes sit in processes, for the runner's output: ``composed: every node and
+        the recorder in one process 'graph'``, ``process per node (6 processes)``, or the groups.
+        """
+        groups, alone = {}, []
+        for name, group in self.processes().items():
+            if group is None:
+                alone.append(name)
+            else:
+                groups.setdefault(group, []).append(name)
+        if not groups:
+            return f'process per node ({len(alone)} processes)'
+        if len(groups) == 1 and not alone:
+            group, members = next(iter(groups.items()))
+            recorder = ' and the recorder' if 'recorder' in members else ''
+            return f"composed: every node{recorder} in one process '{group}'"
+        parts = [f"'{g}' ({', '.join(m)})" for g, m in groups.items()] + alone
+        return f'{len(parts)} processes: ' + ', '.join(parts)
 
     def with_duration(self, duration: float) -> 'Experiment':
         """A copy that runs ``duration`` s instead (``experiment run --duration``); one

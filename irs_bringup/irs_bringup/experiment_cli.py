@@ -3,14 +3,18 @@
 commands:
   experiment list                        installed experiment files (read only: no ROS started)
   experiment run <name|file.yaml>        run one through the ROS graph, record, plot
+  experiment run <name> --process-per-node   the same with every node in a process of its own
   experiment run <name> --composed       the same with every node in one process
   experiment run <name> --offline        the same cores without ROS: traces, metrics, plots
   experiment run <name> --duration 3     any of these for 3 s instead of the file's duration
   experiment run <name> --view [URL]     stream the run to a rerun viewer while it runs
   experiment recover                     rig/recover: the running rig back from any fault
 
-Every run writes into its own folder under --runs-dir (default runs/): <name>-<time>/ for the
-graph, <name>-offline-<time>/ offline. Exit codes: docs/cli.md.
+A lock-step experiment whose file places no node (no process:) runs composed, every node and
+the recorder in one process (the same bag as a process per node, several times faster); other
+files run as they place their nodes. Every run writes into its own folder under --runs-dir
+(default runs/): <name>-<time>/ for the graph, <name>-offline-<time>/ offline. Exit codes:
+docs/cli.md.
 """
 import argparse
 import sys
@@ -24,7 +28,10 @@ from .experiment import experiments_dir, load_experiment
 DEFAULT_VIEW_URL = 'rerun+http://127.0.0.1:9876/proxy'
 
 COMPOSED_HELP = ('every node and the recorder in one process (one executor, messages handed over '
-                 'in-process; the same lock-step bag, several times faster)')
+                 'in-process), whatever the file places; lock-step files that place no node run '
+                 'so by default')
+PER_NODE_HELP = ('every node and the recorder in a process of its own, whatever the file places '
+                 '(the same lock-step bag as composed, several times slower)')
 
 
 def _post_process(result, log=print):
@@ -49,20 +56,19 @@ def _post_process(result, log=print):
     return written
 
 
-def run_experiment(name, runs_dir='runs', plots=True, log=print, rt_priority=0, composed=False,
-                   duration=None, view=None, view_topics=None):
-    """Run one experiment through the graph; returns the RunResult. ``composed``: every node
-    and the recorder in one process (:meth:`~.experiment.Experiment.composed`); ``duration``
-    [s]: instead of the file's; ``view``: a rerun viewer URL or an ``.rrd`` path for the
-    ``live_view`` node (docs/plots.md), None = no live view; ``view_topics``: its ``topics``
-    (None = all).
+def run_experiment(name, runs_dir='runs', plots=True, log=print, rt_priority=0,
+                   deployment='default', duration=None, view=None, view_topics=None):
+    """Run one experiment through the graph; returns the RunResult. ``deployment``: how the
+    nodes sit in processes (:meth:`~.experiment.Experiment.deployed`: ``default``,
+    ``composed``, ``process_per_node``); ``duration`` [s]: instead of the file's; ``view``: a
+    rerun viewer URL or an ``.rrd`` path for the ``live_view`` node (docs/plots.md), None = no
+    live view; ``view_topics``: its ``topics`` (None = all).
     """
     from .experiment_runner import ExperimentRunner
     exp = load_experiment(name)
     if duration is not None:
         exp = exp.with_duration(duration)
-    if composed:
-        exp = exp.composed()
+    exp = exp.deployed(deployment)
     result = ExperimentRunner(exp, runs_dir=runs_dir, log=log, rt_priority=rt_priority,
                               view=view, view_topics=view_topics).run()
     log(f'[experiment] {exp.name}: {result.message}; simulated {result.sim_time:.3f} s in '
@@ -126,7 +132,11 @@ def build_parser() -> argparse.ArgumentParser:
                        'lock-step, wall time in real time)')
     p_run.add_argument('--no-plots', action='store_true', help='skip plots and the .rrd')
     p_run.add_argument('--offline', action='store_true', help='simulate the cores without ROS')
-    p_run.add_argument('--composed', action='store_true', help=COMPOSED_HELP)
+    placing = p_run.add_mutually_exclusive_group()
+    placing.add_argument('--composed', action='store_const', dest='deployment',
+                         const='composed', default='default', help=COMPOSED_HELP)
+    placing.add_argument('--process-per-node', action='store_const', dest='deployment',
+                         const='process_per_node', help=PER_NODE_HELP)
     p_run.add_argument('--rt-priority', type=int, default=0, metavar='N',
                        help='run every node process with SCHED_FIFO priority N (1-99; needs root '
                        'or CAP_SYS_NICE; 0 = normal scheduling)')
@@ -150,8 +160,9 @@ def _main(argv) -> int:
     if args.cmd == 'recover':
         from irs_vehicle_sim.recover_call import recover
         return 0 if recover() else EXIT_FAILED
-    if args.offline and args.composed:
-        parser.error('--composed runs the graph, --offline runs the cores without it: pick one')
+    if args.offline and args.deployment != 'default':
+        parser.error(f'--{args.deployment.replace("_", "-")} runs the graph, --offline runs the '
+                     'cores without it: pick one')
     if args.offline and args.view is not None:
         parser.error('--view streams a running graph; --offline runs no graph')
     if args.view is not None and not (args.view.endswith('.rrd') or args.view.startswith(
@@ -167,7 +178,7 @@ def _main(argv) -> int:
                     duration=args.duration)
         return 0
     result = run_experiment(args.experiment, args.runs_dir, plots=not args.no_plots,
-                            rt_priority=args.rt_priority, composed=args.composed,
+                            rt_priority=args.rt_priority, deployment=args.deployment,
                             duration=args.duration, view=args.view,
                             view_topics=args.view_topics)
     if result.interrupted is not None:

@@ -1,4 +1,4 @@
-"""Run an experiment: start every node as its own process, wait for the graph, run, shut down.
+"""Run an experiment: start its nodes in their processes, wait for the graph, run, shut down.
 
 The runner makes a run directory (node logs, bag), starts the recorder and every node (a shared
 ``process:`` group in one ``container``), waits until every node and topic endpoint is in the
@@ -334,8 +334,9 @@ class ExperimentRunner:
             self._check_stop()
             self._start_devices(logs)
             self._start_nodes(logs, env, extra)
-            self.log(f'[experiment] {exp.name}: started {len(self.procs)} processes, '
-                     f'logs in {logs}')
+            n = len(self.procs)
+            self.log(f'[experiment] {exp.name}: {exp.deployment_line()}; started {n} '
+                     f"process{'es' if n != 1 else ''}, logs in {logs}")
             self._wait_for_graph(watcher)
             if self.rt_priority:
                 self.log(f'[experiment] {self.scheduling_report()}')

@@ -6,8 +6,9 @@ from pathlib import Path
 __all__ = ['run_experiment', 'save_figure']
 
 
-def run_experiment(name_or_path, runs_dir: Path) -> Path:
-    """Run one experiment through the graph (lock-step); its bag directory.
+def run_experiment(name_or_path, runs_dir: Path, deployment: str = 'default') -> Path:
+    """Run one experiment through the graph (lock-step), placed in processes as ``deployment``
+    says (:meth:`~irs_bringup.experiment.Experiment.deployed`); its bag directory.
 
     :class:`~irs_common.cli.RunFailed` (with the runner's reason) when the run did not
     complete; :class:`~irs_common.cli.Interrupted` when a signal stopped it.
@@ -16,8 +17,8 @@ def run_experiment(name_or_path, runs_dir: Path) -> Path:
     from irs_bringup.experiment import load_experiment
     from irs_bringup.experiment_runner import ExperimentRunner
 
-    res = ExperimentRunner(load_experiment(str(name_or_path)), runs_dir=Path(runs_dir),
-                           progress=False).run()
+    exp = load_experiment(str(name_or_path)).deployed(deployment)
+    res = ExperimentRunner(exp, runs_dir=Path(runs_dir), progress=False).run()
     if res.interrupted:
         raise Interrupted(res.interrupted)
     if not res.completed or res.bag_dir is None:

@@ -91,7 +91,7 @@ def _run_experiment(exp, runs_dir: Path, offline: bool) -> dict:
 
     if not offline:
         from irs_bringup.experiment_runner import ExperimentRunner
-        res = ExperimentRunner(exp, runs_dir=runs_dir, progress=False).run()
+        res = ExperimentRunner(exp.deployed(), runs_dir=runs_dir, progress=False).run()
         if not res.completed or res.bag_dir is None:
             raise RunFailed(f'{exp.name} did not complete: {res.message}')
         out = load_run(res.bag_dir)

@@ -342,7 +342,8 @@ def reproduce_figures(img_dir: Path, runs_dir: Path) -> dict:
 
     bags = {}
     for name in ('sysid_vehicle_sweep', 'sysid_vehicle_step'):
-        res = ExperimentRunner(load_experiment(name), runs_dir=runs_dir, progress=False).run()
+        res = ExperimentRunner(load_experiment(name).deployed(), runs_dir=runs_dir,
+                               progress=False).run()
         if not res.completed or res.bag_dir is None:
             raise RunFailed(f'{name} did not complete: {res.message}')
         bags[name] = res.bag_dir

@@ -1,16 +1,31 @@
-"""Composition: the same experiment composed in one process or one process per node.
+"""Deployment: the default deployment records the same bag as one process per node.
 
-Lock-step runs are reproducible to the bit whatever the deployment: the composed graph (every
-node and the recorder in one ``container`` process, one executor) and the process-per-node
-graph record the same messages, every field bit for bit, on every topic. Receive times differ by
-nature; a lock-step resend records identical duplicates, so distinct messages per topic are
-compared.
+Lock-step runs are reproducible to the bit whatever the deployment, which is why a lock-step
+experiment runs composed by default (``Experiment.deployed``): every node and the recorder in
+one ``container`` process, one executor. For each experiment family that runs so (Figure 10, a
+sysid experiment, the torque car), a short run in the default deployment and one with a
+process per node record the same messages, every field bit for bit, on every topic. Receive
+times differ by nature; a lock-step resend records identical duplicates, so distinct messages
+per topic are compared.
 """
 import json
+
+import pytest
 
 from irs_bag.reader import BagReader
 from irs_bringup.experiment import load_experiment
 from irs_bringup.experiment_runner import ExperimentRunner
+
+#: experiment -> (duration [s]: long enough for its first event, a topic the rig publishes at
+#: every 1 ms step).
+CASES = {
+    # the reference step at 0.5 s and half a second of the MRC's answer
+    'figure10_mrc_with_actuator': (1.0, '/arm/joint_states'),
+    # the first steer step (1 deg at 0.5 s) and its release at 1.1 s through the servo model
+    'sysid_actuator_steps': (1.2, '/steering/state'),
+    # braking from 0.05 s: fixed-target ABS cycling on split mu, the tyres' truth recorded
+    'torque_braking_abs_split': (0.4, '/wheels/encoders'),
+}
 
 
 def _message_class(type_name: str):
@@ -35,34 +50,33 @@ def _payloads(bag_dir) -> dict:
     return out
 
 
-def _experiment(composed: bool):
-    exp = load_experiment('figure10_mrc_with_actuator')
-    exp.name = 'deployment_' + ('composed' if composed else 'processes')
-    exp.duration = 1.0                        # [s] the step at 0.5 s and half a second after
-    # composed: the recorder too, in-process (irs_bringup's ComposableRecorder)
-    return exp.composed('loop') if composed else exp
+def _run(exp, runs_dir) -> dict:
+    """Run ``exp``; its payloads, after checking the processes and the bag's metadata."""
+    result = ExperimentRunner(exp, runs_dir=runs_dir, progress=False).run()
+    assert result.completed, result.message
+    groups = set(exp.processes().values())
+    assert set(result.exit_codes) == (groups if None not in groups else set(exp.processes()))
+    assert all(code == 0 for code in result.exit_codes.values()), result.exit_codes
+    with BagReader(result.bag_dir) as reader:   # the deployment is in the bag's metadata
+        recorded = json.loads(dict(reader.metadata_records())['irs_experiment']['processes'])
+    assert recorded == exp.processes()
+    return _payloads(result.bag_dir)
 
 
-def test_composed_and_process_per_node_record_identical_bags(tmp_path):
-    bags = {}
-    for composed in (False, True):
-        exp = _experiment(composed)
-        result = ExperimentRunner(exp, runs_dir=tmp_path / 'runs', progress=False).run()
-        assert result.completed, result.message
-        if composed:   # one container for the five nodes and the recorder
-            assert set(result.exit_codes) == {'loop'}, result.exit_codes
-        else:
-            assert len(result.exit_codes) == 6, result.exit_codes
-        assert all(code == 0 for code in result.exit_codes.values()), result.exit_codes
-        bags[composed] = _payloads(result.bag_dir)
-        with BagReader(result.bag_dir) as reader:   # the deployment is in the bag's metadata
-            processes = json.loads(dict(reader.metadata_records())['irs_experiment']['processes'])
-        assert processes == {name: ('loop' if composed else None)
-                             for name in [*(n.name for n in exp.nodes), 'recorder']}
-    separate, composed = bags[False], bags[True]
-    assert set(separate) == set(composed) == {'/' + t.lstrip('/') for t in exp.record_topics}
-    for topic in separate:
-        assert len(separate[topic]) > 0
-        assert separate[topic] == composed[topic], f'{topic} differs between the deployments'
-    # 1 s at 1 kHz: steps 0..1000 on a 1 kHz topic (the step response itself is in the data).
-    assert len(separate['/arm/joint_states']) == 1001
+@pytest.mark.parametrize('name', sorted(CASES))
+def test_default_deployment_records_the_bag_of_process_per_node(tmp_path, name):
+    duration, every_step = CASES[name]
+    exp = load_experiment(name).with_duration(duration)
+    default, separate = exp.deployed(), exp.deployed('process_per_node')
+    # the default: the nodes and the recorder in one process; the other: one process each
+    assert len(set(default.processes().values())) == 1, default.processes()
+    assert None not in default.processes().values(), default.processes()
+    assert set(separate.processes().values()) == {None}
+    default.name, separate.name = f'{name}_default', f'{name}_per_node'
+    composed, per_node = _run(default, tmp_path), _run(separate, tmp_path)
+    assert set(per_node) == set(composed) == {'/' + t.lstrip('/') for t in exp.record_topics}
+    for topic in per_node:
+        assert len(per_node[topic]) > 0, topic
+        assert per_node[topic] == composed[topic], f'{topic} differs between the deployments'
+    # every 1 ms step of the run is in the bags: steps 0 .. duration / dt
+    assert len(per_node[every_step]) == round(duration * 1000) + 1

@@ -138,7 +138,8 @@ def test_the_car_leaving_the_belt_stops_the_run(tmp_path):
     rig.params.update({'u0': 1.2, 'belt_speed0': 1.2})   # ... under a car driving at 1.2 m/s
     driver = exp.node('irs_bringup', 'driver')
     driver.params.update({'profile.times': [0.0], 'profile.speeds': [1.2]})
-    result = ExperimentRunner(exp, runs_dir=tmp_path, progress=False).run()
+    result = ExperimentRunner(exp.deployed(), runs_dir=tmp_path, progress=False).run()
+    assert set(result.exit_codes) == {'graph'}, result.exit_codes
     assert not result.completed
     assert 'the car left the belt (off_belt:front)' in result.message, result.message
     assert result.sim_time < exp.duration
@@ -156,7 +157,8 @@ def test_stopping_the_runner_leaves_no_process_behind(tmp_path, sig):
     exe = resolve_executable('irs_bringup', 'experiment')
     log = open(tmp_path / 'runner.log', 'w')
     runner = subprocess.Popen(
-        [exe, 'run', 'figure10_pi', '--no-plots', '--runs-dir', str(tmp_path)],
+        [exe, 'run', 'figure10_pi', '--process-per-node', '--no-plots', '--runs-dir',
+         str(tmp_path)],
         stdout=log,
         stderr=subprocess.STDOUT,
         start_new_session=True,
@@ -383,6 +385,10 @@ def test_composed_puts_every_node_and_the_recorder_in_one_process_and_leaves_the
     # the loaded experiment is untouched, the rest of the copy is the same
     assert exp.processes()['vehicle_sim'] == 'rig_group' and exp.record_process is None
     assert [(n.name, n.params) for n in together.nodes] == [(n.name, n.params) for n in exp.nodes]
+    together.node('irs_vehicle_sim', 'vehicle_sim').params['x0'] = 0.5     # a copy of its own
+    assert exp.node('irs_vehicle_sim', 'vehicle_sim').params['x0'] == 0.3
+    exp.per_node().node('irs_vehicle_sim', 'vehicle_sim').params['x0'] = 0.5
+    assert exp.node('irs_vehicle_sim', 'vehicle_sim').params['x0'] == 0.3
     assert (together.name, together.duration, together.record_topics) == (
         exp.name, exp.duration, exp.record_topics)
     # without recording there is no recorder to place
@@ -390,9 +396,52 @@ def test_composed_puts_every_node_and_the_recorder_in_one_process_and_leaves_the
     assert 'recorder' not in quiet.composed().processes()
 
 
-def test_composed_and_offline_exclude_each_other(capsys):
+def test_default_deployment_composes_lockstep_files_that_place_no_node(tmp_path):
+    free = load_experiment(str(_write(tmp_path, _doc())))
+    assert free.deployed().processes() == free.composed().processes() == {
+        'vehicle_sim': 'graph', 'treadmill_regulator': 'graph', 'recorder': 'graph'}
+    assert free.deployed().deployment_line() == \
+        "composed: every node and the recorder in one process 'graph'"
+    # a file that places its nodes runs as written, the recorder included
+    placed = load_experiment(str(_write(tmp_path, _doc(
+        **{VS + 'process': 'rig_group', 'record__process': 'rig_group'}))))
+    assert placed.deployed().processes() == placed.processes() == {
+        'vehicle_sim': 'rig_group', 'treadmill_regulator': None, 'recorder': 'rig_group'}
+    assert placed.deployed().deployment_line() == \
+        "2 processes: 'rig_group' (vehicle_sim, recorder), treadmill_regulator"
+    only_recorder = load_experiment(str(_write(tmp_path, _doc(record__process='r'))))
+    assert only_recorder.deployed().processes()['vehicle_sim'] is None
+    # real time runs as written, whether it places its nodes or not
+    realtime = load_experiment(str(_write(tmp_path, _doc(clock='realtime'))))
+    assert set(realtime.deployed().processes().values()) == {None}
+    assert realtime.deployed('composed').processes() == free.composed().processes()
+    # process per node, whatever the file places
+    for exp in (free, placed, realtime):
+        assert set(exp.deployed('process_per_node').processes().values()) == {None}
+    assert placed.deployed('process_per_node').deployment_line() == \
+        'process per node (3 processes)'
+    with pytest.raises(ValueError, match="got 'together'"):
+        free.deployed('together')
+    # the installed files: Figure 10 places no node, the sysid and torque-car files one group
+    for name in ('figure10_pi', 'sysid_actuator_steps', 'torque_braking_abs_low'):
+        groups = set(load_experiment(name).deployed().processes().values())
+        assert len(groups) == 1 and None not in groups, (name, groups)
+    assert set(load_experiment('realtime_figure10').deployed().processes().values()) == {None}
+
+
+def test_deployment_options_exclude_each_other_and_offline(capsys):
+    for options in (['--offline', '--composed'], ['--offline', '--process-per-node']):
+        with pytest.raises(SystemExit) as info:
+            experiment_main(['run', 'figure10_pi', *options])
+        assert info.value.code == 2
+        assert 'pick one' in capsys.readouterr().err, options
     with pytest.raises(SystemExit) as info:
-        experiment_main(['run', 'figure10_pi', '--offline', '--composed'])
+        experiment_main(['run', 'figure10_pi', '--composed', '--process-per-node'])
+    assert info.value.code == 2
+    assert 'not allowed with argument' in capsys.readouterr().err
+    from irs_studies.figure10.cli import main as figure10_main
+    with pytest.raises(SystemExit) as info:
+        figure10_main(['--offline', '--process-per-node'])
     assert info.value.code == 2
     assert 'pick one' in capsys.readouterr().err
 

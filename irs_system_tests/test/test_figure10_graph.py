@@ -75,15 +75,13 @@ def settling(run, band):
 
 
 def test_figure10_through_the_graph(tmp_path):
-    # The first run as its file deploys it (a process per node, as `make demo` runs it), the
-    # other two composed in one process (an 8 s run in about 4 s instead of 22-40 s): the
-    # digests, written from process-per-node runs, hold for both deployments.
+    # The default deployment, as `make demo` runs it: every node and the recorder in one
+    # process. The digests hold for either deployment (test_deployments.py).
     runs, digests = {}, {}
-    for i, (key, name) in enumerate(FIGURE10.items()):
-        result = run_experiment(name, runs_dir=tmp_path, plots=False, composed=i > 0)
+    for key, name in FIGURE10.items():
+        result = run_experiment(name, runs_dir=tmp_path, plots=False)
         assert result.completed, result.message
-        assert all(code == 0 for code in result.exit_codes.values()), result.exit_codes
-        assert len(result.exit_codes) == (6 if i == 0 else 1), result.exit_codes
+        assert result.exit_codes == {'graph': 0}, result.exit_codes
         run = lateral_run(result.bag_dir)
         off = offline_run(name)
         idx = np.round(run['time'] * 1000).astype(int)

@@ -128,7 +128,7 @@ def graph_series(bag_dir) -> dict:
 
 
 def test_hil_figure10_matches_vehicle_sim_within_the_derived_tolerance(tmp_path):
-    result = run_experiment('hil_figure10', runs_dir=tmp_path, plots=False, composed=True)
+    result = run_experiment('hil_figure10', runs_dir=tmp_path, plots=False)
     assert result.completed, result.message
     assert all(code == 0 for code in result.exit_codes.values()), result.exit_codes
     twin = offline_run('hil_figure10')

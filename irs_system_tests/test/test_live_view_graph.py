@@ -47,7 +47,7 @@ def test_view_streams_the_entities_of_run_rrd_while_the_graph_runs(tmp_path):
     sink = subprocess.Popen([str(rerun_exe), '--port', str(port), '--save', str(live)],
                             stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
     try:
-        result = run_experiment('figure10_mrc_with_actuator', runs_dir=tmp_path, composed=True,
+        result = run_experiment('figure10_mrc_with_actuator', runs_dir=tmp_path,
                                 duration=DURATION, view=f'rerun+http://127.0.0.1:{port}/proxy',
                                 view_topics=TOPICS,
                                 log=lambda *_: None)

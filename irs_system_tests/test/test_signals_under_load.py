@@ -99,7 +99,8 @@ def _check(cmd, elapsed, bound, codes, what):
 
 
 # ------------------------------------------------------------------------------ the runner
-RUNNER = ['run', 'figure10_pi', '--no-plots', '--duration', '60', '--runs-dir', 'runs']
+RUNNER = ['run', 'figure10_pi', '--process-per-node', '--no-plots', '--duration', '60',
+          '--runs-dir', 'runs']
 
 
 @pytest.mark.parametrize('moment,sig,again,code', [

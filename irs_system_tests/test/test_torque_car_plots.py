@@ -473,3 +473,9 @@ def test_installed_executable_gives_one_line(tmp_path):
     assert res.returncode == 2
     assert res.stderr.strip().splitlines() == [
         f'torque_car: error: {tmp_path / "missing"}: no such run directory or bag']
+
+
+def test_process_per_node_without_run_is_one_line(tmp_path, capsys):
+    """--process-per-node places the nodes of --run: without --run it is one line, exit 2."""
+    err = _one_line_error(capsys, ['--process-per-node', str(tmp_path / 'some_run')])
+    assert err == 'torque_car: error: --process-per-node places the nodes of --run: add --run'

@@ -1,9 +1,10 @@
 """``figure10``: the paper's Figure 10, three runs through the graph and their report.
 
-    ./irs run irs_studies figure10 [--offline | --composed] [--runs-dir runs] [--out DIR]
+    ./irs run irs_studies figure10 [--offline | --process-per-node] [--runs-dir runs] [--out DIR]
 
 Runs ``figure10_mrc_with_actuator``, ``figure10_mrc_without_actuator`` and ``figure10_pi``
-(lock-step, recorded), reads each bag back and writes ``figure10.png`` and
+(lock-step, recorded; each composed in one process, or with ``--process-per-node`` a process per
+node: the same bags), reads each bag back and writes ``figure10.png`` and
 ``figure10_metrics.md`` (:mod:`.report`) into ``--out`` (default ``<runs-dir>/figure10``).
 ``--offline`` runs the same cores without ROS (:mod:`irs_bringup.offline_twin`); its report goes
 to ``<runs-dir>/figure10-offline`` by default, never over the graph's. ``make demo`` runs this
@@ -13,7 +14,7 @@ import argparse
 from pathlib import Path
 import sys
 
-from irs_bringup.experiment_cli import COMPOSED_HELP
+from irs_bringup.experiment_cli import PER_NODE_HELP
 from irs_common.cli import Interrupted, RunFailed, run_cli
 
 FIGURE10 = {'mrc_with_actuator': 'figure10_mrc_with_actuator',
@@ -21,7 +22,7 @@ FIGURE10 = {'mrc_with_actuator': 'figure10_mrc_with_actuator',
             'pi': 'figure10_pi'}
 
 
-def figure10(out_dir, offline=False, runs_dir='runs', log=print, composed=False) -> int:
+def figure10(out_dir, offline=False, runs_dir='runs', log=print, deployment='default') -> int:
     from irs_bag.run_series import lateral_run
     from irs_bringup.experiment_cli import run_experiment
     from irs_bringup.offline_twin.from_experiment import offline_run
@@ -32,7 +33,7 @@ def figure10(out_dir, offline=False, runs_dir='runs', log=print, composed=False)
         if offline:
             runs[key] = offline_run(name)
             continue
-        result = run_experiment(name, runs_dir=runs_dir, log=log, composed=composed)
+        result = run_experiment(name, runs_dir=runs_dir, log=log, deployment=deployment)
         if result.interrupted:
             raise Interrupted(result.interrupted)
         if not result.completed:
@@ -54,17 +55,19 @@ def figure10(out_dir, offline=False, runs_dir='runs', log=print, composed=False)
 def _main(argv) -> int:
     parser = argparse.ArgumentParser(prog='figure10', description=__doc__.splitlines()[0])
     parser.add_argument('--offline', action='store_true', help='simulate the cores without ROS')
-    parser.add_argument('--composed', action='store_true', help=COMPOSED_HELP)
+    parser.add_argument('--process-per-node', action='store_true', help=PER_NODE_HELP)
     parser.add_argument('--runs-dir', default='runs', help='where run directories go')
     parser.add_argument('--out', default=None,
                         help='report directory (default: <runs-dir>/figure10, offline '
                         '<runs-dir>/figure10-offline)')
     args = parser.parse_args(argv)
-    if args.offline and args.composed:
-        parser.error('--composed runs the graph, --offline runs the cores without it: pick one')
+    if args.offline and args.process_per_node:
+        parser.error('--process-per-node runs the graph, --offline runs the cores without it: '
+                     'pick one')
     default = 'figure10-offline' if args.offline else 'figure10'
     out = args.out or str(Path(args.runs_dir) / default)
-    return figure10(out, offline=args.offline, runs_dir=args.runs_dir, composed=args.composed)
+    return figure10(out, offline=args.offline, runs_dir=args.runs_dir,
+                    deployment='process_per_node' if args.process_per_node else 'default')
 
 
 def main(argv=None) -> int:

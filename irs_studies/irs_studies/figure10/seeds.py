@@ -294,7 +294,9 @@ def _flat(summary: dict) -> dict:
 
 
 def _graph_check(runs_dir: Path, metrics_traces) -> dict:
-    """Two cases through the lock-step graph (composed): their y_s vs the offline run."""
+    """Two cases through the lock-step graph (the default deployment: composed): their y_s vs
+    the offline run.
+    """
     import yaml
 
     from irs_bringup.experiment import find_experiment
@@ -310,8 +312,6 @@ def _graph_check(runs_dir: Path, metrics_traces) -> dict:
         name = f'figure10_{design}_{int(round(step * 1000))}mm_{aw}'
         doc['name'] = name
         doc['description'] = f'{doc["description"]} ({step:g} m step, anti_windup {aw})'
-        for node in doc['nodes'].values():
-            node['process'] = 'loop'
         doc['nodes']['reference_generator'].setdefault('params', {})['signal.amplitude'] = step
         doc['nodes']['lateral_controller'].setdefault('params', {})['anti_windup'] = aw
         path = runs_dir / f'{name}.yaml'

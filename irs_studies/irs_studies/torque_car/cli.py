@@ -2,6 +2,7 @@
 
     ./irs run irs_studies torque_car runs/torque_braking_abs_low-<time> ... [--out DIR]
     ./irs run irs_studies torque_car --run [--out DIR]     # run the experiments first
+    ./irs run irs_studies torque_car --run --process-per-node   # ... a process per node
 
 Each argument is a run directory (``<run>/bag``), a bag directory or an ``.mcap`` file of one of
 the experiments in :data:`EXPERIMENTS`; the experiment is told by the bag's metadata (else by
@@ -10,9 +11,10 @@ to ``--metrics`` (JSON, default ``<out>/metrics.json``) and the figures (:mod:`.
 ``--out`` (default ``runs/torque_car``): ``torque_braking_<surface>.png`` (locked wheels, the
 fixed-target and the peak-seeking ABS, per surface: high, low, split and a mid-stop step),
 ``torque_split_yaw.png`` and ``torque_step_steer.png``. ``--run`` runs the experiments through
-the graph (lock-step, one after the other, bags under ``--runs-dir``) and then does the same
-with their bags. A bad file or argument is one line on stderr and exit code 2; an experiment
-that did not complete is one line, the others go on, exit code 1 (docs/cli.md).
+the graph (lock-step, one after the other, bags under ``--runs-dir``; composed in one process as
+their files place them, or with ``--process-per-node`` a process per node: the same bags) and
+then does the same with their bags. A bad file or argument is one line on stderr and exit code
+2; an experiment that did not complete is one line, the others go on, exit code 1 (docs/cli.md).
 """
 from __future__ import annotations
 
@@ -98,14 +100,16 @@ def _figures(braking: dict, steer: dict, out: Path) -> list:
     return figures
 
 
-def run_experiments(names, runs_dir: Path, warn=print) -> list:
-    """Run the experiments ``names`` through the graph; the bags of those that completed."""
+def run_experiments(names, runs_dir: Path, warn=print, deployment='default') -> list:
+    """Run the experiments ``names`` through the graph, placed in processes as ``deployment``
+    says (:meth:`irs_bringup.experiment.Experiment.deployed`); the bags of those that completed.
+    """
     from irs_sysid.common import run_experiment
     bags = []
     for i, name in enumerate(names, 1):
         print(f'{PROG}: running {name} ({i}/{len(names)})', flush=True)
         try:
-            bags.append(run_experiment(name, runs_dir))
+            bags.append(run_experiment(name, runs_dir, deployment))
         except (RunFailed, InputError, OSError) as exc:
             warn(f'{PROG}: error: {exc}')
     return bags
@@ -118,6 +122,9 @@ def build_parser() -> argparse.ArgumentParser:
                    help='run the experiments through the graph first (see --experiments)')
     p.add_argument('--experiments', nargs='+', default=list(EXPERIMENTS), metavar='NAME',
                    help=f'experiments for --run (default: all {len(EXPERIMENTS)})')
+    p.add_argument('--process-per-node', action='store_true',
+                   help='with --run: every node and the recorder in a process of its own '
+                   '(the same bags, several times slower)')
     p.add_argument('--runs-dir', type=Path, default=Path('runs'),
                    help='where --run puts its runs (default runs/)')
     p.add_argument('--out', type=Path, default=Path('runs/torque_car'),
@@ -134,9 +141,12 @@ def _main(argv) -> int:
     def warn(line):
         print(line, file=sys.stderr, flush=True)
 
+    if args.process_per_node and not args.run:
+        raise InputError('--process-per-node places the nodes of --run: add --run')
     paths, failed = list(args.paths), False
     if args.run:
-        bags = run_experiments(args.experiments, args.runs_dir, warn)
+        bags = run_experiments(args.experiments, args.runs_dir, warn,
+                               'process_per_node' if args.process_per_node else 'default')
         failed = len(bags) < len(args.experiments)
         paths += bags
     if not paths:
