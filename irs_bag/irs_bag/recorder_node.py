@@ -57,6 +57,7 @@ from rclpy.node import Node
 from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
 from std_msgs.msg import String
 
+from irs_common.cli import held_signals
 from irs_common.node_main import run_node
 from irs_common.params import declare_table
 
@@ -159,14 +160,17 @@ class Recorder(Node):
         self._next_count = 0
         self.status_pub = None
         self.output = output_directory(self.p['output'])
+        # a signal while the bag is created is held until the writer is ours to close
+        with held_signals() as held:
+            try:
+                # background: the chunks are written by the bag's writer thread, so a composed
+                # 1 kHz loop does not stop for the 50-100 ms of writing a chunk
+                self.writer = BagWriter(self.output, chunk_size=int(self.p['chunk_size']),
+                                        compression=self.p['compression'], background=True)
+            except BagWriterError as exc:
+                raise ValueError(str(exc)) from None
         try:
-            # background: the chunks are written by the bag's writer thread, so a composed
-            # 1 kHz loop does not stop for the 50-100 ms of writing a chunk
-            self.writer = BagWriter(self.output, chunk_size=int(self.p['chunk_size']),
-                                    compression=self.p['compression'], background=True)
-        except BagWriterError as exc:
-            raise ValueError(str(exc)) from None
-        try:
+            held.deliver()
             self._start(meta, topics)
         except BaseException:
             # a signal or an error before the node is handed to the executor: nobody will

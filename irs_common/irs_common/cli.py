@@ -118,6 +118,14 @@ class SignalGuard:
             return
         raise Interrupted(signum)
 
+    def held(self) -> 'HeldSignals':
+        """A ``with`` block that a first signal does not cut: the signal is noted and
+        :meth:`HeldSignals.deliver` acts on it afterwards (raises :class:`Interrupted`, or calls
+        ``on_first``). For a step whose result must be kept to be cleaned up: a file created and
+        its handle returned.
+        """
+        return HeldSignals(self)
+
     def force_exit(self, signum):
         """A second signal: run the hooks, leave at once (no clean-up, no traceback)."""
         for hook in list(self.force_hooks):
@@ -134,7 +142,47 @@ class SignalGuard:
         os._exit(128 + signum)
 
 
-#: The guard of the running command (set by :func:`run_cli`); None outside a command.
+class HeldSignals:
+    """:meth:`SignalGuard.held`: hold a first signal for a ``with`` block."""
+
+    def __init__(self, guard: SignalGuard | None):
+        self.guard = guard
+        self._before = None
+        self._previous = None
+
+    def __enter__(self) -> 'HeldSignals':
+        if self.guard is not None:
+            self._before = self.guard.signum
+            self._previous = self.guard.on_first
+            self.guard.on_first = _note_only
+        return self
+
+    def __exit__(self, *exc) -> None:
+        if self.guard is not None:
+            self.guard.on_first = self._previous
+
+    def deliver(self) -> None:
+        """Act on a signal that came during the block, as it would have acted then."""
+        guard = self.guard
+        if guard is None or guard.signum is None or guard.signum == self._before:
+            return
+        if self._previous is not None:
+            self._previous(guard.signum)
+        else:
+            raise Interrupted(guard.signum)
+
+
+def _note_only(_signum) -> None:
+    """``on_first`` inside :meth:`SignalGuard.held`: the guard has noted the signal."""
+
+
+def held_signals() -> HeldSignals:
+    """:meth:`SignalGuard.held` of the running command's guard (a no-op without one)."""
+    return HeldSignals(GUARD)
+
+
+#: The guard of the running command (set by :func:`run_cli` and ``run_nodes``); None outside a
+#: command.
 GUARD: SignalGuard | None = None
 
 

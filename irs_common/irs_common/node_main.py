@@ -28,6 +28,7 @@ from rclpy.executors import ExternalShutdownException
 from rclpy.impl.implementation_singleton import rclpy_implementation as _rclpy
 from rclpy.signals import SignalHandlerOptions
 
+from . import cli
 from .cli import SignalGuard
 from .executor import LeanExecutor
 from .intra_process import enabled_by_env as intra_process_enabled
@@ -95,7 +96,7 @@ def run_nodes(factories, args=None, guard=None) -> int:
     experiment run X`` profiles every node of a run.
     """
     own_guard = guard is None
-    guard = guard or SignalGuard().install()
+    guard = _take_guard(guard)
     rt_note = set_realtime_priority()
     nodes = []
     executor = None
@@ -146,8 +147,24 @@ def run_nodes(factories, args=None, guard=None) -> int:
             node.destroy_node()
         rclpy.try_shutdown()
         if own_guard and args is not None:
-            guard.restore()   # called in-process; as the process's main the guard stays
+            _release_guard(guard)   # called in-process; as the process's main the guard stays
     return 0
+
+
+def _take_guard(guard: SignalGuard | None) -> SignalGuard:
+    """The caller's guard, or a new one installed; the running command's guard
+    (:func:`irs_common.cli.held_signals` in the nodes' start-up) unless one is set.
+    """
+    guard = guard or SignalGuard().install()
+    if cli.GUARD is None:
+        cli.GUARD = guard
+    return guard
+
+
+def _release_guard(guard: SignalGuard) -> None:
+    guard.restore()
+    if cli.GUARD is guard:
+        cli.GUARD = None
 
 
 def _build_nodes(factories, nodes: list, args) -> None:

@@ -95,3 +95,40 @@ def test_a_second_signal_during_clean_up_leaves_at_once(tmp_path):
     assert proc.returncode == 128 + signal.SIGTERM
     assert out == 'hook ran\n' and 'SIGTERM again: stopped at once' in err
     assert 'Traceback' not in err
+
+
+def test_a_signal_during_a_held_block_is_delivered_after_it():
+    """The recorder creates its bag inside ``held_signals()``: a SIGINT landing in the middle
+    must not cut the creation (the writer would be lost, the bag left unclosed, no closing
+    line); it is acted on right after, as an :class:`Interrupted` the caller's clean-up sees.
+    """
+    from irs_common import cli
+    guard = cli.SignalGuard()
+    with pytest.raises(cli.Interrupted):          # outside a held block: raised at once
+        guard._handle(signal.SIGINT, None)
+    guard = cli.SignalGuard()
+    cli.GUARD, before = guard, cli.GUARD
+    try:
+        steps = []
+        with cli.held_signals() as held:
+            steps.append('file created')
+            guard._handle(signal.SIGINT, None)    # not raised here
+            steps.append('handle kept')
+        assert steps == ['file created', 'handle kept']
+        with pytest.raises(cli.Interrupted):
+            held.deliver()
+        assert guard.on_first is None            # the guard's own handling is back
+        with cli.held_signals() as quiet:        # no new signal in this block: nothing to do
+            pass
+        quiet.deliver()
+        stops = []
+        guard2 = cli.SignalGuard()
+        guard2.on_first = stops.append           # a running executor's stop hook
+        cli.GUARD = guard2
+        with cli.held_signals() as held:
+            guard2._handle(signal.SIGTERM, None)
+        assert stops == []
+        held.deliver()
+        assert stops == [signal.SIGTERM]
+    finally:
+        cli.GUARD = before
