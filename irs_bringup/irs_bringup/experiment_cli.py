@@ -53,9 +53,10 @@ def _post_process(result, log=print, wait=True):
         from irs_bag.views import DONE_FILE, LOG_FILE, start_views
         run = result.run_dir
         proc = start_views(result.bag_dir, run)
-        log(f'[experiment] plots and run.rrd: being made in the background (pid {proc.pid}) '
-            f'into {run / "plots"}/ and {run / "run.rrd"}; done when {run / DONE_FILE} exists '
-            f'(log {run / LOG_FILE}; --wait-plots waits for them)')
+        log(f'[experiment] plots and run.rrd: being made in the background (pid {proc.pid}), '
+            f'into {run / "plots"}/ and {run / "run.rrd"}')
+        log(f'[experiment] they are done when {run / DONE_FILE} exists (log {run / LOG_FILE}; '
+            '--wait-plots waits for them)')
         return written
     from irs_bag.views import make_views       # plots and run.rrd from one read of the bag
     written += make_views(result.bag_dir, result.run_dir, log)

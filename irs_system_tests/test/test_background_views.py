@@ -30,8 +30,9 @@ def test_the_prompt_comes_back_before_the_plots_which_then_appear(tmp_path):
     (run,) = (tmp_path / 'runs').glob('figure10_pi-*')
     done = run / 'views.done'
     assert not done.exists()          # made after the prompt (its imports alone take ~1 s)
-    m = re.search(r'plots and run\.rrd: being made in the background \(pid (\d+)\) into '
-                  r'(\S+)/ and (\S+); done when (\S+) exists \(log (\S+);', res.stdout)
+    m = re.search(r'plots and run\.rrd: being made in the background \(pid (\d+)\), into '
+                  r'(\S+)/ and (\S+)\n.*they are done when (\S+) exists \(log (\S+);',
+                  res.stdout)
     assert m, res.stdout[-2000:]
     pid = int(m.group(1))
     assert [m.group(i) for i in (2, 3, 4, 5)] == [
