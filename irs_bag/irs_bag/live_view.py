@@ -4,7 +4,8 @@
 entities are made of (the same field paths as the bag export, :class:`irs_bag.columns._Plan`),
 and :meth:`LiveFeed.flush` sends what arrived since the last flush to a rerun recording stream
 with :func:`irs_bag.rerun_entities.send`: one ``send_columns`` call per entity and batch, never
-one log call per message. Timeline ``time``: seconds from the first ``header.stamp`` the feed
+one log call per message. The car comes from ``ground_truth/odom`` once any arrived (else from
+``pose``), as in ``run.rrd``. Timeline ``time``: seconds from the first ``header.stamp`` the feed
 saw (sim time in lock-step runs), so a live recording lines up with ``run.rrd`` to within the
 first messages a late viewer missed. No rclpy here: :mod:`irs_bag.live_view_node` feeds it.
 """
@@ -34,12 +35,14 @@ class LiveFeed:
         self.t0: Optional[float] = None         # [s] first stamp seen
         self._plans: Dict[str, _Plan] = {s: _Plan(cols) for s, cols in SPEC.items()}
         self.fed = 0                             # messages fed in all
+        self.odom_seen = False                   # the car then comes from odometry alone
         self._last_bin: Dict[str, float] = {}    # per suffix: decimation bin last sent
 
     def add(self, suffix: str, msg, recv_ns: int = 0) -> None:
         """Keep ``msg`` (a message of the topic ``suffix`` of SPEC), received at ``recv_ns``."""
         self._plans[suffix].take(msg, recv_ns)
         self.fed += 1
+        self.odom_seen = self.odom_seen or suffix == 'ground_truth/odom'
 
     def take(self) -> Columns:
         """The columns fed since the last take (rows with a non-finite stamp dropped)."""
@@ -57,6 +60,8 @@ class LiveFeed:
     def flush(self, rec) -> Dict[str, int]:
         """Send the batch to ``rec`` (a ``rerun.RecordingStream``); rows sent per entity."""
         columns = self.take()
+        if self.odom_seen:      # as run.rrd: the car from odometry, not from a batch's pose
+            columns.pop('pose', None)
         if not columns:
             return {}
         if self.t0 is None:

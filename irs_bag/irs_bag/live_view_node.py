@@ -1,19 +1,21 @@
-"""``live_view`` node: a running graph streamed to a rerun viewer (or an ``.rrd`` file).
+"""``live_view`` node: a running graph streamed to a rerun viewer (or an ``.rrd`` file), to
+the Foxglove app, or both.
 
 It subscribes to the topics of :data:`irs_bag.rerun_entities.SPEC`, or the subset ``topics``
-(relative names: the node's namespace is the graph's), and feeds
+(relative names: the node's namespace is the graph's). For rerun (``url`` or ``save``) it feeds
 :class:`irs_bag.live_view.LiveFeed`, whose batches go to rerun every ``period`` s (one
-``send_columns`` per entity). Start a viewer with ``rerun``, then
-``./irs run irs_bag live_view`` (or ``experiment run <name> --view``); ``-p save:=x.rrd``
-writes a file instead.
+``send_columns`` per entity). For Foxglove (``foxglove``: ``ws://host:port``) every message
+taken goes, as its CDR bytes, to the channel of its topic on a Foxglove WebSocket server
+(:class:`irs_bag.foxglove_bridge.FoxgloveBridge`). ``experiment run <name> --view`` starts it
+(``--view ws://...``: Foxglove only), or ``./irs run irs_bag live_view`` by hand.
 
 Cost to the graph: the subscriptions are BEST_EFFORT, KEEP_LAST ``qos_depth``, so a publisher
 never waits for, nor resends to, the view. They are bare subscription handles (as the
 ``recorder``'s, :mod:`irs_bag.recorder_node`; rclpy 7.1.6's ``_rclpy.Subscription``) that no
-executor wakes for: the ``period`` timer takes every waiting message as CDR bytes and decodes
-one in ``decimation`` (1 kHz topics cost a raw take per message, not an executor wake and a
-decode). The node adds no work to the graph's processes beyond DDS delivering to one more
-reader; docs/plots.md gives the measured cost to the 1 kHz loop.
+executor wakes for: the ``period`` timer takes every waiting message as CDR bytes, forwards it
+to Foxglove (no decode) and decodes one in ``decimation`` for rerun. The node adds no work to
+the graph's processes beyond DDS delivering to one more reader; docs/plots.md gives the
+measured cost to the 1 kHz loop.
 """
 from __future__ import annotations
 
@@ -52,11 +54,17 @@ def _types() -> dict:
             'treadmill/state': TreadmillState}
 
 
+def _type_name(msg_type) -> str:
+    """``pkg/msg/Type`` of a generated ROS message class."""
+    return f"{msg_type.__module__.split('.')[0]}/msg/{msg_type.__name__}"
+
+
 class _Feed:
-    """One subscribed topic: its handle, type and the count of messages taken."""
+    """One subscribed topic: its handle, type, full name and the count of messages taken."""
 
     def __init__(self, suffix, msg_type, handle):
         self.suffix, self.msg_type, self.handle = suffix, msg_type, handle
+        self.topic = handle.get_topic_name()
         self.taken = 0
 
 
@@ -74,12 +82,18 @@ class LiveViewNode(Node):
             raise ValueError("parameter 'metadata' must be a JSON object")
         info = run_info_from_metadata(self.p['run_name'],
                                       {str(k): str(v) for k, v in meta.items()} or None)
+        rerun_to = self.p['save'] or self.p['url']
+        if not rerun_to and not self.p['foxglove']:
+            raise ValueError("nothing to stream to: 'url', 'save' and 'foxglove' are all ''")
         self.feed = LiveFeed(info, view_rate=self.p['view_rate'])
-        try:
-            self.rec = open_stream(info, url=self.p['url'], save=self.p['save'])
-        except (OSError, RuntimeError, ValueError) as exc:
-            where = self.p['save'] or self.p['url']
-            raise ValueError(f'cannot open the rerun stream {where} ({exc})') from None
+        self.rec = self.bridge = None
+        if rerun_to:
+            try:
+                self.rec = open_stream(info, url=self.p['url'], save=self.p['save'])
+            except (OSError, RuntimeError, ValueError) as exc:
+                raise ValueError(f'cannot open the rerun stream {rerun_to} ({exc})') from None
+        if self.p['foxglove']:
+            self.bridge = _open_bridge(self.p['foxglove'], self.p['run_name'])
         qos = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=int(self.p['qos_depth']),
                          reliability=ReliabilityPolicy.BEST_EFFORT,
                          durability=DurabilityPolicy.VOLATILE)
@@ -91,24 +105,36 @@ class LiveViewNode(Node):
             with self.handle:
                 handle = _rclpy.Subscription(self.handle, msg_type, suffix,
                                              qos.get_c_qos_profile())
-            self.feeds.append(_Feed(suffix, msg_type, handle))
+            feed = _Feed(suffix, msg_type, handle)
+            if self.bridge is not None:
+                self.bridge.add_topic(feed.topic, _type_name(msg_type))
+            self.feeds.append(feed)
         self.rows = {}                       # rows sent per entity so far
+        self.forwarded = 0                   # messages sent to Foxglove's channels
         self.create_timer(self.p['period'], self.tick)
-        where = self.p['save'] or self.p['url']
-        self.get_logger().info(f'streaming {len(self.feeds)} topics to {where}')
+        where = [rerun_to] if rerun_to else []
+        if self.bridge is not None:
+            where.append(f'Foxglove at ws://{_ws_host(self.p["foxglove"])}:{self.bridge.port}')
+        self.get_logger().info(f'streaming {len(self.feeds)} topics to {" and ".join(where)}')
 
     def take(self) -> int:
-        """Take every waiting message; feed one in ``decimation`` per topic. Returns taken."""
+        """Take every waiting message: forward it to Foxglove, feed one in ``decimation`` per
+        topic to rerun. Returns the number taken.
+        """
         n_all, k = 0, int(self.p['decimation'])
+        bridge, rerun = self.bridge, self.rec is not None
         for f in self.feeds:
             while True:
                 got = f.handle.take_message(f.msg_type, True)
                 if got is None:
                     break
-                if f.taken % k == 0:
-                    data, info = got
-                    self.feed.add(f.suffix, deserialize_message(data, f.msg_type),
-                                  info.get('received_timestamp') or time.time_ns())
+                data, info = got
+                recv_ns = info.get('received_timestamp') or time.time_ns()
+                if bridge is not None:
+                    bridge.forward(f.topic, data, recv_ns)
+                    self.forwarded += 1
+                if rerun and f.taken % k == 0:
+                    self.feed.add(f.suffix, deserialize_message(data, f.msg_type), recv_ns)
                 f.taken += 1
                 n_all += 1
         return n_all
@@ -116,23 +142,48 @@ class LiveViewNode(Node):
     def tick(self) -> None:
         """Take the messages and send the batch to rerun."""
         self.take()
-        for ent, n in self.feed.flush(self.rec).items():
-            self.rows[ent] = self.rows.get(ent, 0) + n
+        if self.rec is not None:
+            for ent, n in self.feed.flush(self.rec).items():
+                self.rows[ent] = self.rows.get(ent, 0) + n
 
     def destroy_node(self):
         try:
             self.tick()
-            self.rec.flush(timeout_sec=FLUSH_TIMEOUT)
+            if self.rec is not None:
+                self.rec.flush(timeout_sec=FLUSH_TIMEOUT)
         except RuntimeError as exc:         # no viewer at 'url': what was not sent is dropped
             self.get_logger().warning(f'rerun: {" ".join(str(exc).split())}')
         finally:
-            self.rec.disconnect()
+            if self.rec is not None:
+                self.rec.disconnect()
+            if self.bridge is not None:
+                self.bridge.close()
             for f in self.feeds:
                 f.handle.destroy_when_not_in_use()
             self.feeds = []
             total = ', '.join(f'{k} ({v})' for k, v in sorted(self.rows.items()))
-            print(f'[live_view] sent rows: {total or "none"}', flush=True)
+            print(f'[live_view] sent rows: {total or "none"}'
+                  + (f'; Foxglove: {self.forwarded} messages' if self.bridge else ''),
+                  flush=True)
             super().destroy_node()
+
+
+def _ws_host(url: str) -> str:
+    from .foxglove_bridge import parse_ws_url
+    return parse_ws_url(url)[0]
+
+
+def _open_bridge(url: str, name: str):
+    """The Foxglove server at ``url``; a one-line ValueError if it cannot be had."""
+    try:
+        from .foxglove_bridge import FoxgloveBridge
+        return FoxgloveBridge(url, name=name)
+    except ImportError as exc:
+        raise ValueError(f'foxglove-sdk is not installed ({exc}); see env/requirements.txt') \
+            from None
+    except (OSError, RuntimeError, ValueError) as exc:
+        raise ValueError(f'cannot start the Foxglove server at {url} '
+                         f'({" ".join(str(exc).split())})') from None
 
 
 def main(args=None) -> int:

@@ -20,23 +20,39 @@ def _known_topics(value):
 
 #: rerun's default gRPC URL: a viewer started with ``rerun`` on this machine.
 DEFAULT_URL = 'rerun+http://127.0.0.1:9876/proxy'
+#: The Foxglove app's default WebSocket connection.
+FOXGLOVE_URL = 'ws://127.0.0.1:8765'
+
+
+def _ws_url(value):
+    if value == '':
+        return None
+    from .foxglove_bridge import parse_ws_url
+    try:
+        parse_ws_url(value)
+    except ValueError as exc:
+        return str(exc)
+    return None
 
 NODE_PARAMS = [
     Param('topics', OUTSIDE_THE_LOOP, 'topics to show, any of the run.rrd topics (the default: '
           'those no loop node reads; each other one takes the in-process handover off that '
           'topic)', '-', read_only=True,
           validator=_known_topics),
-    Param('url', DEFAULT_URL, 'rerun viewer to stream to (its gRPC proxy URL)', '-',
+    Param('url', DEFAULT_URL, "rerun viewer to stream to (its gRPC proxy URL; '' = none)", '-',
           read_only=True),
     Param('save', '', "write an .rrd file here instead of streaming to 'url' ('' = stream)",
           '-', read_only=True),
+    Param('foxglove', '', 'serve the topics to the Foxglove app on a WebSocket at this URL '
+          f"(ws://host:port, e.g. {FOXGLOVE_URL}; port 0 = any free port; '' = no server)", '-',
+          read_only=True, validator=_ws_url),
     Param('metadata', '{}', "JSON object of the run (the recorder's 'irs_experiment' record): "
           'car size and arm geometry for the 3-D view', '-', read_only=True),
     Param('run_name', 'live', 'recording name shown by the viewer', '-', read_only=True),
-    Param('period', 0.05, 'period of the batches sent to rerun (and of taking the messages)',
-          's', 0.01, 1.0, read_only=True),
-    Param('decimation', 10, 'decode and show one message in this many per topic (10: 100 Hz of '
-          'a 1 kHz topic)', '1', 1, 1000, read_only=True),
+    Param('period', 0.05, 'period of taking the messages (the batches sent to rerun and to '
+          'Foxglove)', 's', 0.01, 1.0, read_only=True),
+    Param('decimation', 10, 'rerun: decode and show one message in this many per topic (10: '
+          '100 Hz of a 1 kHz topic; Foxglove gets every message)', '1', 1, 1000, read_only=True),
     Param('view_rate', 30.0, 'rate of the 3-D entities (car, arm) [0 = every decoded message]',
           'Hz', 0.0, 1000.0, read_only=True),
     Param('qos_depth', 100, 'KEEP_LAST depth of each best-effort subscription (messages a '

@@ -148,3 +148,26 @@ def test_the_nodes_topic_list_is_the_entities_spec():
     assert set(OUTSIDE_THE_LOOP) < set(TOPICS) and topics.default == OUTSIDE_THE_LOOP
     assert topics.validator(['pose', 'belt/speed']) is None
     assert 'wheel_speeds' in topics.validator(['pose', 'wheel_speeds'])
+
+
+def test_the_car_comes_from_odom_alone_once_odom_was_seen():
+    """Tiny batches (a slow lock-step run) that hold odometry or the sensed pose but not both:
+    the car is drawn from ``ground_truth/odom`` only (as in run.rrd), not from whichever of the
+    two a batch holds, which would double its rows.
+    """
+    class Sink:
+        def __init__(self):
+            self.rows = {}
+
+        def send_columns(self, ent, indexes, columns):
+            self.rows[ent] = self.rows.get(ent, 0) + len(indexes[0].times)
+
+    feed, sink = LiveFeed(RunInfo('alternate'), view_rate=30.0), Sink()
+    for k in range(1000):                      # 1 s of stamps, one message per batch
+        msgs = _messages(T_START + k * 1e-3)
+        suffix = 'ground_truth/odom' if k % 2 == 0 else 'pose'
+        pose = G['geometry_msgs/msg/PoseStamped'](header=msgs['lateral_position'].header,
+                                                  pose=msgs['ground_truth/odom'].pose.pose)
+        feed.add(suffix, msgs['ground_truth/odom'] if suffix != 'pose' else pose)
+        feed.flush(sink)
+    assert sink.rows['world/car'] in (30, 31), sink.rows['world/car']

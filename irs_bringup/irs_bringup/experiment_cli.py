@@ -4,17 +4,21 @@ commands:
   experiment list                        installed experiment files (read only: no ROS started)
   experiment run <name|file.yaml>        run one through the ROS graph, record, plot
   experiment run <name> --process-per-node   the same with every node in a process of its own
+  experiment run <name> --wait-plots     the same, the plots made before it returns
   experiment run <name> --composed       the same with every node in one process
   experiment run <name> --offline        the same cores without ROS: traces, metrics, plots
   experiment run <name> --duration 3     any of these for 3 s instead of the file's duration
   experiment run <name> --view [URL]     stream the run to a rerun viewer while it runs
+  experiment run <name> --view ws://127.0.0.1:8765   ... or serve it to the Foxglove app
   experiment recover                     rig/recover: the running rig back from any fault
 
 A lock-step experiment whose file places no node (no process:) runs composed, every node and
 the recorder in one process (the same bag as a process per node, several times faster); other
 files run as they place their nodes. Every run writes into its own folder under --runs-dir
-(default runs/): <name>-<time>/ for the graph, <name>-offline-<time>/ offline. Exit codes:
-docs/cli.md.
+(default runs/): <name>-<time>/ for the graph, <name>-offline-<time>/ offline. A graph run's
+plots and run.rrd are made after it in a background process (the runner says where;
+<run>/views.done appears when they are written); --wait-plots makes them before it returns.
+Exit codes: docs/cli.md.
 """
 import argparse
 import sys
@@ -34,8 +38,11 @@ PER_NODE_HELP = ('every node and the recorder in a process of its own, whatever 
                  '(the same lock-step bag as composed, several times slower)')
 
 
-def _post_process(result, log=print):
-    """Validate the bag, write plots and the .rrd; returns the list of written artefacts."""
+def _post_process(result, log=print, wait=True):
+    """Validate the bag, then write the plots and the .rrd (``wait``), or start them in the
+    background (:func:`irs_bag.views.start_views`) and say where they will appear; returns
+    the list of written artefacts (empty in the background).
+    """
     written = []
     if result.bag_dir is None or not result.bag_dir.exists():
         return written
@@ -49,20 +56,32 @@ def _post_process(result, log=print):
     except BagError as exc:
         log(f'[experiment] bag unreadable: {exc}')
         return written
-    from irs_bag.views import write_views      # plots and run.rrd from one read of the bag
-    written += write_views(result.bag_dir, result.run_dir, log)
+    if not wait:
+        from irs_bag.views import DONE_FILE, LOG_FILE, start_views
+        run = result.run_dir
+        proc = start_views(result.bag_dir, run)
+        log(f'[experiment] plots and run.rrd: being made in the background (pid {proc.pid}), '
+            f'into {run / "plots"}/ and {run / "run.rrd"}')
+        log(f'[experiment] they are done when {run / DONE_FILE} exists (log {run / LOG_FILE}; '
+            '--wait-plots waits for them)')
+        return written
+    from irs_bag.views import make_views       # plots and run.rrd from one read of the bag
+    written += make_views(result.bag_dir, result.run_dir, log)
     for path in written:
         log(f'[experiment] wrote {path}')
     return written
 
 
 def run_experiment(name, runs_dir='runs', plots=True, log=print, rt_priority=0,
-                   deployment='default', duration=None, view=None, view_topics=None):
+                   deployment='default', duration=None, view=None, view_topics=None,
+                   wait_plots=True):
     """Run one experiment through the graph; returns the RunResult. ``deployment``: how the
     nodes sit in processes (:meth:`~.experiment.Experiment.deployed`: ``default``,
     ``composed``, ``process_per_node``); ``duration`` [s]: instead of the file's; ``view``: a
-    rerun viewer URL or an ``.rrd`` path for the ``live_view`` node (docs/plots.md), None = no
-    live view; ``view_topics``: its ``topics`` (None = all).
+    rerun viewer URL, an ``.rrd`` path or a Foxglove ``ws://host:port`` for the ``live_view``
+    node (docs/plots.md), None = no live view; ``view_topics``: its ``topics`` (None = all);
+    ``wait_plots``: make the plots and ``run.rrd`` before returning, else in a background
+    process (``<run>/views.done`` appears when they are written).
     """
     from .experiment_runner import ExperimentRunner
     exp = load_experiment(name)
@@ -74,7 +93,7 @@ def run_experiment(name, runs_dir='runs', plots=True, log=print, rt_priority=0,
     log(f'[experiment] {exp.name}: {result.message}; simulated {result.sim_time:.3f} s in '
         f'{result.wall_time:.1f} s wall; run directory {result.run_dir}')
     if plots and result.interrupted is None:
-        _post_process(result, log)
+        _post_process(result, log, wait=wait_plots)
     return result
 
 
@@ -131,6 +150,9 @@ def build_parser() -> argparse.ArgumentParser:
                        help="run this long instead of the file's duration (simulated time in "
                        'lock-step, wall time in real time)')
     p_run.add_argument('--no-plots', action='store_true', help='skip plots and the .rrd')
+    p_run.add_argument('--wait-plots', action='store_true', help='make the plots and the .rrd '
+                       'before returning (default: in the background after the run, done when '
+                       '<run>/views.done exists)')
     p_run.add_argument('--offline', action='store_true', help='simulate the cores without ROS')
     placing = p_run.add_mutually_exclusive_group()
     placing.add_argument('--composed', action='store_const', dest='deployment',
@@ -143,7 +165,8 @@ def build_parser() -> argparse.ArgumentParser:
     p_run.add_argument('--view', nargs='?', const=DEFAULT_VIEW_URL, metavar='URL',
                        help='stream the run to a rerun viewer while it runs (default URL '
                        f'{DEFAULT_VIEW_URL}: a viewer started with `rerun`); a path ending in '
-                       '.rrd writes that file instead')
+                       '.rrd writes that file instead; ws://host:port (e.g. '
+                       'ws://127.0.0.1:8765) serves it to the Foxglove app instead')
     p_run.add_argument('--view-topics', metavar='T1,T2', type=lambda t: [
         x.strip() for x in t.split(',') if x.strip()], help='the topics the live view takes '
         '(default: all of its ten); ground_truth/odom,ground_truth/sensor_point,steering/state '
@@ -166,9 +189,15 @@ def _main(argv) -> int:
     if args.offline and args.view is not None:
         parser.error('--view streams a running graph; --offline runs no graph')
     if args.view is not None and not (args.view.endswith('.rrd') or args.view.startswith(
-            ('rerun://', 'rerun+http://', 'rerun+https://'))):
-        parser.error(f'--view {args.view}: neither a rerun URL (rerun+http://host:port/proxy) '
-                     'nor an .rrd file')
+            ('rerun://', 'rerun+http://', 'rerun+https://', 'ws://'))):
+        parser.error(f'--view {args.view}: neither a rerun URL (rerun+http://host:port/proxy), '
+                     'an .rrd file nor a Foxglove ws://host:port')
+    if args.view is not None and args.view.startswith('ws://'):
+        from irs_bag.foxglove_bridge import parse_ws_url
+        try:
+            parse_ws_url(args.view)
+        except ValueError as exc:
+            parser.error(f'--view: {exc}')
     if args.view_topics is not None and args.view is None:
         parser.error('--view-topics needs --view')
     if not 0 <= args.rt_priority <= 99:
@@ -180,7 +209,7 @@ def _main(argv) -> int:
     result = run_experiment(args.experiment, args.runs_dir, plots=not args.no_plots,
                             rt_priority=args.rt_priority, deployment=args.deployment,
                             duration=args.duration, view=args.view,
-                            view_topics=args.view_topics)
+                            view_topics=args.view_topics, wait_plots=args.wait_plots)
     if result.interrupted is not None:
         return 128 + result.interrupted if result.interrupted else EXIT_FAILED
     return 0 if result.completed else EXIT_FAILED

@@ -115,8 +115,9 @@ class ExperimentRunner:
     Order of events:
 
     1. a run directory ``<runs>/<name>-<time>/`` with ``logs/`` (one log per node) and ``bag/``;
-    2. the recorder (if the experiment records), the ``live_view`` (with ``view``: a rerun URL
-       or an ``.rrd`` path, :mod:`irs_bag.live_view_node`) and every node start through their
+    2. the recorder (if the experiment records), the ``live_view`` (with ``view``: a rerun URL,
+       an ``.rrd`` path or a Foxglove ``ws://`` URL, :mod:`irs_bag.live_view_node`) and every
+       node start through their
        ament-resolved executables, with the experiment's parameter files and overrides plus the
        clock parameters; nodes that share a ``process:`` name start together in one
        ``container`` process (composition: one executor, the nodes still separate on topics);
@@ -152,7 +153,7 @@ class ExperimentRunner:
         self.devices = {}    # device processes (emulators): started first, stopped last
         self.members = {}    # container process label -> its node names
         self.rt_priority = int(rt_priority)
-        self.view = view         # live view: a rerun URL or an .rrd path (None = no view)
+        self.view = view         # live view: rerun URL, .rrd path, ws:// URL (None = no view)
         self.view_topics = view_topics   # its topics (None = the node's default: all)
         self.dt = _rig_dt(exp)
         self.phase = 'created'   # -> starting -> running -> stopping -> done (for observers)
@@ -218,11 +219,16 @@ class ExperimentRunner:
 
     def _view_spec(self):
         """The ``live_view`` node (:mod:`irs_bag.live_view_node`): ``view`` ending in ``.rrd``
-        is a file to write, anything else the URL of a rerun viewer.
+        is a file to write, ``ws://host:port`` a Foxglove WebSocket server to serve, anything
+        else the URL of a rerun viewer.
         """
         target = str(self.view)
-        where = ({'save': str(Path(target).resolve())} if target.endswith('.rrd')
-                 else {'url': target})
+        if target.endswith('.rrd'):
+            where = {'save': str(Path(target).resolve())}
+        elif target.startswith('ws://'):
+            where = {'foxglove': target, 'url': ''}
+        else:
+            where = {'url': target}
         params = {'metadata': json.dumps(experiment_metadata(self.exp)),
                   'run_name': self.run_dir.name, **where}
         if self.view_topics is not None:

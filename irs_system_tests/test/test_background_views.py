@@ -1,0 +1,67 @@
+"""``experiment run`` makes a run's plots and ``run.rrd`` after it, in the background.
+
+The runner returns as soon as the graph has stopped and the bag is validated, saying where the
+plots will appear and which file marks them done; a test waits on that file with a deadline.
+"""
+import os
+import re
+import subprocess
+
+from irs_bringup.executables import resolve_executable
+from irs_bringup.processes import wait_until
+
+DEADLINE = 300.0          # [s] longest wait for the background views on a loaded machine
+
+
+def _alive(pid: int) -> bool:
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return False
+    return True
+
+
+def test_the_prompt_comes_back_before_the_plots_which_then_appear(tmp_path):
+    exe = resolve_executable('irs_bringup', 'experiment')
+    res = subprocess.run([exe, 'run', 'figure10_pi', '--composed', '--duration', '0.5',
+                          '--runs-dir', 'runs'], cwd=tmp_path, capture_output=True, text=True,
+                         timeout=600)
+    assert res.returncode == 0, res.stdout[-3000:] + res.stderr
+    (run,) = (tmp_path / 'runs').glob('figure10_pi-*')
+    done = run / 'views.done'
+    assert not done.exists()          # made after the prompt (its imports alone take ~1 s)
+    m = re.search(r'plots and run\.rrd: being made in the background \(pid (\d+)\), into '
+                  r'(\S+)/ and (\S+)\n.*they are done when (\S+) exists \(log (\S+);',
+                  res.stdout)
+    assert m, res.stdout[-2000:]
+    pid = int(m.group(1))
+    assert [m.group(i) for i in (2, 3, 4, 5)] == [
+        str(run / p) for p in ('plots', 'run.rrd', 'views.done', 'logs/views.log')]
+    assert wait_until(done.exists, DEADLINE, interval=0.1), (run / 'logs/views.log').read_text()
+    listed = done.read_text().splitlines()
+    pngs = sorted(p.name for p in (run / 'plots').glob('*.png'))
+    assert pngs == ['belt.png', 'car_position.png', 'lateral.png', 'steering.png']
+    assert sorted(listed) == sorted([str(run / 'plots' / p) for p in pngs] +
+                                    [str(run / 'run.rrd')])
+    assert all((run / 'plots' / p).stat().st_size > 10000 for p in pngs)
+    assert (run / 'run.rrd').stat().st_size > 10000
+    assert 'views done:' in (run / 'logs/views.log').read_text()
+    assert wait_until(lambda: not _alive(pid), 30.0, interval=0.1), 'views process still runs'
+
+
+def test_wait_plots_makes_them_before_returning(tmp_path):
+    """``--wait-plots`` (and ``run_experiment``'s default): the plots, ``run.rrd`` and
+    ``views.done`` are there when it returns.
+    """
+    from irs_bringup.experiment_cli import build_parser, run_experiment
+    assert build_parser().parse_args(['run', 'x', '--wait-plots']).wait_plots
+    assert not build_parser().parse_args(['run', 'x']).wait_plots
+    lines = []
+    result = run_experiment('figure10_pi', runs_dir=tmp_path, deployment='composed', duration=0.5,
+                            log=lines.append)
+    assert result.completed, result.message
+    done = result.run_dir / 'views.done'
+    assert done.exists(), lines
+    assert (result.run_dir / 'run.rrd').is_file()
+    assert len(list((result.run_dir / 'plots').glob('*.png'))) == 4
+    assert not any('in the background' in line for line in lines)
