@@ -101,8 +101,9 @@ def test_view_serves_a_running_graph_to_a_foxglove_client(tmp_path):
     url = f'ws://127.0.0.1:{_free_port()}'
     client = Client(url)
     try:
-        result = run_experiment('figure10_mrc_with_actuator', runs_dir=tmp_path, deployment='composed',
-                                duration=duration, view=url, plots=False, log=lambda *_: None)
+        result = run_experiment('figure10_mrc_with_actuator', runs_dir=tmp_path,
+                                deployment='composed', duration=duration, view=url,
+                                plots=False, log=lambda *_: None)
     finally:
         client.stop()
     assert result.completed, result.message

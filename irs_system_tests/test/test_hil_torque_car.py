@@ -151,7 +151,8 @@ def model_metrics(duration) -> dict:
 
 
 def test_hil_torque_car_matches_vehicle_sim_within_the_derived_tolerance(tmp_path):
-    result = run_experiment('hil_torque_car', runs_dir=tmp_path, plots=False, deployment='composed')
+    result = run_experiment('hil_torque_car', runs_dir=tmp_path, plots=False,
+                            deployment='composed')
     assert result.completed, result.message
     assert all(code == 0 for code in result.exit_codes.values()), result.exit_codes
     twin = offline_run('hil_torque_car')
