@@ -53,7 +53,7 @@ def test_view_streams_the_entities_of_run_rrd_while_the_graph_runs(tmp_path):
                                 log=lambda *_: None)
     finally:
         sink.send_signal(signal.SIGINT)        # the server ends the .rrd file and exits
-        sink.wait(timeout=30)
+        sink.wait(timeout=120)                 # rerun's own shutdown: > 30 s seen under load
     assert result.completed, result.message
     assert result.exit_codes.get('live_view') == 0, result.exit_codes
     assert (result.run_dir / 'run.rrd').is_file()
