@@ -34,6 +34,26 @@ def _free_port() -> int:
         return s.getsockname()[1]
 
 
+def _stop_rerun_server(sink) -> None:
+    """SIGINT: the server ends the .rrd file and exits.
+
+    In an xdist worker that ran other tests first, rerun's server does not always exit on SIGINT
+    (30 s and 120 s passed without it in ``make test``); it is then terminated and the file is
+    read as far as it was written: the assertions below fail if that is short.
+    """
+    sink.send_signal(signal.SIGINT)
+    try:
+        sink.wait(timeout=30)
+        return
+    except subprocess.TimeoutExpired:
+        sink.terminate()
+    try:
+        sink.wait(timeout=10)
+    except subprocess.TimeoutExpired:
+        sink.kill()
+        sink.wait()
+
+
 def test_view_streams_the_entities_of_run_rrd_while_the_graph_runs(tmp_path):
     """A lock-step Figure 10 run with ``--view <url>`` streaming over gRPC to a rerun server
     (``rerun --port P --save live.rrd``: the viewer's receiving end, headless): the live
@@ -52,8 +72,7 @@ def test_view_streams_the_entities_of_run_rrd_while_the_graph_runs(tmp_path):
                                 view_topics=TOPICS,
                                 log=lambda *_: None)
     finally:
-        sink.send_signal(signal.SIGINT)        # the server ends the .rrd file and exits
-        sink.wait(timeout=120)                 # rerun's own shutdown: > 30 s seen under load
+        _stop_rerun_server(sink)
     assert result.completed, result.message
     assert result.exit_codes.get('live_view') == 0, result.exit_codes
     assert (result.run_dir / 'run.rrd').is_file()
