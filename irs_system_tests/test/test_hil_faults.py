@@ -34,13 +34,14 @@ import time
 from pathlib import Path
 
 import pytest
-from ament_index_python.packages import get_package_share_directory
+
 from diagnostic_msgs.msg import DiagnosticArray
 from std_msgs.msg import Empty
 from std_srvs.srv import Trigger
 
 from irs_bringup.processes import NodeSpec
 from irs_common import qos
+from irs_system_tests.realtime_loop import share
 from irs_hardware.calibration import load_calibration
 from irs_hardware.emulator.wire import DRIVE_VOLTAGE, DRIVE_ZERO_AT, Wire
 from irs_msgs.msg import RigStatus, SteeringCommand, TreadmillDriveCommand
@@ -60,10 +61,6 @@ BOUNDS = {'board killed': (('board at', 'link lost'), 0.025 + SLACK, 0.075 + SLA
           'NaN command': (('steer command nan',), DELIVERY, 0.001 + SLACK, 'latch', 'board'),
           'Modbus server gone': (('drive at',), 0.11 + SLACK, 0.11 + SLACK, 'injection',
                                  'board')}
-
-def share(package, rel):
-    return f'{get_package_share_directory(package)}/{rel}'
-
 
 def free_port() -> int:
     with socket.socket() as sock:

@@ -32,11 +32,12 @@ import time
 from pathlib import Path
 
 import pytest
-from ament_index_python.packages import get_package_share_directory
+
 from diagnostic_msgs.msg import DiagnosticArray
 
 from irs_bringup.processes import NodeProcess, NodeSpec
 from irs_common import qos
+from irs_system_tests.realtime_loop import share
 from irs_msgs.msg import (RigStatus, SteeringCommand, TreadmillDriveCommand, WheelEncoders,
                           WheelTorqueCommand)
 
@@ -48,10 +49,6 @@ BOARD_PASS = 0.05       # [s] one pass of the emulator's loop at normal priority
 TORQUE = (0.008, 0.008, 0.008, 0.008)     # [N m] a gentle drive on every wheel
 PERMILLE = [20, -20, 20, -20]             # 0.008 N m of 0.4 N m, the right side mirrored
 CAL = 'config/calibration_emulated_torque_car.yaml'
-
-
-def share(package, rel):
-    return f'{get_package_share_directory(package)}/{rel}'
 
 
 def free_port() -> int:
