@@ -5,7 +5,8 @@ the node-side glue every node repeated: the count of dropped messages, the throt
 that names the input and the verdict, the time reset (a stamp more than 1 s back, or the node
 clock jumping back: :func:`~irs_common.time_jump.on_time_jump_back`) that calls the node's own
 ``reset`` and counts it. :class:`StaleTimer` is the timer that checks an input's age every half
-``stale_timeout`` and is re-created when the timeout changes.
+``stale_timeout``, is re-created when the timeout changes, and does not judge an input while
+its own node has just been starved.
 
 The per-step path (:meth:`EdgeGate.take_step`, :meth:`EdgeGate.admit`) allocates nothing on
 ``OK``: the callbacks handed to the gate are bound once here, and a warning's text is built
@@ -15,6 +16,7 @@ import time
 
 from .input_checks import ThrottledWarner
 from .stamp_gate import StampGate
+from .stamps import from_ns
 from .time_jump import on_time_jump_back
 
 __all__ = ['EdgeGate', 'StaleTimer']
@@ -77,6 +79,18 @@ class EdgeGate:
         self.warner.warn(f'{what}-{verdict}', f'{what}: {gate.reason(verdict, stamp_ns, now_ns)}',
                          time.monotonic())
 
+    def own_command_stamp(self, now_msg):
+        """The stamp of a command the node sends on its own, with no step to answer (an input
+        gone stale): the last step's stamp, else ``now_msg`` (the node clock) before any step.
+
+        The consumer takes it as that step again (``REPEAT``) and goes on taking the steps after
+        it. A clock stamp would be ahead of every step still to come from a rig that lags real
+        time (a starved one), and the consumer would drop them all as out of order until the
+        rig caught up.
+        """
+        last = self.gate.last_ns
+        return from_ns(last) if last is not None else now_msg
+
     def clear_time(self) -> None:
         """Time went back (the clock, or a stamp more than 1 s back): forget the last stamp and
         call the node's ``reset``.
@@ -97,15 +111,43 @@ class EdgeGate:
 class StaleTimer:
     """A node timer calling ``check()`` every ``timeout / 2`` s (at least every 1 ms);
     :meth:`set_timeout` re-creates it for a new ``stale_timeout`` [s].
+
+    A node that was itself starved (its tick more than ``timeout`` after the one before: a
+    stopped or starved process, every node of a composed one at once) has not yet taken the
+    messages that arrived meanwhile, so their age says nothing about their source: after such a
+    tick the checks pause for ``timeout / 2`` of node time (:attr:`skipped` counts those ticks),
+    while the executor takes what is queued. An input that is really silent is then found one
+    half-timeout later than otherwise. Times come from the node clock (``/clock`` with
+    ``use_sim_time``).
     """
 
-    __slots__ = ('node', 'check', 'timer')
+    __slots__ = ('node', 'check', 'timer', 'timeout_ns', 'last_tick_ns', 'resumed_ns',
+                 'skipped')
 
     def __init__(self, node, timeout: float, check):
         self.node = node
         self.check = check
-        self.timer = node.create_timer(max(timeout / 2.0, 0.001), check)
+        self.last_tick_ns = None
+        self.resumed_ns = None
+        self.skipped = 0
+        self.timer = None
+        self.set_timeout(timeout)
 
     def set_timeout(self, timeout: float) -> None:
-        self.node.destroy_timer(self.timer)
-        self.timer = self.node.create_timer(max(timeout / 2.0, 0.001), self.check)
+        if self.timer is not None:
+            self.node.destroy_timer(self.timer)
+        self.timeout_ns = int(timeout * 1e9)
+        self.last_tick_ns = None
+        self.timer = self.node.create_timer(max(timeout / 2.0, 0.001), self._tick)
+
+    def _tick(self) -> None:
+        now = self.node.get_clock().now().nanoseconds
+        last, self.last_tick_ns = self.last_tick_ns, now
+        if last is not None and now - last > self.timeout_ns:
+            self.resumed_ns = now                 # this node was starved: take the queue first
+        if self.resumed_ns is not None:
+            if now - self.resumed_ns < self.timeout_ns // 2:
+                self.skipped += 1
+                return
+            self.resumed_ns = None
+        self.check()

@@ -49,3 +49,56 @@ def test_stale_timer_is_recreated_for_a_new_timeout(context):
     assert stale.timer is not first and abs(stale.timer.timer_period_ns - 500 * MS) < 1000
     assert first not in node.timers and stale.timer in node.timers
     node.destroy_node()
+
+
+class _FakeNode:
+    """Just what StaleTimer uses of a node: timers and a clock whose time the test sets."""
+
+    def __init__(self):
+        self.now_ns = 0
+        self.timers = []
+
+    def create_timer(self, period, callback):
+        self.timers.append((period, callback))
+        return callback
+
+    def destroy_timer(self, timer):
+        self.timers = [t for t in self.timers if t[1] is not timer]
+
+    def get_clock(self):
+        node = self
+
+        class _Clock:
+            def now(self):
+                return type('T', (), {'nanoseconds': node.now_ns})()
+        return _Clock()
+
+
+def test_stale_timer_pauses_its_checks_after_its_own_node_was_starved():
+    node = _FakeNode()
+    checks = []
+    stale = StaleTimer(node, 0.05, lambda: checks.append(node.now_ns))
+    [(period, tick)] = node.timers
+    assert period == 0.025
+
+    def at(ms):
+        node.now_ns = int(ms * MS)
+        tick()
+
+    for ms in (25, 50, 75, 100):                  # running: every tick checks
+        at(ms)
+    assert len(checks) == 4 and stale.skipped == 0
+    at(300)                                       # the node itself stalled 200 ms (> 50 ms)
+    at(301)                                       # an immediate tick after it: still paused
+    at(320)
+    assert len(checks) == 4 and stale.skipped == 3
+    at(326)                                       # 26 ms after the late tick: checks again
+    at(351)
+    assert checks[-2:] == [326 * MS, 351 * MS] and stale.skipped == 3
+    at(400)                                       # 49 ms: a late tick, but not starved
+    assert checks[-1] == 400 * MS
+    stale.set_timeout(1.0)                        # a new timeout: a fresh timer, fresh history
+    [(period, tick)] = node.timers
+    assert period == 0.5
+    at(2000)
+    assert checks[-1] == 2000 * MS

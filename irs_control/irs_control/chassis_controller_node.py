@@ -211,7 +211,8 @@ class ChassisControllerNode(Node):
             self.core.reset_controllers()
             self.warner.once('stale', f'wheel encoders stale ({age:.3f} s old): zero torque, '
                              'zero steer', time.monotonic())
-            self._publish(now.to_msg(), (0.0,) * 4, (False,) * 4, 0.0, 0.0, None, reason=STALE)
+            self._publish(self.edge.own_command_stamp(now.to_msg()), (0.0,) * 4, (False,) * 4,
+                          0.0, 0.0, None, reason=STALE)
 
 
 def main(args=None):

@@ -218,7 +218,7 @@ class LateralControllerNode(Node):
             self.warner.once('stale', f'lateral measurement stale ({age:.3f} s old): zero steer, '
                              'controller reset', time.monotonic())
             status = LateralControllerStatus()
-            status.header.stamp = now.to_msg()
+            status.header.stamp = self.edge.own_command_stamp(now.to_msg())
             status.mode = self.p['mode']
             status.reference = float(self.reference)
             status.measurement = math.nan

@@ -67,6 +67,18 @@ class ZohSteps:
             cache[dt] = cont2discrete((self.A, self.B, self.C, self.D), dt, method='zoh')[:2]
         return cache[dt]
 
+    def curvature_gain(self, speed: float) -> float:
+        """Steady path curvature per unit front steer, ``kappa = lim_{s->0} s^2 G(s) / U^2``
+        [1/(m rad)], with ``G`` the front steer -> ``y_s`` transfer function (output 0) and
+        ``U = speed`` [m/s]: the sensor point's acceleration per radian in a steady turn, per
+        ``U^2``. A kinematic bicycle gives ``1 / L``; an understeering one ``1 / (L + K U^2)``.
+        Evaluated at ``s = 1e-6`` 1/s (``G`` has a double pole at 0; relative error ~1e-6).
+        """
+        s = 1e-6
+        n = self.A.shape[0]
+        g = self.C[0] @ np.linalg.solve(s * np.eye(n) - self.A, self.B[:, 0]) + self.D[0, 0]
+        return float(s * s * g) / (float(speed) ** 2)
+
 
 class BicyclePlant(ZohSteps):
     """Linear bicycle model, exact ZOH discretisation, implementing :class:`LateralPlant`.

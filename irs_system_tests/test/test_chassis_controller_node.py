@@ -227,12 +227,13 @@ def test_real_time_answers_each_encoder_sample_with_the_newest_pose_and_goes_sta
         cmd = link.step(stamps[-1], [ROLLING] * 4, order=('enc',))
         assert not any(cmd.locked)
     assert link.steer(stamps[-1]).front_angle == 0.05
-    # silence: within the timeout a zero command (stamped now) and the reason STALE
+    # silence: within the timeout a zero command and the reason STALE; the command carries the
+    # last step's stamp (a rig lagging real time keeps taking the steps after it)
     n = len(link.torques)
     assert ros.spin_until(lambda: link.last_status()[0] == 'stale_encoders', 5.0)
     assert ros.spin_until(lambda: len(link.torques) > n, 5.0)
     assert list(link.torques[-1].torque) == [0.0] * 4
-    assert to_ns(link.torques[-1].header.stamp) > stamps[-1]
+    assert to_ns(link.torques[-1].header.stamp) == stamps[-1]
     assert (link.steers[-1].front_angle, link.steers[-1].rear_angle) == (0.0, 0.0)
     # the next sample runs again
     stamp = now()

@@ -31,16 +31,19 @@ class ControllerLink:
         self.ros = ros
         self.meas = node.create_publisher(PointStamped, 'lateral_position', qos.SENSOR)
         self.ref = node.create_publisher(LateralReference, 'lateral/reference', qos.COMMAND)
-        self.cmds, self.status = {}, []
+        self.cmds, self.status, self.arrived = {}, [], []
         self.subs = [
-            node.create_subscription(SteeringCommand, 'steering/command',
-                                     lambda m: self.cmds.__setitem__(to_ns(m.header.stamp), m),
+            node.create_subscription(SteeringCommand, 'steering/command', self._on_command,
                                      qos.COMMAND),
             node.create_subscription(
                 LateralControllerStatus, 'lateral/status', self.status.append, qos.SENSOR
             ),
         ]
         assert ros.wait_for_matched([self.meas, self.ref, *self.subs], timeout=30.0)
+
+    def _on_command(self, msg):
+        self.cmds[to_ns(msg.header.stamp)] = msg
+        self.arrived.append(msg)
 
     def send(self, stamp_ns, y, r=None):
         if r is not None:
@@ -107,12 +110,22 @@ def test_stale_or_invalid_measurement_gives_zero_steer(ros, launch):
         link.send(stamp, 0.2)
         assert ros.spin_until(lambda: stamp in link.cmds, 10.0)
     assert link.cmds[stamp].front_angle == pytest.approx(-LIMIT)
-    # Silence: within the timeout the node commands zero steer and says STALE.
-    n = len(link.status)
+    # Silence: within the timeout the node commands zero steer and says STALE. The command
+    # carries the last step's stamp: a rig that lags real time (starved) takes it as that step
+    # again and keeps taking the steps after it, which a clock stamp would be ahead of.
+    n, m = len(link.status), len(link.arrived)
     assert ros.spin_until(lambda: any(s.state == LateralControllerStatus.STATE_STALE
                                       for s in link.status[n:]), 5.0)
-    stale_cmds = [c for s, c in link.cmds.items() if s > stamp]
-    assert stale_cmds and all(c.front_angle == 0.0 for c in stale_cmds)
+    assert ros.spin_until(lambda: len(link.arrived) > m, 5.0)
+    stale_cmds = link.arrived[m:]
+    assert all(c.front_angle == 0.0 and to_ns(c.header.stamp) == stamp for c in stale_cmds)
+    # the lagging rig's next step, 1 ms after the last, is answered after the stale command
+    # with a later stamp (the commands' stamps never go back)
+    lagging = stamp + 1_000_000
+    link.send(lagging, 0.2)
+    assert ros.spin_until(lambda: lagging in link.cmds, 10.0)
+    stamps = [to_ns(c.header.stamp) for c in link.arrived]
+    assert stamps == sorted(stamps)
     # A NaN measurement: zero steer, INVALID.
     stamp = now()
     link.send(stamp, math.nan)

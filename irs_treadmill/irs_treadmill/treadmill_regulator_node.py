@@ -240,7 +240,8 @@ class TreadmillRegulatorNode(Node):
         now = self.get_clock().now()
         if self.safety.check_age((now.nanoseconds - self.pose_arrived_ns) * 1e-9):
             self.regulator.reset()
-            self._publish(now.to_msg(), 0.0, self.belt_speed, math.nan, False)
+            self._publish(self.edge.own_command_stamp(now.to_msg()), 0.0, self.belt_speed,
+                          math.nan, False)
 
     def _reset(self):
         self.safety.reset()

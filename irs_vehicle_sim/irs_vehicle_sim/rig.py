@@ -493,6 +493,27 @@ class RigSimulation:
         return self._outputs
 
     @property
+    def plant_speed(self) -> float:
+        """The lateral plant's speed ``U`` [m/s] (its linearisation; the torque car's start
+        speed ``u0``).
+        """
+        c = self.config
+        if c.plant == 'bicycle':
+            return float(c.bicycle['speed'])
+        return float(c.identified.speed if c.plant == 'identified' else c.u0)
+
+    @property
+    def curvature_gain(self) -> float:
+        """The car's steady path curvature per unit front steer [1/(m rad)]: the lateral
+        plant's :meth:`~irs_models.lateral_plant.ZohSteps.curvature_gain` at ``U``; the torque
+        car's kinematic ``1 / (l_f + l_r)``.
+        """
+        if self.plant is not None:
+            return self.plant.curvature_gain(self.plant_speed)
+        p = self.torque_car.car.params
+        return 1.0 / (p.lf + p.lr)
+
+    @property
     def time(self) -> float:
         """t_k = k dt [s]."""
         return self.k * self.config.dt

@@ -281,8 +281,9 @@ NODE_PARAMS = node_only([
         'stall_grace',
         0.5,
         'real time: a steering or drive command silent for longer than this (or a treadmill '
-        'fault) brings the rig to a controlled stop (steer 0, belt coasts, car speed follows '
-        'the belt; docs/safety.md); at least command_timeout (the larger of the two applies)',
+        'fault) brings the rig to a controlled stop (the rig steers to the centre line, the '
+        'belt coasts, the car speed follows the belt; docs/safety.md); at least '
+        'command_timeout (the larger of the two applies)',
         's',
         0.001,
         3600.0,

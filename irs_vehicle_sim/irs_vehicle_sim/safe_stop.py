@@ -4,11 +4,14 @@ One :class:`SafeStop` per rig decides, at every real-time step, what the rig app
 nodes that command it fall silent (CPU starvation, a stopped process) or the treadmill reports a
 fault: ``RUNNING``, ``HOLDING`` (late commands held for ``stall_grace`` [s]), ``STOPPING``,
 ``STOPPED`` and ``RECOVERING`` (``irs_msgs/RigStatus``'s ``SAFE_*``). In the controlled stop the
-steer is 0 rad, the drive 0 V (the belt coasts down by friction) and the car's speed command
-follows the belt, ``u_cmd = max(0, V_b - hold_gain (x - x_stop))`` [m/s], so that car and belt
-come to rest together with the car on the belt. It exists because a real car on a real belt
-cannot simply freeze: the states in detail are in :class:`SafeStop`, the operator's view in
-docs/safety.md.
+drive is 0 V (the belt coasts down by friction), the car's speed command follows the belt,
+``u_cmd = max(0, V_b - hold_gain (x - x_stop))`` [m/s], and the rig steers the car back to the
+belt's centre line itself (:meth:`SafeStop.lane_steer`), so that car and belt come to rest
+together with the car on the belt. It exists because a real car on a real belt cannot simply
+freeze: a car stopping with a heading error ``psi`` drifts sideways by about ``psi`` times the
+distance it covers over the belt (6-7 m while the belt coasts down from 1.2 m/s: 0.5 m at
+4 deg) unless it is steered. The states in detail are in :class:`SafeStop`, the operator's view
+in docs/safety.md.
 """
 from __future__ import annotations
 
@@ -16,6 +19,7 @@ import math
 from dataclasses import dataclass
 
 from irs_common.field_checks import check_numbers
+from irs_models.constants import STEER_LIMIT
 
 __all__ = ['SafeStopParams', 'SafeStop', 'RUNNING', 'HOLDING', 'STOPPING', 'STOPPED',
            'RECOVERING', 'STATE_NAMES']
@@ -31,7 +35,11 @@ class SafeStopParams:
     """command_timeout, stall_grace [s]; belt_gain [m/s/V]; u_max [V]; spin_up_gain [V s/m];
     release_tolerance, stopped_speed, u0 [m/s]; hold_gain [1/s] (module docstring; with the
     car's 0.3 s speed lag ``tau_u`` the position loop ``tau_u s^2 + s + hold_gain`` has damping
-    0.65 at 2 1/s).
+    0.65 at 2 1/s); the lane hold of the stop (:meth:`SafeStop.lane_steer`): curvature_gain
+    [1/(m rad)], the car's steady path curvature per unit steer (the rig's plant:
+    ``RigSimulation.curvature_gain``; a kinematic bicycle's ``1 / L``), lane_omega [rad/m] and
+    lane_damping [-], its natural frequency over the distance covered and damping, steer_limit
+    [rad] at the wheel.
     """
 
     command_timeout: float = 0.1
@@ -43,10 +51,15 @@ class SafeStopParams:
     stopped_speed: float = 0.01
     u0: float = 1.2
     hold_gain: float = 2.0
+    curvature_gain: float = 1.0 / 0.26
+    lane_omega: float = 1.5
+    lane_damping: float = 0.8
+    steer_limit: float = STEER_LIMIT
 
     def __post_init__(self):
         check_numbers(self, ('command_timeout', 'stall_grace', 'belt_gain', 'u_max',
-                             'release_tolerance', 'stopped_speed'), above=0.0)
+                             'release_tolerance', 'stopped_speed', 'curvature_gain',
+                             'lane_omega', 'lane_damping', 'steer_limit'), above=0.0)
         check_numbers(self, ('spin_up_gain', 'u0', 'hold_gain'), at_least=0.0)
         if self.stall_grace < self.command_timeout:
             raise ValueError(f'stall_grace ({self.stall_grace} s) must be at least '
@@ -65,8 +78,9 @@ class SafeStop:
       value is held, as the real servos and drive hold theirs, for up to ``stall_grace`` [s];
     * ``STOPPING``: a command silent for longer than ``stall_grace``, the rig itself more than
       ``stall_grace`` behind real time (it is starved: its steps and the graph's answers do not
-      meet), or a treadmill fault: the controlled stop. Steer 0 rad, drive 0 V (the belt coasts
-      down by friction), and the car's own speed command follows the measured belt speed and holds
+      meet), or a treadmill fault: the controlled stop. Drive 0 V (the belt coasts down by
+      friction), the rig's own lane hold on the front steer (:meth:`lane_steer`; 0 rad at the
+      rear), and the car's own speed command follows the measured belt speed and holds
       the position the stop began at, ``u_cmd = max(0, V_b - hold_gain (x - x_stop))``, so that the
       car's speed over the belt and the belt's speed fall together and ``dx/dt = u cos(psi) - V_b``
       stays near 0: the car is neither carried off the rear nor drives off the front. The lateral
@@ -159,15 +173,35 @@ class SafeStop:
             return 0.0
         return min(1.0, max(0.0, car_speed / plant_speed))
 
+    def lane_steer(self, y_s: float, psi: float) -> float:
+        """The rig's front steer [rad] during the stop: back to the belt's centre line,
+        ``delta = -(lane_omega^2 y_s + 2 lane_damping lane_omega psi) / curvature_gain``, within
+        ``+-steer_limit``; 0 rad for a non-finite pose.
+
+        Over the distance ``s`` the car covers, ``dy_s/ds = psi`` and ``dpsi/ds = kappa delta``
+        (``kappa`` the curvature gain), so the sensor point obeys ``y_s'' + 2 zeta omega y_s' +
+        omega^2 y_s = 0`` in ``s``: a second-order return over about ``4 / (zeta omega)`` = 3.3 m
+        of path, whatever the speed (at 1.2 m/s its 2.4 rad/s lie well inside the servo's 28
+        rad/s). A law in distance rather than time stays right as the car slows with the belt.
+        """
+        p = self.params
+        if not (math.isfinite(y_s) and math.isfinite(psi)):
+            return 0.0
+        w = p.lane_omega
+        delta = -(w * w * y_s + 2.0 * p.lane_damping * w * psi) / p.curvature_gain
+        return min(p.steer_limit, max(-p.steer_limit, delta))
+
     def commands(self, outputs, plant_speed: float):
-        """``(drive [V], speed command [m/s], path_rate)`` the rig applies in place of the
-        graph's while :attr:`overriding` (steer 0 rad on both axles), from the rig's
-        ``outputs`` (``belt_speed_measured``, ``u``) and the lateral plant's speed ``U`` [m/s].
+        """``(front steer [rad], drive [V], speed command [m/s], path_rate)`` the rig applies in
+        place of the graph's while :attr:`overriding` (the rear steer is 0 rad), from the rig's
+        ``outputs`` (``belt_speed_measured``, ``u``, ``x``, ``y_s``, ``psi``) and the lateral
+        plant's speed ``U`` [m/s]. Recovering: steer 0 with the car held at its start pose.
         """
         if self.state == RECOVERING:
-            return self.spin_up_voltage(outputs.belt_speed_measured), self.params.u0, 1.0
+            return 0.0, self.spin_up_voltage(outputs.belt_speed_measured), self.params.u0, 1.0
         speed = self.stop_speed(outputs.belt_speed_measured, outputs.u, outputs.x)
-        return 0.0, speed, self.path_rate(outputs.u, plant_speed)
+        steer = self.lane_steer(outputs.y_s, outputs.psi)
+        return steer, 0.0, speed, self.path_rate(outputs.u, plant_speed)
 
     def recover(self) -> None:
         """Start the recovery (module docstring), from any state."""

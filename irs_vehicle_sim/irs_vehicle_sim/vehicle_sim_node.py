@@ -32,6 +32,7 @@ from irs_common.params import declare_table
 from irs_common.stamp_gate import FUTURE, OLD, StampGate
 from irs_common.stamp_sync import StampSync
 from irs_common.stamps import clock_now_ns, from_ns, to_ns
+from irs_models.constants import STEER_LIMIT
 from irs_msgs.msg import (BeltSpeed, DriverCommand, RigStatus, SteeringActuatorState,
                           SteeringCommand, TreadmillDriveCommand, TreadmillState, TyreState,
                           WheelEncoders, WheelTorqueCommand)
@@ -145,9 +146,9 @@ class VehicleSimNode(Node):
         self.safe = SafeStop(SafeStopParams(
             command_timeout=self.p['command_timeout'], stall_grace=self._grace(),
             belt_gain=self.config.belt.gain / self.config.belt.pole,
-            u_max=self.config.belt.u_max, u0=self.config.u0))
-        self.plant_speed = (self.config.bicycle['speed'] if self.config.plant == 'bicycle'
-                            else self.config.identified.speed)
+            u_max=self.config.belt.u_max, u0=self.config.u0,
+            curvature_gain=self.sim.curvature_gain, steer_limit=STEER_LIMIT))
+        self.plant_speed = self.sim.plant_speed
         self.dt_ns = int(round(self.config.dt * 1e9))
         if abs(self.dt_ns * 1e-9 - self.config.dt) > 1e-15:
             raise ValueError(f'dt = {self.config.dt} s is not a whole number of nanoseconds')
@@ -471,8 +472,9 @@ class VehicleSimNode(Node):
 
     def _announce_stop(self, cause: str) -> None:
         """The one log line of a stop (rig/status carries the cause until recover)."""
-        self.get_logger().error(f'controlled stop: {cause}; steer 0, the belt coasts and the '
-                                "car's speed follows it; call rig/recover to restart")
+        self.get_logger().error(f'controlled stop: {cause}; the rig steers to the centre line, '
+                                "the belt coasts and the car's speed follows it; call "
+                                'rig/recover to restart')
 
     def _inputs(self, values: dict) -> RigInputs:
         merged = {**self._fresh_latest(), **values}
@@ -485,8 +487,9 @@ class VehicleSimNode(Node):
 
     def _safe_inputs(self) -> RigInputs:
         """The rig's own commands during a stop or a recovery (:mod:`.safe_stop`)."""
-        drive, speed, self.sim.path_rate = self.safe.commands(self.sim.outputs, self.plant_speed)
-        return RigInputs(0.0, 0.0, drive, speed, ZERO_TORQUE, NOT_LOCKED)
+        steer, drive, speed, self.sim.path_rate = self.safe.commands(self.sim.outputs,
+                                                                     self.plant_speed)
+        return RigInputs(steer, 0.0, drive, speed, ZERO_TORQUE, NOT_LOCKED)
 
     def _done(self) -> bool:
         return self.p['max_steps'] > 0 and self.sim.k >= self.p['max_steps']

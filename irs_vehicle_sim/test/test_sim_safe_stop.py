@@ -1,8 +1,10 @@
 """The rig's safe actions (irs_vehicle_sim.safe_stop) composed with the rig core, offline.
 
-A drive command that falls silent: the old rule (drive 0 V at once, the car keeps its speed)
-loses the car off the front within 3 s; the controlled stop keeps it on the belt and brings car
-and belt to rest together; recover brings the belt back to speed and releases the car.
+A drive command that falls silent: drive 0 V at once with the car keeping its speed loses the
+car off the front within 3 s; the controlled stop keeps it on the belt and brings car and belt
+to rest together; recover brings the belt back to speed and releases the car. A stop that begins
+with a heading error: steer 0 lets the car drift off the side while the belt coasts down; the
+stop's lane hold brings it back to the centre line.
 """
 import pytest
 
@@ -17,7 +19,7 @@ def _rig(plant='bicycle'):
     cfg = RigConfig.from_dict({'plant': plant, 'seed': 1})
     sim = RigSimulation(cfg)
     params = SafeStopParams(belt_gain=cfg.belt.gain / cfg.belt.pole, u_max=cfg.belt.u_max,
-                            u0=cfg.u0)
+                            u0=cfg.u0, curvature_gain=sim.curvature_gain)
     return cfg, sim, SafeStop(params)
 
 
@@ -38,8 +40,8 @@ def _run(sim, safe, cfg, seconds, silent_from, plant_speed=1.2, safe_stop=True):
             safe.watch(t, received)
             states.add(safe.state)
         if safe_stop and safe.overriding:
-            drive, speed, sim.path_rate = safe.commands(out, plant_speed)
-            inputs = RigInputs(0.0, 0.0, drive, speed)
+            steer, drive, speed, sim.path_rate = safe.commands(out, plant_speed)
+            inputs = RigInputs(steer, 0.0, drive, speed)
         elif safe_stop or t < silent_from:
             inputs = RigInputs(0.0, 0.0, hold_voltage, cfg.u0)    # late: the last one held
         else:
@@ -90,13 +92,13 @@ def test_stopped_car_does_not_drift_sideways():
         out = sim.step(RigInputs(0.05, 0.0, 2.27, cfg.u0))
     safe.stop('test')
     for _ in range(int(30 / DT)):
-        drive, speed, sim.path_rate = safe.commands(out, cfg.bicycle['speed'])
-        out = sim.step(RigInputs(0.0, 0.0, drive, speed))
+        steer, drive, speed, sim.path_rate = safe.commands(out, cfg.bicycle['speed'])
+        out = sim.step(RigInputs(steer, 0.0, drive, speed))
     assert safe.state == STOPPED and not out.fault
     y_rest = out.y
     for _ in range(int(10 / DT)):
-        drive, speed, sim.path_rate = safe.commands(out, cfg.bicycle['speed'])
-        out = sim.step(RigInputs(0.0, 0.0, drive, speed))
+        steer, drive, speed, sim.path_rate = safe.commands(out, cfg.bicycle['speed'])
+        out = sim.step(RigInputs(steer, 0.0, drive, speed))
     assert out.y == y_rest
     del received
 
@@ -105,8 +107,8 @@ def test_recover_spins_the_belt_up_before_releasing_the_car():
     cfg, sim, safe = _rig()
     safe.stop('test')
     for _ in range(int(15 / DT)):
-        drive, speed, sim.path_rate = safe.commands(sim.outputs, 1.2)
-        sim.step(RigInputs(0.0, 0.0, drive, speed))
+        steer, drive, speed, sim.path_rate = safe.commands(sim.outputs, 1.2)
+        sim.step(RigInputs(steer, 0.0, drive, speed))
     assert safe.state == STOPPED and sim.outputs.belt_speed < 0.01
     safe.recover()
     received = {'steering': 0.0, 'drive': 0.0}
@@ -115,8 +117,9 @@ def test_recover_spins_the_belt_up_before_releasing_the_car():
     for _ in range(int(5 / DT)):
         t = sim.time
         received.update(steering=t, drive=t)
-        drive, speed, sim.path_rate = safe.commands(sim.outputs, 1.2)
-        sim.step(RigInputs(0.0, 0.0, drive, speed))
+        steer, drive, speed, sim.path_rate = safe.commands(sim.outputs, 1.2)
+        assert steer == 0.0                              # recovering: the car is held straight
+        sim.step(RigInputs(steer, 0.0, drive, speed))
         out = sim.reset_to_start()                       # the car is held at its start pose
         if safe.ready(out.belt_speed_measured, t, received):
             released = t - t0
@@ -151,3 +154,64 @@ def test_a_rig_behind_real_time_stops():
     assert safe.watch(10.0, fresh, lag=0.4) == '' and safe.state == RUNNING
     cause = safe.watch(10.0, fresh, lag=0.6)
     assert safe.state == STOPPING and 'behind real time' in cause
+
+
+def _stop_with_heading(plant: str, steer_before: float, lane_hold: bool):
+    """Run 0.4 s on a constant steer (a heading error builds up), then the controlled stop for
+    25 s; the rig's steer is its lane hold, or 0 rad. Returns the largest |y| [m] and the last
+    outputs.
+    """
+    cfg, sim, safe = _rig(plant)
+    hold_voltage = cfg.u0 / (cfg.belt.gain / cfg.belt.pole)
+    out = sim.outputs
+    for _ in range(400):
+        out = sim.step(RigInputs(steer_before, 0.0, hold_voltage, cfg.u0))
+    assert abs(out.psi) > 0.02            # the stop begins with a heading error
+    safe.stop('test')
+    y_max = 0.0
+    for _ in range(int(25 / DT)):
+        steer, drive, speed, sim.path_rate = safe.commands(out, sim.plant_speed)
+        assert abs(steer) <= safe.params.steer_limit
+        out = sim.step(RigInputs(steer if lane_hold else 0.0, 0.0, drive, speed))
+        y_max = max(y_max, abs(out.y))
+        if out.fault:
+            break
+    return y_max, out, safe
+
+
+@pytest.mark.parametrize('steer_before', [0.05, -0.05])
+def test_a_stop_with_steer_zero_lets_a_heading_error_carry_the_car_off_the_side(steer_before):
+    y_max, out, _safe = _stop_with_heading('bicycle', steer_before, lane_hold=False)
+    assert y_max > 0.4
+    assert out.fault_reason in ('off_belt:left', 'off_belt:right') or abs(out.y) > 0.4
+
+
+@pytest.mark.parametrize('plant', ['bicycle', 'identified'])
+@pytest.mark.parametrize('steer_before', [0.05, -0.05])
+def test_the_stops_lane_hold_brings_the_car_back_to_the_centre_line(plant, steer_before):
+    y_max, out, safe = _stop_with_heading(plant, steer_before, lane_hold=True)
+    assert not out.fault, out.fault_reason
+    assert safe.state == STOPPED
+    assert y_max < 0.05                   # 0.4-0.5 m with steer 0 (test above)
+    assert abs(out.y_s) < 0.005 and abs(out.psi) < 0.005
+
+
+def test_lane_steer_sign_limit_and_bad_pose():
+    safe = SafeStop(SafeStopParams(curvature_gain=4.0))
+    assert safe.lane_steer(0.01, 0.0) < 0.0 < safe.lane_steer(-0.01, 0.0)   # REP 103: y left
+    assert safe.lane_steer(0.0, 0.01) < 0.0 < safe.lane_steer(0.0, -0.01)
+    assert safe.lane_steer(5.0, 0.0) == -safe.params.steer_limit
+    w, z = safe.params.lane_omega, safe.params.lane_damping
+    expected = -(w * w * 0.001 + 2 * z * w * 0.002) / 4.0
+    assert safe.lane_steer(0.001, 0.002) == pytest.approx(expected)
+    assert safe.lane_steer(float('nan'), 0.0) == 0.0 == safe.lane_steer(0.0, float('inf'))
+
+
+@pytest.mark.parametrize('plant, length', [('bicycle', 0.26), ('identified', 1.60),
+                                           ('two_track', 0.30)])
+def test_curvature_gain_of_each_plant(plant, length):
+    """1 / kappa: about the wheelbase for a physical car (with its understeer), 1.6 m for the
+    paper's Eq. 6 (``K n0 / (d0 U^2)`` = 12.53 * 11.52 / (160 * 1.44) = 0.627 1/m).
+    """
+    sim = RigSimulation(RigConfig.from_dict({'plant': plant}))
+    assert 1.0 / sim.curvature_gain == pytest.approx(length, rel=0.01)
