@@ -513,6 +513,17 @@ class RigSimulation:
         p = self.torque_car.car.params
         return 1.0 / (p.lf + p.lr)
 
+    def stop_torque_params(self, rate: float = 10.0) -> dict:
+        """``wheel_speed_gain`` [N m s/m] and ``torque_limit`` [N m] of the torque car's speed
+        loop in a controlled stop (:meth:`~irs_vehicle_sim.safe_stop.SafeStop.stop_torque`):
+        ``m R rate / 4`` for a loop rate ``rate`` [1/s]; ``{}`` for the other plants.
+        """
+        if self.torque_car is None:
+            return {}
+        p = self.torque_car.car.params
+        return {'wheel_speed_gain': p.mass * p.wheel_radius * rate / 4.0,
+                'torque_limit': self.torque_car.torque_limit}
+
     @property
     def time(self) -> float:
         """t_k = k dt [s]."""

@@ -39,7 +39,9 @@ class SafeStopParams:
     [1/(m rad)], the car's steady path curvature per unit steer (the rig's plant:
     ``RigSimulation.curvature_gain``; a kinematic bicycle's ``1 / L``), lane_omega [rad/m] and
     lane_damping [-], its natural frequency over the distance covered and damping, steer_limit
-    [rad] at the wheel.
+    [rad] at the wheel; the torque car's speed loop in the stop (:meth:`SafeStop.stop_torque`):
+    wheel_speed_gain [N m s/m] per wheel (0 for a car whose speed follows a speed command) and
+    torque_limit [N m].
     """
 
     command_timeout: float = 0.1
@@ -55,12 +57,15 @@ class SafeStopParams:
     lane_omega: float = 1.5
     lane_damping: float = 0.8
     steer_limit: float = STEER_LIMIT
+    wheel_speed_gain: float = 0.0
+    torque_limit: float = 0.3
 
     def __post_init__(self):
         check_numbers(self, ('command_timeout', 'stall_grace', 'belt_gain', 'u_max',
                              'release_tolerance', 'stopped_speed', 'curvature_gain',
                              'lane_omega', 'lane_damping', 'steer_limit'), above=0.0)
-        check_numbers(self, ('spin_up_gain', 'u0', 'hold_gain'), at_least=0.0)
+        check_numbers(self, ('spin_up_gain', 'u0', 'hold_gain', 'wheel_speed_gain',
+                             'torque_limit'), at_least=0.0)
         if self.stall_grace < self.command_timeout:
             raise ValueError(f'stall_grace ({self.stall_grace} s) must be at least '
                              f'command_timeout ({self.command_timeout} s)')
@@ -190,6 +195,22 @@ class SafeStop:
         w = p.lane_omega
         delta = -(w * w * y_s + 2.0 * p.lane_damping * w * psi) / p.curvature_gain
         return min(p.steer_limit, max(-p.steer_limit, delta))
+
+    def stop_torque(self, speed_cmd: float, car_speed: float) -> tuple:
+        """The torque car's four wheel torques [N m] during the stop: ``wheel_speed_gain
+        (u_cmd - u)`` on every wheel, within ``+-torque_limit``, from the stop's speed command
+        ``u_cmd`` and the car's speed ``u`` [m/s] over the belt (0 N m for a non-finite speed).
+
+        With zero torque the free-rolling car is dragged off the rear by its rolling resistance
+        (1 m in 3.4 s offline); the gain ``m R k / 4`` gives the speed loop a rate ``k`` [1/s]
+        (10 1/s for the irs_iwt car: 0.236 N m s/m).
+        """
+        p = self.params
+        if not (math.isfinite(speed_cmd) and math.isfinite(car_speed)):
+            return (0.0,) * 4
+        torque = min(p.torque_limit, max(-p.torque_limit,
+                                         p.wheel_speed_gain * (speed_cmd - car_speed)))
+        return (torque,) * 4
 
     def commands(self, outputs, plant_speed: float):
         """``(front steer [rad], drive [V], speed command [m/s], path_rate)`` the rig applies in

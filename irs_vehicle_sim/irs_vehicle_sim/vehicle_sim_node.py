@@ -147,7 +147,8 @@ class VehicleSimNode(Node):
             command_timeout=self.p['command_timeout'], stall_grace=self._grace(),
             belt_gain=self.config.belt.gain / self.config.belt.pole,
             u_max=self.config.belt.u_max, u0=self.config.u0,
-            curvature_gain=self.sim.curvature_gain, steer_limit=STEER_LIMIT))
+            curvature_gain=self.sim.curvature_gain, steer_limit=STEER_LIMIT,
+            **self.sim.stop_torque_params()))
         self.plant_speed = self.sim.plant_speed
         self.dt_ns = int(round(self.config.dt * 1e9))
         if abs(self.dt_ns * 1e-9 - self.config.dt) > 1e-15:
@@ -487,9 +488,11 @@ class VehicleSimNode(Node):
 
     def _safe_inputs(self) -> RigInputs:
         """The rig's own commands during a stop or a recovery (:mod:`.safe_stop`)."""
-        steer, drive, speed, self.sim.path_rate = self.safe.commands(self.sim.outputs,
-                                                                     self.plant_speed)
-        return RigInputs(steer, 0.0, drive, speed, ZERO_TORQUE, NOT_LOCKED)
+        out = self.sim.outputs
+        steer, drive, speed, self.sim.path_rate = self.safe.commands(out, self.plant_speed)
+        torque = (self.safe.stop_torque(speed, out.u) if self.torque_car
+                  and self.safe.state != RECOVERING else ZERO_TORQUE)
+        return RigInputs(steer, 0.0, drive, speed, torque, NOT_LOCKED)
 
     def _done(self) -> bool:
         return self.p['max_steps'] > 0 and self.sim.k >= self.p['max_steps']

@@ -215,3 +215,30 @@ def test_curvature_gain_of_each_plant(plant, length):
     """
     sim = RigSimulation(RigConfig.from_dict({'plant': plant}))
     assert 1.0 / sim.curvature_gain == pytest.approx(length, rel=0.01)
+
+
+@pytest.mark.parametrize('torque_loop', [False, True])
+def test_the_torque_cars_stop_holds_it_with_its_wheel_torques(torque_loop):
+    """The torque car's speed comes from its wheel torques, not a speed command: with 0 N m in
+    the stop the free-rolling car is dragged off the rear; the stop's speed loop on the wheel
+    torques holds it where the stop began while the belt coasts down.
+    """
+    cfg = RigConfig.from_dict({'plant': 'two_track', 'seed': 1})
+    sim = RigSimulation(cfg)
+    safe = SafeStop(SafeStopParams(belt_gain=cfg.belt.gain / cfg.belt.pole, u_max=cfg.belt.u_max,
+                                   u0=cfg.u0, curvature_gain=sim.curvature_gain,
+                                   **sim.stop_torque_params()))
+    safe.stop('test')
+    out = sim.outputs
+    for _ in range(int(25 / DT)):
+        steer, drive, speed, sim.path_rate = safe.commands(out, sim.plant_speed)
+        torque = safe.stop_torque(speed, out.u) if torque_loop else (0.0,) * 4
+        assert all(abs(t) <= sim.torque_car.torque_limit for t in torque)
+        out = sim.step(RigInputs(steer, 0.0, drive, speed, torque))
+        if out.fault:
+            break
+    if not torque_loop:
+        assert out.fault_reason == 'off_belt:rear' and out.time < 5.0
+        return
+    assert not out.fault, out.fault_reason
+    assert safe.state == STOPPED and abs(out.x - cfg.x0) < 0.05
