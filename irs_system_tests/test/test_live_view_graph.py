@@ -2,7 +2,6 @@
 import signal
 import socket
 import subprocess
-import sys
 from pathlib import Path
 
 import numpy as np
@@ -10,6 +9,7 @@ import numpy as np
 from irs_bag.columns import read_columns
 from irs_bag.rerun_entities import ENTITY_PATHS
 from irs_bringup.experiment_cli import DEFAULT_VIEW_URL, run_experiment
+from irs_system_tests.child_signals import default_signals, ignored_signals
 
 DURATION = 3.0           # [s] simulated (lock-step)
 
@@ -34,24 +34,50 @@ def _free_port() -> int:
         return s.getsockname()[1]
 
 
-def _stop_rerun_server(sink) -> None:
-    """SIGINT: the server ends the .rrd file and exits.
+def start_rerun_server(port: int, save: Path) -> subprocess.Popen:
+    """``rerun --port P --save FILE``: the viewer's receiving end, headless.
 
-    In an xdist worker that ran other tests first, rerun's server does not always exit on SIGINT
-    (30 s and 120 s passed without it in ``make test``); it is then terminated and the file is
-    read as far as it was written: the assertions below fail if that is short.
+    The binary itself, not the ``rerun`` console script (a Python wrapper that turns a SIGINT
+    into a SIGKILL of the binary), with the default signal dispositions whatever this test run
+    inherited (:mod:`irs_system_tests.child_signals`).
+    """
+    import rerun_cli
+    exe = Path(rerun_cli.__file__).with_name('rerun')
+    return subprocess.Popen([str(exe), '--port', str(port), '--save', str(save)],
+                            stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL,
+                            preexec_fn=default_signals)
+
+
+def stop_rerun_server(sink, timeout: float = 30.0) -> None:
+    """SIGINT: the server stops (its file holds what it received); not within ``timeout``
+    [s]: killed, and the test fails naming the signals it ignored.
     """
     sink.send_signal(signal.SIGINT)
     try:
-        sink.wait(timeout=30)
+        sink.wait(timeout=timeout)
         return
     except subprocess.TimeoutExpired:
-        sink.terminate()
-    try:
-        sink.wait(timeout=10)
-    except subprocess.TimeoutExpired:
+        ignored = ignored_signals(sink.pid)
         sink.kill()
         sink.wait()
+    raise AssertionError(f'rerun server still running {timeout} s after SIGINT '
+                         f'(ignored: {sorted(ignored)})')
+
+
+def test_the_rerun_server_stops_on_sigint_when_the_test_run_ignores_it(tmp_path):
+    """A test run started with SIGINT ignored (a background job of a non-interactive shell,
+    ``nohup``) still stops its rerun server with SIGINT.
+    """
+    old = signal.signal(signal.SIGINT, signal.SIG_IGN)
+    try:
+        sink = start_rerun_server(_free_port(), tmp_path / 'idle.rrd')
+    finally:
+        signal.signal(signal.SIGINT, old)
+    try:
+        assert 'SIGINT' not in ignored_signals(sink.pid)
+    finally:
+        stop_rerun_server(sink, timeout=20.0)
+    assert sink.returncode == -signal.SIGINT
 
 
 def test_view_streams_the_entities_of_run_rrd_while_the_graph_runs(tmp_path):
@@ -63,16 +89,14 @@ def test_view_streams_the_entities_of_run_rrd_while_the_graph_runs(tmp_path):
     from irs_bag.live_view_params import DEFAULT_URL, TOPICS
     assert DEFAULT_VIEW_URL == DEFAULT_URL
     live, port = tmp_path / 'live.rrd', _free_port()
-    rerun_exe = Path(sys.executable).with_name('rerun')
-    sink = subprocess.Popen([str(rerun_exe), '--port', str(port), '--save', str(live)],
-                            stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    sink = start_rerun_server(port, live)
     try:
         result = run_experiment('figure10_mrc_with_actuator', runs_dir=tmp_path,
                                 duration=DURATION, view=f'rerun+http://127.0.0.1:{port}/proxy',
                                 view_topics=TOPICS,
                                 log=lambda *_: None)
     finally:
-        _stop_rerun_server(sink)
+        stop_rerun_server(sink)
     assert result.completed, result.message
     assert result.exit_codes.get('live_view') == 0, result.exit_codes
     assert (result.run_dir / 'run.rrd').is_file()
