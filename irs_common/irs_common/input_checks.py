@@ -41,6 +41,8 @@ def _is_real(value) -> bool:
 
 def finite_problem(name: str, value) -> Optional[str]:
     """``None`` if ``value`` is a finite real number, else a sentence naming ``name``."""
+    if type(value) is float and math.isfinite(value):   # the common case, answered first
+        return None
     if not _is_real(value):
         return f'{name} is not a number ({value!r})'
     if not math.isfinite(value):
@@ -54,6 +56,8 @@ def range_problem(name: str, value, low: float, high: float, unit: str = '') -> 
     ``low``/``high`` may be +-inf (one-sided range). ``unit`` is appended to the numbers in the
     message (e.g. ``'m'``).
     """
+    if type(value) is float and low <= value <= high and math.isfinite(value):   # common case
+        return None
     problem = finite_problem(name, value)
     if problem is not None:
         return problem
@@ -65,6 +69,8 @@ def range_problem(name: str, value, low: float, high: float, unit: str = '') -> 
 
 def abs_limit_problem(name: str, value, limit: float, unit: str = '') -> Optional[str]:
     """Symmetric bound ``|value| <= limit``, as ``range_problem(name, value, -limit, limit)``."""
+    if type(value) is float and -limit <= value <= limit and math.isfinite(value):   # common
+        return None
     return range_problem(name, value, -limit, limit, unit)
 
 

@@ -29,6 +29,13 @@ def test_range_problem_names_value_and_range():
     assert range_problem('v', 1e300, 0.0, math.inf) is None
 
 
+def test_an_infinite_value_is_refused_also_within_infinite_limits():
+    # inf lies in [-inf, inf]: a finite-float fast path must not let it through
+    assert 'not finite' in range_problem('v', math.inf, -math.inf, math.inf)
+    assert 'not finite' in abs_limit_problem('v', -math.inf, math.inf)
+    assert 'not finite' in abs_limit_problem('v', math.nan, math.inf)
+
+
 @settings(max_examples=300, deadline=None)
 @given(ANY_FLOAT, st.floats(0.0, 1e6))
 def test_range_problem_none_iff_usable(v, lim):

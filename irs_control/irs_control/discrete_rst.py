@@ -404,5 +404,9 @@ class DiscreteRstController(InputGuard):
             return self._invalid(ref, f'controller state became non-finite (u = {u!r}): state '
                                       'reset, zero steer')
         self._x = x_next
-        return ControlOutput(u_unsat=u, u_sat=u_sat, saturated=(u_sat != u),
-                             reason=ref_problem or '', reference=ref)
+        # ControlOutput(u_unsat=u, u_sat=u_sat, saturated=..., reason=..., reference=ref), its
+        # fields set at once (a frozen dataclass's __init__ sets each by object.__setattr__).
+        out = object.__new__(ControlOutput)
+        out.__dict__.update(u_unsat=u, u_sat=u_sat, saturated=(u_sat != u), state=STATE_RUNNING,
+                            reason=ref_problem or '', reference=ref, reset=False)
+        return out

@@ -164,7 +164,11 @@ def forward_kinematics(theta1: float, theta2: float, theta3: float,
     psi = wrap_angle(a12 + theta3)
     x_cg = x_tip - g.attach_offset * math.cos(psi)
     y_cg = y_tip - g.attach_offset * math.sin(psi)
-    return ArmPose(x_cg=x_cg, y_cg=y_cg, psi=psi, x_tip=x_tip, y_tip=y_tip)
+    # The same frozen ArmPose as ArmPose(...), its fields set at once (the frozen __init__ sets
+    # each through object.__setattr__, a cost the 1 kHz estimator pays every sample).
+    pose = object.__new__(ArmPose)
+    pose.__dict__.update(x_cg=x_cg, y_cg=y_cg, psi=psi, x_tip=x_tip, y_tip=y_tip)
+    return pose
 
 
 def inverse_kinematics(x_cg: float, y_cg: float, psi: float,

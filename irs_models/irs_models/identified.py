@@ -280,6 +280,7 @@ class IdentifiedPlant(ZohSteps):
             self.C = np.hstack([self.C, [[0.0]]])
         self.x = np.zeros(self.A.shape[0])
         self._delta = 0.0
+        self._step_zoh = None
 
     def reset(self, y_s: float = 0.0) -> None:
         """Zero state with the sensor point at lateral position ``y_s`` [m], heading 0."""
@@ -289,9 +290,13 @@ class IdentifiedPlant(ZohSteps):
 
     def step(self, delta_front: float, delta_rear: float = 0.0, dt: float = 1e-3) -> None:
         """Advance dt [s] with the achieved front steer ``delta_front`` [rad] held constant."""
-        Ad, Bd = self.discrete(dt)
-        self.x = Ad @ self.x + Bd[:, 0] * float(delta_front)
-        self._delta = float(delta_front)
+        zoh = self._step_zoh
+        if zoh is None or zoh[0] != dt:   # Phi and the steer column of Gamma, per step size
+            Ad, Bd = self.discrete(dt)
+            zoh = self._step_zoh = (dt, Ad, Bd[:, 0])
+        delta = float(delta_front)
+        self.x = zoh[1] @ self.x + zoh[2] * delta
+        self._delta = delta
 
     # ---------------------------------------------------------- outputs
     @property

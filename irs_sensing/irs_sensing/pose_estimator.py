@@ -54,6 +54,12 @@ def reading_problem(theta1, theta2, theta3, stamp, belt_speed=0.0) -> Optional[s
     Pure function, no state: a node may call it before its own stamp bookkeeping so that a NaN
     reading is reported as such whatever its stamp.
     """
+    if type(theta1) is float and type(theta2) is float and type(theta3) is float and \
+            type(stamp) is float and type(belt_speed) is float and \
+            abs(theta1) <= ANGLE_LIMIT and abs(theta2) <= ANGLE_LIMIT and \
+            abs(theta3) <= ANGLE_LIMIT and abs(belt_speed) <= BELT_SPEED_LIMIT and \
+            math.isfinite(stamp):   # the common case, answered first (NaN fails the bounds)
+        return None
     for i, a in enumerate((theta1, theta2, theta3)):
         if a is None or not _real(a) or not math.isfinite(a):
             return f'joint {i + 1} angle is not a finite number ({a!r})'
@@ -167,6 +173,29 @@ class PoseEstimate:
     near_singular: bool
 
 
+def _joint_ranges(p: PoseEstimatorParams) -> tuple:
+    """Per joint ``(low, high, wraps)``: ``wraps`` if the range spans less than 2 pi."""
+    return tuple((lo, hi, hi - lo < 2.0 * math.pi) for lo, hi in zip(p.joint_min, p.joint_max))
+
+
+def _joint_range_problem(angles, ranges: tuple) -> Optional[str]:
+    """``None`` if each joint angle [rad] lies in its mechanical range (:func:`_joint_ranges`)
+    modulo 2 pi (FK only sees the angle modulo 2 pi: the reading is valid if some
+    ``a + 2 pi k`` lies in ``[joint_min, joint_max]``), else a sentence.
+    """
+    for i, (a, (lo, hi, wraps)) in enumerate(zip(angles, ranges)):
+        if wraps:
+            shifted = lo + math.fmod(a - lo, 2.0 * math.pi)
+            if shifted < lo:
+                shifted += 2.0 * math.pi
+        else:
+            shifted = lo
+        if not lo <= shifted <= hi:
+            return (f'joint {i + 1} angle {a:.4f} rad outside mechanical range '
+                    f'[{lo:.4f}, {hi:.4f}] rad')
+    return None
+
+
 class PoseEstimator:
     """Stateful pose estimator (pipeline: :meth:`update`; velocities: the module docstring).
 
@@ -185,6 +214,7 @@ class PoseEstimator:
         p = self.params
         self._diff = [make_differentiator(p.differentiator, p.dt, p.cutoff_hz, p.window, p.order)
                       for _ in range(3)]
+        self._ranges_of = None
         self.reset()
 
     def reset(self) -> None:
@@ -268,20 +298,11 @@ class PoseEstimator:
         if self._last is not None and stamp <= self._last[0]:
             return self._reject(f'time stamp {stamp:.6f} s does not increase '
                                 f'(last {self._last[0]:.6f} s)')
-        for i, a in enumerate(angles):
-            # compared modulo 2 pi (FK only sees the angle modulo 2 pi): the reading is valid if
-            # some a + 2 pi k lies in [joint_min, joint_max]
-            span = p.joint_max[i] - p.joint_min[i]
-            if span < 2.0 * math.pi:
-                shifted = p.joint_min[i] + math.fmod(a - p.joint_min[i], 2.0 * math.pi)
-                if shifted < p.joint_min[i]:
-                    shifted += 2.0 * math.pi
-            else:
-                shifted = p.joint_min[i]
-            if not p.joint_min[i] <= shifted <= p.joint_max[i]:
-                return self._reject(
-                    f'joint {i + 1} angle {a:.4f} rad outside mechanical range '
-                    f'[{p.joint_min[i]:.4f}, {p.joint_max[i]:.4f}] rad')
+        if self._ranges_of is not p:   # the node may replace its params
+            self._ranges_of, self._ranges = p, _joint_ranges(p)
+        problem = _joint_range_problem(angles, self._ranges)
+        if problem is not None:
+            return self._reject(problem)
         pose = forward_kinematics(theta1, theta2, theta3, p.geometry)
         if abs(pose.x_cg) > p.belt_half_length + p.off_belt_margin or \
                 abs(pose.y_cg) > p.belt_half_width + p.off_belt_margin:
@@ -310,10 +331,11 @@ class PoseEstimator:
         else:
             self._psi_unwrapped += wrap_angle(pose.psi - self._last[3])
         self._last = (float(stamp), pose.x_cg, pose.y_cg, pose.psi)
-        xdot = self._diff[0].update(pose.x_cg)
-        ydot = self._diff[1].update(pose.y_cg)
-        r = self._diff[2].update(self._psi_unwrapped)
-        valid = all(d.ready for d in self._diff)
+        dx, dy, dpsi = self._diff
+        xdot = dx.update(pose.x_cg)
+        ydot = dy.update(pose.y_cg)
+        r = dpsi.update(self._psi_unwrapped)
+        valid = dx.ready and dy.ready and dpsi.ready
         c, s = math.cos(pose.psi), math.sin(pose.psi)
         if valid:
             ub = xdot + belt_speed
@@ -323,8 +345,11 @@ class PoseEstimator:
             xdot = ydot = r = u = v = math.nan
         xs, ys = sensor_point(pose, p.ds)
         self.last_reason = ''
-        est = PoseEstimate(stamp=float(stamp), x_cg=pose.x_cg, y_cg=pose.y_cg, psi=pose.psi,
-                           x_s=xs, y_s=ys, xdot=xdot, ydot=ydot, yaw_rate=r, u=u, v=v,
-                           velocity_valid=valid,
-                           near_singular=singularity_margin(theta2) < p.singular_tolerance)
+        # A frozen dataclass's __init__ sets each of its 13 fields through object.__setattr__;
+        # filling __dict__ at once gives the same (still frozen) object at a fraction of the cost.
+        est = object.__new__(PoseEstimate)
+        est.__dict__.update(stamp=float(stamp), x_cg=pose.x_cg, y_cg=pose.y_cg, psi=pose.psi,
+                            x_s=xs, y_s=ys, xdot=xdot, ydot=ydot, yaw_rate=r, u=u, v=v,
+                            velocity_valid=valid,
+                            near_singular=singularity_margin(theta2) < p.singular_tolerance)
         return est, ''

@@ -30,6 +30,19 @@ def test_pose_and_sensor_point():
     assert not e.velocity_valid and math.isnan(e.xdot)
 
 
+def test_an_estimate_is_a_whole_frozen_record():
+    import dataclasses
+    from irs_sensing.pose_estimator import PoseEstimate
+    est = PoseEstimator(PoseEstimatorParams(ds=0.2))
+    e = [e for e, _ in feed(est, [(0.3, -0.1 + 1e-4 * k, 0.25) for k in range(40)])][-1]
+    assert e.velocity_valid
+    # every field present and equal to a record built through the constructor
+    assert e == PoseEstimate(**dataclasses.asdict(e))
+    assert set(vars(e)) == {f.name for f in dataclasses.fields(PoseEstimate)}
+    with pytest.raises(dataclasses.FrozenInstanceError):
+        e.y_s = 0.0
+
+
 @pytest.mark.parametrize('kind', ['lowpass', 'savgol'])
 def test_constant_velocity_car_frame(kind):
     est = PoseEstimator(PoseEstimatorParams(differentiator=kind, window=15))

@@ -31,6 +31,8 @@ __all__ = ['FaultCode', 'SafetyParams', 'SafetyMonitor', 'DEFAULT_FUTURE_TOLERAN
 
 
 def _finite(v) -> bool:
+    if type(v) is float:   # the common case, answered first
+        return math.isfinite(v)
     return isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(v)
 
 

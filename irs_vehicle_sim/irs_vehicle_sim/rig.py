@@ -543,26 +543,28 @@ class RigSimulation:
         dr, r2 = sanitize_steer(inputs.rear_steer, c.steer_reject)
         vb, r3 = sanitize_voltage(inputs.drive_voltage, c.belt.u_max)
         uc, r4 = sanitize_speed(inputs.speed_cmd, c.speed_cmd_max, self._speed_cmd)
-        for tag, r in (('front_steer', r1), ('rear_steer', r2), ('drive_voltage', r3),
-                       ('speed_cmd', r4)):
-            if r is not None:
-                warn.append(f'{tag}: {r}')
+        if r1 is not None or r2 is not None or r3 is not None or r4 is not None:
+            for tag, r in (('front_steer', r1), ('rear_steer', r2), ('drive_voltage', r3),
+                           ('speed_cmd', r4)):
+                if r is not None:
+                    warn.append(f'{tag}: {r}')
         self._speed_cmd = uc
         if self.torque_car is not None:
             return self._step_torque_car(inputs, RigInputs(df, dr, vb, uc), warn)
         applied = RigInputs(df, dr, vb, uc)
 
-        psi_k = self.plant.psi
-        v_k = self.plant.lateral_velocity
-        d_front_k = self.act_front.achieved
-        d_rear_k = self.act_rear.achieved
+        plant, belt = self.plant, self.belt
+        psi_k = plant.psi
+        v_k = plant.lateral_velocity
+        d_front_k = self.act_front.state.achieved
+        d_rear_k = self.act_rear.state.achieved
         if self.path_rate == 1.0:
-            self.plant.step(d_front_k, d_rear_k, dt)
+            plant.step(d_front_k, d_rear_k, dt)
         else:
             self._step_on_path(d_front_k, d_rear_k, dt)
-        s_prev = self.belt.position
-        self.belt.step(vb, dt)
-        travel = self.belt.position - s_prev
+        s_prev = belt.position
+        belt.step(vb, dt)
+        travel = belt.position - s_prev
         self.car.step(uc, psi_k, v_k, 0.0, dt)
         self.car.x -= travel
         self.act_front.step(df, dt)
@@ -613,11 +615,11 @@ class RigSimulation:
             counts, velocity = tc.encoder_readings()
             extra = dict(encoder_counts=counts, encoder_velocity=velocity, tyre=truth)
         else:
-            pl = self.plant
-            x, y, psi = self.car.x, pl.y_cg, pl.psi
-            u, v, r, y_s = self.car.u, pl.lateral_velocity, pl.yaw_rate, pl.y_s
-            ws = wheel_speeds(u, v, r, self.act_front.achieved, self.act_rear.achieved,
-                              self.config.car)
+            pl, car = self.plant, self.car
+            x, y, psi = car.x, pl.y_cg, pl.psi
+            u, v, r, y_s = car.u, pl.lateral_velocity, pl.yaw_rate, pl.y_s
+            ws = wheel_speeds(u, v, r, self.act_front.state.achieved,
+                              self.act_rear.state.achieved, self.config.car)
         edge = off_belt_edge(x, y, self.config.car)
         arm_fault = False
         try:
@@ -630,9 +632,10 @@ class RigSimulation:
                 self._fault_reason = f'off_belt:{edge}'
             elif arm_fault:
                 self._fault_reason = 'arm_reach'
+        belt = self.belt
         return RigOutputs(
-            time=self.time, arm_angles=ang, belt_speed_measured=self.belt.measured_speed,
-            belt_speed=self.belt.speed, actuator_front=_snapshot(self.act_front.state),
+            time=self.k * self.config.dt, arm_angles=ang, belt_speed_measured=belt.measured_speed,
+            belt_speed=belt.speed, actuator_front=_snapshot(self.act_front.state),
             actuator_rear=_snapshot(self.act_rear.state), x=x, y=y, psi=psi, u=u, v=v,
             yaw_rate=r, y_s=y_s, wheel_speeds=ws, off_belt=bool(edge), off_belt_edge=edge,
             arm_fault=arm_fault, fault=bool(self._fault_reason),

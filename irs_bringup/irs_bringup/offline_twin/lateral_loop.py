@@ -77,6 +77,8 @@ class ClosedLoop:
             self.reg_enabled = reg.enabled
             self.reg_use_velocity = reg.use_velocity_input
         self.profile = speed_profile(cfg.driver) if cfg.driver is not None else None
+        # One RigInputs, refilled each step: the rig copies what it applies into its outputs.
+        self._inputs = RigInputs()
 
     def _control(self, out):
         t = out.time
@@ -108,20 +110,25 @@ class ClosedLoop:
                                       enabled=self.safety.drive_permitted and self.reg_enabled)
             voltage = self.safety.gate(r.voltage) if self.reg_enabled else 0.0
         speed = self.profile(t) if self.profile is not None else None
-        return RigInputs(front_steer=steer, rear_steer=0.0, drive_voltage=voltage,
-                         speed_cmd=self.rig.config.u0 if speed is None else speed), ref, y_s
+        inputs = self._inputs
+        inputs.front_steer = steer
+        inputs.drive_voltage = voltage
+        inputs.speed_cmd = self.rig.config.u0 if speed is None else speed
+        return inputs, ref, y_s
 
     def run(self, duration: float) -> dict:
         """Simulate ``duration`` s; arrays of length N+1 (outputs) and N (commands)."""
         n = int(round(duration / self.dt))
         rows, cmds = [], []
+        control, step = self._control, self.rig.step
+        add_row, add_cmd = rows.append, cmds.append
         out = self.rig.outputs
         for _ in range(n):
-            inputs, ref, y_meas = self._control(out)
-            rows.append((out.time, out.y_s, y_meas, ref, out.actuator_front.achieved, out.x,
-                         out.belt_speed, out.fault))
-            cmds.append((inputs.front_steer, inputs.drive_voltage))
-            out = self.rig.step(inputs)
+            inputs, ref, y_meas = control(out)
+            add_row((out.time, out.y_s, y_meas, ref, out.actuator_front.achieved, out.x,
+                     out.belt_speed, out.fault))
+            add_cmd((inputs.front_steer, inputs.drive_voltage))
+            out = step(inputs)
         # The last instant: outputs only (no command is computed for it), the reference as the
         # reference generator publishes it.
         rows.append((out.time, out.y_s, math.nan, float(self.signal(out.time)),
