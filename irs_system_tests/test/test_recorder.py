@@ -72,7 +72,7 @@ class LockstepResponder:
         self.pending = None
         self.clock_ns = -1
         self.amplitude = amplitude
-        self.pub = ros.node.create_publisher(SteeringCommand, CMD_TOPIC, qos.COMMAND)
+        self.pub = ros.node.create_publisher(SteeringCommand, CMD_TOPIC, qos.COMMAND_PUB)
         self.trigger_sub = ros.node.create_subscription(
             trigger_type or PointStamped, trigger, self._on_trigger, qos.SENSOR)
         ros.node.create_subscription(Clock, '/clock', self._on_clock, qos.CLOCK)
