@@ -17,7 +17,8 @@
   a late joiner sees the current fault at once.
 - ``CLOCK``: /clock from the lock-step rig. RELIABLE, KEEP_LAST 100 for nodes that act on every
   tick (the reference generator); rclpy's own time source subscribes best effort, depth 1, which
-  matches.
+  matches. ``CLOCK_PUB``, the rig's publisher, keeps ``PUBLISHER_HISTORY`` like ``SENSOR_PUB``:
+  the rig steps at the pace of its controller, not of a recorder of ``/clock``.
 """
 from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
 
@@ -39,3 +40,6 @@ COMMAND_PUB = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=PUBLISHER_HISTOR
                          durability=DurabilityPolicy.VOLATILE)
 CLOCK = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=100,
                    reliability=ReliabilityPolicy.RELIABLE, durability=DurabilityPolicy.VOLATILE)
+CLOCK_PUB = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=PUBLISHER_HISTORY,
+                       reliability=ReliabilityPolicy.RELIABLE,
+                       durability=DurabilityPolicy.VOLATILE)

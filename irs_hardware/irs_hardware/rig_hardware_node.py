@@ -86,7 +86,7 @@ class RigHardwareNode(Node):
         tol = int(round(self.p['future_tolerance'] * 1e9))
         self.gates = {n: StampGate(tol) for n in self.inputs}
         self.received_at = {}
-        self.pub_clock = self.create_publisher(Clock, '/clock', qos.CLOCK) if self.lockstep \
+        self.pub_clock = self.create_publisher(Clock, '/clock', qos.CLOCK_PUB) if self.lockstep \
             else None
         self.pub_arm = self.create_publisher(JointState, 'arm/joint_states', qos.SENSOR_PUB)
         self.pub_belt = self.create_publisher(BeltSpeed, 'belt/speed', qos.SENSOR_PUB)

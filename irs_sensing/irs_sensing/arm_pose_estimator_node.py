@@ -49,9 +49,11 @@ class ArmPoseEstimatorNode(Node):
     that stamp (an explicit "no valid measurement" marker, so that downstream nodes take their safe
     action for that step and a lock-step run does not stall), and ``sensing/status``
     (SensingStatus, latched) says why. No valid reading for ``stale_timeout`` s is reported as
-    STALE (logged once per transition, and once when valid readings return). ``sensing/status`` is
-    published on every change of state and at most once a second while readings keep being
-    rejected.
+    STALE (logged once per transition, and once when valid readings return); while rejected
+    readings keep arriving the status stays REJECTED, and once no reading at all has arrived for
+    ``stale_timeout`` s it is STALE, so the latched status ends as STALE whatever came before.
+    ``sensing/status`` is published on every change of state and at most once a second while
+    readings keep being rejected.
 
     Stamps (irs_common.stamp_gate, against the node clock): a reading stamped more than
     ``future_tolerance`` s ahead is dropped (no answer, not stored: it cannot silence the input);
@@ -81,7 +83,7 @@ class ArmPoseEstimatorNode(Node):
         self.last_state = None
         self.last_reason = ''
         self.last_status_wall = 0.0
-        self.stale_reported = False
+        self.last_rejected_ns = None   # node clock at the last rejected reading
         # rclpy's throttled logging costs ~1 ms per call: per-step warnings are throttled first.
         self.warner = ThrottledWarner(self.get_logger().warning, 1.0)
         self.edge = EdgeGate(self, future_tolerance, 'arm reading', self._reset_time_state,
@@ -112,6 +114,7 @@ class ArmPoseEstimatorNode(Node):
         """
         self.estimator.reset()
         self.answer.clear()
+        self.last_rejected_ns = None
 
     def _angles(self, msg):
         if len(msg.position) != 3:
@@ -135,6 +138,7 @@ class ArmPoseEstimatorNode(Node):
             est, reason = None, str(exc)
         if est is None:
             self.rejected += 1
+            self.last_rejected_ns = now_ns
             # a persisting rejection (a car off the belt) is logged once, not every second
             self.warner.once('rejected', f'arm reading rejected: {reason}', time.monotonic())
             self._publish(msg.header.stamp, NAN, NAN, NAN, NAN, NAN, NAN, NAN, NAN)
@@ -150,7 +154,6 @@ class ArmPoseEstimatorNode(Node):
         vx, vy, r = (est.u, est.v, est.yaw_rate) if est.velocity_valid else (NAN, NAN, NAN)
         self._publish(msg.header.stamp, est.x_cg, est.y_cg, est.psi, est.x_s, est.y_s, vx, vy, r)
         if self.last_state != SensingStatus.OK:
-            self.stale_reported = False
             self._status(msg.header.stamp, SensingStatus.OK, '', 0.0)
         if self.warner.in_episode('stale'):
             # logged once the input has stayed valid for 1 s: a flapping input is one episode
@@ -196,14 +199,19 @@ class ArmPoseEstimatorNode(Node):
         self.pub_status.publish(st)
 
     def _check_stale(self):
-        if self.stale_reported or self.estimator.last_valid_stamp is None:
+        """STALE once per transition: no valid reading for ``stale_timeout`` s, and no rejected
+        one either if the status says REJECTED (rejected readings that keep arriving are the
+        better answer; a STALE published before them is not current any more).
+        """
+        if self.last_state == SensingStatus.STALE or self.estimator.last_valid_stamp is None:
             return
         now = self.get_clock().now()
         t = now.nanoseconds * 1e-9
+        timeout = self.estimator.params.stale_timeout
+        if (self.last_state == SensingStatus.REJECTED and self.last_rejected_ns is not None
+                and (now.nanoseconds - self.last_rejected_ns) * 1e-9 <= timeout):
+            return
         if self.estimator.stale(t):
-            # once per transition: cleared by the next accepted reading (rejected readings in
-            # between change the status, not this flag)
-            self.stale_reported = True
             age = t - self.estimator.last_valid_stamp
             reason = self.estimator.stale_reason(t)
             self.warner.once('stale', f'arm input stale: {reason}', time.monotonic())

@@ -42,7 +42,7 @@ def run_lockstep(ros, command_fn, duration, timeout=300.0):
     """Run the rig for ``duration`` s; returns ``{topic: {stamp_ns: msg}}``."""
     node = ros.node
     rec = {'point': {}, 'actuator': {}, 'arm': {}}
-    pub = node.create_publisher(SteeringCommand, 'steering/command', qos.COMMAND)
+    pub = node.create_publisher(SteeringCommand, 'steering/command', qos.COMMAND_PUB)
     end_ns = int(round(duration * 1e9))
 
     def on_point(msg):

@@ -72,7 +72,7 @@ class LockstepResponder:
         self.pending = None
         self.clock_ns = -1
         self.amplitude = amplitude
-        self.pub = ros.node.create_publisher(SteeringCommand, CMD_TOPIC, qos.COMMAND)
+        self.pub = ros.node.create_publisher(SteeringCommand, CMD_TOPIC, qos.COMMAND_PUB)
         self.trigger_sub = ros.node.create_subscription(
             trigger_type or PointStamped, trigger, self._on_trigger, qos.SENSOR)
         ros.node.create_subscription(Clock, '/clock', self._on_clock, qos.CLOCK)
@@ -115,14 +115,16 @@ def recorder_spec(out, topics, **params):
 
 def record_lockstep(ros, launch, bag, max_steps, topics, responder=None, extra_nodes=(),
                     extra_topics_ready=(), extra_topics_started=(), metadata=None,
-                    before_rig=None):
+                    before_rig=None, freeze_steps=0):
     """Start recorder + rig, run ``max_steps`` lock-step steps, stop the recorder (SIGINT).
 
     ``extra_topics_ready``: further (topic, minimal count) the recorder must have before the
     run counts as complete; ``extra_topics_started``: topics that must have a first message
     before the responder starts answering; ``extra_nodes`` start before the rig, and
-    ``before_rig(status)`` (if given) runs before the rig starts. Every node started here is
-    stopped before returning. Returns (exit code, recorder output, final status).
+    ``before_rig(status)`` (if given) runs before the rig starts. ``freeze_steps``: the recorder
+    is frozen (SIGSTOP, a recorder starved of CPU) from the first answered step until the rig
+    has run that many steps further. Every node started here is stopped before returning.
+    Returns (exit code, recorder output, final status).
     """
     status = StatusWatcher(ros)
     responder = responder or LockstepResponder(ros)
@@ -144,8 +146,18 @@ def record_lockstep(ros, launch, bag, max_steps, topics, responder=None, extra_n
     assert rec.poll() is None and rig.poll() is None and all(
         status.count(t) >= 1 for t in [*rig_topics, *extra_topics_started]), \
         f'recorder not ready: {status.last}\n{rec.tail()}\n{rig.tail()}'
-    responder.enable()
     last = max_steps * DT_NS
+    if freeze_steps:
+        os.killpg(rec.pid, signal.SIGSTOP)
+        try:
+            responder.enable()
+            frozen_from = max(responder.clock_ns, 0)
+            assert ros.spin_until(lambda: responder.clock_ns >= frozen_from + freeze_steps * DT_NS
+                                  or rig.poll() is not None, 60.0), responder.clock_ns
+        finally:
+            os.killpg(rec.pid, signal.SIGCONT)
+    else:
+        responder.enable()
     # The counts include step 0's re-sent copies, so they can be reached before the last step:
     # the run is complete once the rig has published step max_steps (its /clock comes first,
     # the outputs in the same callback; the recorder's final drain on stop takes what is still
@@ -173,7 +185,9 @@ def test_recorder_lockstep_1khz_no_loss(ros, launch, tmp_path):
     bag = tmp_path / 'bag'
     topics = RIG_TOPICS + [CMD_TOPIC]
     meta = {'experiment': 'tests/test_recorder.py', 'git_commit': 'abc123'}
-    code, out, status = record_lockstep(ros, launch, bag, max_steps, topics, metadata=meta)
+    # frozen for 500 steps: more than a 100-deep writer history holds, less than PUBLISHER_HISTORY
+    code, out, status = record_lockstep(ros, launch, bag, max_steps, topics, metadata=meta,
+                                        freeze_steps=500)
     assert code == 0, out[-3000:]
     assert 'Traceback' not in out, out[-3000:]
     summary = [ln for ln in out.splitlines() if ln.startswith('recorder: closed')]

@@ -3,6 +3,7 @@ import math
 
 from geometry_msgs.msg import PointStamped, PoseStamped, TwistStamped
 import numpy as np
+from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
 from sensor_msgs.msg import JointState
 
 from irs_common import qos
@@ -14,6 +15,13 @@ from irs_models.arm_kinematics import ArmGeometry, inverse_kinematics
 DS = 0.33
 X0, Y0, PSI = 0.1, -0.05, 0.1          # [m], [m], [rad]
 XDOT, YDOT = 0.3, 0.1                  # [m/s] straight-line motion in the treadmill frame
+
+
+#: The latched ``sensing/status`` with a history deep enough to keep every transition a test
+#: causes (``qos.STATUS`` keeps only the last, which a busy test process may take too late).
+STATUS_ALL = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=100,
+                        reliability=ReliabilityPolicy.RELIABLE,
+                        durability=DurabilityPolicy.TRANSIENT_LOCAL)
 
 
 def truth(t):
@@ -45,7 +53,7 @@ def test_angles_give_expected_pose_velocity_and_lateral_displacement(ros, launch
                                  lambda m: got['lateral'].__setitem__(to_ns(m.header.stamp), m),
                                  qos.SENSOR),
         node.create_subscription(
-            SensingStatus, 'sensing/status', lambda m: got['status'].append(m), qos.STATUS
+            SensingStatus, 'sensing/status', lambda m: got['status'].append(m), STATUS_ALL
         ),
     ]
     assert ros.wait_for_matched([pub, *subs], timeout=30.0)
@@ -86,6 +94,26 @@ def test_angles_give_expected_pose_velocity_and_lateral_displacement(ros, launch
     assert ros.spin_until(lambda: (n + 1) * 1_000_000 in got['pose'], 10.0)
     assert math.isnan(got['pose'][(n + 1) * 1_000_000].pose.position.x)
 
-    # No more readings: the input goes stale (wall clock here) and the status says so.
-    assert ros.spin_until(lambda: any(s.state == SensingStatus.STALE for s in got['status']), 10.0)
+    # No more readings: the input goes stale (wall clock here) and the latched status says so.
+    assert ros.spin_until(lambda: got['status'][-1].state == SensingStatus.STALE, 10.0), \
+        [(s.state, s.reason) for s in got['status']]
     assert np.isfinite(got['status'][-1].input_age)
+
+
+def test_stale_input_after_rejected_readings_ends_as_stale_status(ros, launch):
+    # STALE, then a rejected reading (REJECTED), then silence: the latched status returns to STALE
+    launch(NodeSpec('irs_sensing', 'arm_pose_estimator', params={'ds': DS}))
+    node = ros.node
+    states = []
+    pub = node.create_publisher(JointState, 'arm/joint_states', qos.SENSOR)
+    sub = node.create_subscription(SensingStatus, 'sensing/status',
+                                   lambda m: states.append(m.state), STATUS_ALL)
+    assert ros.wait_for_matched([pub, sub], timeout=30.0)
+    x, y, psi = truth(0.0)
+    pub.publish(joint_state(1_000_000, inverse_kinematics(x, y, psi, ArmGeometry())))
+    # stamps near 0 against the wall clock: the valid reading is stale at the next check
+    assert ros.spin_until(lambda: SensingStatus.STALE in states, 10.0), states
+    pub.publish(joint_state(2_000_000, (math.nan, 0.0, 0.0)))
+    assert ros.spin_until(lambda: SensingStatus.REJECTED in states, 10.0), states
+    assert ros.spin_until(lambda: states[-1] == SensingStatus.STALE
+                          and states.index(SensingStatus.REJECTED) < len(states) - 1, 10.0), states

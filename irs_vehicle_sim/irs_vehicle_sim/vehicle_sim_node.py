@@ -170,7 +170,7 @@ class VehicleSimNode(Node):
         self.warner = ThrottledWarner(self.get_logger().warning, 1.0)
         self.info_warner = ThrottledWarner(self._log_info, 1.0)
         self.pub_clock = (
-            self.create_publisher(Clock, '/clock', qos.CLOCK) if self.lockstep else None
+            self.create_publisher(Clock, '/clock', qos.CLOCK_PUB) if self.lockstep else None
         )
         self.pub_arm = self.create_publisher(JointState, 'arm/joint_states', qos.SENSOR_PUB)
         self.pub_belt = self.create_publisher(BeltSpeed, 'belt/speed', qos.SENSOR_PUB)

@@ -17,8 +17,10 @@ the workers import :mod:`irs_studies.sweep.point`, and the scenario travels as p
 from __future__ import annotations
 
 from collections import deque
+from contextlib import contextmanager
 from dataclasses import dataclass
 import itertools
+import logging
 import os
 from pathlib import Path
 import sys
@@ -220,10 +222,45 @@ def _close(client, worker_pids, timeout: float = 5.0):
     after that are killed (an interrupted sweep stops in bounded time).
     """
     try:
-        client.close(timeout=timeout)
+        with _library_errors_in_one_line():
+            client.close(timeout=timeout)
     except Exception:  # noqa: BLE001 -- closing on the way out: the kill below follows
         pass
     _kill(worker_pids)
+
+
+class _OneLine(logging.Filter):
+    """Turns a log record's traceback into one line (``...: NameError: text``)."""
+
+    def filter(self, record):
+        if record.exc_info and record.exc_info[1] is not None:
+            exc = record.exc_info[1]
+            record.msg = (f'{record.getMessage()}: {type(exc).__name__}: '
+                          f'{" ".join(str(exc).split())} (traceback not shown)')
+            record.args, record.exc_info, record.exc_text = None, None, None
+        return True
+
+
+@contextmanager
+def _library_errors_in_one_line():
+    """Dask's and tornado's logged errors without their tracebacks for the ``with`` block.
+
+    A SIGINT that lands inside ``distributed.utils.sync`` before the coroutine has started makes
+    its ``cancel`` callback raise ``NameError: cannot access free variable 'future'``
+    (distributed 2026.8.0, env/requirements.lock: ``future`` is declared without a value; the
+    uninitialised case was handled in https://github.com/dask/distributed/pull/5758), which
+    tornado logs with a traceback from the event-loop thread. :func:`_run_on_dask` keeps the
+    signal out of Dask's calls; this filter is the guard for what is left.
+    """
+    loggers = [logging.getLogger(n) for n in ('tornado.application', 'distributed')]
+    one_line = _OneLine()
+    for lg in loggers:
+        lg.addFilter(one_line)
+    try:
+        yield
+    finally:
+        for lg in loggers:
+            lg.removeFilter(one_line)
 
 
 def run_sweep(prep: Prepared, out: Path, *, workers: int | None = None,
@@ -300,21 +337,53 @@ def _on_second_signal(hook):
 
 
 def _run_on_dask(client, prep, todo, metrics, keep, in_flight: int):
-    """Submit ``todo`` lazily, at most ``in_flight`` at a time; ``keep`` every row."""
+    """Submit ``todo`` lazily, at most ``in_flight`` at a time; ``keep`` every row.
+
+    A first SIGINT/SIGTERM only sets a flag here (:class:`irs_common.cli.SignalGuard`
+    ``on_first``), checked between Dask calls, so that it never interrupts one of them (a
+    KeyboardInterrupt inside ``distributed.utils.sync`` leaves a half-done gather and, at worst,
+    a logged traceback: :func:`_library_errors_in_one_line`); the points still submitted are then
+    cancelled and :class:`irs_common.cli.Interrupted` is raised.
+    """
     from distributed import as_completed
-    cfg = client.scatter(prep.cfg, broadcast=True)
 
-    def submit(p):
-        return client.submit(run_point, cfg, prep.duration, p, metrics, pure=False)
+    from irs_common.cli import Interrupted, current_guard
+    guard = current_guard()
+    stop = threading.Event()
+    previous = guard.on_first if guard is not None else None
+    if guard is not None:
+        guard.on_first = lambda _signum: stop.set()
+    pending = None
+    try:
+        cfg = client.scatter(prep.cfg, broadcast=True)
 
-    first = [submit(p) for p in itertools.islice(todo, in_flight)]
-    if not first:
-        return
-    pending = as_completed(first)
-    for fut in pending:
-        row = fut.result()
-        fut.release()
-        keep(row)
-        nxt = next(todo, None)
-        if nxt is not None:
-            pending.add(submit(nxt))
+        def submit(p):
+            return client.submit(run_point, cfg, prep.duration, p, metrics, pure=False)
+
+        pending = as_completed([])
+        for p in itertools.islice(todo, in_flight):
+            if stop.is_set():
+                break
+            pending.add(submit(p))
+        while not stop.is_set() and not pending.is_empty():
+            batch = pending.next_batch(block=False)
+            if not batch:
+                stop.wait(0.02)   # a signal ends the wait at once; a point takes far longer
+                continue
+            for fut in batch:
+                row = fut.result()
+                fut.release()
+                keep(row)
+                nxt = None if stop.is_set() else next(todo, None)
+                if nxt is not None:
+                    pending.add(submit(nxt))
+    finally:
+        if guard is not None:
+            guard.on_first = previous
+    if stop.is_set():
+        if pending is not None:
+            with pending.lock:
+                running = list(pending.futures)
+            with _library_errors_in_one_line():
+                client.cancel(running)
+        raise Interrupted(guard.signum)
