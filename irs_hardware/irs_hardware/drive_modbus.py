@@ -12,9 +12,14 @@ Register map of the drive (a variable-frequency drive's usual set; the emulator 
 Input registers (read): ``STATUS`` (0; bit 0 running, bit 1 communication-loss trip, bit 2
 enable input low) and ``SPEED`` (1; the belt speed the drive reports [mm/s]).
 :class:`ModbusDrive` raises :class:`DriveError` for every failed request (server gone, timeout,
-exception response): the caller's safety logic decides.
+exception response): the caller's safety logic decides. Its requests and :meth:`ModbusDrive.close`
+take one lock: the node's drive thread and a reset (close, then start) share the client, and a
+close in the middle of another thread's request would end that request, or the reset's first
+one, with a bad file descriptor.
 """
 from __future__ import annotations
+
+import threading
 
 CONTROL, SETPOINT, COMM_TIMEOUT = 0, 1, 2
 STATUS, SPEED = 0, 1
@@ -38,8 +43,13 @@ class ModbusDrive:
         self.device_id = device_id
         self.comm_timeout_ms = comm_timeout_ms
         self.where = f'{host}:{port}'
+        self.lock = threading.Lock()
 
     def _call(self, what, fn, *args, **kw):
+        with self.lock:
+            return self._request(what, fn, *args, **kw)
+
+    def _request(self, what, fn, *args, **kw):
         from pymodbus.exceptions import ModbusException
         try:
             if not self.client.connected and not self.client.connect():
@@ -76,4 +86,5 @@ class ModbusDrive:
         return r.registers[0], r.registers[1] * 1e-3
 
     def close(self) -> None:
-        self.client.close()
+        with self.lock:
+            self.client.close()
