@@ -173,11 +173,12 @@ def test_wheel_topics_end_to_end(hil):
     # every sample, stamped on the board's ticks: 1 ms apart (a sample lost on a loaded machine,
     # by the link or this process, leaves a gap of whole milliseconds)
     assert all(d > 0 and d % 1_000_000 == 0 for d in steps), sorted(set(steps))[:5]
-    # and the stream is every sample, not a decimated one (a decimation by 2 gives no 1 ms
-    # interval at all). How many samples a loaded machine loses is a timing figure for bench/
-    # (bench/hil.py): beside a CPU hog the emulated torque-car board, whose physics runs slower
-    # than real time, delivered 79 % of them
-    assert steps.count(1_000_000) >= 0.5 * len(steps), sorted(set(steps))[:5]
+    # and the stream carries consecutive samples, not a decimated one (a decimation by 2 gives
+    # no 1 ms interval). How many samples a loaded machine loses is a timing figure for bench/
+    # (bench/hil.py), not a test: the emulated torque-car board, whose physics runs slower than
+    # real time at normal priority, delivered 79 % of them beside a CPU hog and 47 % beside a
+    # clean-clone build
+    assert min(steps) == 1_000_000, sorted(set(steps))[:5]
     last = msgs[-1]
     assert last.counts_per_rev == 2048 and last.window == 5
     assert all(b > a for a, b in zip(msgs[0].counts, last.counts))      # all roll forward
