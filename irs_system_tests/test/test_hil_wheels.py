@@ -177,7 +177,7 @@ def test_wheel_topics_end_to_end(hil):
     # no 1 ms interval). How many samples a loaded machine loses is a timing figure for bench/
     # (bench/hil.py), not a test: the emulated torque-car board, whose physics runs slower than
     # real time at normal priority, delivered 79 % of them beside a CPU hog and 47 % beside a
-    # clean-clone build
+    # clean-clone build and a make test
     assert min(steps) == 1_000_000, sorted(set(steps))[:5]
     last = msgs[-1]
     assert last.counts_per_rev == 2048 and last.window == 5
