@@ -25,6 +25,7 @@ from __future__ import annotations
 
 import argparse
 import importlib
+import signal
 import sys
 from dataclasses import dataclass, field
 from typing import Dict, List, Optional
@@ -234,6 +235,8 @@ def main(argv: Optional[List[str]] = None) -> int:
             print(f'bag play: error: {exc}', file=sys.stderr)
             return 2
         if interrupt:
+            print(f'bag play: interrupted by {signal.Signals(interrupt.signum).name} (exit code '
+                  f'{interrupt.exit_code}) before playing', flush=True)
             return interrupt.exit_code
         if not plan.todo:
             print('bag play: nothing to play (no messages)')

@@ -17,7 +17,9 @@
    ``t_i`` right before it; sleeping in slices of at most ``SLICE_S``, spinning the last
    ``SPIN_S``; a message published late does not shift the ones after it (absolute times);
 5. the end: every reliable subscriber's acknowledgement of every message is awaited
-   (at most ``ACK_TIMEOUT_S``), then one summary line.
+   (at most ``ACK_TIMEOUT_S``; a warning names the topics still unacknowledged), then one
+   summary line. With ``/clock`` consumers a warning says what the player cannot see: a
+   message a consumer received and then dropped against its clock (the consumer logs it).
 
 SIGINT and SIGTERM set a flag (rclpy's handlers are off) that the schedule, the waits and the
 lead-in check: the player stops within ``SLICE_S``, destroys its node and returns
@@ -275,9 +277,9 @@ class Player:
             return
         self.log(f'bag play: all messages acknowledged ({(time.monotonic() - t0) * 1e3:.1f} ms)')
         if self.clock_pub is not None and self.clock_pub.get_subscription_count():
-            self.log('bag play: note: acknowledged is received, not accepted: a consumer on '
-                     '/clock reports the messages it dropped itself (its log; the player cannot '
-                     'see them)')
+            print('bag play: warning: acknowledged is received, not accepted: what a consumer on '
+                  '/clock drops (stale or future-stamped against its clock) the player cannot '
+                  'see; the consumer logs it', file=sys.stderr, flush=True)
 
     def _print_summary(self, elapsed: Optional[float]) -> None:
         s = self.stats.summary()

@@ -122,7 +122,8 @@ class ExperimentRunner:
        clock parameters; nodes that share a ``process:`` name start together in one
        ``container`` process (composition: one executor, the nodes still separate on topics);
     3. the runner waits until every node is in the graph and every topic has its expected
-       publishers and subscriptions (``experiment.expected_endpoints``), then calls ``rig/start``;
+       publishers and subscriptions (``experiment.expected_endpoints``; with a live view, its
+       subscriptions too), then calls ``rig/start``;
     4. it follows the run (the rig's ``rig/status``, 10 Hz of simulated time, in lock-step; wall
        time in real time) with a progress line, checking every process: if one dies the run stops,
        naming the node and its last output; if the rig reports that the car left the belt, the run
@@ -391,9 +392,24 @@ class ExperimentRunner:
                          codes, message, timing, cpu, running,
                          None if completed else self.stop_signal)
 
+    def _expected(self) -> dict:
+        """``{topic: (publishers, subscribers)}`` to wait for: the experiment's, and the live
+        view's subscription on each of its topics the graph carries (so that the view sees the
+        run from its first step).
+        """
+        expected = dict(expected_endpoints(self.exp))
+        if self.view is not None:
+            from irs_bag.live_view_params import OUTSIDE_THE_LOOP
+            for suffix in (OUTSIDE_THE_LOOP if self.view_topics is None else self.view_topics):
+                topic = '/' + suffix
+                if topic in expected:
+                    pubs, subs = expected[topic]
+                    expected[topic] = (pubs, subs + 1)
+        return expected
+
     def _wait_for_graph(self, watcher):
         names = [n for label in self.procs for n in self.members.get(label, [label])]
-        expected = expected_endpoints(self.exp)
+        expected = self._expected()
         deadline = time.monotonic() + self.graph_timeout
 
         def ready():

@@ -37,6 +37,44 @@ def test_library_error_is_logged_in_one_line_inside_the_block_only(caplog):
     assert 'Traceback' in outside   # the filter is gone after the block
 
 
+def test_a_child_logger_of_the_libraries_is_one_line_too(caplog):
+    """``distributed.client`` (a child of ``distributed``) logs a cluster's cut close with a
+    traceback; a filter on the parent logger alone would not see it.
+    """
+    import asyncio
+    log = logging.getLogger('distributed.client')
+    with caplog.at_level(logging.ERROR, logger='distributed'):
+        with runner._library_errors_in_one_line():
+            try:
+                raise asyncio.CancelledError()
+            except asyncio.CancelledError:
+                log.error('', exc_info=True)
+    assert 'Traceback' not in caplog.text and 'CancelledError' in caplog.text, caplog.text
+    assert len(caplog.text.strip().splitlines()) == 1, caplog.text
+
+
+def test_an_interrupted_sweep_command_leaves_whatever_waits_at_exit(tmp_path):
+    """As the console script: once interrupted (130), nothing registered for the interpreter's
+    exit (here an atexit hook that would wait 10 min, as a cluster's cut close can) holds it.
+    """
+    import subprocess
+    import sys
+    code = ('import atexit, time, sys\n'
+            'from irs_studies.sweep import sweep_cli\n'
+            'from irs_common.cli import Interrupted\n'
+            'def _main(argv):\n'
+            '    atexit.register(time.sleep, 600)\n'
+            '    raise Interrupted(2)\n'
+            'sweep_cli._main = _main\n'
+            'sys.exit(sweep_cli.main())\n')
+    t0 = time.monotonic()
+    res = subprocess.run([sys.executable, '-c', code], capture_output=True, text=True,
+                         timeout=120)
+    assert res.returncode == 130, res.stderr
+    assert res.stderr.strip() == 'sweep: interrupted (SIGINT)', res.stderr
+    assert time.monotonic() - t0 < 60, 'the atexit hook ran'
+
+
 def _point(cfg, duration, p, metrics):
     time.sleep(0.02)
     return {'point': p['point'], 'value': cfg * duration}

@@ -338,6 +338,9 @@ def test_play_clock_into_an_estimator_on_sim_time_loses_no_reading(ros, launch, 
     assert play.poll() == 0, play.output()
     assert answered == stamps, (len(stamps - answered), est.tail())
     assert 'ahead' not in est.output(), est.tail()       # nothing dropped as future-stamped
+    # what the player cannot see, it says once
+    warned = [ln for ln in play.output().splitlines() if 'bag play: warning:' in ln]
+    assert len(warned) == 1 and 'the player cannot see' in warned[0], play.output()
 
 
 def call_until_answered(ros, service, timeout):
@@ -448,3 +451,32 @@ def test_sensing_rerun_from_replay_reproduces_poses(ros, launch, tmp_path):
         for a, b in zip(pose, again):
             assert (math.isnan(a) and math.isnan(b)) or abs(a - b) <= 1e-9, (stamp, pose, again)
     assert wait_until(lambda: fresh.poll() is None, 0.1)
+
+
+def test_play_warns_when_a_subscriber_never_acknowledges(ros, launch, tmp_path):
+    """A reliable subscriber that stops answering mid-play (its process frozen): the player
+    waits at most ``ACK_TIMEOUT_S`` for its acknowledgements, then names the topic in one
+    warning line and ends normally.
+    """
+    import os
+    import signal
+
+    from test_recorder import StatusWatcher, recorder_spec
+
+    bag = timed_bag(tmp_path / 'bag', 40, 10_000_000, 10_000_000)       # 0.4 s
+    status = StatusWatcher(ros)
+    rec = launch(recorder_spec(tmp_path / 'rec', ['/a']))
+    assert ros.spin_until(lambda: status.last is not None, 30.0), rec.tail()
+    play = launch(NodeSpec('irs_bag', 'bag', name='play_unacked', args=[
+        'play', bag, '--rate', '0.1', '--wait-for-subscribers', '1']))     # 4 s of play
+    assert ros.spin_until(lambda: status.count('/a') >= 1 or play.poll() is not None, 60.0), \
+        (play.output(), rec.tail())
+    os.kill(rec.pid, signal.SIGSTOP)      # every thread of it: no acknowledgement from now on
+    try:
+        assert wait_until(lambda: play.poll() is not None, 60.0), play.output()
+    finally:
+        os.kill(rec.pid, signal.SIGCONT)
+    assert play.poll() == 0, play.output()
+    warned = [ln for ln in play.output().splitlines() if 'bag play: warning:' in ln]
+    assert warned == ['bag play: warning: not every subscriber acknowledged every message on '
+                      '/a within 10 s'], play.output()

@@ -2,7 +2,9 @@
 
 Identified plant with the actuator's lag, delay, backlash, rate limit and saturation on; arm noise
 on. The graph must reproduce the offline cores' numbers, and the designs must rank as the paper's
-central result says (see docs/figure10.md for which of the paper's claims hold and when).
+central result says (see docs/figure10.md for which of the paper's claims hold and when), and
+the numbers docs/figure10.md prints for them (its table and ISE ratios) must be this run's at
+the precision printed there.
 
 The bags must also stay the same to the bit across refactors: every recorded topic's decoded
 messages are digested and compared with ``data/figure10_digests.json`` (beside this file),
@@ -14,6 +16,7 @@ so, so the write mode cannot pass a suite unnoticed; run the test again without 
 import hashlib
 import json
 import os
+import re
 import subprocess
 from pathlib import Path
 
@@ -25,11 +28,20 @@ from mcap_ros2.decoder import DecoderFactory
 from irs_bringup.experiment_cli import run_experiment
 from irs_bringup.offline_twin.from_experiment import offline_run
 from irs_studies.figure10.cli import FIGURE10
-from irs_studies.figure10.report import step_window, write_report
+from irs_studies.figure10.report import model_metrics, step_window, write_report
 from irs_bag.run_series import lateral_run
 from irs_control.metrics import settling_time
 
 DIGESTS = Path(__file__).parent / 'data' / 'figure10_digests.json'
+DOC = Path(__file__).resolve().parents[2] / 'docs' / 'figure10.md'
+#: the rows of the doc's table (docs/figure10.md, "Measured through the graph") -> report keys
+DOC_ROWS = {'MRC with actuator': 'mrc_with_actuator', 'MRC without actuator':
+            'mrc_without_actuator', 'PI': 'pi', 'reference model': 'reference_model'}
+#: its columns -> the report's metric keys ('a / b' cells hold two)
+DOC_COLUMNS = (('rise_time',), ('overshoot_percent',), ('settling_time',),
+               ('oscillation_count', 'crossings_2pct'), ('residual_oscillation',),
+               ('ise_vs_model',), ('max_dev_rel',),
+               ('peak_steer_cmd_deg', 'peak_steer_achieved_deg'))
 #: set (to anything non-empty) to write DIGESTS from this run; the test then fails
 WRITE_ENV = 'IRS_WRITE_FIGURE10_DIGESTS'
 
@@ -65,6 +77,65 @@ def write_digests(digests: dict) -> None:
     DIGESTS.parent.mkdir(exist_ok=True)
     DIGESTS.write_text(json.dumps({'commit': commit, 'runs': digests}, indent=1, sort_keys=True)
                        + '\n')
+
+
+def doc_table() -> dict:
+    """``{report key: [cell, ...]}`` of the Figure 10 table in docs/figure10.md."""
+    lines = DOC.read_text().splitlines()
+    start = next(i for i, ln in enumerate(lines) if ln.startswith('| run | rise 10-90'))
+    rows = {}
+    for ln in lines[start + 2:]:
+        if not ln.startswith('|'):
+            break
+        cells = [c.strip() for c in ln.strip('|').split('|')]
+        rows[DOC_ROWS[cells[0]]] = cells[1:]
+    return rows
+
+
+def as_printed(value: float, cell: str) -> str:
+    """``value`` written as ``cell`` is: the same number of decimals, in the same notation."""
+    if cell in ('–', '-'):
+        return cell if not np.isfinite(value) or value == 0 else f'{value:g}'
+    if 'e' in cell:
+        mantissa, exp = cell.split('e')
+        decimals = len(mantissa.split('.')[1]) if '.' in mantissa else 0
+        text = f'{value:.{decimals}e}'
+        m, e = text.split('e')
+        return f'{m}e{int(e)}'
+    decimals = len(cell.split('.')[1]) if '.' in cell else 0
+    return f'{value:.{decimals}f}'
+
+
+def check_doc_table(metrics: dict, runs: dict) -> None:
+    """Every number of the doc's table equals the run's metric at the doc's print precision
+    (a dash: no value for that row, e.g. the reference model's residual and steer); the
+    reference model's row is the model's own response to the first run's reference.
+    """
+    metrics = {**metrics, 'reference_model': model_metrics(runs['mrc_with_actuator'])}
+    table = doc_table()
+    assert set(table) == set(DOC_ROWS.values()), table
+    for key, cells in table.items():
+        assert len(cells) == len(DOC_COLUMNS), (key, cells)
+        for names, cell in zip(DOC_COLUMNS, cells):
+            if cell == '\u2013':
+                continue    # not given for this row
+            parts = [p.strip() for p in cell.split('/')]
+            assert len(parts) == len(names), (key, cell)
+            for name, part in zip(names, parts):
+                value = float(metrics[key][name])
+                assert as_printed(value, part) == part, (
+                    f'docs/figure10.md, {key} {name}: the doc says {part}, the run gives '
+                    f'{value!r} ({as_printed(value, part)} at that precision)')
+    # the ISE ratios the doc's conclusions quote ("ISE 7x lower than without the actuator and
+    # 95x lower than PI"), as whole numbers
+    quoted = re.search(r'ISE (\d+)x lower than\s+without the actuator and (\d+)x lower than PI',
+                       DOC.read_text())
+    assert quoted, 'docs/figure10.md no longer quotes the ISE ratios'
+    ise = {k: metrics[k]['ise_vs_model'] for k in ('mrc_with_actuator', 'mrc_without_actuator',
+                                                  'pi')}
+    ratios = (round(ise['mrc_without_actuator'] / ise['mrc_with_actuator']),
+              round(ise['pi'] / ise['mrc_with_actuator']))
+    assert ratios == tuple(int(g) for g in quoted.groups()), (ratios, quoted.group(0))
 
 
 def settling(run, band):
@@ -104,6 +175,7 @@ def test_figure10_through_the_graph(tmp_path):
     assert digests == reference['runs'], 'a run or topic was added or removed'
     metrics = write_report(runs, tmp_path / 'report', 'Figure 10 (ROS graph, lock-step)')
     print((tmp_path / 'report' / 'figure10_metrics.md').read_text())
+    check_doc_table(metrics, runs)     # the numbers docs/figure10.md prints are this run's
     with_act, without_act, pi = (
         metrics[k] for k in ('mrc_with_actuator', 'mrc_without_actuator', 'pi')
     )

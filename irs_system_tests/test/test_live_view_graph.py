@@ -111,11 +111,12 @@ def test_view_streams_the_entities_of_run_rrd_while_the_graph_runs(tmp_path):
     bag_y = read_columns(result.bag_dir, {'ground_truth/sensor_point': {'y': 'point.y'}})
     by = bag_y['ground_truth/sensor_point']['y']
     assert set(y) <= set(by)           # exact: CDR doubles
-    # The view follows the car over the part of the run it saw, not a constant. A view that
-    # joins late (best effort, its own process, a loaded machine) misses the first messages and
-    # its timeline starts at the first one it saw (irs_bag.live_view), so the part is found by
-    # value: the bag's rows from the view's first value to its last.
+    # The view follows the car, not a constant, from the start: the runner starts the run once
+    # the view's subscriptions have matched, so its first value is one of the bag's first rows
+    # (best effort may still lose a few), and the part it saw holds the step. The part is found
+    # by value: the bag's rows from the view's first value to its last.
     first, last = np.flatnonzero(by == y[0])[0], np.flatnonzero(by == y[-1])[-1]
+    assert first < 100, f'the view saw the run from row {first} on'
     assert last - first > 0.5 * DURATION * 1000 and np.ptp(by[first:last + 1]) > 0.002
     assert np.ptp(y) >= 0.5 * np.ptp(by[first:last + 1])
     tc, _ = _entity(live, 'world/car', 'Boxes3D:centers')

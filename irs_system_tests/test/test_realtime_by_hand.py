@@ -19,6 +19,7 @@ from irs_common import qos
 from irs_msgs.msg import RigStatus
 
 from irs_system_tests.realtime_loop import REALTIME, loop_specs
+from irs_system_tests.scheduling import check_fifo
 
 
 #: The README's order: the rig, the estimator, the treadmill regulator, the controller, the
@@ -44,6 +45,7 @@ def test_realtime_graph_started_by_hand_keeps_the_car_and_follows_a_step(ros, la
     assert ros.spin_until(lambda: 'present: starting' in procs[0].output(), 60.0), \
         procs[0].tail()
     assert ros.wait_for_matched(subs, timeout=30.0)
+    check_fifo(procs, 50)        # granted, or each process says it was refused
     t_start = time.monotonic()
     assert not ros.spin_until(lambda: any(p.poll() is not None for p in procs)
                               or any(not s.car_on_belt for s in status), 20.0), \

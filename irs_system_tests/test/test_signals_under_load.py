@@ -17,6 +17,7 @@ import pytest
 import yaml
 
 from irs_bringup.executables import resolve_executable
+from irs_bag import validate
 from irs_bringup.processes import wait_until
 from irs_system_tests.cpu_hog import alive, cpu_hog, descendants, wait_handling_signals
 
@@ -25,6 +26,7 @@ pytestmark = pytest.mark.exclusive   # the hog would measure the other worker's 
 #: Bounds under the hog [s] (docs/cli.md): the first signal to the end of the process.
 NODE_BOUND = 15.0          # a node or a container: destroy the nodes, shut rclpy down
 RUNNER_BOUND = 45.0        # the runner: every node (5 s grace), the recorder (15 s), itself
+PLAY_BOUND = 15.0          # bag play: the schedule's wait (<= 50 ms), its node, rclpy shut down
 SWEEP_BOUND = 20.0         # the sweep: its Dask cluster closed (5 s), workers killed after that
 SECOND_BOUND = 5.0         # a second signal while stopping: leave at once
 START_TIMEOUT = 240.0      # start-up under the hog (imports at a tenth of a core)
@@ -103,14 +105,15 @@ RUNNER = ['run', 'figure10_pi', '--process-per-node', '--no-plots', '--duration'
           '--runs-dir', 'runs']
 
 
-@pytest.mark.parametrize('moment,sig,again,code', [
-    ('start-up', signal.SIGINT, None, 130),
-    ('running', signal.SIGTERM, None, 143),
-    ('running', signal.SIGINT, signal.SIGINT, 130),
-], ids=['start-up-SIGINT', 'running-SIGTERM', 'running-SIGINT-twice'])
-def test_runner_stops_within_its_bound(hog, tmp_path, moment, sig, again, code):
-    cmd = Command([resolve_executable('irs_bringup', 'experiment'), *RUNNER], tmp_path,
-                  'runner')
+@pytest.mark.parametrize('deployment,moment,sig,again,code', [
+    ('--process-per-node', 'start-up', signal.SIGINT, None, 130),
+    ('--process-per-node', 'running', signal.SIGTERM, None, 143),
+    ('--process-per-node', 'running', signal.SIGINT, signal.SIGINT, 130),
+    ('--composed', 'running', signal.SIGINT, None, 130),
+], ids=['start-up-SIGINT', 'running-SIGTERM', 'running-SIGINT-twice', 'composed-running-SIGINT'])
+def test_runner_stops_within_its_bound(hog, tmp_path, deployment, moment, sig, again, code):
+    argv = [a if a != '--process-per-node' else deployment for a in RUNNER]
+    cmd = Command([resolve_executable('irs_bringup', 'experiment'), *argv], tmp_path, 'runner')
     try:
         if moment == 'start-up':
             assert wait_handling_signals(cmd.proc.pid, START_TIMEOUT), cmd.log()
@@ -118,13 +121,16 @@ def test_runner_stops_within_its_bound(hog, tmp_path, moment, sig, again, code):
             assert cmd.wait_for('graph up'), cmd.log()
             assert cmd.wait_for(' s (wall ', 60.0), cmd.log()     # a progress line: running
             run_dirs = list((tmp_path / 'runs').iterdir())
-            assert run_dirs and len(descendants(cmd.proc.pid)) >= 6
+            # a process per node (with the recorder), or the container
+            assert run_dirs and len(descendants(cmd.proc.pid)) >= (
+                6 if deployment == '--process-per-node' else 1)
         elapsed = cmd.signal(sig, again)
         codes = {code} if again is None else {code, -again}    # -again: see the node test
         _check(cmd, elapsed, SECOND_BOUND if again else RUNNER_BOUND, codes,
-               f'runner, {moment}, {signal.Signals(sig).name}' + (' twice' if again else ''))
+               f'runner {deployment}, {moment}, {signal.Signals(sig).name}'
+               + (' twice' if again else ''))
         if not again and moment == 'running':
-            assert 'interrupted (SIGTERM)' in cmd.log()
+            assert f'interrupted ({signal.Signals(sig).name})' in cmd.log()
     finally:
         cmd.kill()
 
@@ -138,7 +144,18 @@ def _container_spec(tmp_path):
     return spec
 
 
-@pytest.mark.parametrize('what', ['node', 'container'])
+#: what is started, and the log line that says it is running
+NODES = {
+    'node': ('rig up', lambda tmp: [resolve_executable('irs_vehicle_sim', 'vehicle_sim')]),
+    'container': ('rig up', lambda tmp: [resolve_executable('irs_bringup', 'container'),
+                                         str(_container_spec(tmp))]),
+    'recorder': ('recording', lambda tmp: [
+        resolve_executable('irs_bag', 'recorder'), '--ros-args', '-p',
+        f"output:={tmp / 'bag'}", '-p', "topics:=['/clock', '/arm/joint_states']"]),
+}
+
+
+@pytest.mark.parametrize('what', list(NODES))
 @pytest.mark.parametrize('moment,sig,again,code', [
     ('start-up', signal.SIGINT, None, 0),
     ('running', signal.SIGTERM, None, 0),
@@ -146,16 +163,13 @@ def _container_spec(tmp_path):
 ], ids=['start-up-SIGINT', 'running-SIGTERM', 'running-SIGINT-twice'])
 def test_node_and_container_stop_within_their_bound(hog, tmp_path, what, moment, sig, again,
                                                     code):
-    if what == 'node':
-        argv = [resolve_executable('irs_vehicle_sim', 'vehicle_sim')]
-    else:
-        argv = [resolve_executable('irs_bringup', 'container'), str(_container_spec(tmp_path))]
-    cmd = Command(argv, tmp_path, what)
+    running, argv = NODES[what]
+    cmd = Command(argv(tmp_path), tmp_path, what)
     try:
         if moment == 'start-up':
             assert wait_handling_signals(cmd.proc.pid, START_TIMEOUT), cmd.log()
         else:
-            assert cmd.wait_for('rig up'), cmd.log()
+            assert cmd.wait_for(running), cmd.log()
         elapsed = cmd.signal(sig, again)
         # a second signal may come after the clean stop is done (0), while the nodes are being
         # destroyed (128 + signal), or in the interpreter's own exit, after Python has put back
@@ -163,6 +177,49 @@ def test_node_and_container_stop_within_their_bound(hog, tmp_path, what, moment,
         codes = {code} if again is None else {code, 128 + again, -again}
         _check(cmd, elapsed, SECOND_BOUND if again else NODE_BOUND, codes,
                f'{what}, {moment}, {signal.Signals(sig).name}' + (' twice' if again else ''))
+        if what == 'recorder' and moment == 'running' and again is None:
+            assert validate(tmp_path / 'bag').ok, 'the recorder closes its bag on a signal'
+    finally:
+        cmd.kill()
+
+
+# ------------------------------------------------------------------------------ bag play
+def _small_bag(path):
+    """0.5 s of std_msgs/Float64 on /a at 100 Hz (no header: paced by the log times)."""
+    from rclpy.serialization import serialize_message
+    from std_msgs.msg import Float64
+
+    from irs_bag.writer import BagWriter
+    with BagWriter(path) as w:
+        for k in range(50):
+            w.write('/a', 'std_msgs/msg/Float64', serialize_message(Float64(data=float(k))),
+                    10**18 + k * 10**7)
+    return path
+
+
+@pytest.mark.parametrize('moment,sig,again,code', [
+    ('start-up', signal.SIGINT, None, 130),
+    ('running', signal.SIGTERM, None, 143),
+    ('running', signal.SIGINT, signal.SIGINT, 130),
+], ids=['start-up-SIGINT', 'running-SIGTERM', 'running-SIGINT-twice'])
+def test_bag_play_loop_stops_within_its_bound(hog, tmp_path, moment, sig, again, code):
+    bag = _small_bag(tmp_path / 'bag')
+    cmd = Command([resolve_executable('irs_bag', 'bag'), 'play', str(bag), '--loop'], tmp_path,
+                  'play')
+    try:
+        if moment == 'start-up':
+            assert wait_handling_signals(cmd.proc.pid, START_TIMEOUT), cmd.log()
+        else:
+            assert cmd.wait_for('loop 1 done'), cmd.log()     # playing, and again
+        elapsed = cmd.signal(sig, again)
+        codes = {code} if again is None else {code, -again}    # -again: see the node test
+        _check(cmd, elapsed, SECOND_BOUND if again else PLAY_BOUND, codes,
+               f'bag play --loop, {moment}, {signal.Signals(sig).name}'
+               + (' twice' if again else ''))
+        name = signal.Signals(sig).name
+        if again is None:   # said by the player, or by run_cli before the player is set up
+            assert (f'interrupted by {name} (exit code {code})' in cmd.log()
+                    or f'bag: interrupted ({name})' in cmd.log()), cmd.log()
     finally:
         cmd.kill()
 

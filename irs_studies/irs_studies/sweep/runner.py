@@ -252,7 +252,12 @@ def _library_errors_in_one_line():
     tornado logs with a traceback from the event-loop thread. :func:`_run_on_dask` keeps the
     signal out of Dask's calls; this filter is the guard for what is left.
     """
-    loggers = [logging.getLogger(n) for n in ('tornado.application', 'distributed')]
+    # a logger's filter sees only the records logged on that logger, not those its children
+    # pass up: every logger of the two libraries gets it (distributed.client, .nanny, ...)
+    names = {'tornado.application', 'distributed'} | {
+        n for n in list(logging.root.manager.loggerDict)
+        if n.startswith(('distributed.', 'tornado.'))}
+    loggers = [logging.getLogger(n) for n in sorted(names)]
     one_line = _OneLine()
     for lg in loggers:
         lg.addFilter(one_line)

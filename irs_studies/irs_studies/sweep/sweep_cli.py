@@ -19,6 +19,7 @@ gives one line on stderr and exit code 2; exit codes: docs/cli.md.
 from __future__ import annotations
 
 import argparse
+import os
 from pathlib import Path
 import sys
 
@@ -131,7 +132,18 @@ def _main(argv) -> int:
 
 
 def main(argv=None) -> int:
-    return run_cli('sweep', _main, argv)
+    """The ``sweep`` command. Run as the console script (``argv`` None), an interrupted sweep
+    leaves with ``os._exit`` once its points are written and its cluster closed or killed: what
+    Dask and multiprocessing register to run at the interpreter's exit (closing clusters, joining
+    worker processes) could otherwise wait on a cluster whose closing the signal cut, beyond
+    the bound of docs/cli.md.
+    """
+    code = run_cli('sweep', _main, argv)
+    if argv is None and code > 128:          # 128 + signal: interrupted
+        sys.stdout.flush()
+        sys.stderr.flush()
+        os._exit(code)
+    return code
 
 
 if __name__ == '__main__':
