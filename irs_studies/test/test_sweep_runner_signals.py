@@ -75,6 +75,28 @@ def test_an_interrupted_sweep_command_leaves_whatever_waits_at_exit(tmp_path):
     assert time.monotonic() - t0 < 60, 'the atexit hook ran'
 
 
+def test_a_signal_while_the_cluster_closes_waits_for_the_close(monkeypatch):
+    """A Ctrl-C that lands inside ``client.close`` (the sweep's last step) does not cut it: the
+    close completes, the workers are killed, and then the interrupt is raised.
+    """
+    guard = cli.SignalGuard().install()
+    monkeypatch.setattr(cli, 'GUARD', guard)
+    done = []
+
+    class Client:
+        def close(self, timeout):
+            os.kill(os.getpid(), signal.SIGINT)     # the handler runs here, in the main thread
+            done.append('closed')
+
+    monkeypatch.setattr(runner, '_kill', lambda pids: done.append('killed'))
+    try:
+        with pytest.raises(cli.Interrupted):
+            runner._close(Client(), [12345])
+    finally:
+        guard.restore()
+    assert done == ['closed', 'killed']
+
+
 def _point(cfg, duration, p, metrics):
     time.sleep(0.02)
     return {'point': p['point'], 'value': cfg * duration}

@@ -220,13 +220,21 @@ def _kill(pids):
 def _close(client, worker_pids, timeout: float = 5.0):
     """Close the client and its local cluster within about ``timeout`` s; workers still there
     after that are killed (an interrupted sweep stops in bounded time).
+
+    A first signal while closing is held until the close is done and then acted on
+    (:func:`irs_common.cli.held_signals`): cut in the middle, Dask's close would leave its
+    cluster half closed and log the cancelled coroutine with a traceback from its loop thread.
+    A second signal still leaves at once (the workers killed first).
     """
-    try:
-        with _library_errors_in_one_line():
-            client.close(timeout=timeout)
-    except Exception:  # noqa: BLE001 -- closing on the way out: the kill below follows
-        pass
-    _kill(worker_pids)
+    from irs_common.cli import held_signals
+    with held_signals() as held:
+        try:
+            with _library_errors_in_one_line():
+                client.close(timeout=timeout)
+        except Exception:  # noqa: BLE001 -- closing on the way out: the kill below follows
+            pass
+        _kill(worker_pids)
+    held.deliver()
 
 
 class _OneLine(logging.Filter):
