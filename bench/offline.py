@@ -37,10 +37,33 @@ def offline_timings() -> dict:
             'err': float(np.max(np.abs(ys_core - ys_ref[:, 0])))}
 
 
+def calls_per_step(duration: float = 0.5) -> float:
+    """Python function calls per step of the offline Figure 10 loop (cProfile's count over
+    ``duration`` s of simulated time; a count, not a time, so load does not change it).
+    """
+    import cProfile
+    import pstats
+    from irs_bringup.experiment import load_experiment
+    from irs_bringup.offline_twin.from_experiment import loop_config_from_experiment
+    from irs_bringup.offline_twin.lateral_loop import ClosedLoop
+    exp = load_experiment('figure10_mrc_with_actuator')
+    loop = ClosedLoop(loop_config_from_experiment(exp))
+    prof = cProfile.Profile()
+    prof.runcall(loop.run, duration)
+    return pstats.Stats(prof).total_calls / (duration / loop.dt)
+
+
 def offline() -> list:
+    from waits import python_floor      # bench/waits.py
+    floor = python_floor()
+    calls = calls_per_step()
     o = offline_timings()
     n, t_loop, t_core, t_ref, err = o['n'], o['t_loop'], o['t_core'], o['t_ref'], o['err']
-    rows = [{'name': 'offline closed loop (all cores, Figure 10)', 'steps_per_s': n / t_loop},
+    print(f'    Python floor {floor / 1e6:.1f} M calls/s (a call and three float operations); '
+          f'the loop makes {calls:.0f} calls per step: {floor / calls:.0f} steps/s at that rate',
+          flush=True)
+    rows = [{'name': 'offline closed loop (all cores, Figure 10)', 'steps_per_s': n / t_loop,
+             'python_floor_calls_per_s': floor, 'calls_per_step': calls},
             {'name': 'identified plant, our core stepped in Python', 'steps_per_s': n / t_core},
             {'name': 'identified plant, scipy.signal.dlsim (vectorised reference)',
              'steps_per_s': n / t_ref, 'max_abs_difference_m': err}]

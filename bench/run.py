@@ -32,7 +32,13 @@ Sections (each a function below; results go to ``bench/results/<time>.json`` and
 - ``starvation`` (only with ``--only starvation``, about 8 min; bench/starvation.py): one process
   of each real-time deployment stopped for 0.2-5 s: car kept, controlled stop or lost;
 - ``soak_hour`` (only with ``--only soak_hour [--soak-minutes N]``; bench/soak_hour.py): the
-  composed real-time graph with the recorder for an hour, memory per process every minute.
+  composed real-time graph with the recorder for an hour, memory per process every minute;
+- ``waits`` (only with ``--only waits [--waits-test]``; bench/waits.py): what a user waits for,
+  timed as a user meets it: ``make demo`` on a clean clone of HEAD, the paper's figures
+  (``make figures`` into a temporary folder), ``make test`` if asked, and a plain-Python floor.
+
+Every run ends with the project's speed targets (bench/targets.py) that its sections measured,
+each next to its floor from the same run.
 
 Speed is measured here, never asserted in tests. Timing figures are noisy on a shared 2-core
 machine: compare ratios within one run (the floor is in the same JSON).
@@ -50,10 +56,11 @@ sys.path.insert(0, str(HERE))
 
 from common import domain as _domain, write_results   # noqa: E402 (bench/ is on sys.path)
 from offline import offline  # noqa: E402,F401 (a section, called by name)
+import targets as bench_targets  # noqa: E402 (bench/targets.py)
 
 SECTIONS = ('floor', 'realtime', 'lockstep', 'offline', 'replay', 'sweep', 'hil')
 #: Sections run only when named with ``--only``.
-EXTRA_SECTIONS = ('soak', 'starvation', 'soak_hour')
+EXTRA_SECTIONS = ('soak', 'starvation', 'soak_hour', 'waits')
 
 
 def floor(seconds: float) -> list:
@@ -245,6 +252,11 @@ def soak_hour(minutes: float) -> list:
     return [bench_soak.soak(minutes)]
 
 
+def waits(with_test: bool) -> list:
+    import waits as bench_waits   # bench/waits.py: make demo, figures (make test if asked)
+    return bench_waits.waits(with_test)
+
+
 def sweep() -> list:
     import sweep as bench_sweep   # bench/sweep.py: points/s on 1 and 2 Dask workers, BatchLti
     return bench_sweep.sweep_rates(12, None) + bench_sweep.offline(100)
@@ -259,6 +271,8 @@ def main(argv=None) -> int:
     ap.add_argument('--out', default=str(HERE / 'results'), help='folder for the JSON file')
     ap.add_argument('--soak-minutes', type=float, default=60.0,
                     help='length of the soak_hour run [min] (default 60)')
+    ap.add_argument('--waits-test', action='store_true',
+                    help='waits: also time make test in the clean clone (15-25 min)')
     ap.add_argument('--soak-deployments', nargs='+', choices=('recorder', 'per_node'),
                     default=['recorder', 'per_node'],
                     help='deployments of the 10-minute soak (default both)')
@@ -271,8 +285,11 @@ def main(argv=None) -> int:
         fn = globals()[section]
         args = {'floor': (floor_s,), 'realtime': (rt_s,), 'replay': (replay_s,),
                 'hil': (rt_s / 2,), 'soak_hour': (a.soak_minutes,),
-                'soak': (a.soak_deployments,)}.get(section, ())
+                'soak': (a.soak_deployments,), 'waits': (a.waits_test,)}.get(section, ())
         results[section] = fn(*args)
+    text, results['targets'] = bench_targets.table(results)
+    if results['targets']:
+        print('== targets (each next to its floor, this run)\n' + text, flush=True)
     write_results(results, a.out)
     return 0
 
