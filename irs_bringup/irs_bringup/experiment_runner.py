@@ -25,6 +25,8 @@ import rclpy
 from rclpy.context import Context
 from rclpy.signals import SignalHandlerOptions
 from diagnostic_msgs.msg import DiagnosticArray
+from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
+from std_msgs.msg import String
 from std_srvs.srv import Trigger
 import yaml
 
@@ -42,6 +44,11 @@ from .processes import NodeProcess, NodeSpec, kill_processes, stop_processes
 NODE_GRACE = 5.0
 #: Seconds the recorder has to stop after SIGINT: it writes its bag's summary and index.
 RECORDER_GRACE = 15.0
+#: The drain after a run (``_drain``): the recorder's status period [s], the wall time given
+#: to the last messages [s], and the most a recorder behind the run is waited for [s].
+DRAIN_STATUS_PERIOD = 0.1
+DRAIN_QUIET = 0.5
+DRAIN_TIMEOUT = 60.0
 
 
 def _number(text: str):
@@ -153,6 +160,7 @@ class ExperimentRunner:
         self.procs = {}
         self.devices = {}    # device processes (emulators): started first, stopped last
         self.members = {}    # container process label -> its node names
+        self.recorder_status = []    # (monotonic time, {topic: messages}) of recorder/status
         self.rt_priority = int(rt_priority)
         self.view = view         # live view: rerun URL, .rrd path, ws:// URL (None = no view)
         self.view_topics = view_topics   # its topics (None = the node's default: all)
@@ -214,8 +222,10 @@ class ExperimentRunner:
     def _recorder_spec(self, bag_dir):
         # No use_sim_time: the recorder logs receive times on the system clock either way, and
         # without it it does not take /clock every step (unless /clock is recorded).
+        # status every 0.1 s: the runner's drain reads the counts (_drain)
         params = {'topics': list(self.exp.record_topics), 'output': str(bag_dir),
-                  'metadata': json.dumps(experiment_metadata(self.exp))}
+                  'metadata': json.dumps(experiment_metadata(self.exp)),
+                  'status_period': DRAIN_STATUS_PERIOD}
         return NodeSpec('irs_bag', 'recorder', 'recorder', params=params)
 
     def _view_spec(self):
@@ -354,6 +364,12 @@ class ExperimentRunner:
             node.create_subscription(
                 DiagnosticArray, 'rig/timing', lambda m: clock.update(
                     timing={kv.key: _number(kv.value) for kv in m.status[0].values}), qos.STATUS)
+            if bag_dir is not None:
+                node.create_subscription(
+                    String, 'recorder/status', lambda m: self.recorder_status.append(
+                        (time.monotonic(), json.loads(m.data).get('messages', {}))),
+                    QoSProfile(depth=10, reliability=ReliabilityPolicy.RELIABLE,
+                               durability=DurabilityPolicy.TRANSIENT_LOCAL))
             self._start_rig(watcher)
             cpu0 = {label: proc.cpu_seconds() for label, proc in self.procs.items()}
             self.phase = 'running'
@@ -490,10 +506,33 @@ class ExperimentRunner:
                 self._drain(watcher)
                 return True
 
-    def _drain(self, watcher, seconds: float = 0.5):
-        """Every node has published all of the run (the rig saw the last step's answers); give
-        the messages still in flight to the recorder ``seconds`` of wall time before stopping.
+    def _drain(self, watcher, seconds: float = DRAIN_QUIET):
+        """Every node has published all of the run (the rig saw the last step's answers); wait
+        until the recorder has what is still on its way, then the nodes may stop (a publisher
+        stopped earlier takes its unsent messages with it).
+
+        A lock-step run that records ``/clock``: until the recorder's status
+        (``recorder/status``, every ``DRAIN_STATUS_PERIOD`` s) counts every step's ``/clock``
+        (a recorder in its own process can be seconds behind a loaded rig), at most
+        ``DRAIN_TIMEOUT`` s, then a warning line; then, as for every run, ``seconds`` of wall
+        time for the messages of the last steps.
         """
+        steps = int(round(self.exp.duration / self.dt))
+        need_clock = (self.exp.clock == 'lockstep' and '/clock' in {
+            '/' + t.lstrip('/') for t in self.exp.record_topics})
+        start = time.monotonic()
+        while need_clock:
+            watcher.executor.spin_once(timeout_sec=0.05)
+            self._check_stop()
+            self._check_alive()
+            if self.recorder_status and \
+                    self.recorder_status[-1][1].get('/clock', 0) >= steps + 1:
+                break
+            if time.monotonic() - start > DRAIN_TIMEOUT:
+                got = self.recorder_status[-1][1].get('/clock', 0) if self.recorder_status else 0
+                self.log(f'[experiment] warning: the recorder had {got} of the {steps + 1} '
+                         f'/clock messages {DRAIN_TIMEOUT:.0f} s after the run; stopping')
+                break
         deadline = time.monotonic() + seconds
         while time.monotonic() < deadline:
             watcher.executor.spin_once(timeout_sec=0.05)
