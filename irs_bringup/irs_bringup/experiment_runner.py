@@ -195,6 +195,13 @@ class ExperimentRunner:
                 resolve_params_file(ref)  # fail early with a clear message
             params = {**{k: self._placeholders(v) for k, v in entry.params.items()},
                       **clock_overrides(self.exp, entry, self.dt)}
+            if params.get('start_subscribers'):
+                # the lock-step rig's first step waits for the live view's subscriptions too
+                expected = self._expected()
+                params['start_subscribers'] = ','.join(
+                    f'{t}={expected[t][1]}' for t in
+                    (item.partition('=')[0] for item in params['start_subscribers'].split(','))
+                    if t in expected)
             specs.append((getattr(entry, 'process', None),
                           NodeSpec(entry.package, entry.executable, entry.name,
                                    [str(resolve_params_file(r)) for r in entry.params_files],
