@@ -168,11 +168,13 @@ def test_fuzz_arm_pose_estimator(ros, launch):
         return ns
 
     def probe():
-        ns = send(ANGLES, _now(ros))
-        assert ros.spin_until(lambda: ns in got, 10.0), (
-            f'no answer to a good reading\n{proc.tail()}'
-        )
-        return got[ns].point.y
+        # best effort: one reading may be lost on a loaded machine, so the same good pose is
+        # sent again (a new stamp) each second; a silenced node answers none of them
+        for _ in range(10):
+            ns = send(ANGLES, _now(ros))
+            if ros.spin_until(lambda: ns in got, 1.0):
+                return got[ns].point.y
+        raise AssertionError(f'no answer to 10 good readings\n{proc.tail()}')
 
     y_good = probe()
     assert math.isfinite(y_good)
