@@ -48,6 +48,9 @@ RECORDER_GRACE = 15.0
 #: to the last messages [s], and the most a recorder behind the run is waited for [s].
 DRAIN_STATUS_PERIOD = 0.1
 DRAIN_QUIET = 0.5
+#: ... and how long its counts must stand still when it was behind the run: longer than Fast
+#: DDS's heartbeat period (3 s), after which a writer resends what a slow reader missed.
+DRAIN_QUIET_BEHIND = 3.5
 DRAIN_TIMEOUT = 60.0
 
 
@@ -415,6 +418,27 @@ class ExperimentRunner:
                          codes, message, timing, cpu, running,
                          None if completed else self.stop_signal)
 
+    def _recorder_caught_up(self, steps: int, since: float) -> bool:
+        """The recorder's status counts every step's ``/clock``, and its counts of every topic
+        have stood still over the statuses of the last ``DRAIN_QUIET`` s, or
+        ``DRAIN_QUIET_BEHIND`` s if a status since ``since`` lacked some of ``/clock`` (each
+        topic is its own stream: ``/clock`` complete does not mean the others are, and what a
+        reader missed comes again only at the writer's next heartbeat).
+        """
+        if not self.recorder_status:
+            return False
+        t_last, last = self.recorder_status[-1]
+        if last.get('/clock', 0) < steps + 1:
+            return False
+        behind = any(t >= since and c.get('/clock', 0) < steps + 1
+                     for t, c in self.recorder_status)
+        still_since = t_last
+        for t_st, counts in reversed(self.recorder_status):
+            if counts != last:
+                break
+            still_since = t_st
+        return t_last - still_since >= (DRAIN_QUIET_BEHIND if behind else DRAIN_QUIET)
+
     def _expected(self) -> dict:
         """``{topic: (publishers, subscribers)}`` to wait for: the experiment's, and the live
         view's subscription on each of its topics the graph carries (so that the view sees the
@@ -520,9 +544,9 @@ class ExperimentRunner:
 
         A lock-step run that records ``/clock``: until the recorder's status
         (``recorder/status``, every ``DRAIN_STATUS_PERIOD`` s) counts every step's ``/clock``
-        (a recorder in its own process can be seconds behind a loaded rig), at most
-        ``DRAIN_TIMEOUT`` s, then a warning line; then, as for every run, ``seconds`` of wall
-        time for the messages of the last steps.
+        and its counts have stood still for ``DRAIN_QUIET`` s (a recorder in its own process
+        can be seconds behind a loaded rig), at most ``DRAIN_TIMEOUT`` s, then a warning line
+        and ``seconds`` more. Other runs: ``seconds`` of wall time for the last messages.
         """
         steps = int(round(self.exp.duration / self.dt))
         need_clock = (self.exp.clock == 'lockstep' and '/clock' in {
@@ -532,13 +556,13 @@ class ExperimentRunner:
             watcher.executor.spin_once(timeout_sec=0.05)
             self._check_stop()
             self._check_alive()
-            if self.recorder_status and \
-                    self.recorder_status[-1][1].get('/clock', 0) >= steps + 1:
-                break
+            if self._recorder_caught_up(steps, start):
+                return
             if time.monotonic() - start > DRAIN_TIMEOUT:
                 got = self.recorder_status[-1][1].get('/clock', 0) if self.recorder_status else 0
-                self.log(f'[experiment] warning: the recorder had {got} of the {steps + 1} '
-                         f'/clock messages {DRAIN_TIMEOUT:.0f} s after the run; stopping')
+                self.log(f'[experiment] warning: the recorder was still receiving '
+                         f'{DRAIN_TIMEOUT:.0f} s after the run ({got} of the {steps + 1} /clock '
+                         'messages); stopping')
                 break
         deadline = time.monotonic() + seconds
         while time.monotonic() < deadline:
