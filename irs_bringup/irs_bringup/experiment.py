@@ -409,12 +409,16 @@ def node_parameters(entry: NodeEntry) -> dict:
     return values
 
 
-def clock_overrides(exp: Experiment, entry: NodeEntry, dt: float) -> dict:
-    """Parameters the runner adds for the experiment's clock mode."""
+def clock_overrides(exp: Experiment, entry: NodeEntry, dt: float,
+                    expected: dict | None = None) -> dict:
+    """Parameters the runner adds for the experiment's clock mode; ``expected``: the endpoints
+    the lock-step rig waits for before its first step (default :func:`expected_endpoints`).
+    """
     if entry.key in RIG_KEYS:
         if exp.clock == 'lockstep':
             rig_topics = {absolute(t) for t in node_topics(entry)['pub']}
-            waits = ','.join(f'{t}={subs}' for t, (_pubs, subs) in expected_endpoints(exp).items()
+            expected = expected_endpoints(exp) if expected is None else expected
+            waits = ','.join(f'{t}={subs}' for t, (_pubs, subs) in expected.items()
                              if t in rig_topics)
             return {'clock_mode': 'lockstep', 'autostart': False, 'start_subscribers': waits,
                     'max_steps': int(round(exp.duration / dt))}

@@ -35,7 +35,7 @@ from irs_common.cli import SignalGuard, current_guard
 from irs_common.stamps import to_sec
 from irs_msgs.msg import RigStatus
 
-from .experiment import (Experiment, clock_overrides, expected_endpoints,
+from .experiment import (Experiment, absolute, clock_overrides, expected_endpoints,
                          new_run_dir, node_parameters, resolve_params_file)
 from .graph import make_watcher
 from .processes import NodeProcess, NodeSpec, kill_processes, stop_processes
@@ -196,15 +196,9 @@ class ExperimentRunner:
         for entry in self.exp.nodes:
             for ref in entry.params_files:
                 resolve_params_file(ref)  # fail early with a clear message
+            # the lock-step rig's first step waits for the live view's subscriptions too
             params = {**{k: self._placeholders(v) for k, v in entry.params.items()},
-                      **clock_overrides(self.exp, entry, self.dt)}
-            if params.get('start_subscribers'):
-                # the lock-step rig's first step waits for the live view's subscriptions too
-                expected = self._expected()
-                params['start_subscribers'] = ','.join(
-                    f'{t}={expected[t][1]}' for t in
-                    (item.partition('=')[0] for item in params['start_subscribers'].split(','))
-                    if t in expected)
+                      **clock_overrides(self.exp, entry, self.dt, self._expected())}
             specs.append((getattr(entry, 'process', None),
                           NodeSpec(entry.package, entry.executable, entry.name,
                                    [str(resolve_params_file(r)) for r in entry.params_files],
@@ -549,8 +543,8 @@ class ExperimentRunner:
         and ``seconds`` more. Other runs: ``seconds`` of wall time for the last messages.
         """
         steps = int(round(self.exp.duration / self.dt))
-        need_clock = (self.exp.clock == 'lockstep' and '/clock' in {
-            '/' + t.lstrip('/') for t in self.exp.record_topics})
+        need_clock = (self.exp.clock == 'lockstep'
+                      and '/clock' in {absolute(t) for t in self.exp.record_topics})
         start = time.monotonic()
         while need_clock:
             watcher.executor.spin_once(timeout_sec=0.05)
