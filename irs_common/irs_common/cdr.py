@@ -24,7 +24,7 @@ import importlib
 import struct
 import sys
 
-__all__ = ['cdr_serializer', 'CDR_LE_HEADER']
+__all__ = ['cdr_serializer', 'CDR_LE_HEADER', 'class_of', 'message_fields']
 
 #: Encapsulation header of a little-endian plain CDR payload (representation id 0x0001).
 CDR_LE_HEADER = b'\x00\x01\x00\x00'
@@ -42,7 +42,7 @@ _NUMERIC = {k: v for k, v in _BASIC.items() if k not in ('boolean', 'octet')}
 _cache: dict = {}
 
 
-class _Unsupported(Exception):
+class _Unsupported(ValueError):
     """A field type this generator does not write (the caller falls back to rclpy)."""
 
 
@@ -77,13 +77,13 @@ def cdr_serializer(msg_class):
     return fn
 
 
-def _class_of(namespaced):
+def class_of(namespaced):
     """rosidl ``NamespacedType`` -> the Python message class."""
     module = importlib.import_module('.'.join(namespaced.namespaces))
     return getattr(module, namespaced.name)
 
 
-def _fields(msg_class):
+def message_fields(msg_class):
     """``[(slot name, rosidl type)]`` of a message class, in wire order."""
     slots = [s for s in msg_class.__slots__ if s != '_check_fields']
     types = list(msg_class.SLOT_TYPES)
@@ -140,7 +140,7 @@ class _Generator:
         return name
 
     def _emit_fields(self, msg_class, expr, lines, run):
-        for slot, t in _fields(msg_class):
+        for slot, t in message_fields(msg_class):
             self._emit(t, f'{expr}.{slot}', lines, run)
 
     def _emit(self, t, expr, lines, run):
@@ -152,7 +152,7 @@ class _Generator:
             run.append((code, size, expr))
             return
         if kind == 'NamespacedType':     # nested message: flattened into this function
-            self._emit_fields(_class_of(t), expr, lines, run)
+            self._emit_fields(class_of(t), expr, lines, run)
             return
         self._flush_run(lines, run)
         if kind in ('UnboundedString', 'BoundedString'):
@@ -208,7 +208,7 @@ class _Generator:
             lines.append('    for e in v:')
             self._emit_string('e', lines, '        ')
         elif kind == 'NamespacedType':
-            fn = self._function(_class_of(vt))
+            fn = self._function(class_of(vt))
             lines.append('    for e in v:')
             lines.append(f'        {fn}(b, e)')
         else:

@@ -1,6 +1,10 @@
 """Conversions between ``builtin_interfaces/Time`` and integer nanoseconds / float seconds."""
 from builtin_interfaces.msg import Time
 
+from irs_common.msg_builder import builder
+
+_TIME = builder(Time)
+
 
 def to_ns(stamp) -> int:
     """``builtin_interfaces/Time`` -> int nanoseconds."""
@@ -10,7 +14,7 @@ def to_ns(stamp) -> int:
 def from_ns(ns: int) -> Time:
     """int nanoseconds -> ``builtin_interfaces/Time``."""
     ns = int(ns)
-    return Time(sec=ns // 1_000_000_000, nanosec=ns % 1_000_000_000)
+    return _TIME(sec=ns // 1_000_000_000, nanosec=ns % 1_000_000_000)
 
 
 def to_sec(stamp) -> float:

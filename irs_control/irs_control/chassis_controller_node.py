@@ -13,10 +13,12 @@ import time
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
 from geometry_msgs.msg import PoseStamped, TwistStamped
 from rclpy.node import Node
+from std_msgs.msg import Header
 
 from irs_common import qos
 from irs_common.answer_cache import AnswerCache
 from irs_common.input_checks import ThrottledWarner
+from irs_common.msg_builder import builder
 from irs_common.node_main import run_node
 from irs_common.orientation import yaw_from_quaternion
 from irs_common.node_edge import EdgeGate, StaleTimer
@@ -30,6 +32,9 @@ from .torque_car_control import TorqueCarController
 
 WHEELS = ('FL', 'FR', 'RL', 'RR')
 STALE = 'stale_encoders'
+# Builders of the messages published every step (irs_common.msg_builder).
+_HEADER, _TORQUE, _STEERING = (builder(Header), builder(WheelTorqueCommand),
+                               builder(SteeringCommand))
 
 
 class ChassisControllerNode(Node):
@@ -162,17 +167,13 @@ class ChassisControllerNode(Node):
     # ------------------------------------------------------------------ outputs
     def _publish(self, stamp, torques, locked, front, rear, out, reason=None):
         reason = reason or out.reason
-        cmd = WheelTorqueCommand()
-        cmd.header.stamp = stamp
-        cmd.torque = [float(v) for v in torques]
-        cmd.torque_limit = float(self.p['torque_limit'])
-        cmd.locked = [bool(v) for v in locked]
-        steer = SteeringCommand()
-        steer.header.stamp = stamp
-        steer.front_angle, steer.rear_angle = float(front), float(rear)
+        header = _HEADER(stamp=stamp)
         self.answer.start()
-        self.answer.publish(self.pub_torque, cmd)
-        self.answer.publish(self.pub_steer, steer)
+        self.answer.publish(self.pub_torque, _TORQUE(
+            header=header, torque=[float(v) for v in torques],
+            torque_limit=float(self.p['torque_limit']), locked=[bool(v) for v in locked]))
+        self.answer.publish(self.pub_steer, _STEERING(header=header, front_angle=float(front),
+                                                      rear_angle=float(rear)))
         every = self.p['status_decimation']
         self.steps += 1
         braking = out is not None and out.braking

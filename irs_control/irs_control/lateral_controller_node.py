@@ -16,11 +16,13 @@ import time
 
 from geometry_msgs.msg import PointStamped
 from rclpy.node import Node
+from std_msgs.msg import Header
 
 from irs_common import qos
 from irs_common.answer_cache import AnswerCache
 from irs_common.node_main import run_node
 from irs_common.input_checks import ThrottledWarner
+from irs_common.msg_builder import builder
 from irs_common.node_edge import EdgeGate, StaleTimer
 from irs_common.params import declare_table
 from irs_common.stamp_gate import OK, REPEAT, RESET, StampGate
@@ -32,6 +34,10 @@ from .controller_factory import make_controller
 from .design_check import require_stable
 from .discrete_rst import STATE_RUNNING
 from .lateral_params import PARAMS, controller_config
+
+# Builders of the messages published every step (irs_common.msg_builder).
+_COMMAND, _STATUS = builder(SteeringCommand), builder(LateralControllerStatus)
+_HEADER = builder(Header)
 
 class LateralControllerNode(Node):
     """Thin wrapper around the controller built by :func:`make_controller`.
@@ -168,11 +174,6 @@ class LateralControllerNode(Node):
         if self.state != LateralControllerStatus.STATE_RUNNING:
             self.controller.reset()  # restart from rest after a stale/invalid period
         out = self.controller.step_checked(reference, y)
-        status = LateralControllerStatus()
-        status.header = msg.header
-        status.mode = self.p['mode']
-        status.reference = float(out.reference)
-        status.measurement = float(y)
         if out.state == STATE_RUNNING:
             self.state = LateralControllerStatus.STATE_RUNNING
             self.last_meas_time = now
@@ -182,30 +183,32 @@ class LateralControllerNode(Node):
             if self.warner.in_episode('stale'):   # logged once fresh for 1 s (flapping: one)
                 self.warner.end_settled('stale', self._log_info, 'lateral measurement fresh '
                                         'again', time.monotonic())
-            status.error = float(out.reference - y)
+            error = float(out.reference - y)
             if out.reason:
                 self.warner.warn('reference', out.reason, time.monotonic())
         else:
             self.state = LateralControllerStatus.STATE_INVALID
-            status.error = math.nan
+            error = math.nan
             self.warner.once('invalid', out.reason, time.monotonic())   # once while it lasts
-        self._publish(msg.header, out.u_sat, status, out.u_unsat, out.saturated)
+        self._publish(msg.header, out.u_sat, out.u_unsat, out.saturated,
+                      (float(out.reference), float(y), error))
 
-    def _publish(self, header, steer, status, unsat, saturated):
-        cmd = SteeringCommand()
-        cmd.header = header
-        cmd.front_angle = float(steer)
-        cmd.rear_angle = 0.0
+    def _publish(self, header, steer, unsat, saturated, tracking):
+        """The steering command, and the status every ``status_decimation`` steps or on a
+        change of state; ``tracking`` = (reference, measurement, error) [m].
+        """
         self.answer.start()
-        self.answer.publish(self.pub_cmd, cmd)
+        self.answer.publish(self.pub_cmd, _COMMAND(header=header, front_angle=float(steer),
+                                                   rear_angle=0.0))
         every = self.p['status_decimation']
         self.steps += 1
         if self.state != self.published_state or (every and self.steps % every == 1 % every):
-            status.state = self.published_state = self.state
-            status.output_unsaturated = float(unsat)
-            status.output = float(steer)
-            status.saturated = bool(saturated)
-            self.answer.publish(self.pub_status, status)
+            self.published_state = self.state
+            reference, measurement, error = tracking
+            self.answer.publish(self.pub_status, _STATUS(
+                header=header, mode=self.p['mode'], state=self.state, reference=reference,
+                measurement=measurement, error=error, output_unsaturated=float(unsat),
+                output=float(steer), saturated=bool(saturated)))
 
     def _check_stale(self):
         if self.state != LateralControllerStatus.STATE_RUNNING or self.last_meas_time is None:
@@ -217,13 +220,8 @@ class LateralControllerNode(Node):
             self.controller.reset()                             # restart from rest
             self.warner.once('stale', f'lateral measurement stale ({age:.3f} s old): zero steer, '
                              'controller reset', time.monotonic())
-            status = LateralControllerStatus()
-            status.header.stamp = self.edge.own_command_stamp(now.to_msg())
-            status.mode = self.p['mode']
-            status.reference = float(self.reference)
-            status.measurement = math.nan
-            status.error = math.nan
-            self._publish(status.header, 0.0, status, 0.0, False)
+            header = _HEADER(stamp=self.edge.own_command_stamp(now.to_msg()))
+            self._publish(header, 0.0, 0.0, False, (float(self.reference), math.nan, math.nan))
 
 
 def main(args=None):

@@ -16,11 +16,12 @@ bad input, time going back and the writable parameters: :class:`ReferenceGenerat
 import time
 
 from rclpy.node import Node
-from std_msgs.msg import Float64
+from std_msgs.msg import Float64, Header
 from std_srvs.srv import Trigger
 
 from irs_common import qos
 from irs_common.input_checks import ThrottledWarner
+from irs_common.msg_builder import builder
 from irs_common.node_main import run_node
 from irs_common.params import declare_table
 from irs_common.ticker import create_ticker
@@ -28,6 +29,9 @@ from irs_msgs.msg import LateralReference
 
 from .reference import console_reference
 from .reference_params import PARAMS, reference_problem, reference_signal
+
+# Builders of the message published every step (irs_common.msg_builder).
+_HEADER, _REFERENCE = builder(Header), builder(LateralReference)
 
 
 class ReferenceGeneratorNode(Node):
@@ -91,15 +95,12 @@ class ReferenceGeneratorNode(Node):
         self.console_value = value
 
     def _publish(self, stamp, t):
-        ref = LateralReference()
-        ref.header.stamp = stamp
         if self.p['source'] == 'console':
-            ref.lateral_position = float(self.console_value)
-            ref.source = LateralReference.SOURCE_CONSOLE
+            value, source = float(self.console_value), LateralReference.SOURCE_CONSOLE
         else:
-            ref.lateral_position = float(self.signal(t))
-            ref.source = LateralReference.SOURCE_FUNCTION
-        self.pub.publish(ref)
+            value, source = float(self.signal(t)), LateralReference.SOURCE_FUNCTION
+        self.pub.publish(_REFERENCE(header=_HEADER(stamp=stamp), lateral_position=value,
+                                    source=source))
 
 
 def main(args=None):

@@ -20,15 +20,18 @@ import dataclasses
 import math
 import time
 
-from geometry_msgs.msg import PointStamped, PoseStamped, TwistStamped
+from geometry_msgs.msg import (Point, PointStamped, Pose, PoseStamped, Quaternion, Twist,
+                               TwistStamped, Vector3)
 from rclpy.node import Node
 from sensor_msgs.msg import JointState
+from std_msgs.msg import Header
 
 from irs_common import qos
 from irs_common.answer_cache import AnswerCache
 from irs_common.node_main import run_node
 from irs_common.orientation import quaternion_from_yaw
 from irs_common.input_checks import ThrottledWarner
+from irs_common.msg_builder import builder
 from irs_common.node_edge import EdgeGate, StaleTimer
 from irs_common.params import declare_table
 from irs_common.stamps import clock_now_ns, to_ns, to_sec
@@ -37,6 +40,12 @@ from irs_msgs.msg import SensingStatus
 from .calibration import CalibrationError
 from .estimator_params import estimator_config, estimator_parameter_table
 from .pose_estimator import PoseEstimator
+
+# Builders of the messages published every step (irs_common.msg_builder).
+_HEADER, _POINT, _POINT_STAMPED = builder(Header), builder(Point), builder(PointStamped)
+_POSE, _POSE_STAMPED, _QUATERNION = builder(Pose), builder(PoseStamped), builder(Quaternion)
+_TWIST, _TWIST_STAMPED, _VECTOR3 = builder(Twist), builder(TwistStamped), builder(Vector3)
+_STATUS = builder(SensingStatus)
 
 NAN = math.nan
 
@@ -164,39 +173,27 @@ class ArmPoseEstimatorNode(Node):
         # lateral_position first: it closes the 1 kHz lateral loop; pose and velocity feed the
         # treadmill loop (100 Hz in real time), which must not sit between the two
         self.readings += 1
-        point = PointStamped()
-        point.header.stamp = stamp
-        point.header.frame_id = self.frame_id
-        point.point.x, point.point.y = float(x_s), float(y_s)
-        self.answer.publish(self.pub_point, point)
+        header = _HEADER(stamp=stamp, frame_id=self.frame_id)
+        self.answer.publish(self.pub_point, _POINT_STAMPED(
+            header=header, point=_POINT(x=float(x_s), y=float(y_s))))
         if self.pose_every == 1 or self.readings % self.pose_every == 1:
-            self._publish_pose(stamp, x, y, psi, vx, vy, r)
+            self._publish_pose(header, x, y, psi, vx, vy, r)
 
-    def _publish_pose(self, stamp, x, y, psi, vx, vy, r):
-        pose = PoseStamped()
-        pose.header.stamp = stamp
-        pose.header.frame_id = self.frame_id
-        pose.pose.position.x, pose.pose.position.y = float(x), float(y)
-        q = pose.pose.orientation
-        q.x, q.y, q.z, q.w = quaternion_from_yaw(psi)
-        self.answer.publish(self.pub_pose, pose)
-        twist = TwistStamped()
-        twist.header.stamp = stamp
-        twist.header.frame_id = self.child_frame_id
-        twist.twist.linear.x, twist.twist.linear.y = float(vx), float(vy)
-        twist.twist.angular.z = float(r)
-        self.answer.publish(self.pub_twist, twist)
+    def _publish_pose(self, header, x, y, psi, vx, vy, r):
+        qx, qy, qz, qw = quaternion_from_yaw(psi)
+        self.answer.publish(self.pub_pose, _POSE_STAMPED(header=header, pose=_POSE(
+            position=_POINT(x=float(x), y=float(y)),
+            orientation=_QUATERNION(x=qx, y=qy, z=qz, w=qw))))
+        self.answer.publish(self.pub_twist, _TWIST_STAMPED(
+            header=_HEADER(stamp=header.stamp, frame_id=self.child_frame_id),
+            twist=_TWIST(linear=_VECTOR3(x=float(vx), y=float(vy)),
+                         angular=_VECTOR3(z=float(r)))))
 
     def _status(self, stamp, state, reason, age):
         self.last_state, self.last_reason = state, reason
-        st = SensingStatus()
-        st.header.stamp = stamp
-        st.state = state
-        st.reason = reason
-        st.accepted_count = self.accepted
-        st.rejected_count = self.rejected
-        st.input_age = float(age)
-        self.pub_status.publish(st)
+        self.pub_status.publish(_STATUS(
+            header=_HEADER(stamp=stamp), state=state, reason=reason,
+            accepted_count=self.accepted, rejected_count=self.rejected, input_age=float(age)))
 
     def _check_stale(self):
         """STALE once per transition: no valid reading for ``stale_timeout`` s, and no rejected

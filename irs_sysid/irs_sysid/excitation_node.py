@@ -22,10 +22,12 @@ refused). It replaces the lateral controller (steering) or the treadmill regulat
 import time
 
 from rclpy.node import Node
+from std_msgs.msg import Header
 from std_srvs.srv import Trigger
 
 from irs_common import qos
 from irs_common.input_checks import ThrottledWarner
+from irs_common.msg_builder import builder
 from irs_common.node_main import run_node
 from irs_common.params import declare_table
 from irs_common.ticker import create_ticker
@@ -33,6 +35,10 @@ from irs_msgs.msg import SteeringCommand, TreadmillDriveCommand
 
 from .excitation_params import (PARAMS, TARGETS, excitation_problem, excitation_value,
                                 output_limit, signal_from_params)
+
+# Builders of the messages published every step (irs_common.msg_builder).
+_HEADER, _DRIVE = builder(Header), builder(TreadmillDriveCommand)
+_STEERING = builder(SteeringCommand)
 
 
 class ExcitationNode(Node):
@@ -80,18 +86,11 @@ class ExcitationNode(Node):
 
     @staticmethod
     def _drive(stamp, value):
-        msg = TreadmillDriveCommand()
-        msg.header.stamp = stamp
-        msg.voltage = value
-        return msg
+        return _DRIVE(header=_HEADER(stamp=stamp), voltage=value)
 
     @staticmethod
     def _steering(stamp, value):
-        msg = SteeringCommand()
-        msg.header.stamp = stamp
-        msg.front_angle = value
-        msg.rear_angle = 0.0
-        return msg
+        return _STEERING(header=_HEADER(stamp=stamp), front_angle=value, rear_angle=0.0)
 
     def _publish(self, stamp, t):
         raw = self.signal(t)

@@ -14,12 +14,13 @@ import time
 
 from geometry_msgs.msg import PoseStamped, TwistStamped
 from rclpy.node import Node
-from std_msgs.msg import Empty
+from std_msgs.msg import Empty, Header
 from std_srvs.srv import Trigger
 
 from irs_common import qos
 from irs_common.answer_cache import AnswerCache
 from irs_common.input_checks import ThrottledWarner
+from irs_common.msg_builder import builder
 from irs_common.node_main import run_node
 from irs_common.orientation import yaw_from_quaternion
 from irs_common.node_edge import EdgeGate
@@ -32,6 +33,9 @@ from irs_msgs.msg import BeltSpeed, TreadmillDriveCommand, TreadmillState
 from .regulator import BeltSpeedRegulator
 from .regulator_params import regulator_config, regulator_parameter_table
 from .safety import TRANSIENT, SafetyMonitor
+
+# Builders of the messages published every step (irs_common.msg_builder).
+_HEADER, _DRIVE, _STATE = builder(Header), builder(TreadmillDriveCommand), builder(TreadmillState)
 
 
 class TreadmillRegulatorNode(Node):
@@ -190,31 +194,26 @@ class TreadmillRegulatorNode(Node):
         )
 
     def _publish(self, stamp, voltage, belt, x, coasting):
-        drive = TreadmillDriveCommand()
-        drive.header.stamp = stamp
-        drive.voltage = float(voltage)
+        header = _HEADER(stamp=stamp)
         self.answer.start()
-        self.answer.publish(self.pub_drive, drive)
-        st = TreadmillState()
-        st.header.stamp = stamp
-        st.belt_speed = float(belt)
-        st.drive_voltage = float(voltage)
-        st.position_setpoint = float(self.regulator.params.x_ref)
-        st.position = float(x)
-        st.position_error = float(x - self.regulator.params.x_ref)
+        self.answer.publish(self.pub_drive, _DRIVE(header=header, voltage=float(voltage)))
         if self.safety.faulted:
-            st.mode = TreadmillState.MODE_FAULT
+            mode = TreadmillState.MODE_FAULT
         elif not self.p['enabled']:
-            st.mode = TreadmillState.MODE_OFF
+            mode = TreadmillState.MODE_OFF
         else:
-            st.mode = TreadmillState.MODE_COAST if coasting else TreadmillState.MODE_DRIVE
-        st.fault_code = int(self.safety.fault)
-        st.fault_text = self.safety.status_text() if self.safety.faulted else ''
+            mode = TreadmillState.MODE_COAST if coasting else TreadmillState.MODE_DRIVE
+        fault_text = self.safety.status_text() if self.safety.faulted else ''
         every = self.p['state_decimation']
         self.steps += 1
-        if st.mode != self.published_mode or (every and self.steps % every == 1 % every):
-            self.published_mode = st.mode
-            self.answer.publish(self.pub_state, st)
+        if mode != self.published_mode or (every and self.steps % every == 1 % every):
+            self.published_mode = mode
+            x_ref = self.regulator.params.x_ref
+            self.answer.publish(self.pub_state, _STATE(
+                header=header, belt_speed=float(belt), drive_voltage=float(voltage),
+                position_setpoint=float(x_ref), position=float(x),
+                position_error=float(x - x_ref), mode=mode, fault_code=int(self.safety.fault),
+                fault_text=fault_text))
         if self.safety.faulted and self.reported_fault != self.safety.fault:
             self.reported_fault = self.safety.fault
             kind = 'until the input is valid again' if self.safety.fault in TRANSIENT else \
@@ -222,7 +221,7 @@ class TreadmillRegulatorNode(Node):
             # once per transition; input faults that come and go with every pose once in all
             # until the drive resumes
             self.fault_warner.once(f'fault-{int(self.safety.fault)}',
-                                   f'treadmill fault, drive cut ({kind}): {st.fault_text}',
+                                   f'treadmill fault, drive cut ({kind}): {fault_text}',
                                    time.monotonic())
         elif not self.safety.faulted and self.reported_fault is not None:
             self.fault_warner.end(f'fault-{int(self.reported_fault)}', self._log_info,

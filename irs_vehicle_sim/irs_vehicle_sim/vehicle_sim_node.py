@@ -15,17 +15,19 @@ import math
 import time
 
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
-from geometry_msgs.msg import PointStamped
+from geometry_msgs.msg import (Point, PointStamped, Pose, PoseWithCovariance, Quaternion, Twist,
+                               TwistWithCovariance, Vector3)
 from nav_msgs.msg import Odometry
 from rclpy.node import Node
 from rosgraph_msgs.msg import Clock
 from sensor_msgs.msg import JointState
-from std_msgs.msg import Empty
+from std_msgs.msg import Empty, Header
 from std_srvs.srv import Trigger
 
 from irs_common import qos
 from irs_common.input_checks import ThrottledWarner
 from irs_common.loop_timing import LoopTiming
+from irs_common.msg_builder import builder
 from irs_common.node_main import run_node
 from irs_common.orientation import quaternion_from_yaw
 from irs_common.params import declare_table
@@ -58,6 +60,15 @@ TREADMILL_PASSING_FAULTS = (6,)
 
 ARM_JOINTS = ['arm_joint1', 'arm_joint2', 'arm_joint3']
 WHEELS = ['wheel_front_left', 'wheel_front_right', 'wheel_rear_left', 'wheel_rear_right']
+
+# Builders of the messages published every step (irs_common.msg_builder).
+_CLOCK, _HEADER, _JOINT_STATE = builder(Clock), builder(Header), builder(JointState)
+_BELT_SPEED, _ACTUATOR_STATE = builder(BeltSpeed), builder(SteeringActuatorState)
+_ODOMETRY, _POSE_COV, _POSE = builder(Odometry), builder(PoseWithCovariance), builder(Pose)
+_TWIST_COV, _TWIST, _VECTOR3 = builder(TwistWithCovariance), builder(Twist), builder(Vector3)
+_POINT, _POINT_STAMPED, _QUATERNION = builder(Point), builder(PointStamped), builder(Quaternion)
+_RIG_STATUS, _WHEEL_ENCODERS, _TYRE_STATE = (builder(RigStatus), builder(WheelEncoders),
+                                            builder(TyreState))
 
 
 class VehicleSimNode(Node):
@@ -584,31 +595,26 @@ class VehicleSimNode(Node):
         frame = self.p['frame_id']
         k = self.sim.k
         if self.pub_clock is not None:
-            self.pub_clock.publish(Clock(clock=stamp))
+            self.pub_clock.publish(_CLOCK(clock=stamp))
 
-        js = JointState()
-        js.header.stamp = stamp
-        js.header.frame_id = frame
-        js.name = ARM_JOINTS
-        js.position = [float(a) for a in out.arm_angles]
+        header = _HEADER(stamp=stamp, frame_id=frame)
+        js = _JOINT_STATE(header=header, name=ARM_JOINTS,
+                          position=[float(a) for a in out.arm_angles])
         if self.started and not self.lockstep:
             self.arm_sent[self._stamp_ns()] = time.monotonic()
         self.pub_arm.publish(js)
 
         if k % self.p['belt_speed_decimation'] == 0:
-            belt = BeltSpeed()
-            belt.header.stamp = stamp
-            belt.header.frame_id = frame
-            belt.speed = float(out.belt_speed_measured)
-            belt.encoder_count = int(self.sim.belt.encoder.count)
-            self.pub_belt.publish(belt)
+            self.pub_belt.publish(_BELT_SPEED(
+                header=header, speed=float(out.belt_speed_measured),
+                encoder_count=int(self.sim.belt.encoder.count)))
 
         every = self.p['actuator_state_decimation']
         if every and k % every == 0:
             self._publish_actuator(stamp, out)
         every = self.p['ground_truth_decimation']
         if every and k % every == 0:
-            self._publish_ground_truth(stamp, frame, out)
+            self._publish_ground_truth(stamp, header, out)
             if self.pub_tyre is not None:
                 self.pub_tyre.publish(tyre_state_msg(stamp, frame, out.tyre))
         if self.pub_encoders is not None:
@@ -617,11 +623,9 @@ class VehicleSimNode(Node):
                 self.config.encoders['window']))
 
         if self.pub_wheels is not None:
-            ws = JointState()
-            ws.header.stamp = stamp
-            ws.name = WHEELS
-            ws.velocity = [float(w) for w in out.wheel_speeds]
-            self.pub_wheels.publish(ws)
+            self.pub_wheels.publish(_JOINT_STATE(
+                header=_HEADER(stamp=stamp), name=WHEELS,
+                velocity=[float(w) for w in out.wheel_speeds]))
 
         fault = (out.fault, out.fault_reason, self.safe.state, self.safe.late)
         if fault != self.last_fault or (k % self.status_every == 0 and k != self.status_k):
@@ -631,72 +635,52 @@ class VehicleSimNode(Node):
             self._publish_status(out, stamp)
 
     def _publish_actuator(self, stamp, out):
-        act = SteeringActuatorState()
-        act.header.stamp = stamp
         af, ar = out.actuator_front, out.actuator_rear
-        act.front_commanded, act.front_achieved = float(af.commanded), float(af.achieved)
-        act.rear_commanded, act.rear_achieved = float(ar.commanded), float(ar.achieved)
-        act.front_saturated, act.rear_saturated = bool(af.saturated), bool(ar.saturated)
-        self.pub_act.publish(act)
+        self.pub_act.publish(_ACTUATOR_STATE(
+            header=_HEADER(stamp=stamp),
+            front_commanded=float(af.commanded), front_achieved=float(af.achieved),
+            rear_commanded=float(ar.commanded), rear_achieved=float(ar.achieved),
+            front_saturated=bool(af.saturated), rear_saturated=bool(ar.saturated)))
 
-    def _publish_ground_truth(self, stamp, frame, out):
-        odom = Odometry()
-        odom.header.stamp = stamp
-        odom.header.frame_id = frame
-        odom.child_frame_id = self.p['child_frame_id']
-        odom.pose.pose.position.x = float(out.x)
-        odom.pose.pose.position.y = float(out.y)
-        o = odom.pose.pose.orientation
-        o.x, o.y, o.z, o.w = quaternion_from_yaw(out.psi)
-        odom.twist.twist.linear.x = float(out.u)
-        odom.twist.twist.linear.y = float(out.v)
-        odom.twist.twist.angular.z = float(out.yaw_rate)
-        self.pub_odom.publish(odom)
-
-        pt = PointStamped()
-        pt.header.stamp = stamp
-        pt.header.frame_id = frame
-        pt.point.x = float(out.x + self.config.ds * math.cos(out.psi))
-        pt.point.y = float(out.y_s)
-        self.pub_point.publish(pt)
+    def _publish_ground_truth(self, stamp, header, out):
+        qx, qy, qz, qw = quaternion_from_yaw(out.psi)
+        pose = _POSE(position=_POINT(x=float(out.x), y=float(out.y)),
+                     orientation=_QUATERNION(x=qx, y=qy, z=qz, w=qw))
+        twist = _TWIST(linear=_VECTOR3(x=float(out.u), y=float(out.v)),
+                       angular=_VECTOR3(z=float(out.yaw_rate)))
+        self.pub_odom.publish(_ODOMETRY(
+            header=header, child_frame_id=self.p['child_frame_id'],
+            pose=_POSE_COV(pose=pose), twist=_TWIST_COV(twist=twist)))
+        self.pub_point.publish(_POINT_STAMPED(header=header, point=_POINT(
+            x=float(out.x + self.config.ds * math.cos(out.psi)), y=float(out.y_s))))
 
     def _publish_status(self, out, stamp):
         self.status_k = self.sim.k
-        st = RigStatus()
-        st.header.stamp = stamp
-        st.car_on_belt = not out.fault_reason.startswith('off_belt')
-        st.fault_text = out.fault_reason
-        st.rejected_steer_count = self.rejected['steering']
-        st.rejected_drive_count = self.rejected['drive']
-        st.step = self.sim.k
-        st.run_complete = self.run_complete
-        st.safe_state = self.safe.state
-        st.stop_cause = self.safe.cause
-        st.late_inputs = self.safe.late if self.safe.state == HOLDING else ''
-        self.pub_status.publish(st)
+        self.pub_status.publish(_RIG_STATUS(
+            header=_HEADER(stamp=stamp),
+            car_on_belt=not out.fault_reason.startswith('off_belt'),
+            fault_text=out.fault_reason,
+            rejected_steer_count=self.rejected['steering'],
+            rejected_drive_count=self.rejected['drive'],
+            step=self.sim.k, run_complete=self.run_complete, safe_state=self.safe.state,
+            stop_cause=self.safe.cause,
+            late_inputs=self.safe.late if self.safe.state == HOLDING else ''))
 
 
 def wheel_encoders_msg(stamp, out, counts_per_rev: int, window: int) -> WheelEncoders:
     """irs_msgs/WheelEncoders of the rig outputs ``out`` (torque car)."""
-    msg = WheelEncoders()
-    msg.header.stamp = stamp
-    msg.counts = [int(c) for c in out.encoder_counts]
-    msg.velocity = [float(v) for v in out.encoder_velocity]
-    msg.counts_per_rev = int(counts_per_rev)
-    msg.window = int(window)
-    return msg
+    return _WHEEL_ENCODERS(header=_HEADER(stamp=stamp),
+                           counts=[int(c) for c in out.encoder_counts],
+                           velocity=[float(v) for v in out.encoder_velocity],
+                           counts_per_rev=int(counts_per_rev), window=int(window))
 
 
 def tyre_state_msg(stamp, frame: str, truth) -> TyreState:
     """irs_msgs/TyreState of the rig's tyre ground truth ``truth`` (a ``TyreTruth``)."""
-    msg = TyreState()
-    msg.header.stamp = stamp
-    msg.header.frame_id = frame
-    for key in ('slip', 'slip_angle', 'fx', 'fy', 'fz', 'mu', 'omega'):
-        setattr(msg, key, [float(v) for v in getattr(truth, key)])
-    msg.x_belt = float(truth.x_belt)
-    msg.u = float(truth.u)
-    return msg
+    arrays = {key: [float(v) for v in getattr(truth, key)]
+              for key in ('slip', 'slip_angle', 'fx', 'fy', 'fz', 'mu', 'omega')}
+    return _TYRE_STATE(header=_HEADER(stamp=stamp, frame_id=frame), x_belt=float(truth.x_belt),
+                       u=float(truth.u), **arrays)
 
 
 def main(args=None):

@@ -12,14 +12,18 @@ base (irs_common.ticker calls :meth:`DriverNode._on_reset`); the profile is a fu
 time, so nothing else is reset. All parameters are read-only.
 """
 from rclpy.node import Node
+from std_msgs.msg import Header
 
 from irs_common import qos
+from irs_common.msg_builder import builder
 from irs_common.node_main import run_node
 from irs_common.params import declare_table
 from irs_common.ticker import create_ticker
 from irs_msgs.msg import DriverCommand
 
 from .speed_profile import DRIVER_PARAMS as PARAMS, speed_profile
+
+_HEADER, _COMMAND = builder(Header), builder(DriverCommand)   # irs_common.msg_builder
 
 
 class DriverNode(Node):
@@ -38,10 +42,7 @@ class DriverNode(Node):
         self.time_resets += 1
 
     def _publish(self, stamp, t):
-        msg = DriverCommand()
-        msg.header.stamp = stamp
-        msg.speed = float(self.profile(t))
-        self.pub.publish(msg)
+        self.pub.publish(_COMMAND(header=_HEADER(stamp=stamp), speed=float(self.profile(t))))
 
 
 def main(args=None):
