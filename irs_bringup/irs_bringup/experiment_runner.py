@@ -48,8 +48,9 @@ RECORDER_GRACE = 15.0
 #: to the last messages [s], and the most a recorder behind the run is waited for [s].
 DRAIN_STATUS_PERIOD = 0.1
 DRAIN_QUIET = 0.5
-#: ... and how long its counts must stand still when it was behind the run: longer than Fast
-#: DDS's heartbeat period (3 s), after which a writer resends what a slow reader missed.
+#: ... and how long its counts must stand still when it was behind the run, or when any recorded
+#: topic reaches it through DDS from another process: longer than Fast DDS's heartbeat period
+#: (3 s), after which a writer resends what a slow reader missed.
 DRAIN_QUIET_BEHIND = 3.5
 DRAIN_TIMEOUT = 60.0
 
@@ -415,17 +416,21 @@ class ExperimentRunner:
     def _recorder_caught_up(self, steps: int, since: float) -> bool:
         """The recorder's status counts every step's ``/clock``, and its counts of every topic
         have stood still over the statuses of the last ``DRAIN_QUIET`` s, or
-        ``DRAIN_QUIET_BEHIND`` s if a status since ``since`` lacked some of ``/clock`` (each
-        topic is its own stream: ``/clock`` complete does not mean the others are, and what a
-        reader missed comes again only at the writer's next heartbeat).
+        ``DRAIN_QUIET_BEHIND`` s if a status since ``since`` lacked some of ``/clock`` or if
+        the recorder and some node run in different processes (each topic is its own DDS
+        stream: ``/clock`` complete does not mean the others are, and what a reader missed comes
+        again only at the writer's next heartbeat; in one process every message is handed over).
         """
         if not self.recorder_status:
             return False
         t_last, last = self.recorder_status[-1]
         if last.get('/clock', 0) < steps + 1:
             return False
-        behind = any(t >= since and c.get('/clock', 0) < steps + 1
-                     for t, c in self.recorder_status)
+        groups = self.exp.processes()
+        recorder_group = groups.pop('recorder', None)
+        behind = (recorder_group is None or any(g != recorder_group for g in groups.values())
+                  or any(t >= since and c.get('/clock', 0) < steps + 1
+                         for t, c in self.recorder_status))
         still_since = t_last
         for t_st, counts in reversed(self.recorder_status):
             if counts != last:
@@ -538,9 +543,10 @@ class ExperimentRunner:
 
         A lock-step run that records ``/clock``: until the recorder's status
         (``recorder/status``, every ``DRAIN_STATUS_PERIOD`` s) counts every step's ``/clock``
-        and its counts have stood still for ``DRAIN_QUIET`` s (a recorder in its own process
-        can be seconds behind a loaded rig), at most ``DRAIN_TIMEOUT`` s, then a warning line
-        and ``seconds`` more. Other runs: ``seconds`` of wall time for the last messages.
+        and its counts have stood still (:meth:`_recorder_caught_up`: a recorder in its own
+        process can be seconds behind a loaded rig), at most ``DRAIN_TIMEOUT`` s, then a
+        warning line and ``seconds`` more. Other runs: ``seconds`` of wall time for the last
+        messages.
         """
         steps = int(round(self.exp.duration / self.dt))
         need_clock = (self.exp.clock == 'lockstep'

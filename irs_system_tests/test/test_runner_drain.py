@@ -4,7 +4,14 @@ A recorder in its own process can be seconds behind a rig that a loaded machine 
 quickly (the deployment test saw a recorder with 171 of 1201 ``/clock`` messages when the
 nodes were stopped 0.5 s after the run). Here the recorder is frozen (SIGSTOP) for 4 s while
 the rig runs to its end: the bag must still hold every step.
+
+Each recorded topic is its own DDS stream: with ``/clock`` complete, another topic may still wait
+for the writer's next heartbeat (3 s) to get what its reader missed (a make test beside a CPU hog
+saw the last 79 of 1001 ``/arm/joint_states`` missing from a process-per-node bag). So a recorder
+that any node reaches through DDS is waited for until its counts stand still for
+``DRAIN_QUIET_BEHIND``; one composed with every node, for ``DRAIN_QUIET``.
 """
+import dataclasses
 import os
 import signal
 import threading
@@ -12,7 +19,7 @@ import time
 
 from irs_bag.reader import BagReader
 from irs_bringup.experiment import load_experiment
-from irs_bringup.experiment_runner import ExperimentRunner
+from irs_bringup.experiment_runner import DRAIN_QUIET, DRAIN_QUIET_BEHIND, ExperimentRunner
 from irs_bringup.processes import wait_until
 
 
@@ -41,3 +48,27 @@ def test_the_nodes_stop_after_a_recorder_behind_the_run_has_caught_up(tmp_path):
     with BagReader(result.bag_dir) as reader:
         counts = {name: info.message_count for name, info in reader.topics.items()}
     assert counts['/clock'] >= 1201 and counts['/steering/state'] >= 1201, counts
+
+
+def _caught_up_after(exp, tmp_path, still: float) -> bool:
+    """``_recorder_caught_up`` when /clock was complete from the first status and every count,
+    one topic short, has stood still for ``still`` s (statuses every 0.1 s).
+    """
+    runner = ExperimentRunner(exp, runs_dir=tmp_path, progress=False)
+    steps = int(round(exp.duration / runner.dt))
+    counts = {'/clock': steps + 1, '/arm/joint_states': steps - 78}
+    n = int(round(still / 0.1))
+    runner.recorder_status = [(100.0 + 0.1 * i, dict(counts)) for i in range(n + 1)]
+    return runner._recorder_caught_up(steps, since=100.0)
+
+
+def test_a_recorder_apart_from_a_node_is_waited_for_past_the_heartbeat(tmp_path):
+    exp = load_experiment('figure10_mrc_with_actuator').with_duration(1.0)
+    nodes_composed_recorder_apart = dataclasses.replace(exp.composed(), record_process=None)
+    for apart in (exp.deployed('process_per_node'), nodes_composed_recorder_apart):
+        assert not _caught_up_after(apart, tmp_path, DRAIN_QUIET + 0.2)
+        assert not _caught_up_after(apart, tmp_path, DRAIN_QUIET_BEHIND - 0.2)
+        assert _caught_up_after(apart, tmp_path, DRAIN_QUIET_BEHIND + 0.1)
+    together = exp.deployed()
+    assert _caught_up_after(together, tmp_path, DRAIN_QUIET + 0.1)
+    assert not _caught_up_after(together, tmp_path, DRAIN_QUIET - 0.2)
