@@ -36,6 +36,8 @@ closed bag. At most the buffered messages (< ``chunk_size`` bytes) are lost.
 
 from __future__ import annotations
 
+import copy
+import functools
 import json
 import os
 import queue
@@ -166,11 +168,22 @@ def _qos_for_metadata(qos: str):
     """
     if not qos.strip():
         return []
-    try:
-        loaded = yaml.safe_load(qos)
-    except yaml.YAMLError:
+    loaded, parsed = _parse_qos(qos)
+    if not parsed or not isinstance(loaded, list):
         return qos
-    return loaded if isinstance(loaded, list) else qos
+    return copy.deepcopy(loaded)    # one object per topic: shared ones would dump as YAML aliases
+
+
+@functools.lru_cache(maxsize=256)
+def _parse_qos(qos: str):
+    """``(yaml.safe_load(qos), True)``, or ``(None, False)`` if it is not YAML. Cached: the
+    provisional metadata.yaml is written again on every new topic, with every topic's QoS, and
+    one parse takes about 2 ms.
+    """
+    try:
+        return yaml.safe_load(qos), True
+    except yaml.YAMLError:
+        return None, False
 
 
 def bag_metadata_dict(*, file_name: str, topics: Mapping[str, Tuple[str, str, str, int]],
