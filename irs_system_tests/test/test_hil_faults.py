@@ -107,26 +107,11 @@ class Hil:
         assert ros.spin_until(lambda: self.steer.get_subscription_count()
                               and self.drive_pub.get_subscription_count(), 30.0)
         self.command(0.05, 2.0)
-        if not ros.spin_until(self._commanded, 10.0) and self.fault():
-            # A fault latched before any was injected: a stall of the node longer than the
-            # board's watchdog (25 ms) trips it, on a VM under load as on a rig. Reset it once,
-            # as an operator would, and say so: the fault tests start from a running rig.
-            print(f'set-up: the rig latched "{self.fault()}" before any injection; rig/reset')
-            assert ros.spin_until(self.reset_client.service_is_ready, 10.0)
-            future = self.reset_client.call_async(Trigger.Request())
-            assert ros.spin_until(future.done, 10.0) and future.result().success, \
-                future.result()
-            self.command(0.05, 2.0)
-            ros.spin_until(self._commanded, 10.0)
-        assert self._commanded(), (self.board_state(), self.wire.get(DRIVE_VOLTAGE),
-                                   self.node.tail())
+        assert ros.spin_until(lambda: self.board_state().get('enable')
+                              and self.board_state()['pulse_us'] > self.centre + 50
+                              and abs(self.wire.get(DRIVE_VOLTAGE) - 2.0) < 0.01, 10.0), \
+            (self.board_state(), self.wire.get(DRIVE_VOLTAGE), self.node.tail())
         assert not self.fault(), self.fault()
-
-    def _commanded(self) -> bool:
-        """The board enabled, its servo off centre and the drive at 2 V: the set-up command."""
-        return bool(self.board_state().get('enable')
-                    and self.board_state()['pulse_us'] > self.centre + 50
-                    and abs(self.wire.get(DRIVE_VOLTAGE) - 2.0) < 0.01)
 
     def command(self, steer, volts):
         stamp = self.ros.node.get_clock().now().to_msg()
