@@ -3,10 +3,11 @@
 Every node of the 1 kHz loop builds a dozen messages per step. rosidl's generated constructor
 is general and slow for this: it takes ``**kwargs``, imports the classes of its nested fields
 on every call, builds a default for every field even when one is given (a ``Time()`` for a
-``Header`` whose stamp is set next), and stores each value through the field's property. A
-``nav_msgs/Odometry`` (17 nested objects and two 36-element covariance arrays) costs about
-9 us that way. :func:`builder` generates, once per message class, a function that takes the
-fields as keywords and fills the slots directly::
+``Header`` whose stamp is set next), and stores each value through the field's property.
+:func:`builder` generates, once per message class, a function that takes the fields as keywords
+and fills the slots directly, 4-8x faster (2026-12-02, timeit: a stamped ``Header`` 1.17
+against 0.15 us, a ``JointState`` with three positions 4.43 against 0.93 us, a default
+``nav_msgs/Odometry``, 17 nested objects and two covariance arrays, 8.60 against 2.06 us)::
 
     new_joint_state = builder(JointState)
     js = new_joint_state(header=new_header(stamp=stamp, frame_id='map'), name=NAMES,
