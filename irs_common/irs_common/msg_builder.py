@@ -18,9 +18,9 @@ type (``test_msg_builder.py`` checks this on random values for every message typ
 publishes):
 
 * a field not given gets what the generated ``__init__`` gives it: the class's default value
-  (shared when it is an immutable ``int``, ``float``, ``bool``, ``str`` or ``bytes``; copied
-  when it is an ``array.array``, a numpy array or a list), or a fresh nested message from the
-  nested class's own builder;
+  (shared when it is an immutable ``int``, ``float``, ``bool``, ``str``, ``bytes`` or
+  ``tuple``; copied when it is an ``array.array``, a numpy array or a list), or a fresh nested
+  message from the nested class's own builder;
 * a given number, bool, string or nested message is stored as it is, as the property setter
   does when the message's field checks are off;
 * a given sequence or array goes through the field's own property setter, which converts it

@@ -13,7 +13,7 @@ from hypothesis import given, settings, strategies as st
 import pytest
 from rclpy.serialization import deserialize_message, serialize_message
 
-from irs_common.cdr import CDR_LE_HEADER, cdr_serializer
+from irs_common.cdr import CDR_LE_HEADER, cdr_serializer, class_of, message_fields
 
 IRS_TYPES = ['BeltSpeed', 'DriverCommand', 'LateralControllerStatus', 'LateralReference',
              'RigStatus', 'SensingStatus', 'SteeringActuatorState', 'SteeringCommand',
@@ -32,10 +32,6 @@ _INT_RANGES = {'int8': 8, 'int16': 16, 'int32': 32, 'int64': 64}
 def _class(type_name):
     pkg, kind, name = type_name.split('/')
     return getattr(importlib.import_module(f'{pkg}.{kind}'), name)
-
-
-def _class_of(namespaced):
-    return getattr(importlib.import_module('.'.join(namespaced.namespaces)), namespaced.name)
 
 
 def _basic(name):
@@ -62,7 +58,7 @@ def _strategy(t):
         return st.text(st.characters(blacklist_categories=('Cs',), blacklist_characters='\0'),
                        max_size=min(12, bound))
     if kind == 'NamespacedType':
-        return _message(_class_of(t))
+        return _message(class_of(t))
     if kind == 'Array':
         return st.lists(_strategy(t.value_type), min_size=t.size, max_size=t.size)
     if kind in ('UnboundedSequence', 'BoundedSequence'):
@@ -72,8 +68,7 @@ def _strategy(t):
 
 
 def _message(cls):
-    fields = [(s[1:], t) for s, t in zip([s for s in cls.__slots__ if s != '_check_fields'],
-                                          cls.SLOT_TYPES)]
+    fields = [(slot[1:], t) for slot, t in message_fields(cls)]
 
     def build(values):
         msg = cls()
