@@ -27,6 +27,12 @@ def set_params(ros, node_name, **values):
     return future.result().results
 
 
+def settled(drive) -> bool:
+    """The last 5 drive voltages are equal and positive (the regulator's slew is over)."""
+    last = [d.voltage for d in drive[-5:]]
+    return len(last) == 5 and last[0] > 0.0 and all(v == last[0] for v in last)
+
+
 def get_param(ros, node_name, name):
     client = AsyncParameterClient(ros.node, node_name)
     assert client.wait_for_services(timeout_sec=20.0)
@@ -40,10 +46,12 @@ def test_regulator_x_ref_and_enabled_change_behaviour_read_only_refused(ros, lau
                     params={'safety.stale_timeout': 5.0, 'state_decimation': 1}))
     f = Feeder(ros)
     assert ros.wait_for_matched([f.pose, f.vel, f.belt, *f.subs], timeout=30.0)
-    assert feed_until(ros, f, lambda: len(f.state) > 20, x=0.3)
+    # the car at its set point: the drive slews up from 0 V and settles (the last 5 equal)
+    assert feed_until(ros, f, lambda: settled(f.drive), x=0.3)
     assert f.state[-1].position_setpoint == 0.3
-    assert f.state[-1].mode in (TreadmillState.MODE_DRIVE, TreadmillState.MODE_COAST)
+    assert f.state[-1].mode == TreadmillState.MODE_DRIVE
     drive_at_setpoint = f.drive[-1].voltage
+    assert drive_at_setpoint > 0.0
 
     # x_ref 0.3 -> 0.5 m: the reported set point moves, and the car at 0.3 m is now *behind*
     # it, so the belt is slowed (less drive than with the car at its set point)
