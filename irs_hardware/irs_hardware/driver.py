@@ -14,6 +14,7 @@ from abc import ABC, abstractmethod
 from dataclasses import dataclass
 
 from . import protocol as P
+from .board_keeper import BoardKeeper
 from .drive_modbus import DriveError, ModbusDrive
 
 __all__ = ['Reading', 'RigIO', 'LinkError', 'SerialModbusRig', 'DriveError']
@@ -78,8 +79,10 @@ class SerialModbusRig(RigIO):
     """IRSL board over pyserial + Modbus drive over pymodbus."""
 
     def __init__(self, port: str, baud: int, drive: ModbusDrive, watchdog_ms: int = 25,
-                 safe_pulse_us: float = 1500.0, wheels: bool = False):
+                 safe_pulse_us: float = 1500.0, wheels: bool = False, stall_grace: float = 0.0):
         self.wheels = wheels       # the torque car: the board must have 4 wheel counters
+        # stall_grace > 0: a board keeper bridges the host's stalls (free-running mode)
+        self.keeper = BoardKeeper(stall_grace) if stall_grace > 0.0 else None
         self.port_name = port
         self.baud = baud
         self.drive = drive
@@ -92,8 +95,10 @@ class SerialModbusRig(RigIO):
 
     def start(self, triggered: bool) -> None:
         """Drive: comm timeout, set-point 0, run; board: HELLO, INFO checked (1 s; firmware
-        version, and the wheel counters the torque car needs). The board's watchdog arms with
-        the first command the caller sends.
+        version, and the wheel counters the torque car needs). Samples before the INFO are the
+        board's previous session (a reset) and are dropped. The board's watchdog arms with the
+        first command the caller sends; free-running with ``stall_grace`` > 0, the board keeper
+        starts (:mod:`.board_keeper`).
         """
         import serial
         self.drive.start()
@@ -111,8 +116,8 @@ class SerialModbusRig(RigIO):
             for msg in self._messages(max(0.0, deadline - time.monotonic())):
                 if isinstance(msg, P.Info):
                     self.info = msg
-                elif isinstance(msg, P.Sample):
-                    self.early.append(msg)
+                elif isinstance(msg, P.Sample) and self.info is not None:
+                    self.early.append(msg)     # before the INFO: the board's previous session
             if self.info is None and time.monotonic() >= deadline:
                 raise LinkError(f'board at {self.port_name}: no INFO answer to HELLO in 1 s '
                                 '(not IRSL firmware, or a different baud rate)')
@@ -123,6 +128,8 @@ class SerialModbusRig(RigIO):
             raise LinkError(f'board at {self.port_name}: {self.info.wheel_counters} wheel '
                             f'counters, the torque car needs {P.WHEELS} (a board without '
                             'wheels, or the parameter wheels set by mistake)')
+        if not triggered and self.keeper is not None:
+            self.keeper.attach(self.serial.fileno())
 
     def _write(self, data: bytes) -> None:
         import serial
@@ -158,9 +165,13 @@ class SerialModbusRig(RigIO):
                 for m in msgs if isinstance(m, P.Sample)]
 
     def write_board(self, seq: int, pulse_us: float, enable: bool, wheels=None) -> None:
+        """The COMMAND to the board, offered to the keeper first (:mod:`.board_keeper`)."""
         ticks = int(round(pulse_us * 1e-6 / P.PULSE_TICK))
-        self._write(P.encode(P.Command(seq & 0xFFFF, ticks, P.DRIVE_ENABLE if enable else 0,
-                                       None if wheels is None else tuple(wheels))))
+        frame = P.encode(P.Command(seq & 0xFFFF, ticks, P.DRIVE_ENABLE if enable else 0,
+                                   None if wheels is None else tuple(wheels)))
+        if self.keeper is not None:
+            self.keeper.offer(frame, time.monotonic())
+        self._write(frame)
 
     def write_drive(self, setpoint: int) -> None:
         self.drive.write_setpoint(setpoint)
@@ -173,6 +184,8 @@ class SerialModbusRig(RigIO):
         return self.parser.bad
 
     def close(self) -> None:
+        if self.keeper is not None:       # first: no repeat of this session after the port
+            self.keeper.detach()
         if self.serial is not None:
             try:
                 self.serial.close()

@@ -8,6 +8,7 @@ import math
 
 from irs_common.params import Param, core_values, node_only
 
+from .board_keeper import AFTER as KEEPER_AFTER
 from .hardware_rig import HardwareConfig
 
 #: The core's parameters (HardwareConfig's fields).
@@ -55,6 +56,9 @@ NODE_PARAMS = CORE_PARAMS + node_only([
           read_only=True),
     Param('board_watchdog', 0.025, "the board's watchdog: this long of samples without a "
           'command -> servo centre, enable line low', 's', 0.002, 1.0, read_only=True),
+    Param('stall_grace', 0.4, 'real time: a stall of the node this long is bridged by the board '
+          'keeper, which repeats the last command to the board (0 = no keeper: the board trips '
+          'after board_watchdog)', 's', 0.0, 5.0, read_only=True),
     Param('drive_host', '127.0.0.1', "the drive's Modbus TCP address", '-', read_only=True),
     Param('drive_port', 5020, "the drive's Modbus TCP port", '1', 1, 65535, read_only=True),
     Param('drive_timeout', 0.05, 'timeout of one Modbus request', 's', 0.001, 5.0,
@@ -86,7 +90,8 @@ def hardware_problem(values: dict):
     the clock mode is one of the two; the board's watchdog and the link timeout span at least
     two samples (one late sample is no fault); the wheel torques the motors take are not
     refused; the drive hears from the node (keep-alive and
-    drive thread) before its own communication-loss stop ends the run (0 = no such stop).
+    drive thread) before its own communication-loss stop ends the run (0 = no such stop), and
+    that stop comes after the board keeper's ``stall_grace`` (:mod:`.board_keeper`).
     """
     v = {**{p.name: p.default for p in NODE_PARAMS}, **values}
     if v['clock_mode'] not in ('realtime', 'lockstep'):
@@ -103,6 +108,13 @@ def hardware_problem(values: dict):
         if comm > 0 and v[name] >= comm:
             return (f"{name} = {v[name]:g} s is not shorter than drive_comm_timeout = {comm:g} "
                     f"s: the drive would stop itself between the node's writes")
+    grace = v['stall_grace']
+    if 0.0 < grace <= KEEPER_AFTER:
+        return (f'stall_grace = {grace:g} s: 0 (no board keeper) or more than the '
+                f"keeper's {1e3 * KEEPER_AFTER:g} ms")
+    if comm > 0 and grace >= comm:
+        return (f'stall_grace = {grace:g} s is not shorter than drive_comm_timeout = {comm:g} '
+                's: the drive would stop the belt under a board that still holds the outputs')
     return None
 
 

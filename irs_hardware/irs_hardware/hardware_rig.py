@@ -145,7 +145,8 @@ class HardwareRig:
     def measure(self, reading: Reading) -> Measurement:
         """Measurement of one reading; a garbled frame or a board fault bit trips the fault."""
         now = reading.received
-        self.last_reading_time = now
+        if self.last_reading_time is None or now > self.last_reading_time:
+            self.last_reading_time = now
         if self.io.bad_frames != self.bad_seen:
             self.bad_seen = self.io.bad_frames
             self.trip('garbled frame from the board (CRC)', now)

@@ -59,6 +59,7 @@ from .hardware_rig import HardwareRig
 from .paths import resolve
 
 ARM_JOINTS = ['arm_joint1', 'arm_joint2', 'arm_joint3']
+READ_WAIT = 0.005       # [s] the reader thread's longest wait for the board's next samples
 INPUTS = {'steering': ('steering/command', SteeringCommand),
           'drive': ('treadmill/drive', TreadmillDriveCommand),
           'wheels': ('wheels/torque_command', WheelTorqueCommand)}    # with wheels only
@@ -145,7 +146,8 @@ class RigHardwareNode(Node):
                             comm_timeout_ms=int(self.p['drive_comm_timeout'] * 1000))
         io = SerialModbusRig(self.p['port'], self.p['baud'], drive,
                              watchdog_ms=int(round(self.p['board_watchdog'] * 1000)),
-                             safe_pulse_us=cal.servo.centre_us, wheels=self.p['wheels'])
+                             safe_pulse_us=cal.servo.centre_us, wheels=self.p['wheels'],
+                             stall_grace=0.0 if self.lockstep else self.p['stall_grace'])
         return HardwareRig(io, cal, hardware_config(self.p))
 
     # ---------------------------------------------------------------- start, reset, stop
@@ -213,6 +215,9 @@ class RigHardwareNode(Node):
                 was = self.rig.fault
                 why = self.rig.reset(self.lockstep, time.monotonic())
             if not why:
+                # the link's age counts from the devices restarted, not from the request
+                self.rig.last_reading_time = time.monotonic()
+                self.pending.clear()
                 self.generation += 1
                 self.tick0 = None
                 self.received_at.clear()
@@ -348,11 +353,20 @@ class RigHardwareNode(Node):
     def _read_loop(self):
         """Real time: read the board, hand the samples to the executor (its guard condition:
         every callback of a composed process stays on one thread), watch the link.
+
+        The link and the commands' age are judged only while this thread runs itself: after a
+        pass more than ``READ_WAIT + link_timeout / 2`` after the one before (the node was
+        stopped or starved; the board keeper held the board meanwhile), the link check pauses
+        for ``link_timeout`` and the stale-command check for ``command_timeout / 2``, while the
+        samples and commands that arrived meanwhile are taken (as ``StaleTimer`` does for the
+        other nodes). A link silent for ``stall_grace + link_timeout`` is lost whatever the
+        pauses.
         """
+        resumed = last = -math.inf
         while self.running:
             generation = self.generation
             try:
-                readings = self.rig.io.read(0.005)
+                readings = self.rig.io.read(READ_WAIT)
             except LinkError as exc:
                 with self.lock:
                     if generation == self.generation:    # not the port a reset closed
@@ -361,15 +375,24 @@ class RigHardwareNode(Node):
                 time.sleep(0.05 if generation == self.generation else 0.0)
                 continue
             now = time.monotonic()
-            if readings:
-                self.pending.extend(readings)
-                self.samples_ready.trigger()
+            cfg = self.rig.cfg
+            if now - last > READ_WAIT + cfg.link_timeout / 2 and last > -math.inf:
+                resumed = now
+            last = now
             with self.lock:
+                if generation != self.generation:
+                    continue                # read before rig/reset: the old session's
                 if readings:
+                    self.pending.extend(readings)
+                    self.samples_ready.trigger()
                     self.rig.last_reading_time = now
-                if self.rig.ok and not self.rig.check_link(now):
+                silent = now - (self.rig.last_reading_time or now)
+                if self.rig.ok and (now - resumed >= cfg.link_timeout
+                                    or silent > self.p['stall_grace'] + cfg.link_timeout) \
+                        and not self.rig.check_link(now):
                     self._publish_status(force=True)
-                self._check_stale(now)
+                if now - resumed >= cfg.command_timeout / 2:
+                    self._check_stale(now)
 
     def _on_samples(self):
         with self.lock:

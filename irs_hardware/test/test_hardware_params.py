@@ -20,6 +20,9 @@ def test_the_defaults_and_the_shipped_file_fit_together():
      'shorter than drive_comm_timeout = 0.5 s'),
     ({'drive_period': 0.2, 'drive_comm_timeout': 0.1, 'drive_keepalive': 0.05},
      'drive_period = 0.2 s is not shorter than drive_comm_timeout'),
+    ({'stall_grace': 0.002}, "stall_grace = 0.002 s: 0 (no board keeper) or more than the "
+     "keeper's 3 ms"),
+    ({'stall_grace': 0.5}, 'stall_grace = 0.5 s is not shorter than drive_comm_timeout = 0.5 s'),
     ({'wheel_torque_limit': 0.5, 'wheel_torque_reject': 0.4}, 'wheel_torque_reject = 0.4 N m '
      'is below wheel_torque_limit = 0.5 N m'),
 ])
@@ -29,4 +32,6 @@ def test_values_that_do_not_fit_are_one_sentence(values, words):
 
 def test_no_communication_loss_stop_allows_any_keepalive():
     assert hardware_problem({'drive_comm_timeout': 0.0, 'drive_keepalive': 60.0}) is None
+    assert hardware_problem({'drive_comm_timeout': 0.0, 'stall_grace': 5.0}) is None
+    assert hardware_problem({'stall_grace': 0.0}) is None
     assert {p.name for p in NODE_PARAMS} >= {'drive_comm_timeout', 'drive_keepalive'}

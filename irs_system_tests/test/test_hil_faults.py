@@ -22,6 +22,12 @@ for scheduling:
   after the latch;
 - the Modbus server killed: the next set-point write (keep-alive 0.1 s, drive thread 10 ms)
   fails at once (connection refused), then the board's enable line drops: 0.11 + SLACK.
+A stall of the node itself (SIGSTOP, as a starved or blocked process;
+:mod:`irs_hardware.board_keeper`): for 0.2 s, within ``stall_grace`` (0.4 s), the board keeper
+holds the board's outputs, the board's watchdog never trips and the node runs on without a
+fault; the same stall with ``stall_grace: 0`` trips the board; a stall of 1 s trips it after the
+grace: the board safe between ``stall_grace`` and ``stall_grace`` + 25 samples + ``SLACK``
+after the stop.
 ``rig/reset`` clears the latch once the devices answer again (tested after the NaN);
 ``rig/recover`` does the same and resets the treadmill (tested after the garbled frame).
 While latched, ``rig/status`` says ``SAFE_STOPPED`` with the fault as its ``stop_cause``.
@@ -29,6 +35,7 @@ While latched, ``rig/status`` says ``SAFE_STOPPED`` with the fault as its ``stop
 import json
 import math
 import os
+import signal
 import socket
 import time
 from pathlib import Path
@@ -71,7 +78,7 @@ def free_port() -> int:
 class Hil:
     """The emulated devices, the node on them, and the test's view of all three."""
 
-    def __init__(self, ros, launch, tmp: Path):
+    def __init__(self, ros, launch, tmp: Path, **params):
         self.ros, self.tmp = ros, tmp
         port = free_port()
         rt = dict(os.environ, IRS_RT_PRIORITY='50')
@@ -86,7 +93,7 @@ class Hil:
         self.node = launch(NodeSpec('irs_hardware', 'rig_hardware',
                                     params_files=[share('irs_hardware', 'config/hardware.yaml')],
                                     params={'port': str(tmp / 'board'), 'drive_port': port,
-                                            'command_timeout': 3600.0}), env=rt)
+                                            'command_timeout': 3600.0, **params}), env=rt)
         self.centre = load_calibration(
             share('irs_hardware', 'config/calibration_emulated.yaml')).servo.centre_us
         self.wire = Wire(tmp / 'wire')
@@ -224,7 +231,8 @@ def test_nan_command_then_reset(hil):
     assert hil.ros.spin_until(future.done, 10.0) and future.result().success, future.result()
     hil.command(0.05, 2.0)
     assert hil.ros.spin_until(lambda: not hil.fault() and hil.board_state().get('enable')
-                              and hil.wire.drive_voltage() > 1.9, 10.0)
+                              and hil.wire.drive_voltage() > 1.9, 10.0), \
+        (hil.fault(), hil.board_state(), hil.wire.drive_voltage(), hil.node.tail())
 
 
 @pytest.mark.exclusive
@@ -232,3 +240,54 @@ def test_modbus_server_gone(hil):
     t0 = time.monotonic()
     hil.drive.popen.kill()
     hil.check('Modbus server gone', t0)
+
+
+def stall(hil, seconds: float) -> float:
+    """SIGSTOP the node for ``seconds`` (the stall itself is the stimulus); the stop's time."""
+    pid = hil.node.pid
+    t0 = time.monotonic()
+    os.kill(pid, signal.SIGSTOP)
+    try:
+        time.sleep(seconds)
+    finally:
+        os.kill(pid, signal.SIGCONT)
+    return t0
+
+
+def runs_on(hil) -> bool:
+    """The node publishes 200 more steps after the stall."""
+    step = hil.status[-1].step
+    return hil.ros.spin_until(lambda: hil.status[-1].step > step + 200, 10.0)
+
+
+@pytest.mark.exclusive
+def test_node_stalled_within_the_grace_keeps_the_board(hil):
+    stall(hil, 0.2)
+    assert runs_on(hil), hil.node.tail()
+    board = hil.board_state()
+    assert board['watchdog_trips'] == 0 and board['enable'], (board, hil.node.tail())
+    assert not hil.fault(), hil.fault()
+
+
+@pytest.mark.exclusive
+def test_node_stalled_without_a_keeper_trips_the_board(ros, launch, tmp_path):
+    hil = Hil(ros, launch, tmp_path, stall_grace=0.0)
+    stall(hil, 0.2)
+    # the board trips on its own; the node, resumed, latches it or the link's silence first
+    assert ros.spin_until(lambda: hil.fault() and hil.board_state()['watchdog_trips'] == 1,
+                          10.0), (hil.fault(), hil.board_state(), hil.node.tail())
+    assert any(w in hil.fault() for w in ('board watchdog', 'link lost')), hil.fault()
+    assert hil.board_safe()
+
+
+@pytest.mark.exclusive
+def test_node_stalled_past_the_grace_trips_the_board(hil):
+    t0 = stall(hil, 1.0)
+    # latched: the board's watchdog, or the drive's own stop (0.5 s) if the node polls it first
+    assert hil.ros.spin_until(lambda: hil.fault() and hil.board_state()['tripped'], 10.0), \
+        (hil.fault(), hil.board_state(), hil.node.tail())
+    assert any(w in hil.fault() for w in ('board watchdog', 'drive tripped')), hil.fault()
+    safe = hil.board_state()['safe_at'] - t0
+    print(f'stalled 1 s: the board safe {1e3 * safe:.1f} ms after the stop')
+    assert 0.4 <= safe <= 0.4 + 0.025 + SLACK, safe
+    assert hil.board_safe()

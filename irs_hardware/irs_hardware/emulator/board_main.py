@@ -276,7 +276,7 @@ class BoardLoop:
             return
         if self.board.triggered or not self.board.started:
             for frame in self.board.receive(data, now):
-                self.link.write(frame)
+                self._answer(frame)
         else:
             self.link.incoming.append((now + self.link.delay(len(data)), data))
 
@@ -285,10 +285,19 @@ class BoardLoop:
         while link.incoming and link.incoming[0][0] <= now:
             _, data = link.incoming.pop(0)
             for frame in self.board.receive(data, now):
-                link.write(frame)
+                self._answer(frame)
         while link.outgoing and link.outgoing[0][0] <= now:
             link.write(link.outgoing.pop(0)[1])
         link.flush()
+
+    def _answer(self, frame: bytes) -> None:
+        """An answer to the host (INFO, a triggered SAMPLE): at once, but behind the samples
+        still on their way (a serial link keeps its order).
+        """
+        if self.link.outgoing:
+            self.link.outgoing.append((self.link.outgoing[-1][0], frame))
+        else:
+            self.link.write(frame)
 
     def _sample(self, now):
         board = self.board
