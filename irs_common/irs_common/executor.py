@@ -118,6 +118,10 @@ class LeanExecutor(Executor):
     ``BACKGROUND_SLICE_NS`` while the loop is idle.
     """
 
+    #: rclpy's ``Executor.__del__`` reads it; set here so that an executor whose ``__init__``
+    #: failed (a signal shut the context down during start-up) is collected without a traceback
+    _sigint_gc = None
+
     def __init__(self, *, context=None, slow_period: float = 0.01, event_period: float = 0.5,
                  graph_period: float = 0.1, intra_process: bool = False):
         super().__init__(context=context)
