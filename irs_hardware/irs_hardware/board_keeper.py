@@ -8,9 +8,11 @@ latched topic was being matched) stops every thread of the node, the board reade
 the board trips although the host is alive. The keeper is a second process, with no lock shared
 with the node:
 
-- the node offers it every COMMAND frame it sends the board (:meth:`BoardKeeper.offer`, a
-  datagram with the frame and its ``time.monotonic()``), *before* writing it to the board;
-- when the newest offer is older than ``after`` (3 ms: three samples without a command) and
+- the node offers it a COMMAND frame it sends the board every ``OFFER_PERIOD`` (2 ms) and at
+  once when the enable line changes (:meth:`BoardKeeper.offer`, a datagram with the frame and
+  its ``time.monotonic()``), *before* writing it to the board: the keeper's frame is at most
+  2 ms older than the board's, and never a live one behind a safe one;
+- when the newest offer is older than ``after`` (5 ms: the node silent for 3 ms or more) and
   younger than ``grace`` (the node's ``stall_grace``), the keeper writes that frame to the board
   again, every ``period`` (2 ms): the board holds the host's last outputs, as it would for a
   command repeated late;
@@ -32,7 +34,6 @@ inherited from the node; the board's port comes over it).
 from __future__ import annotations
 
 import os
-import select
 import socket
 import struct
 import subprocess
@@ -40,8 +41,9 @@ import sys
 import time
 from pathlib import Path
 
-AFTER = 0.003      # [s] the node's newest frame is this old: repeat it
-PERIOD = 0.002     # [s] between repeats
+AFTER = 0.005         # [s] the node's newest offer is this old: repeat it
+PERIOD = 0.002        # [s] between repeats
+OFFER_PERIOD = 0.002  # [s] the node offers a frame this often (and on an enable change)
 _STAMP = struct.Struct('<d')      # a frame's offer: _FRAME, its time.monotonic(), the frame
 _FRAME, _ATTACH, _DETACH = b'F', b'A', b'D'
 
@@ -63,6 +65,17 @@ class KeeperState:
         """The node sent ``frame`` at ``stamp`` [s]; an older offer than the newest is ignored."""
         if stamp >= self.offered:
             self.frame, self.offered = frame, stamp
+
+    def wait(self, now: float) -> float:
+        """How long [s] the keeper may sleep before a repeat can be due (at most ``after``, so
+        that offers, the port's changes and the node's end are taken within that).
+        """
+        silent = now - self.offered
+        if self.frame is None or silent > self.grace:
+            return self.after
+        if silent < self.after:
+            return min(self.after, self.after - silent)
+        return max(0.0, min(self.after, self.period - (now - self.repeated)))
 
     def due(self, now: float):
         """The frame to write to the board now, or None (module docstring)."""
@@ -145,7 +158,8 @@ def run(sock: socket.socket, state: KeeperState) -> int:
     tty_fd = None
     sock.setblocking(False)           # (recv_fds passes no flags to recvmsg: no MSG_DONTWAIT)
     while True:
-        select.select([sock], [], [], state.period)
+        # sleep, then take everything queued: one wake-up per few offers, not one per offer
+        time.sleep(state.wait(time.monotonic()))
         while True:
             try:
                 data, fds, _flags, _addr = socket.recv_fds(sock, 256, 1)

@@ -14,7 +14,7 @@ from abc import ABC, abstractmethod
 from dataclasses import dataclass
 
 from . import protocol as P
-from .board_keeper import BoardKeeper
+from .board_keeper import OFFER_PERIOD, BoardKeeper
 from .drive_modbus import DriveError, ModbusDrive
 
 __all__ = ['Reading', 'RigIO', 'LinkError', 'SerialModbusRig', 'DriveError']
@@ -83,6 +83,7 @@ class SerialModbusRig(RigIO):
         self.wheels = wheels       # the torque car: the board must have 4 wheel counters
         # stall_grace > 0: a board keeper bridges the host's stalls (free-running mode)
         self.keeper = BoardKeeper(stall_grace) if stall_grace > 0.0 else None
+        self.offered = (-float('inf'), None)     # the last offer to the keeper: time, enable
         self.port_name = port
         self.baud = baud
         self.drive = drive
@@ -130,6 +131,7 @@ class SerialModbusRig(RigIO):
                             'wheels, or the parameter wheels set by mistake)')
         if not triggered and self.keeper is not None:
             self.keeper.attach(self.serial.fileno())
+            self.offered = (-float('inf'), None)
 
     def _write(self, data: bytes) -> None:
         import serial
@@ -165,12 +167,19 @@ class SerialModbusRig(RigIO):
                 for m in msgs if isinstance(m, P.Sample)]
 
     def write_board(self, seq: int, pulse_us: float, enable: bool, wheels=None) -> None:
-        """The COMMAND to the board, offered to the keeper first (:mod:`.board_keeper`)."""
+        """The COMMAND to the board, offered to the keeper first (:mod:`.board_keeper`) every
+        ``OFFER_PERIOD`` and whenever the enable line changes.
+        """
         ticks = int(round(pulse_us * 1e-6 / P.PULSE_TICK))
         frame = P.encode(P.Command(seq & 0xFFFF, ticks, P.DRIVE_ENABLE if enable else 0,
                                    None if wheels is None else tuple(wheels)))
         if self.keeper is not None:
-            self.keeper.offer(frame, time.monotonic())
+            now = time.monotonic()
+            # every OFFER_PERIOD, and at once when the enable line changes (a safe frame is
+            # never left behind an older live one)
+            if now - self.offered[0] >= OFFER_PERIOD or enable != self.offered[1]:
+                self.keeper.offer(frame, now)
+                self.offered = (now, enable)
         self._write(frame)
 
     def write_drive(self, setpoint: int) -> None:

@@ -20,8 +20,8 @@ def test_the_defaults_and_the_shipped_file_fit_together():
      'shorter than drive_comm_timeout = 0.5 s'),
     ({'drive_period': 0.2, 'drive_comm_timeout': 0.1, 'drive_keepalive': 0.05},
      'drive_period = 0.2 s is not shorter than drive_comm_timeout'),
-    ({'stall_grace': 0.002}, "stall_grace = 0.002 s: 0 (no board keeper) or more than the "
-     "keeper's 3 ms"),
+    ({'stall_grace': 0.004}, "stall_grace = 0.004 s: 0 (no board keeper) or more than the "
+     "keeper's 5 ms"),
     ({'stall_grace': 0.5}, 'stall_grace = 0.5 s is not shorter than drive_comm_timeout = 0.5 s'),
     ({'wheel_torque_limit': 0.5, 'wheel_torque_reject': 0.4}, 'wheel_torque_reject = 0.4 N m '
      'is below wheel_torque_limit = 0.5 N m'),
