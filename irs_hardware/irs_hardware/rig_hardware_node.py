@@ -24,8 +24,10 @@ and every output stamped t_k = k dt; the step is published again after
 ``lockstep_resend_period`` without progress) or ``realtime`` (the board samples at 1 kHz by
 itself; a reader thread hands each sample to the executor, which publishes it stamped
 ``t_start + tick dt``, and the steering command goes to the board at once; a drive thread
-writes the set-point every ``drive_period``, off the 1 kHz path). Bad and stale commands latch
-the fault (:mod:`.hardware_rig`); on exit the outputs go to the safe state.
+writes the set-point every ``drive_period``, off the 1 kHz path; a board keeper process
+repeats the last command to the board through a stall of the node of up to ``stall_grace``,
+:mod:`.board_keeper`). Bad and stale commands latch the fault (:mod:`.hardware_rig`); on exit the
+outputs go to the safe state.
 """
 from __future__ import annotations
 
