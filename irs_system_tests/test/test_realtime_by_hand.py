@@ -5,8 +5,9 @@ Every node is started from its installed executable with its parameter file (the
 1 kHz and the real-time message budget (the nodes' real-time defaults), with SCHED_FIFO
 priority 50 where permitted (``IRS_RT_PRIORITY``). The rig holds the car at its start pose until
 steering and drive commands arrive, so the order does not matter.
-Checked over 20 s of wall time: the car stays on the belt (rig/status and the ground truth), and
-the sensor point follows the reference's 0.02 m step.
+Checked over 20 s of wall time: the car stays on the belt (rig/status and the ground truth), the
+rig never begins a controlled stop, the controller receives the reference's 0.02 m step, and the
+sensor point follows it.
 """
 import os
 import time
@@ -16,7 +17,7 @@ import pytest
 
 from geometry_msgs.msg import PointStamped
 from irs_common import qos
-from irs_msgs.msg import RigStatus
+from irs_msgs.msg import LateralControllerStatus, RigStatus
 
 from irs_system_tests.realtime_loop import REALTIME, loop_specs
 from irs_system_tests.scheduling import check_fifo
@@ -31,8 +32,10 @@ README_ORDER = loop_specs(rig_files=[REALTIME], reference_params={
 @pytest.mark.exclusive   # five processes at 1 kHz in real time: no other test beside it
 def test_realtime_graph_started_by_hand_keeps_the_car_and_follows_a_step(ros, launch):
     node = ros.node
-    status, points = [], []
+    status, points, references = [], [], []
     subs = [node.create_subscription(RigStatus, 'rig/status', status.append, qos.STATUS),
+            node.create_subscription(LateralControllerStatus, 'lateral/status',
+                                     lambda m: references.append(m.reference), qos.SENSOR),
             node.create_subscription(PointStamped, 'ground_truth/sensor_point',
                                      lambda m: points.append((time.monotonic(), m.point.x,
                                                               m.point.y)), qos.SENSOR)]
@@ -55,9 +58,15 @@ def test_realtime_graph_started_by_hand_keeps_the_car_and_follows_a_step(ros, la
     run = np.array([(t - t_start, x, y) for t, x, y in points if t >= t_start])
     assert run.shape[0] > 100 * 15, 'ground truth at 100 Hz for 20 s'
     assert np.all(np.abs(run[:, 1]) < 1.2192 - 0.15), 'clear of the belt ends'
+    # no controlled stop (a stop steers the car to the centre line and holds it there), and
+    # the step reached the controller; on failure, every node's last lines say why
+    stops = [(s.step, s.safe_state, s.stop_cause) for s in status
+             if s.safe_state >= RigStatus.SAFE_STOPPING]
+    assert not stops, (stops[:1], [p.tail(5) for p in procs])
+    assert any(abs(r - 0.02) < 1e-9 for r in references), (
+        'the step never reached the controller', len(references), sorted(set(references))[:5],
+        [p.tail(5) for p in procs])
     late = run[run[:, 0] > 12.0]                      # well after the step at 2 s (+ start-up)
-    # on failure: the rig's first safe-state change and every node's last lines (a stop?)
-    why = ([(s.step, s.safe_state, s.stop_cause) for s in status
-            if s.safe_state != RigStatus.SAFE_RUNNING][:1], [p.tail(5) for p in procs])
-    assert abs(np.mean(late[:, 2]) - 0.02) < 0.004, (np.mean(late[:, 2]), why)
+    assert abs(np.mean(late[:, 2]) - 0.02) < 0.004, (np.mean(late[:, 2]),
+                                                     [p.tail(5) for p in procs])
     assert np.max(np.abs(late[:, 2] - 0.02)) < 0.01
