@@ -361,10 +361,12 @@ class RigHardwareNode(Node):
         stopped or starved; the board keeper held the board meanwhile), the link check pauses
         for ``link_timeout`` and the stale-command check for ``command_timeout / 2``, while the
         samples and commands that arrived meanwhile are taken (as ``StaleTimer`` does for the
-        other nodes). A link silent for ``stall_grace + link_timeout`` is lost whatever the
-        pauses.
+        other nodes). A link silent for ``stall_grace + link_timeout`` of this thread's own
+        running time (each pass counts at most ``READ_WAIT + link_timeout / 2``, so a stop of
+        the node itself is not counted as the link's silence) is lost whatever the pauses.
         """
         resumed = last = -math.inf
+        own_silent = 0.0      # [s] this thread's running time since its last sample
         while self.running:
             generation = self.generation
             try:
@@ -378,8 +380,10 @@ class RigHardwareNode(Node):
                 continue
             now = time.monotonic()
             cfg = self.rig.cfg
-            if now - last > READ_WAIT + cfg.link_timeout / 2 and last > -math.inf:
+            longest_pass = READ_WAIT + cfg.link_timeout / 2
+            if now - last > longest_pass and last > -math.inf:
                 resumed = now
+            own_silent = 0.0 if readings else own_silent + min(now - last, longest_pass)
             last = now
             with self.lock:
                 if generation != self.generation:
@@ -388,9 +392,8 @@ class RigHardwareNode(Node):
                     self.pending.extend(readings)
                     self.samples_ready.trigger()
                     self.rig.last_reading_time = now
-                silent = now - (self.rig.last_reading_time or now)
                 if self.rig.ok and (now - resumed >= cfg.link_timeout
-                                    or silent > self.p['stall_grace'] + cfg.link_timeout) \
+                                    or own_silent > self.p['stall_grace'] + cfg.link_timeout) \
                         and not self.rig.check_link(now):
                     self._publish_status(force=True)
                 if now - resumed >= cfg.command_timeout / 2:
