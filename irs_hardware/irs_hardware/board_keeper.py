@@ -23,10 +23,11 @@ with the node:
 So the safe action for a stalled host is written down in one place: hold the last outputs for
 ``stall_grace``, then the board's safe state. A COMMAND written twice is harmless: the board
 takes its outputs and resets its watchdog, and ``seq`` answers a sample already answered. The
-tty serialises whole ``write`` calls of two processes, so frames never interleave. One order is
-possible when the node resumes at the keeper's own write: the keeper's repeat of frame N-1 lands
-after the node's frame N, and the board holds N-1's outputs until the node's next frame (one
-sample later).
+tty serialises whole ``write`` calls of two processes, so frames never interleave. A repeat that
+meets the node's own write in progress fails with EAGAIN (the port is non-blocking) and is
+skipped, the port kept (:func:`write_frame`). One order is possible when the node resumes at
+the keeper's own write: the keeper's repeat of frame N-1 lands after the node's frame N, and
+the board holds N-1's outputs until the node's next frame (one sample later).
 
 Run by :class:`BoardKeeper` as ``python -I -S board_keeper.py SOCK_FD AFTER GRACE`` (the socket
 inherited from the node; the board's port comes over it).
@@ -34,6 +35,7 @@ inherited from the node; the board's port comes over it).
 from __future__ import annotations
 
 import os
+import select
 import socket
 import struct
 import subprocess
@@ -180,12 +182,37 @@ def run(sock: socket.socket, state: KeeperState) -> int:
             if kind == _DETACH:
                 sock.send(_DETACH)
         frame = state.due(time.monotonic())
-        if frame is not None and tty_fd is not None:
-            try:
-                os.write(tty_fd, frame)
-            except OSError:           # the board is gone: nothing to keep until the next port
-                os.close(tty_fd)
-                tty_fd = None
+        if frame is not None and tty_fd is not None and not write_frame(tty_fd, frame):
+            os.close(tty_fd)          # the board is gone: nothing to keep until the next port
+            tty_fd = None
+
+
+def write_frame(fd: int, frame: bytes, finish: float = PERIOD) -> bool:
+    """Write ``frame`` to the board's port ``fd``; False if the port is gone (a write error).
+
+    The port is the node's own open file, non-blocking (pyserial). A write fails with EAGAIN,
+    nothing written, while the node's own write holds the tty's write lock or while the port's
+    buffer is full: the repeat is skipped then (the next one is due a ``PERIOD`` later) and the
+    port kept. A frame begun is finished: the rest is written as the port takes it, for up to
+    ``finish`` [s] (a frame cut short there is one garbled frame to the board, which the node
+    sees and latches).
+    """
+    deadline = time.monotonic() + finish
+    view = memoryview(frame)
+    while view:
+        try:
+            view = view[os.write(fd, view):]
+        except BlockingIOError:
+            if len(view) == len(frame):
+                return True           # busy: nothing written, this repeat skipped
+        except OSError:
+            return False
+        left = deadline - time.monotonic()
+        if view and left <= 0.0:
+            return True
+        if view:
+            select.select([], [fd], [], left)
+    return True
 
 
 def main(argv=None) -> int:

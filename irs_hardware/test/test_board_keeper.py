@@ -162,6 +162,36 @@ def test_after_a_detach_nothing_is_repeated_until_the_next_attach_and_offer():
         os.close(slave)
 
 
+def test_a_port_busy_for_a_while_is_used_again_once_it_takes_frames():
+    """The port is the node's non-blocking file: a repeat that finds it busy (EAGAIN: the
+    node's own write in progress, or its buffer full) is skipped, and the next repeats go out.
+    A pipe filled to the brim stands in for the port (the same EAGAIN), for 0.1 s: 50 periods.
+    """
+    r, w = os.pipe()
+    os.set_blocking(r, False)
+    os.set_blocking(w, False)
+    try:
+        while True:
+            os.write(w, b'.' * 4096)
+    except BlockingIOError:
+        pass
+    keeper = BoardKeeper(2.0)
+    try:
+        keeper.attach(w)
+        t0 = time.monotonic()
+        assert wait_for(lambda: (keeper.offer(b'KEEP', time.monotonic() - 2 * AFTER),
+                                 time.monotonic() - t0 > 0.1)[-1])
+        got = []
+        # the pipe drained: the next repeats arrive, whole
+        assert wait_for(lambda: (got.append(read_all(r)), b'KEEP' in b''.join(got))[-1], 1.0), \
+            'no repeat after the port was busy'
+        assert b''.join(got).replace(b'.', b'').replace(b'KEEP', b'') == b''
+    finally:
+        keeper.close()
+        os.close(r)
+        os.close(w)
+
+
 HOLDER = """
 import os, sys, time
 from irs_hardware.board_keeper import BoardKeeper
