@@ -113,12 +113,27 @@ class Hil:
             self.node.tail()
         assert ros.spin_until(lambda: self.steer.get_subscription_count()
                               and self.drive_pub.get_subscription_count(), 30.0)
-        self.command(0.05, 2.0)
-        assert ros.spin_until(lambda: self.board_state().get('enable')
+        # without a keeper a stall of the node in its set-up (rclpy blocked in DDS while
+        # this test's readers are matched) trips the board: the fault is reset, up to 3 times
+        for _attempt in range(3 if params.get('stall_grace') == 0.0 else 1):
+            self.command(0.05, 2.0)
+            if ros.spin_until(lambda: self.board_state().get('enable')
                               and self.board_state()['pulse_us'] > self.centre + 50
-                              and abs(self.wire.get(DRIVE_VOLTAGE) - 2.0) < 0.01, 10.0), \
-            (self.board_state(), self.wire.get(DRIVE_VOLTAGE), self.node.tail())
+                              and abs(self.wire.get(DRIVE_VOLTAGE) - 2.0) < 0.01, 10.0):
+                break
+            if 'board watchdog' in self.fault() and params.get('stall_grace') == 0.0:
+                self.reset()
+        else:
+            raise AssertionError((self.board_state(), self.wire.get(DRIVE_VOLTAGE),
+                                  self.node.tail()))
         assert not self.fault(), self.fault()
+
+    def reset(self):
+        """``rig/reset``, answered with success."""
+        assert self.ros.spin_until(self.reset_client.service_is_ready, 10.0)
+        future = self.reset_client.call_async(Trigger.Request())
+        assert self.ros.spin_until(future.done, 10.0) and future.result().success, \
+            future.result()
 
     def command(self, steer, volts):
         stamp = self.ros.node.get_clock().now().to_msg()
@@ -227,8 +242,7 @@ def test_nan_command_then_reset(hil):
     t0 = time.monotonic()
     hil.command(math.nan, 2.0)
     hil.check('NaN command', t0)
-    future = hil.reset_client.call_async(Trigger.Request())
-    assert hil.ros.spin_until(future.done, 10.0) and future.result().success, future.result()
+    hil.reset()
     hil.command(0.05, 2.0)
     assert hil.ros.spin_until(lambda: not hil.fault() and hil.board_state().get('enable')
                               and hil.wire.drive_voltage() > 1.9, 10.0), \
@@ -272,9 +286,10 @@ def test_node_stalled_within_the_grace_keeps_the_board(hil):
 @pytest.mark.exclusive
 def test_node_stalled_without_a_keeper_trips_the_board(ros, launch, tmp_path):
     hil = Hil(ros, launch, tmp_path, stall_grace=0.0)
+    trips = hil.board_state()['watchdog_trips']     # a trip in the set-up was reset
     stall(hil, 0.2)
     # the board trips on its own; the node, resumed, latches it or the link's silence first
-    assert ros.spin_until(lambda: hil.fault() and hil.board_state()['watchdog_trips'] == 1,
+    assert ros.spin_until(lambda: hil.fault() and hil.board_state()['watchdog_trips'] == trips + 1,
                           10.0), (hil.fault(), hil.board_state(), hil.node.tail())
     assert any(w in hil.fault() for w in ('board watchdog', 'link lost')), hil.fault()
     assert hil.board_safe()
