@@ -137,3 +137,31 @@ def test_sigint_during_a_dask_sweep_stops_between_calls_and_cancels(monkeypatch,
         guard.restore()
         client.close()
 
+
+
+WORKER = """
+import logging, sys
+from distributed.comm.core import CommClosedError
+from irs_studies.sweep.worker_signals import dask_setup
+logging.basicConfig(stream=sys.stderr)
+dask_setup(None)
+try:
+    raise CommClosedError('in <TCP (closed) ConnectionPool.heartbeat_worker>: Stream is closed')
+except CommClosedError:
+    logging.getLogger('distributed.worker').exception(
+        'Failed to communicate with scheduler during heartbeat.')
+"""
+
+
+def test_a_worker_logs_the_heartbeat_to_a_closed_scheduler_in_one_line():
+    """A local worker (after its preload, ``worker_signals.dask_setup``) logs the heartbeat that
+    met the scheduler closed (the sweep's cluster closing) in one line, not with a traceback on
+    the terminal it shares with the sweep.
+    """
+    import subprocess
+    import sys
+    err = subprocess.run([sys.executable, '-c', WORKER], capture_output=True, text=True,
+                         timeout=60).stderr
+    assert 'Traceback' not in err, err
+    assert len(err.strip().splitlines()) == 1, err
+    assert 'heartbeat.: CommClosedError: in <TCP (closed)' in err, err

@@ -17,10 +17,8 @@ the workers import :mod:`irs_studies.sweep.point`, and the scenario travels as p
 from __future__ import annotations
 
 from collections import deque
-from contextlib import contextmanager
 from dataclasses import dataclass
 import itertools
-import logging
 import os
 from pathlib import Path
 import sys
@@ -29,6 +27,7 @@ import time
 
 from . import results
 from .axes import count_points, iter_points, override_paths
+from .log_lines import library_errors_in_one_line as _library_errors_in_one_line
 from .point import run_point
 from .sweep_file import NODES, SweepError, SweepModel
 
@@ -235,45 +234,6 @@ def _close(client, worker_pids, timeout: float = 5.0):
             pass
         _kill(worker_pids)
     held.deliver()
-
-
-class _OneLine(logging.Filter):
-    """Turns a log record's traceback into one line (``...: NameError: text``)."""
-
-    def filter(self, record):
-        if record.exc_info and record.exc_info[1] is not None:
-            exc = record.exc_info[1]
-            record.msg = (f'{record.getMessage()}: {type(exc).__name__}: '
-                          f'{" ".join(str(exc).split())} (traceback not shown)')
-            record.args, record.exc_info, record.exc_text = None, None, None
-        return True
-
-
-@contextmanager
-def _library_errors_in_one_line():
-    """Dask's and tornado's logged errors without their tracebacks for the ``with`` block.
-
-    A SIGINT that lands inside ``distributed.utils.sync`` before the coroutine has started makes
-    its ``cancel`` callback raise ``NameError: cannot access free variable 'future'``
-    (distributed 2026.8.0, env/requirements.lock: ``future`` is declared without a value; the
-    uninitialised case was handled in https://github.com/dask/distributed/pull/5758), which
-    tornado logs with a traceback from the event-loop thread. :func:`_run_on_dask` keeps the
-    signal out of Dask's calls; this filter is the guard for what is left.
-    """
-    # a logger's filter sees only the records logged on that logger, not those its children
-    # pass up: every logger of the two libraries gets it (distributed.client, .nanny, ...)
-    names = {'tornado.application', 'distributed'} | {
-        n for n in list(logging.root.manager.loggerDict)
-        if n.startswith(('distributed.', 'tornado.'))}
-    loggers = [logging.getLogger(n) for n in sorted(names)]
-    one_line = _OneLine()
-    for lg in loggers:
-        lg.addFilter(one_line)
-    try:
-        yield
-    finally:
-        for lg in loggers:
-            lg.removeFilter(one_line)
 
 
 def run_sweep(prep: Prepared, out: Path, *, workers: int | None = None,
