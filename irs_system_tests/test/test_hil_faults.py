@@ -115,13 +115,14 @@ class Hil:
                               and self.drive_pub.get_subscription_count(), 30.0)
         # without a keeper a stall of the node in its set-up (rclpy blocked in DDS while
         # this test's readers are matched) trips the board: the fault is reset, up to 3 times
-        for _attempt in range(3 if params.get('stall_grace') == 0.0 else 1):
+        no_keeper = params.get('stall_grace') == 0.0
+        for _attempt in range(3 if no_keeper else 1):
             self.command(0.05, 2.0)
             if ros.spin_until(lambda: self.board_state().get('enable')
                               and self.board_state()['pulse_us'] > self.centre + 50
                               and abs(self.wire.get(DRIVE_VOLTAGE) - 2.0) < 0.01, 10.0):
                 break
-            if 'board watchdog' in self.fault() and params.get('stall_grace') == 0.0:
+            if no_keeper and 'board watchdog' in self.fault():
                 self.reset()
         else:
             raise AssertionError((self.board_state(), self.wire.get(DRIVE_VOLTAGE),
