@@ -416,15 +416,31 @@ def clock_overrides(exp: Experiment, entry: NodeEntry, dt: float,
     """
     if entry.key in RIG_KEYS:
         if exp.clock == 'lockstep':
-            rig_topics = {absolute(t) for t in node_topics(entry)['pub']}
-            expected = expected_endpoints(exp) if expected is None else expected
-            waits = ','.join(f'{t}={subs}' for t, (_pubs, subs) in expected.items()
-                             if t in rig_topics)
-            return {'clock_mode': 'lockstep', 'autostart': False, 'start_subscribers': waits,
+            return {'clock_mode': 'lockstep', 'autostart': False,
+                    'start_subscribers': start_subscribers(exp, entry, expected),
                     'max_steps': int(round(exp.duration / dt))}
         return {'clock_mode': 'realtime', 'autostart': False,
                 'max_steps': int(round(exp.duration / dt))}
-    return {'use_sim_time': True} if exp.clock == 'lockstep' else {}
+    if exp.clock != 'lockstep':
+        return {}
+    from .experiment_schema import parameter_table
+    table, _complete = parameter_table(entry.key)
+    if table is not None and any(p.name == 'start_subscribers' for p in table):
+        return {'use_sim_time': True,
+                'start_subscribers': start_subscribers(exp, entry, expected)}
+    return {'use_sim_time': True}
+
+
+def start_subscribers(exp: Experiment, entry: NodeEntry, expected: dict | None = None) -> str:
+    """``'/topic=count,...'``: the subscriptions each topic ``entry`` publishes has in the run
+    (``expected``, default :func:`expected_endpoints`), which the node waits for before its first
+    step (:mod:`irs_common.start_gate`).
+    """
+    expected = expected_endpoints(exp) if expected is None else expected
+    # a rig names its topics as it publishes them (its start_subscribers are not remapped)
+    own = {absolute(t if entry.key in RIG_KEYS else entry.remaps.get(t, t))
+           for t in node_topics(entry)['pub']}
+    return ','.join(f'{t}={subs}' for t, (_pubs, subs) in expected.items() if t in own)
 
 
 def absolute(topic: str) -> str:

@@ -17,6 +17,7 @@ import time
 from .input_checks import ThrottledWarner
 from .stamp_gate import StampGate
 from .stamps import from_ns
+from .start_gate import StartGate
 from .time_jump import on_time_jump_back
 
 __all__ = ['EdgeGate', 'StaleTimer']
@@ -33,7 +34,7 @@ class EdgeGate:
     """
 
     __slots__ = ('gate', 'warner', 'dropped', 'time_resets', 'step_name', '_reset',
-                 '_drop_step', '_time_reset', 'jump_handle')
+                 '_drop_step', '_time_reset', 'jump_handle', 'start')
 
     def __init__(self, node, future_tolerance: float, step_name: str, reset,
                  warner: ThrottledWarner | None = None):
@@ -47,6 +48,7 @@ class EdgeGate:
         self._drop_step = self._on_drop_step
         self._time_reset = self._on_time_reset
         self.jump_handle = on_time_jump_back(node, lambda _delta: self.clear_time())
+        self.start = StartGate(node)    # lock-step: the first step waits for the consumers
 
     @property
     def future_tolerance_ns(self) -> int:
@@ -57,7 +59,12 @@ class EdgeGate:
         return self.gate.last_ns
 
     def take_step(self, stamp_ns: int, now_ns, answer) -> bool:
-        """:meth:`StampGate.take_step` with this node's drop and time-reset glue."""
+        """:meth:`StampGate.take_step` with this node's drop and time-reset glue; False (not
+        taken, not judged) while the node's :class:`~irs_common.start_gate.StartGate` holds
+        its first step (the rig publishes the step again).
+        """
+        if not self.start.open and not self.start.ready():
+            return False
         return self.gate.take_step(stamp_ns, now_ns, answer, self._drop_step, self._time_reset)
 
     def admit(self, what: str, stamp_ns: int, now_ns, pairing: bool = True) -> bool:

@@ -14,12 +14,17 @@ start of the run:
   ``t = stamp - t0``, where t0 is the first tick (the node's start) or the last ``restart()``:
   references and speed profiles count from the start of the run, not from the Unix epoch.
 
+In a lock-step run the ticker leaves a tick unanswered until the node's publishers have matched
+the run's subscriptions (:class:`~irs_common.start_gate.StartGate`, ``start_subscribers``); the
+rig publishes the tick again.
+
 Time going backwards (``/clock`` jumping back, as ``bag play --loop --clock`` does) resets the
 ticker: ``on_reset()`` is called so the node can clear its time-dependent state, and the ticks
 continue from the new time.
 """
 from . import qos
 from .sim_time import guard_clock
+from .start_gate import StartGate
 
 
 class Ticker:
@@ -33,6 +38,7 @@ class Ticker:
         self.last_ns = -1
         self.timer = None
         self.subscription = None
+        self.start = StartGate(node)
         if node.get_parameter('use_sim_time').value:
             self.subscription = guard_clock(node, self._on_clock, qos.CLOCK)
         else:
@@ -49,6 +55,8 @@ class Ticker:
             self.on_reset()
 
     def _on_clock(self, stamp, ns):
+        if not self.start.open and not self.start.ready():
+            return      # held: the rig publishes the tick again
         if ns < self.last_ns:
             self._jumped_back(ns, self.last_ns)
         self.last_ns = ns

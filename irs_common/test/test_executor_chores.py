@@ -41,24 +41,27 @@ def test_each_chore_keeps_its_period_and_no_two_share_a_spin(context):
     assert waitables, 'every publisher and subscription has QoS event handlers'
     spin = [0]
     chores = {}                      # spin index -> chores done in it
-    times = {name: [] for name in periods}    # chore -> monotonic times [ns] it was done at
+    times = {name: [] for name in periods}    # chore -> the executor's time [ns] of each turn
 
-    def mark(name, at_ns=None):
+    def mark(name):
         chores.setdefault(spin[0], set()).add(name)
-        times[name].append(time.monotonic_ns() if at_ns is None else at_ns)
 
     first = waitables[0]
     add_events = first.add_to_wait_set
     first.add_to_wait_set = lambda ws: (mark('events'), add_events(ws))[1]
     refresh = ex._bus.refresh
     ex._bus.refresh = lambda: (mark('graph'), refresh())[1]
+    due = {'services': '_next_slow_ns', 'events': '_next_event_ns', 'graph': '_next_graph_ns'}
     end = time.monotonic() + 1.0
     while time.monotonic() < end:
         spin[0] += 1
-        before = ex._next_slow_ns
+        before = {name: getattr(ex, attr) for name, attr in due.items()}
         ex.spin_once(timeout_sec=0.002)
-        if ex._next_slow_ns != before:   # done at next - period (the executor's own clock)
-            mark('services', ex._next_slow_ns - int(periods['services'] * 1e9))
+        for name, attr in due.items():   # a turn sets the next one a period after its start
+            if getattr(ex, attr) != before[name]:
+                times[name].append(getattr(ex, attr) - int(periods[name] * 1e9))
+        if ex._next_slow_ns != before['services']:
+            mark('services')
     assert all(len(done) == 1 for done in chores.values()), \
         [sorted(d) for d in chores.values() if len(d) > 1]
     # every interval between two turns of a chore: never shorter than its period (exact: the

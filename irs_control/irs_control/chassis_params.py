@@ -6,6 +6,7 @@ every step (speed target, brake and steer schedules) and the stale timeout; ever
 builds the controllers is read-only.
 """
 from irs_common.params import Param, core_values
+from irs_common.start_gate import START_SUBSCRIBERS
 
 from .abs_control import AbsParams
 from .abs_peak import PeakSeekParams
@@ -83,6 +84,7 @@ PARAMS = [
     Param('status_decimation', 10, 'publish chassis/status every this many steps (and on a '
           'change of reason or braking); 0 = on changes only', '1', 0, 1_000_000,
           node_only=True),
+    START_SUBSCRIBERS,
 ]
 
 #: run-time changes the node hands to the core: parameter -> TorqueCarConfig attribute

@@ -6,6 +6,7 @@ core; the node's own parameters (stale timeout, reference pairing, status rate) 
 ``node_only``: the offline twin of the graph leaves them out.
 """
 from irs_common.params import Param, core_values, node_only
+from irs_common.start_gate import START_SUBSCRIBERS
 from irs_models.constants import STEER_LIMIT
 
 from .controller_factory import CONTROLLER_DEFAULTS
@@ -124,7 +125,7 @@ PARAMS += node_only([
         1_000_000,
         read_only=True,
     ),
-])
+]) + [START_SUBSCRIBERS]
 
 
 def controller_config(values: dict) -> dict:

@@ -3,6 +3,7 @@
 Shared by the node and the offline closed loop, so both build the same reference.
 """
 from irs_common.params import Param, core_values, node_only
+from irs_common.start_gate import START_SUBSCRIBERS
 
 from .reference import CONSOLE_LIMIT, from_dict
 
@@ -66,7 +67,7 @@ PARAMS = [*signal_params('m', 1.0)] + node_only([
     ),
     Param('rate', 100.0, 'publication rate without sim time (real time; with sim time: one '
           'reference per /clock tick)', 'Hz', 0.1, 10000.0, read_only=True),
-])
+]) + [START_SUBSCRIBERS]
 
 def signal_from_params(p: dict):
     """Reference signal from the flat ``signal.*`` parameters.

@@ -3,6 +3,7 @@ from dataclasses import asdict, dataclass
 import math
 
 from irs_common.params import Param, core_values, flatten, node_only, table_from_defaults
+from irs_common.start_gate import START_SUBSCRIBERS
 from irs_models.arm_kinematics import ArmGeometry
 
 from .calibration import ArmCalibration, JointCalibration
@@ -86,7 +87,7 @@ NODE += node_only([
         read_only=True,
         realtime_default=10,          # 100 Hz: the treadmill loop of the real-time budget
     ),
-])
+]) + [START_SUBSCRIBERS]
 
 
 def estimator_parameter_table() -> list:

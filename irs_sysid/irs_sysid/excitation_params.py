@@ -15,6 +15,7 @@ from __future__ import annotations
 import math
 
 from irs_common.params import Param
+from irs_common.start_gate import START_SUBSCRIBERS
 from irs_control.reference_params import signal_from_params, signal_params, signal_range
 from irs_models.constants import STEER_LIMIT
 
@@ -37,6 +38,7 @@ PARAMS = [
     *signal_params('rad | V', 12.7, default_type='schedule', amplitude=0.0, start_time=0.0),
     Param('rate', 1000.0, 'publication rate without sim time', 'Hz', 0.1, 10000.0,
           read_only=True),
+    START_SUBSCRIBERS,
 ]
 
 

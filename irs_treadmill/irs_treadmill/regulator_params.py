@@ -3,6 +3,7 @@ from dataclasses import asdict, dataclass
 import math
 
 from irs_common.params import Param, core_values, flatten, node_only, table_from_defaults
+from irs_common.start_gate import START_SUBSCRIBERS
 from irs_models.constants import BELT_HALF_LENGTH, BELT_HALF_WIDTH
 
 from .regulator import RegulatorParams
@@ -80,7 +81,7 @@ NODE += node_only([
         1_000_000,
         read_only=True,
     ),
-])
+]) + [START_SUBSCRIBERS]
 
 
 #: Regulator parameters the node applies while running (``ros2 param set``).

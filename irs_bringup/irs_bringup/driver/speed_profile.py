@@ -8,6 +8,7 @@ import bisect
 import math
 
 from irs_common.params import Param, core_values, node_only
+from irs_common.start_gate import START_SUBSCRIBERS
 
 
 class SpeedProfile:
@@ -46,6 +47,7 @@ DRIVER_PARAMS = [
           read_only=True),
     *node_only([Param('rate', 1000.0, 'publication rate without sim time', 'Hz', 0.1, 10000.0,
                       read_only=True)]),
+    START_SUBSCRIBERS,
 ]
 
 
