@@ -60,8 +60,8 @@ class StartGate:
     ``open`` is True once every ``start_subscribers`` count is reached (or the node has no such
     parameter, or it is empty), or ``timeout`` s after the first held step (one warning then).
     :meth:`ready` checks the publishers while closed. The publishers are looked up at the first
-    check, when the node has made them all; a topic the node does not publish is a
-    ``ValueError`` there.
+    check, when the node has made them all; a topic the node does not publish is named in one
+    warning and not waited for.
     """
 
     __slots__ = ('node', 'open', 'timeout', 'waits', 'first_held', 'clock')
@@ -81,8 +81,9 @@ class StartGate:
         publishers = {pub.topic_name: pub for pub in self.node.publishers}
         unknown = sorted(set(waits) - set(publishers))
         if unknown:
-            raise ValueError(f'start_subscribers: {self.node.get_name()} publishes no {unknown}')
-        return {t: (publishers[t], n) for t, n in waits.items()}
+            self.node.get_logger().warning(
+                f'start_subscribers: not waiting for {unknown}: the node does not publish them')
+        return {t: (publishers[t], n) for t, n in waits.items() if t in publishers}
 
     def lacking(self) -> list:
         """The topics still short of their count."""
