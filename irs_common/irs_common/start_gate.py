@@ -16,16 +16,19 @@ publishers reports at least that many matched subscriptions (``Publisher.get_sub
 the writer's view, the one that decides delivery). The step is not lost: the rig, missing the
 node's answer, publishes it again after ``lockstep_resend_period``, and the node answers the
 repeat. After ``timeout`` (10 s) from the first held step the node warns once and answers
-anyway. Once open, the gate costs one attribute test per step.
+anyway. Once open, the gate costs one attribute test per step. The rigs (``vehicle_sim``,
+``rig_hardware``) hold their step 0 on the same gate after ``rig/start``.
 """
 import time
 
 from .params import Param
 
-__all__ = ['START_SUBSCRIBERS', 'StartGate', 'parse_start_subscribers']
+__all__ = ['START_SUBSCRIBERS', 'StartGate', 'parse_start_subscribers',
+           'start_subscribers_problem']
 
 
-def _spec_problem(text: str):
+def start_subscribers_problem(text: str):
+    """``None``, or what is wrong with a ``start_subscribers`` value (a ``Param`` validator)."""
     try:
         parse_start_subscribers(text)
     except ValueError as exc:
@@ -39,7 +42,7 @@ START_SUBSCRIBERS = Param(
     "lock-step: answer the first step only once these of the node's published topics have "
     "matched this many subscriptions ('/topic=count,...'; at most 10 s; the experiment runner "
     'sets it), so that no consumer misses the first step', '-', node_only=True,
-    validator=_spec_problem)
+    validator=start_subscribers_problem)
 
 
 def parse_start_subscribers(text: str) -> dict:
@@ -103,8 +106,8 @@ class StartGate:
             return False
         if lacking:
             self.node.get_logger().warning(
-                f'answering although {lacking} have fewer subscriptions than expected ('
+                f'going on although {lacking} have fewer subscriptions than expected ('
                 + ', '.join(f'{t}={self.waits[t][1]}' for t in lacking)
-                + f') {self.timeout:g} s after the first step')
+                + f') {self.timeout:g} s after the first held step')
         self.open = True
         return True

@@ -7,6 +7,7 @@ addresses, the clock mode and the publishing rates are the node's own (``node_on
 import math
 
 from irs_common.params import Param, core_values, node_only
+from irs_common.start_gate import start_subscribers_problem
 
 from .board_keeper import AFTER as KEEPER_AFTER
 from .hardware_rig import HardwareConfig
@@ -46,8 +47,8 @@ NODE_PARAMS = CORE_PARAMS + node_only([
     Param('lockstep_resend_period', 0.5, 'lock-step: publish the step again after this long '
           'without progress', 's', 0.01, 3600.0, read_only=True),
     Param('start_subscribers', '', "lock-step: publish step 0 once these of the rig's topics "
-          "have this many subscriptions ('topic=count,...'; the experiment runner sets it)", '-',
-          read_only=True),
+          "have this many subscriptions ('topic=count,...'; at most 10 s; the experiment runner "
+          'sets it)', '-', read_only=True, validator=start_subscribers_problem),
     Param('autostart', True, 'start at once; false: wait for rig/start (std_srvs/Trigger)', '-',
           read_only=True),
     Param('max_steps', 0, 'stop after this many steps (0 = run until shut down)', '1', 0, 2**62),

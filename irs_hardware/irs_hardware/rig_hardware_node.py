@@ -50,6 +50,7 @@ from irs_common.params import declare_table
 from irs_common.stamp_gate import FUTURE, OLD, StampGate
 from irs_common.stamp_sync import StampSync
 from irs_common.stamps import from_ns, to_ns
+from irs_common.start_gate import StartGate
 from irs_msgs.msg import (BeltSpeed, RigStatus, SteeringCommand, TreadmillDriveCommand,
                           WheelEncoders, WheelTorqueCommand)
 
@@ -181,22 +182,13 @@ class RigHardwareNode(Node):
             self.get_logger().error(f'not started: {why}')
 
     def _begin_lockstep(self):
-        """Publish step 0 once ``start_subscribers`` are matched (at most 10 s)."""
-        waits = {}
-        pubs = {'/clock': self.pub_clock, 'arm/joint_states': self.pub_arm,
-                'belt/speed': self.pub_belt, 'rig/status': self.pub_status}
-        if self.pub_encoders is not None:
-            pubs['wheels/encoders'] = self.pub_encoders
-        for item in filter(None, self.p['start_subscribers'].split(',')):
-            topic, _, count = item.partition('=')
-            key = topic.strip() if topic.strip() == '/clock' else topic.strip().lstrip('/')
-            if key in pubs and count.strip().isdigit():
-                waits[key] = (pubs[key], int(count))
-        t0 = time.monotonic()
+        """Publish step 0 once ``start_subscribers`` are matched (at most 10 s:
+        :class:`~irs_common.start_gate.StartGate`).
+        """
+        gate = StartGate(self)
 
         def begin():
-            if any(pub.get_subscription_count() < n for pub, n in waits.values()) \
-                    and time.monotonic() - t0 < 10.0:
+            if not gate.ready():
                 return
             self.destroy_timer(timer)
             with self.lock:

@@ -135,7 +135,7 @@ def test_the_gate_opens_when_matched_or_after_its_timeout_and_then_stays_open(ca
         assert not caplog.text
         now[0] = 110.0
         assert held.ready() and held.open
-    assert "answering although ['/a']" in caplog.text
+    assert "going on although ['/a']" in caplog.text
 
     assert StartGate(_Node('', [])).open            # nothing to wait for
     caplog.clear()
@@ -146,3 +146,15 @@ def test_the_gate_opens_when_matched_or_after_its_timeout_and_then_stays_open(ca
 def test_a_malformed_start_subscribers_is_named(bad):
     with pytest.raises(ValueError, match="is not '<topic>=<count>'"):
         parse_start_subscribers(bad)
+
+
+@pytest.mark.parametrize('package, executable', [('irs_sysid', 'excitation'),
+                                                 ('irs_vehicle_sim', 'vehicle_sim')])
+def test_a_node_given_a_malformed_start_subscribers_exits_with_one_line(ros, launch, package,
+                                                                       executable):
+    from irs_system_tests.output_lines import own_lines
+    bad = launch(NodeSpec(package, executable, params={'start_subscribers': '/clock=x'}))
+    assert ros.spin_until(lambda: bad.poll() is not None, 30.0)
+    assert bad.poll() == 2
+    lines = own_lines(bad.output())
+    assert len(lines) == 1 and "'/clock=x' is not '<topic>=<count>'" in lines[0], lines

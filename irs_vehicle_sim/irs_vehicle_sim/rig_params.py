@@ -8,6 +8,7 @@ import math
 from dataclasses import asdict
 
 from irs_common.params import Param, core_values, node_only, table_from_defaults
+from irs_common.start_gate import start_subscribers_problem
 from irs_models.arm_kinematics import ArmGeometry
 from irs_models.constants import BELT_HALF_LENGTH, BELT_HALF_WIDTH
 
@@ -350,10 +351,11 @@ NODE_PARAMS = node_only([
         'start_subscribers',
         '',
         'lock-step: before publishing step 0, wait until these of the '
-        "rig's topics have matched this many subscriptions ('topic=count,...'; the experiment "
-        'runner sets it), so no consumer misses the first step',
+        "rig's topics have matched this many subscriptions ('topic=count,...'; at most 10 s; "
+        'the experiment runner sets it), so no consumer misses the first step',
         '-',
         read_only=True,
+        validator=start_subscribers_problem,
     ),
     Param('max_steps', 0, 'stop stepping after this many steps (0 = run until shut down)', '1', 0,
           2**62),

@@ -34,6 +34,7 @@ from irs_common.params import declare_table
 from irs_common.stamp_gate import FUTURE, OLD, StampGate
 from irs_common.stamp_sync import StampSync
 from irs_common.stamps import clock_now_ns, from_ns, to_ns
+from irs_common.start_gate import StartGate
 from irs_models.constants import STEER_LIMIT
 from irs_msgs.msg import (BeltSpeed, DriverCommand, RigStatus, SteeringActuatorState,
                           SteeringCommand, TreadmillDriveCommand, TreadmillState, TyreState,
@@ -279,18 +280,11 @@ class VehicleSimNode(Node):
         self.started = True
         if self.lockstep:
             self.stamp0_ns = 0
-            waits = self._start_waits()
-            t0 = time.monotonic()
+            gate = StartGate(self)   # step 0 once the runner's subscriptions are matched
 
             def begin():
-                unmatched = [
-                    t for t, (pub, n) in waits.items() if pub.get_subscription_count() < n
-                ]
-                if unmatched and time.monotonic() - t0 < 10.0:
+                if not gate.ready():
                     return
-                if unmatched:
-                    self.get_logger().warning(f'starting although {unmatched} have fewer '
-                                              'subscriptions than expected')
                 self.destroy_timer(self.timer)
                 self.last_progress = time.monotonic()
                 self._publish_outputs()
@@ -300,24 +294,6 @@ class VehicleSimNode(Node):
             self.stamp0_ns = clock_now_ns(self.get_clock())
             self.wall0 = self.next_timing = self.tick_now = time.monotonic()
             self.timer = self.create_timer(self.config.dt, self._realtime_tick)
-
-    def _start_waits(self) -> dict:
-        """``{topic: (publisher, subscriptions expected)}`` from ``start_subscribers``."""
-        pubs = {'/clock': self.pub_clock, 'arm/joint_states': self.pub_arm,
-                'belt/speed': self.pub_belt, 'steering/state': self.pub_act,
-                'ground_truth/odom': self.pub_odom, 'ground_truth/sensor_point': self.pub_point,
-                'rig/status': self.pub_status, 'treadmill/reset': self.pub_treadmill_reset}
-        if self.torque_car:
-            pubs.update({'wheels/encoders': self.pub_encoders, 'rig/tyre_truth': self.pub_tyre})
-        waits = {}
-        for item in filter(None, self.p['start_subscribers'].split(',')):
-            topic, _, count = item.partition('=')
-            topic = topic.strip()
-            key = topic if topic == '/clock' else topic.lstrip('/')
-            if key not in pubs or not count.strip().isdigit():
-                raise ValueError(f"start_subscribers: '{item}' is not '<rig topic>=<count>'")
-            waits[key] = (pubs[key], int(count))
-        return waits
 
     def _on_start(self, _request, response):
         if self.started and not self.holding:
