@@ -23,10 +23,9 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.signal import cont2discrete
-
 from irs_common.input_checks import abs_limit_problem
 from irs_models.constants import STEER_LIMIT  # [rad] +-15 deg
+from irs_models.zoh import zoh
 
 from .polynomials import degree, is_hurwitz, poly_from_roots, require_polynomial, trim
 from .rst_design import RstDesign
@@ -326,7 +325,7 @@ class DiscreteRstController(InputGuard):
         self.anti_windup = self.anti_windup_mode != 'clip'
         self.F = F
         Ac, Bc, Cc, Dc = observable_canonical_miso(R, [T, -S])
-        self._Ad, self._Bd, *_ = cont2discrete((Ac, Bc, Cc, Dc), self.dt, method='zoh')
+        self._Ad, self._Bd = zoh(Ac, Bc, self.dt)
         self._C = Cc[0]
         self._D = Dc[0]
         n = Ac.shape[0]

@@ -10,7 +10,8 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.signal import cont2discrete
+
+from irs_models.zoh import zoh
 
 from .discrete_rst import observable_canonical_miso
 from .polynomials import trim
@@ -63,7 +64,7 @@ def simulate_loop(controller, B, A, reference, t_end: float, y0: float = 0.0) ->
         raise ValueError('simulate_loop expected a strictly proper plant (deg B < deg A).')
     Ac, Bc, Cc, Dc = observable_canonical_miso(A, [B])
     dt = controller.dt
-    Ad, Bd, *_ = cont2discrete((Ac, Bc, Cc, Dc), dt, method='zoh')
+    Ad, Bd = zoh(Ac, Bc, dt)
     n = int(round(t_end / dt)) + 1
     t = np.arange(n) * dt
     x = np.zeros(A.size - 1)

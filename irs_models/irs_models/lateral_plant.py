@@ -14,7 +14,7 @@ held constant (ZOH) over the step, and read-only outputs
 Implementations: :class:`irs_models.identified.IdentifiedPlant` (paper Eq. 6) and
 :class:`BicyclePlant` below (states ``[v_y, r, y, psi]`` of
 :func:`irs_models.bicycle.bicycle_state_space`, exact ZOH discretisation by
-``scipy.signal.cont2discrete``).  The bicycle model is linear at a fixed speed ``speed``;
+:func:`irs_models.zoh.zoh`).  The bicycle model is linear at a fixed speed ``speed``;
 like the identified plant it does not rescale with the car's actual speed.
 """
 
@@ -24,7 +24,8 @@ import math
 from typing import Protocol, runtime_checkable
 
 import numpy as np
-from scipy.signal import cont2discrete
+
+from .zoh import zoh
 
 __all__ = ['LateralPlant', 'ZohSteps', 'BicyclePlant']
 
@@ -55,7 +56,7 @@ class LateralPlant(Protocol):
 
 class ZohSteps:
     """Exact zero-order-hold steps of a continuous plant with matrices ``A, B, C, D``
-    (``scipy.signal.cont2discrete``), computed once per step size.
+    (:func:`irs_models.zoh.zoh`), computed once per step size.
     """
 
     def discrete(self, dt: float):
@@ -64,7 +65,7 @@ class ZohSteps:
         if dt not in cache:
             if not (math.isfinite(dt) and dt > 0.0):
                 raise ValueError(f'dt must be a positive finite step in s, got {dt!r}')
-            cache[dt] = cont2discrete((self.A, self.B, self.C, self.D), dt, method='zoh')[:2]
+            cache[dt] = zoh(self.A, self.B, dt)
         return cache[dt]
 
     def curvature_gain(self, speed: float) -> float:

@@ -136,12 +136,25 @@ def test_offline_run_writes_traces_metrics_and_plots_in_its_own_folder(tmp_path)
     ('-1', 'got -1.0'), ('nan', 'got nan'), ('inf', 'got inf'),
     ('0.0001', 'shorter than one rig step'),
 ])
-def test_experiment_duration_refused_in_one_line(tmp_path, value, what):
+def test_experiment_duration_refused_in_one_line(tmp_path, monkeypatch, capsys, value, what):
+    """In-process (argument handling only); the installed command: the test below."""
+    from irs_bringup.experiment_cli import main
+    monkeypatch.chdir(tmp_path)
     for extra in (['--offline'], []):
-        res = run('irs_bringup', 'experiment', 'run', 'figure10_pi', f'--duration={value}',
-                  '--runs-dir', 'out', *extra, cwd=tmp_path, timeout=120)
+        code = main(['run', 'figure10_pi', f'--duration={value}', '--runs-dir', 'out', *extra])
+        captured = capsys.readouterr()
+        res = subprocess.CompletedProcess([], code, captured.out, captured.err)
         err = one_line_error(res, 'experiment')
         assert '--duration: ' in err and what in err, err
+    assert tree(tmp_path) == set()
+
+
+def test_installed_experiment_refuses_a_duration_in_one_line(tmp_path):
+    for extra in (['--offline'], []):
+        res = run('irs_bringup', 'experiment', 'run', 'figure10_pi', '--duration=nan',
+                  '--runs-dir', 'out', *extra, cwd=tmp_path, timeout=120)
+        err = one_line_error(res, 'experiment')
+        assert '--duration: a finite number of seconds > 0 expected, got nan' in err, err
     assert tree(tmp_path) == set()
 
 
