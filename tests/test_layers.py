@@ -38,7 +38,7 @@ ONLY_FROM = {'irs_hardware': ('irs_vehicle_sim', ('emulator',))}
 #: irs_common modules that the bottom layer may lean on: no ROS import, directly or through
 #: another irs_common module.
 ROS_FREE_COMMON = {'answer_cache', 'field_checks', 'input_checks', 'loop_timing', 'orientation',
-                   'stamp_gate', 'stamp_sync'}
+                   'stamp_gate', 'stamp_sync', 'yaml_io'}
 #: Top-level names that are ROS: rclpy and generated interfaces. (``ament_index_python``, a
 #: pure-Python lookup of installed files, is not: the presets find their YAML through it.)
 ROS_PREFIXES = ('rclpy', 'rcl_interfaces', 'builtin_interfaces', 'irs_msgs')

@@ -22,6 +22,7 @@ import sys
 
 import yaml
 
+from irs_common import yaml_io
 from irs_common.cli import (BUG_HINT, EXIT_BUG, InputError, Interrupted, SignalGuard,
                             did_you_mean, one_line)
 
@@ -96,7 +97,7 @@ def load_spec(path) -> list:
     if str(path).startswith('pkg://'):
         path = _resolve(str(path), Path.cwd())
     try:
-        doc = yaml.safe_load(Path(path).read_text())
+        doc = yaml_io.safe_load(Path(path).read_text())
     except (OSError, UnicodeDecodeError, yaml.YAMLError) as exc:
         raise ContainerError(f'{path}: {" ".join(str(exc).split())}') from None
     nodes = doc.get('nodes') if isinstance(doc, dict) else None

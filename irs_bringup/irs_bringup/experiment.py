@@ -24,6 +24,7 @@ from pathlib import Path
 
 import yaml
 
+from irs_common import yaml_io
 from irs_common.cli import InputError, did_you_mean
 
 RIG_KEY = ('irs_vehicle_sim', 'vehicle_sim')
@@ -301,7 +302,7 @@ def load_experiment(name_or_path: str) -> Experiment:
     except (OSError, UnicodeDecodeError) as exc:
         raise ExperimentError(f'{path}: cannot be read: {exc}') from None
     try:
-        doc = yaml.safe_load(text)
+        doc = yaml_io.safe_load(text)
     except yaml.YAMLError as exc:
         raise ExperimentError(f'{path}: not valid YAML: {" ".join(str(exc).split())}') from None
     model, problems = validate_document(doc)
@@ -401,7 +402,7 @@ def node_parameters(entry: NodeEntry) -> dict:
     from irs_common.params import flatten
     values = {}
     for ref in entry.params_files:
-        doc = yaml.safe_load(resolve_params_file(ref).read_text()) or {}
+        doc = yaml_io.safe_load(resolve_params_file(ref).read_text()) or {}
         for node_name, section in doc.items():
             if node_name in (entry.name, '/**', '**') or node_name.lstrip('/') == entry.name:
                 values.update(flatten((section or {}).get('ros__parameters', {})))

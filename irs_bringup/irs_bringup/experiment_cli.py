@@ -124,9 +124,11 @@ def list_experiments(out=print) -> int:
     checks a file fully.
     """
     import yaml
+
+    from irs_common import yaml_io
     for path in sorted(experiments_dir().glob('*.yaml')):
         try:
-            doc = yaml.safe_load(path.read_text())
+            doc = yaml_io.safe_load(path.read_text())
             doc = doc if isinstance(doc, dict) else {}
             duration = float(doc.get('duration'))
             out(f'{path.stem:36s} {str(doc.get("clock", "lockstep")):9s} {duration:7.1f} s  '

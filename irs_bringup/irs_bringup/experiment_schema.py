@@ -15,6 +15,8 @@ from pydantic import (AfterValidator, BaseModel, ConfigDict, Field, ValidationEr
                       field_validator)
 import yaml
 
+from irs_common import yaml_io
+
 #: Experiment and process-group names: they become directory names (``runs/<name>-<time>``).
 SAFE_NAME = re.compile(r'[A-Za-z0-9][A-Za-z0-9_-]{0,99}')
 #: Node names (ROS: letters, digits, underscores; not starting with a digit).
@@ -251,7 +253,7 @@ def resolve_params_ref(ref: str) -> Path:
 def params_file_sections(path: Path) -> dict:
     """The parsed parameter file; ``ValueError`` unless it is ``{node: {ros__parameters: {}}}``."""
     try:
-        doc = yaml.safe_load(path.read_text())
+        doc = yaml_io.safe_load(path.read_text())
     except (OSError, yaml.YAMLError) as exc:
         raise ValueError(f'{path}: not readable YAML: {" ".join(str(exc).split())}') from None
     doc = doc or {}

@@ -248,9 +248,11 @@ def params_file_sections(path) -> dict:
     is YAML of ``<node name>: {ros__parameters: {...}}`` sections.
     """
     import yaml
+
+    from . import yaml_io
     try:
         with open(path) as f:
-            doc = yaml.safe_load(f) or {}
+            doc = yaml_io.safe_load(f) or {}
     except (OSError, UnicodeDecodeError, yaml.YAMLError) as exc:
         raise ValueError(f"--params-file {path}: not readable YAML: {' '.join(str(exc).split())}"
                          ) from None

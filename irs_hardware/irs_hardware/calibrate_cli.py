@@ -39,6 +39,7 @@ import numpy as np
 import yaml
 from pydantic import ValidationError
 
+from irs_common import yaml_io
 from irs_common.cli import InputError, run_cli
 from irs_models.arm_kinematics import ArmGeometry, inverse_kinematics
 
@@ -191,7 +192,7 @@ def _base(path) -> dict:
     """The sections of an earlier (possibly partial) calibration file, checked."""
     if path is None:
         return {}
-    doc = yaml.safe_load(Path(path).read_text()) or {}
+    doc = yaml_io.safe_load(Path(path).read_text()) or {}
     if not isinstance(doc, dict):
         raise CalibrationError(f'{path}: not a mapping of calibration sections')
     return _check(doc, path)
@@ -237,7 +238,7 @@ def _main(argv) -> int:
         if args.what != 'drive':
             board = BoardReader(args.port, args.baud, enable=args.what == 'belt')
         if args.what == 'pots':
-            poses = yaml.safe_load(args.poses.read_text())['poses']
+            poses = yaml_io.safe_load(args.poses.read_text())['poses']
             doc['pots'] = calibrate_pots(board.read, poses, lambda i, p: input(
                 f'place the arm at pose {i + 1} {p} and press Enter '), args.samples).model_dump()
         elif args.what == 'servo':

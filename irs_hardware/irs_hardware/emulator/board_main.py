@@ -38,8 +38,8 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
-import yaml
 
+from irs_common import yaml_io
 from irs_common.params import flatten
 
 from ..paths import resolve
@@ -56,14 +56,14 @@ def _rig_params(files, overrides) -> dict:
     keys = {p.name for p in rig_parameter_table()}
     values = {}
     for path in files or []:
-        doc = yaml.safe_load(resolve(path).read_text()) or {}
+        doc = yaml_io.safe_load(resolve(path).read_text()) or {}
         for section in doc.values():
             values.update(flatten((section or {}).get('ros__parameters', {})))
     for item in overrides or []:
         key, sep, text = item.partition('=')
         if not sep:
             raise ValueError(f'-p {item!r}: expected key=value')
-        values[key.strip()] = yaml.safe_load(text)
+        values[key.strip()] = yaml_io.safe_load(text)
     return {k: v for k, v in values.items() if k in keys}
 
 

@@ -110,10 +110,10 @@ def run(args) -> int:
 
 
 def list_sweeps() -> int:
-    import yaml
+    from irs_common import yaml_io
     from .sweep_file import sweeps_dir
     for f in sorted(sweeps_dir().glob('*.yaml')):
-        desc = (yaml.safe_load(f.read_text()) or {}).get('description', '')
+        desc = (yaml_io.safe_load(f.read_text()) or {}).get('description', '')
         print(f'{f.stem:24s} {desc}')
     return 0
 

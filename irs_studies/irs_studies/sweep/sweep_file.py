@@ -20,6 +20,7 @@ from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_valida
     model_validator
 import yaml
 
+from irs_common import yaml_io
 from irs_common.cli import InputError, did_you_mean
 
 #: Nodes a parameter path may name, and the LoopConfig field each maps to.
@@ -299,7 +300,7 @@ def load_sweep(name_or_path: str) -> tuple[SweepModel, Path]:
     """Read and validate a sweep file; :class:`SweepError` (one line) on any problem."""
     path = find_sweep(name_or_path)
     try:
-        doc = yaml.safe_load(path.read_text())
+        doc = yaml_io.safe_load(path.read_text())
     except (OSError, UnicodeDecodeError) as exc:
         raise SweepError(f'{path}: cannot be read: {exc}') from None
     except yaml.YAMLError as exc:

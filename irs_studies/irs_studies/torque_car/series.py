@@ -16,6 +16,7 @@ from pathlib import Path
 import numpy as np
 import yaml
 
+from irs_common import yaml_io
 from irs_common.orientation import yaw_from_quaternion
 
 __all__ = ['Run', 'TOPICS', 'load_run', 'resolve_bag']
@@ -116,7 +117,7 @@ def _metadata(reader) -> tuple[str | None, dict]:
         if key != 'irs_experiment':
             continue
         try:
-            doc = yaml.safe_load(meta.get('experiment_yaml', '')) or {}
+            doc = yaml_io.safe_load(meta.get('experiment_yaml', '')) or {}
             name = doc.get('name', name) if isinstance(doc, dict) else name
             params = json.loads(meta.get('node_parameters', '{}')) or params
         except (yaml.YAMLError, ValueError):
