@@ -213,7 +213,7 @@ def test_fuzz_torque_commands_keep_the_rig_alive_and_its_outputs_finite(ros, lau
 
 @pytest.mark.parametrize('args, line', [
     (['plant:=two_track', 'surface.mu:=0.0'],
-     'surface.mu must be a friction coefficient in (0, 2], got 0.0.'),
+     "parameter 'surface.mu': got 0.0 (out of range), expected a finite double in [0.01, 2.0]"),
     (['plant:=two_track', 'two_track.torque_limit:=0.0'],
      'two_track.torque_limit must be a finite torque > 0 N m, got 0.0.'),
     (['clock_mode:=lockstep', 'lockstep_inputs:=[wheels]'],

@@ -19,6 +19,7 @@ from .car_on_belt import CarParams
 from .rig import PLANTS, RigConfig, _bicycle_defaults
 from .rig_torque_car import encoder_defaults, surface_defaults, two_track_defaults
 from .surface import SURFACE_KINDS
+from .tyre import MU_MAX, MU_MIN
 
 INF = math.inf
 
@@ -176,13 +177,14 @@ _TWO_TRACK = {
 }
 _SURFACE = {
     'kind': ('-', None, None, "surface friction map: 'uniform', 'patch', 'split' or 'step'"),
-    'mu': ('1', 0.0, 2.0, 'friction coefficient (uniform; outside the patch; before the step)'),
-    'mu_patch': ('1', 0.0, 2.0, 'friction on the patch x_start <= x <= x_end (patch)'),
+    'mu': ('1', MU_MIN, MU_MAX,
+           'friction coefficient (uniform; outside the patch; before the step)'),
+    'mu_patch': ('1', MU_MIN, MU_MAX, 'friction on the patch x_start <= x <= x_end (patch)'),
     'x_start': ('m', -INF, INF, 'patch start along the treadmill x (patch)'),
     'x_end': ('m', -INF, INF, 'patch end along the treadmill x, > x_start (patch)'),
-    'mu_left': ('1', 0.0, 2.0, 'friction for y >= 0 (split)'),
-    'mu_right': ('1', 0.0, 2.0, 'friction for y < 0 (split)'),
-    'mu_after': ('1', 0.0, 2.0, 'friction from t_step on (step)'),
+    'mu_left': ('1', MU_MIN, MU_MAX, 'friction for y >= 0 (split)'),
+    'mu_right': ('1', MU_MIN, MU_MAX, 'friction for y < 0 (split)'),
+    'mu_after': ('1', MU_MIN, MU_MAX, 'friction from t_step on (step)'),
     't_step': ('s', 0.0, INF, 'time of the friction step (step)'),
 }
 _ENCODERS = {

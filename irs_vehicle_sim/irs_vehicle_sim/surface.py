@@ -24,6 +24,8 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass, fields
 
+from .tyre import MU_MAX, MU_MIN
+
 __all__ = ['SurfaceSpec', 'SURFACE_KINDS']
 
 #: Accepted kinds and the keys each one reads (besides ``kind``).
@@ -77,9 +79,9 @@ class SurfaceSpec:
             v = getattr(self, f.name)
             if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v):
                 raise ValueError(f'surface.{f.name} must be a finite number, got {v!r}.')
-            if f.name.startswith('mu') and not 0.0 < v <= 2.0:
-                raise ValueError(f'surface.{f.name} must be a friction coefficient in (0, 2], '
-                                 f'got {v!r}.')
+            if f.name.startswith('mu') and not MU_MIN <= v <= MU_MAX:
+                raise ValueError(f'surface.{f.name} must be a friction coefficient in '
+                                 f'[{MU_MIN}, {MU_MAX}], got {v!r}.')
         if self.kind == 'patch' and not self.x_start < self.x_end:
             raise ValueError(f'surface patch needs x_start < x_end [m], got '
                              f'{self.x_start!r} and {self.x_end!r}.')

@@ -37,8 +37,7 @@ from irs_common.field_checks import check_numbers
 from irs_models.torque_car import torque_car_bicycle
 
 from .surface import SurfaceSpec
-from .tyre import (TyreParams, damped_slip, lateral_slip, relaxation_length, slip_rate,
-                   tyre_forces)
+from .tyre import TyreParams, contact, lateral_slip, slip_rate
 
 __all__ = ['TwoTrackParams', 'TwoTrack', 'TwoTrackOutputs', 'WHEELS', 'N_STATES']
 
@@ -308,23 +307,26 @@ class TwoTrack:
                      for px, py in zip(self._px, self._py))
 
     def _wheel_forces(self, s, delta_f, delta_r, fz, mu):
-        """Per wheel ``(F_xw, F_yw, V_cx, V_cy, delta, sigma_eff)`` for state ``s``."""
+        """Per wheel ``(F_xw, F_yw, V_cx, V_cy, cos delta, sin delta, sigma_eff)`` for state
+        ``s`` (a sequence of Python floats: ``numpy`` scalars would cost several times as much).
+        """
         p = self.params
         u, v, r = s[0], s[1], s[2]
+        R = p.wheel_radius
         out = []
         for i in range(4):
-            d = delta_f if i < 2 else delta_r
-            cd, sd = math.cos(d), math.sin(d)
+            if i == 0 or i == 2:
+                d = delta_f if i < 2 else delta_r
+                cd, sd = math.cos(d), math.sin(d)
             vx = u - r * self._py[i]
             vy = v + r * self._px[i]
             vcx = vx * cd + vy * sd
             vcy = -vx * sd + vy * cd
             sy = lateral_slip(vcx, vcy, p.tyre)
             ca = self._ca[0] if i < 2 else self._ca[1]
-            kap = damped_slip(s[11 + i], s[7 + i] * p.wheel_radius, vcx, p.tyre)
-            fxw, fyw = tyre_forces(kap, sy, fz[i], mu[i], p.tyre, c_alpha=ca)
-            sig = relaxation_length(kap, sy, vcx, mu[i], p.tyre, c_alpha=ca)
-            out.append((fxw, fyw, vcx, vcy, d, sig))
+            _kap, fxw, fyw, sig = contact(s[11 + i], s[7 + i] * R, vcx, sy, fz[i], mu[i], p.tyre,
+                                          ca)
+            out.append((fxw, fyw, vcx, vcy, cd, sd, sig))
         return out
 
     def derivatives(self, s, torques, delta_f, delta_r, belt_speed, belt_accel, locked, fz, mu):
@@ -332,13 +334,13 @@ class TwoTrack:
         held; also returns the total body force ``(sum F_x, sum F_y)`` [N].
         """
         p = self.params
+        s = s.tolist()
         u, v, r, psi = s[0], s[1], s[2], s[3]
         R = p.wheel_radius
         sfx = sfy = mz = 0.0
         ds = np.empty(N_STATES)
-        for i, (fxw, fyw, vcx, _vcy, d, sig) in enumerate(
+        for i, (fxw, fyw, vcx, _vcy, cd, sd, sig) in enumerate(
                 self._wheel_forces(s, delta_f, delta_r, fz, mu)):
-            cd, sd = math.cos(d), math.sin(d)
             fx = fxw * cd - fyw * sd
             fy = fxw * sd + fyw * cd
             sfx += fx
@@ -417,7 +419,7 @@ class TwoTrack:
         if not isinstance(fz, tuple):
             fz = self.loads()
             mu = self.frictions(s[4], s[5], s[3], self.t)
-        wf = self._wheel_forces(s, deltas[0], deltas[1], fz, mu)
+        wf = self._wheel_forces(s.tolist(), deltas[0], deltas[1], fz, mu)
         sa = [math.atan(lateral_slip(w[2], w[3], self.params.tyre)) for w in wf]
         return TwoTrackOutputs(kappa=s[11:15].copy(), slip_angle=np.array(sa),
                                fx=np.array([w[0] for w in wf]), fy=np.array([w[1] for w in wf]),

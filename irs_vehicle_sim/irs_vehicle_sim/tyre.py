@@ -28,9 +28,13 @@ from irs_common.field_checks import check_numbers
 
 #: Highest surface friction (irs_vehicle_sim.surface refuses more) [-].
 MU_MAX = 2.0
+#: Lowest surface friction (irs_vehicle_sim.surface refuses less) [-]: below wet ice (about
+#: 0.05); a subnormal friction would divide by zero in the slip normalisation.
+MU_MIN = 0.01
 
-__all__ = ['MU_MAX', 'TyreParams', 'tmeasy_curve', 'tyre_forces', 'lateral_slip', 'slip_rate',
-           'slip_scale', 'peak_slips', 'low_speed_damping', 'damped_slip', 'relaxation_length']
+__all__ = ['MU_MAX', 'MU_MIN', 'TyreParams', 'tmeasy_curve', 'tyre_forces', 'lateral_slip',
+           'slip_rate', 'slip_scale', 'peak_slips', 'low_speed_damping', 'damped_slip',
+           'relaxation_length', 'contact']
 
 
 @dataclass
@@ -285,3 +289,33 @@ def tyre_forces(kappa: float, s_y: float, fz: float, mu: float, params: TyrePara
     if lin == 0.0:
         return 0.0, 0.0
     return fz * f * c, fz * f * s
+
+
+def contact(kappa: float, omega_r: float, v_cx: float, s_y: float, fz: float, mu: float,
+            params: TyreParams, c_alpha: float) -> tuple:
+    """One wheel's ``(kappa_F, F_x, F_y, sigma)``: the slip for the force
+    (:func:`damped_slip`), the wheel-frame forces [N] (:func:`tyre_forces`) and the relaxation
+    length [m] (:func:`relaxation_length`) of the relaxed slip ``kappa``.
+
+    Equal to the three functions called in turn, to the bit (``test_tyre.py``); the low-speed
+    weight ``w`` and the combined-slip characteristic, which two of them need, are evaluated
+    once. The two-track model calls it for each wheel five times per step.
+    """
+    sigma = params.relaxation_length
+    w = _fade(v_cx, params)
+    k = params.low_speed_damping * w
+    kap = kappa if k == 0.0 else kappa + k * (omega_r - v_cx) / params.c_kappa
+    if mu <= 0.0:                          # no grip: no force, the carcass holds nothing
+        fx = fy = ratio = 0.0
+    elif fz <= 0.0 and w == 0.0:           # a lifted wheel at speed
+        return kap, 0.0, 0.0, sigma
+    else:
+        f, c, sn, lin = _combined(kap, s_y, mu, params, c_alpha)
+        fx, fy = (0.0, 0.0) if fz <= 0.0 or lin == 0.0 else (fz * f * c, fz * f * sn)
+        if w == 0.0 or lin < 1e-12:
+            return kap, fx, fy, sigma
+        ratio = f / lin
+    if w == 0.0:
+        return kap, fx, fy, sigma
+    sat = min(sigma, max(params.relaxation_length_min, sigma * ratio))
+    return kap, fx, fy, sigma - w * (sigma - sat)

@@ -119,7 +119,7 @@ def test_any_torque_command_gives_finite_limited_torques_and_state(torque, locke
 
 
 @pytest.mark.parametrize('params, words', [
-    ({'surface.mu': 0.0}, 'surface.mu must be a friction coefficient in (0, 2]'),
+    ({'surface.mu': 0.0}, 'surface.mu must be a friction coefficient in [0.01, 2.0]'),
     ({'surface.kind': 'ice'}, 'surface kind must be one of'),
     ({'surface.kind': 'patch', 'surface.x_start': 0.5}, 'x_start < x_end'),
     ({'surface.mu_right': math.nan}, 'surface.mu_right must be finite'),

@@ -14,8 +14,8 @@ from scipy.optimize import minimize_scalar
 
 from irs_models.torque_car import CORNERING_STIFFNESS_PER_LOAD
 from irs_vehicle_sim.surface import SurfaceSpec
-from irs_vehicle_sim.tyre import (TyreParams, lateral_slip, peak_slips, relaxation_length,
-                                  slip_rate, tmeasy_curve, tyre_forces)
+from irs_vehicle_sim.tyre import (TyreParams, contact, damped_slip, lateral_slip, peak_slips,
+                                  relaxation_length, slip_rate, tmeasy_curve, tyre_forces)
 from irs_vehicle_sim.wheel_encoder import EncoderParams, WheelEncoders
 
 P = TyreParams()
@@ -118,6 +118,21 @@ def test_combined_force_within_friction_circle_and_opposing_slip(kappa, s_y, mu)
     assert fx * kappa >= 0.0 and fy * s_y <= 0.0
 
 
+SPEED = st.floats(-2.0, 2.0) | st.sampled_from([0.0, -0.0, P.v_low_damping, -P.v_low_damping])
+
+
+@settings(max_examples=2000, deadline=None)
+@given(st.floats(-1.5, 1.5) | st.just(0.0), st.floats(-3.0, 3.0), SPEED, st.floats(-20.0, 20.0),
+       st.floats(-2.0, 15.0) | st.just(0.0), st.floats(0.01, 2.0) | st.just(0.0) | st.just(-0.1),
+       st.sampled_from([P.c_alpha, CORNERING_STIFFNESS_PER_LOAD[0]]))
+def test_contact_equals_the_three_functions_to_the_bit(kappa, omega_r, v_cx, s_y, fz, mu, ca):
+    kap = damped_slip(kappa, omega_r, v_cx, P)
+    fx, fy = tyre_forces(kap, s_y, fz, mu, P, c_alpha=ca)
+    sigma = relaxation_length(kap, s_y, v_cx, mu, P, c_alpha=ca)
+    got = contact(kappa, omega_r, v_cx, s_y, fz, mu, P, ca)
+    assert [x.hex() for x in got] == [x.hex() for x in (kap, fx, fy, sigma)]
+
+
 def test_braking_slip_takes_cornering_force_away():
     fy_free = tyre_forces(0.0, 0.1, FZ, 0.8, P)[1]
     fy_locked = tyre_forces(-1.0, 0.1, FZ, 0.8, P)[1]
@@ -168,6 +183,8 @@ def test_surfaces():
     ({'kind': 'ice'}, 'kind must be one of'),
     ({'kind': 'split', 'mu': 0.5}, 'reads only'),
     ({'kind': 'uniform', 'mu': 0.0}, 'friction coefficient'),
+    ({'kind': 'uniform', 'mu': 5e-324}, r'friction coefficient in \[0.01, 2.0\], got 5e-324'),
+    ({'kind': 'split', 'mu_right': 2.5}, 'friction coefficient'),
     ({'kind': 'patch', 'x_start': 0.5, 'x_end': 0.1}, 'x_start < x_end'),
     ({'kind': 'step', 't_step': float('nan')}, 'finite'),
     ('wet', 'mapping'),
