@@ -77,3 +77,15 @@ def test_an_empty_node_with_a_bare_tag():
 def test_bad_yaml_is_a_yaml_error(text):
     with pytest.raises(yaml.YAMLError):
         yaml_io.safe_load(text)
+
+
+def test_a_params_file_with_a_tab_before_a_comment_reads_as_rcl_reads_it(tmp_path):
+    """rcl's parameter parser (libyaml) accepts a tab before a comment, so the nodes' own check
+    of ``--params-file`` reads it too (PyYAML's parser refuses it).
+    """
+    from irs_common.params import params_file_sections
+    path = tmp_path / 'tab.yaml'
+    path.write_text('vehicle_sim:\n  ros__parameters:\n    surface:\n      mu_left: 0.8\t# left\n')
+    with pytest.raises(yaml.YAMLError):
+        yaml.safe_load(path.read_text())
+    assert params_file_sections(path) == {'vehicle_sim': {'surface.mu_left': 0.8}}

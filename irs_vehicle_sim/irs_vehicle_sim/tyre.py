@@ -293,13 +293,17 @@ def tyre_forces(kappa: float, s_y: float, fz: float, mu: float, params: TyrePara
 
 def contact(kappa: float, omega_r: float, v_cx: float, s_y: float, fz: float, mu: float,
             params: TyreParams, c_alpha: float) -> tuple:
-    """One wheel's ``(kappa_F, F_x, F_y, sigma)``: the slip for the force
+    """One wheel's ``(kappa_F, F_x, F_y, sigma)``: the slip for the force [-]
     (:func:`damped_slip`), the wheel-frame forces [N] (:func:`tyre_forces`) and the relaxation
-    length [m] (:func:`relaxation_length`) of the relaxed slip ``kappa``.
+    length [m] (:func:`relaxation_length`), from the relaxed slip ``kappa`` [-], the wheel's
+    circumferential speed ``omega_r`` [m/s], the contact point's velocity ``v_cx`` [m/s] and
+    lateral slip ``s_y`` [-], the load ``fz`` [N], the friction ``mu`` [-] and the cornering
+    stiffness per unit load ``c_alpha`` [1/rad].
 
-    Equal to the three functions called in turn, to the bit (``test_tyre.py``); the low-speed
-    weight ``w`` and the combined-slip characteristic, which two of them need, are evaluated
-    once. The two-track model calls it for each wheel five times per step.
+    Equal to the three functions called in turn, to the bit
+    (``irs_vehicle_sim/test/test_sim_tyre.py``); the low-speed weight ``w`` and the
+    combined-slip characteristic, which two of them need, are evaluated once. The two-track
+    model calls it for each wheel five times per step.
     """
     sigma = params.relaxation_length
     w = _fade(v_cx, params)
