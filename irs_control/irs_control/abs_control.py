@@ -118,8 +118,15 @@ def wheel_slips(omega, v_hat: float, wheel_radius: float, v_min: float) -> np.nd
 
 
 def _finite(*xs) -> bool:
+    """Every element of every argument (floats, sequences, arrays) is a finite number."""
     try:
-        return all(bool(np.all(np.isfinite(np.asarray(x, dtype=float)))) for x in xs)
+        for x in xs:
+            if type(x) is float:
+                if not math.isfinite(x):
+                    return False
+            elif not np.isfinite(np.asarray(x, dtype=float)).all():
+                return False
+        return True
     except (TypeError, ValueError):
         return False
 

@@ -27,6 +27,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from irs_common.field_checks import check_numbers
+from irs_common.scalar import clip
 from irs_models.bicycle import BicycleParams, bicycle_state_space
 from irs_models.constants import STEER_LIMIT
 
@@ -133,6 +134,7 @@ class ChassisController:
 
     def __init__(self, params: ChassisParams | None = None):
         self.params = params if params is not None else ChassisParams()
+        self._reference = None        # ((steer, its sign, speed, car), yaw rate): the last answer
         self.reset()
 
     def reset(self) -> None:
@@ -141,11 +143,20 @@ class ChassisController:
         self.q = 0.0
 
     def yaw_rate_reference(self, delta_f: float, speed: float) -> float:
-        """Steady-state bicycle yaw rate [rad/s] for front steer ``delta_f`` [rad]."""
+        """Steady-state bicycle yaw rate [rad/s] for front steer ``delta_f`` [rad].
+
+        The last answer is kept: a step asks twice for the same steer and speed when the yaw
+        rate is not controlled (the torque-car controller's reference, then :meth:`step`'s).
+        """
         V = max(float(speed), self.params.v_min)
+        d = float(delta_f)
+        key = (d, math.copysign(1.0, d), V, self.params.car)
+        if self._reference is not None and self._reference[0] == key:
+            return self._reference[1]
         A, B, _, _ = bicycle_state_space(self.params.car, V)
-        x = -np.linalg.solve(A[:2, :2], B[:2, 0] * float(delta_f))
-        return float(x[1])
+        x = -np.linalg.solve(A[:2, :2], B[:2, 0] * d)
+        self._reference = (key, float(x[1]))
+        return self._reference[1]
 
     def _moment_capacity(self) -> float:
         p, c = self.params, self.params.car
@@ -183,16 +194,16 @@ class ChassisController:
             self.reset()
             return ChassisOutput(np.zeros(4), 0.0, 0.0, 0.0, 'nonfinite_input')
         # the bicycle reference of a huge steer is still finite; keep the steer physical
-        delta_f = float(np.clip(delta_f, -p.steer_limit, p.steer_limit))
+        delta_f = clip(float(delta_f), -p.steer_limit, p.steer_limit)
         r_ref = self.yaw_rate_reference(delta_f, v_hat)
         e = r_ref - float(yaw_rate)
         cap = self._moment_capacity()
         kz = c.yaw_inertia * p.yaw_integral
         if kz > 0.0:
-            self.z = float(np.clip(self.z + dt * e, -cap / kz, cap / kz))
-        m_z = float(np.clip(c.yaw_inertia * (p.yaw_bandwidth * e) + kz * self.z, -cap, cap))
+            self.z = clip(self.z + dt * e, -cap / kz, cap / kz)
+        m_z = clip(c.yaw_inertia * (p.yaw_bandwidth * e) + kz * self.z, -cap, cap)
         share_steer = {'rear_steer': 1.0, 'differential': 0.0, 'both': 0.5}[p.mix]
-        rear = float(np.clip(-share_steer * m_z / (c.lr * c.c_r), -p.steer_limit, p.steer_limit))
+        rear = clip(-share_steer * m_z / (c.lr * c.c_r), -p.steer_limit, p.steer_limit)
         # driving, the torque path is slower (module docstring): its moment is scaled by w_d / w_r
         scale = 1.0 if brake > 0.0 else min(1.0, p.differential_bandwidth / p.yaw_bandwidth)
         m_d = (1.0 - share_steer) * m_z * scale
@@ -205,7 +216,7 @@ class ChassisController:
             f_max = 4.0 * p.torque_limit / c.wheel_radius
             kq = c.mass * p.speed_integral
             if kq > 0.0:
-                self.q = float(np.clip(self.q + dt * ev, -f_max / kq, f_max / kq))
+                self.q = clip(self.q + dt * ev, -f_max / kq, f_max / kq)
             force = c.mass * p.speed_bandwidth * ev + kq * self.q
             base = force * c.wheel_radius / 4.0
         torques = np.clip(np.array([base - d_t, base + d_t, base - d_t, base + d_t]),

@@ -260,7 +260,7 @@ class TorqueCarController:
             self.last_pose_ns = stamp_ns
 
     def _problem(self, omega, yaw_rate) -> str | None:
-        if omega.shape != (4,) or not bool(np.all(np.isfinite(omega))):
+        if omega.shape != (4,) or not np.isfinite(omega).all():
             return 'nonfinite_encoders'
         if not self.pose_ok or not math.isfinite(self.estimator.estimate):
             return 'invalid_pose_or_belt_speed'     # (a huge finite belt speed overflows)
@@ -317,8 +317,8 @@ class TorqueCarController:
             learn = (ch.torques < 0.0) & (braking and not self.holding)
             with np.errstate(over='ignore', invalid='ignore'):
                 targets = self.peak.step(omega, self.applied, v_abs, learn, c.dt)
-        if not (math.isfinite(v_ref) and np.all(np.isfinite(targets))
-                and np.all(np.isfinite(self.peak.kappa))):
+        if not (math.isfinite(v_ref) and np.isfinite(targets).all()
+                and np.isfinite(self.peak.kappa).all()):
             self.wheels.reset()             # absurd input: start again (the ABS answers 0 N m)
             self.peak.reset()
             targets = self.peak.target.copy()

@@ -209,7 +209,7 @@ class TorqueCarPlant:
         car = self.car
         car.reset(x0, y0, 0.0, u0)
         car.t = float(t)
-        car.outputs = car._outputs(car.state, (0.0, 0.0), None, None)   # mu at time t
+        car.refresh_outputs()   # mu at time t
 
     def step(self, torque, locked, delta_f: float, delta_r: float, belt_speed: float,
              belt_accel: float, dt: float) -> None:

@@ -37,7 +37,7 @@ from irs_common.field_checks import check_numbers
 from irs_models.torque_car import torque_car_bicycle
 
 from .surface import SurfaceSpec
-from .tyre import TyreParams, contact, lateral_slip, slip_rate
+from .tyre import TyreParams, characteristic, contact, lateral_slip, slip_rate
 
 __all__ = ['TwoTrackParams', 'TwoTrack', 'TwoTrackOutputs', 'WHEELS', 'N_STATES']
 
@@ -235,7 +235,17 @@ class TwoTrack:
         self.state = np.array([u, 0.0, 0.0, psi, x, y, 0.0, w, w, w, w, 0.0, 0.0, 0.0, 0.0])
         self.t = 0.0
         self._acc = (0.0, 0.0)
-        self.outputs = self._outputs(self.state, (0.0, 0.0), 0.0, 0.0)
+        self.refresh_outputs()
+
+    def refresh_outputs(self) -> TwoTrackOutputs:
+        """``outputs`` of the present state at time ``t`` with the wheels straight (after a
+        reset, or a move of the surface clock ``t``).
+        """
+        fz = self.loads()
+        mu = self.frictions(self.state[4], self.state[5], self.state[3], self.t)
+        self.outputs = self._outputs(self.state, fz, mu, self._wheel_forces(
+            self.state.tolist(), 0.0, 0.0, fz, mu, self.characteristics(mu)))
+        return self.outputs
 
     @property
     def u(self) -> float:
@@ -306,9 +316,17 @@ class TwoTrack:
         return tuple(self.surface.mu_at(x + px * c - py * s, y + px * s + py * c, t)
                      for px, py in zip(self._px, self._py))
 
-    def _wheel_forces(self, s, delta_f, delta_r, fz, mu):
+    def characteristics(self, mu) -> tuple:
+        """Per wheel the tyre's slip-independent characteristic at friction ``mu[i]``
+        (:func:`~.tyre.characteristic`; ``None`` where ``mu[i] <= 0``): held over a step.
+        """
+        return tuple(None if m <= 0.0 else characteristic(m, self.params.tyre, ca)
+                     for m, ca in zip(mu, (self._ca[0], self._ca[0], self._ca[1], self._ca[1])))
+
+    def _wheel_forces(self, s, delta_f, delta_r, fz, mu, chars):
         """Per wheel ``(F_xw, F_yw, V_cx, V_cy, cos delta, sin delta, sigma_eff)`` for state
-        ``s`` (a sequence of Python floats: ``numpy`` scalars would cost several times as much).
+        ``s`` (a sequence of Python floats: ``numpy`` scalars would cost several times as much)
+        and the wheels' characteristics ``chars`` (:meth:`characteristics` of ``mu``).
         """
         p = self.params
         u, v, r = s[0], s[1], s[2]
@@ -325,13 +343,15 @@ class TwoTrack:
             sy = lateral_slip(vcx, vcy, p.tyre)
             ca = self._ca[0] if i < 2 else self._ca[1]
             _kap, fxw, fyw, sig = contact(s[11 + i], s[7 + i] * R, vcx, sy, fz[i], mu[i], p.tyre,
-                                          ca)
+                                          ca, chars[i])
             out.append((fxw, fyw, vcx, vcy, cd, sd, sig))
         return out
 
-    def derivatives(self, s, torques, delta_f, delta_r, belt_speed, belt_accel, locked, fz, mu):
+    def derivatives(self, s, torques, delta_f, delta_r, belt_speed, belt_accel, locked, fz, mu,
+                    chars=None):
         """State derivative ``ds/dt`` (module docstring) with loads ``fz`` and frictions ``mu``
-        held; also returns the total body force ``(sum F_x, sum F_y)`` [N].
+        held (``chars``: :meth:`characteristics` of ``mu``, computed when ``None``); also
+        returns the total body force ``(sum F_x, sum F_y)`` [N].
         """
         p = self.params
         s = s.tolist()
@@ -339,8 +359,10 @@ class TwoTrack:
         R = p.wheel_radius
         sfx = sfy = mz = 0.0
         ds = np.empty(N_STATES)
+        if chars is None:
+            chars = self.characteristics(mu)
         for i, (fxw, fyw, vcx, _vcy, cd, sd, sig) in enumerate(
-                self._wheel_forces(s, delta_f, delta_r, fz, mu)):
+                self._wheel_forces(s, delta_f, delta_r, fz, mu, chars)):
             fx = fxw * cd - fyw * sd
             fy = fxw * sd + fyw * cd
             sfx += fx
@@ -401,8 +423,9 @@ class TwoTrack:
                 s0[7 + i] = 0.0
         fz = self.loads()
         mu = self.frictions(s0[4], s0[5], s0[3], self.t)
+        chars = self.characteristics(mu)
         args = (tq, float(delta_f), float(delta_r), float(belt_speed), float(belt_accel), lk,
-                fz, mu)
+                fz, mu, chars)
         k1, _ = self.derivatives(s0, *args)
         k2, _ = self.derivatives(s0 + 0.5 * dt * k1, *args)
         k3, _ = self.derivatives(s0 + 0.5 * dt * k2, *args)
@@ -410,16 +433,17 @@ class TwoTrack:
         s1 = s0 + (dt / 6.0) * (k1 + 2.0 * k2 + 2.0 * k3 + k4)
         self.state = s1
         self.t += dt
-        _, (sfx, sfy) = self.derivatives(s1, *args)
+        # the forces at the end of the step: the next step's load transfer and the outputs
+        wf = self._wheel_forces(s1.tolist(), args[1], args[2], fz, mu, chars)
+        sfx = sfy = 0.0
+        for fxw, fyw, _vcx, _vcy, cd, sd, _sig in wf:     # as in derivatives, in its order
+            sfx += fxw * cd - fyw * sd
+            sfy += fxw * sd + fyw * cd
         self._acc = (sfx / self.params.mass, sfy / self.params.mass)
-        self.outputs = self._outputs(s1, (float(delta_f), float(delta_r)), fz, mu)
+        self.outputs = self._outputs(s1, fz, mu, wf)
         return self.outputs
 
-    def _outputs(self, s, deltas, fz, mu) -> TwoTrackOutputs:
-        if not isinstance(fz, tuple):
-            fz = self.loads()
-            mu = self.frictions(s[4], s[5], s[3], self.t)
-        wf = self._wheel_forces(s.tolist(), deltas[0], deltas[1], fz, mu)
+    def _outputs(self, s, fz, mu, wf) -> TwoTrackOutputs:
         sa = [math.atan(lateral_slip(w[2], w[3], self.params.tyre)) for w in wf]
         return TwoTrackOutputs(kappa=s[11:15].copy(), slip_angle=np.array(sa),
                                fx=np.array([w[0] for w in wf]), fy=np.array([w[1] for w in wf]),

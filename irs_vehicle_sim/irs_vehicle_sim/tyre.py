@@ -34,7 +34,7 @@ MU_MIN = 0.01
 
 __all__ = ['MU_MAX', 'MU_MIN', 'TyreParams', 'tmeasy_curve', 'tyre_forces', 'lateral_slip',
            'slip_rate', 'slip_scale', 'peak_slips', 'low_speed_damping', 'damped_slip',
-           'relaxation_length', 'contact']
+           'relaxation_length', 'characteristic', 'contact']
 
 
 @dataclass
@@ -160,28 +160,47 @@ def peak_slips(mu: float, params: TyreParams) -> tuple:
     return params.peak_slip_x * k, params.peak_slip_y * k
 
 
-def _combined(kappa, s_y, mu, params, ca):
-    """``(F, cos phi, sin phi, dF0 s_N)`` per unit load of the slips ``(kappa, -s_y)``."""
+def characteristic(mu: float, params: TyreParams, c_alpha: float) -> tuple:
+    """The slip-independent part of the combined-slip characteristic at friction ``mu`` > 0
+    [-] and cornering stiffness ``c_alpha`` [1/rad] (both per unit load): the normalising
+    factors ``(n_x, n_y)`` and the products of the blend (:func:`tyre_forces`), in the order
+    :func:`_combined_at` takes them. A wheel's friction is held over a step, so the two-track
+    model computes it once per wheel and step instead of once per force evaluation.
+    """
     k = slip_scale(mu, params)
     sxm, sym = params.peak_slip_x * k, params.peak_slip_y * k
-    sxs, sys_ = params.sliding_slip_x, params.sliding_slip_y     # not scaled (class docstring)
-    dfx, dfy = params.c_kappa, ca
     # normalising factors (Rill 2012 sec. 3.4.2): equal weight to the peak slips and to the
     # slips the initial stiffnesses would need to reach the peak force mu
-    hx, hy = mu / dfx, mu / dfy
+    hx, hy = mu / params.c_kappa, mu / c_alpha
     nx = sxm / (sxm + sym) + hx / (hx + hy)
     ny = sym / (sxm + sym) + hy / (hx + hy)
+    # the sliding slips are not scaled with mu (class docstring)
+    return (nx, ny, params.c_kappa * nx, c_alpha * ny, sxm / nx, sym / ny,
+            params.sliding_slip_x / nx, params.sliding_slip_y / ny, mu,
+            params.sliding_ratio_x, params.sliding_ratio_y)
+
+
+def _combined_at(kappa, s_y, ch):
+    """``(F, cos phi, sin phi, dF0 s_N)`` per unit load of the slips ``(kappa, -s_y)`` on the
+    characteristic ``ch`` (:func:`characteristic`).
+    """
+    nx, ny, dfx_nx, dfy_ny, sxm_nx, sym_ny, sxs_nx, sys_ny, mu, rx, ry = ch
     sxn, syn = kappa / nx, -s_y / ny
     s = math.hypot(sxn, syn)
     if s < 1e-15:
         return 0.0, 1.0, 0.0, 0.0
     c, sn = sxn / s, syn / s
-    df0 = math.hypot(dfx * nx * c, dfy * ny * sn)
-    f_m = mu                                   # isotropic peak friction
-    s_m = math.hypot(sxm / nx * c, sym / ny * sn)
-    f_s = mu * math.hypot(params.sliding_ratio_x * c, params.sliding_ratio_y * sn)
-    s_s = math.hypot(sxs / nx * c, sys_ / ny * sn)
-    return tmeasy_curve(s, df0, s_m, f_m, s_s, f_s), c, sn, df0 * s
+    df0 = math.hypot(dfx_nx * c, dfy_ny * sn)
+    s_m = math.hypot(sxm_nx * c, sym_ny * sn)
+    f_s = mu * math.hypot(rx * c, ry * sn)
+    s_s = math.hypot(sxs_nx * c, sys_ny * sn)
+    # isotropic peak friction F_M = mu
+    return tmeasy_curve(s, df0, s_m, mu, s_s, f_s), c, sn, df0 * s
+
+
+def _combined(kappa, s_y, mu, params, ca):
+    """``(F, cos phi, sin phi, dF0 s_N)`` per unit load of the slips ``(kappa, -s_y)``."""
+    return _combined_at(kappa, s_y, characteristic(mu, params, ca))
 
 
 def lateral_slip(v_cx: float, v_cy: float, params: TyreParams) -> float:
@@ -292,13 +311,14 @@ def tyre_forces(kappa: float, s_y: float, fz: float, mu: float, params: TyrePara
 
 
 def contact(kappa: float, omega_r: float, v_cx: float, s_y: float, fz: float, mu: float,
-            params: TyreParams, c_alpha: float) -> tuple:
+            params: TyreParams, c_alpha: float, ch: tuple | None = None) -> tuple:
     """One wheel's ``(kappa_F, F_x, F_y, sigma)``: the slip for the force [-]
     (:func:`damped_slip`), the wheel-frame forces [N] (:func:`tyre_forces`) and the relaxation
     length [m] (:func:`relaxation_length`), from the relaxed slip ``kappa`` [-], the wheel's
     circumferential speed ``omega_r`` [m/s], the contact point's velocity ``v_cx`` [m/s] and
     lateral slip ``s_y`` [-], the load ``fz`` [N], the friction ``mu`` [-] and the cornering
-    stiffness per unit load ``c_alpha`` [1/rad].
+    stiffness per unit load ``c_alpha`` [1/rad]; ``ch`` is ``characteristic(mu, params,
+    c_alpha)`` where the caller holds it (computed here when ``None``).
 
     Equal to the three functions called in turn, to the bit
     (``irs_vehicle_sim/test/test_sim_tyre.py``); the low-speed weight ``w`` and the
@@ -314,7 +334,8 @@ def contact(kappa: float, omega_r: float, v_cx: float, s_y: float, fz: float, mu
     elif fz <= 0.0 and w == 0.0:           # a lifted wheel at speed
         return kap, 0.0, 0.0, sigma
     else:
-        f, c, sn, lin = _combined(kap, s_y, mu, params, c_alpha)
+        f, c, sn, lin = _combined_at(kap, s_y, characteristic(mu, params, c_alpha)
+                                     if ch is None else ch)
         fx, fy = (0.0, 0.0) if fz <= 0.0 or lin == 0.0 else (fz * f * c, fz * f * sn)
         if w == 0.0 or lin < 1e-12:
             return kap, fx, fy, sigma

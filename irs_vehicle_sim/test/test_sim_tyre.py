@@ -14,8 +14,9 @@ from scipy.optimize import minimize_scalar
 
 from irs_models.torque_car import CORNERING_STIFFNESS_PER_LOAD
 from irs_vehicle_sim.surface import SurfaceSpec
-from irs_vehicle_sim.tyre import (TyreParams, contact, damped_slip, lateral_slip, peak_slips,
-                                  relaxation_length, slip_rate, tmeasy_curve, tyre_forces)
+from irs_vehicle_sim.tyre import (TyreParams, characteristic, contact, damped_slip, lateral_slip,
+                                  peak_slips, relaxation_length, slip_rate, tmeasy_curve,
+                                  tyre_forces)
 from irs_vehicle_sim.wheel_encoder import EncoderParams, WheelEncoders
 
 P = TyreParams()
@@ -131,6 +132,43 @@ def test_contact_equals_the_three_functions_to_the_bit(kappa, omega_r, v_cx, s_y
     sigma = relaxation_length(kap, s_y, v_cx, mu, P, c_alpha=ca)
     got = contact(kappa, omega_r, v_cx, s_y, fz, mu, P, ca)
     assert [x.hex() for x in got] == [x.hex() for x in (kap, fx, fy, sigma)]
+
+
+def _combined_formula(kappa, s_y, mu, params, ca):
+    """The combined-slip characteristic written out in one piece (Rill 2012 sec. 3.4.2, as
+    :func:`tyre_forces` documents it): ``(F, cos phi, sin phi, dF0 s_N)``.
+    """
+    k = (mu / params.mu_ref) ** params.slip_mu_exponent
+    sxm, sym = params.peak_slip_x * k, params.peak_slip_y * k
+    hx, hy = mu / params.c_kappa, mu / ca
+    nx = sxm / (sxm + sym) + hx / (hx + hy)
+    ny = sym / (sxm + sym) + hy / (hx + hy)
+    sxn, syn = kappa / nx, -s_y / ny
+    s = math.hypot(sxn, syn)
+    if s < 1e-15:
+        return 0.0, 1.0, 0.0, 0.0
+    c, sn = sxn / s, syn / s
+    df0 = math.hypot(params.c_kappa * nx * c, ca * ny * sn)
+    s_m = math.hypot(sxm / nx * c, sym / ny * sn)
+    f_s = mu * math.hypot(params.sliding_ratio_x * c, params.sliding_ratio_y * sn)
+    s_s = math.hypot(params.sliding_slip_x / nx * c, params.sliding_slip_y / ny * sn)
+    return tmeasy_curve(s, df0, s_m, mu, s_s, f_s), c, sn, df0 * s
+
+
+@settings(max_examples=2000, deadline=None)
+@given(st.floats(-1.5, 1.5) | st.just(0.0), st.floats(-20.0, 20.0) | st.just(0.0),
+       st.floats(0.01, 2.0), st.sampled_from([P.c_alpha, CORNERING_STIFFNESS_PER_LOAD[0]]),
+       st.floats(0.1, 15.0))
+def test_held_characteristic_gives_the_formulas_forces_to_the_bit(kappa, s_y, mu, ca, fz):
+    """The two-track model computes the slip-independent part once per wheel and step."""
+    f, c, sn, lin = _combined_formula(kappa, s_y, mu, P, ca)
+    want = (0.0, 0.0) if lin == 0.0 else (fz * f * c, fz * f * sn)
+    assert [x.hex() for x in tyre_forces(kappa, s_y, fz, mu, P, c_alpha=ca)] == \
+        [x.hex() for x in want]
+    ch = characteristic(mu, P, ca)
+    for v_cx in (1.2, 0.01):     # at speed, and faded in (relaxation length from the ratio)
+        assert [x.hex() for x in contact(kappa, 0.0, v_cx, s_y, fz, mu, P, ca, ch)] == \
+            [x.hex() for x in contact(kappa, 0.0, v_cx, s_y, fz, mu, P, ca)]
 
 
 def test_braking_slip_takes_cornering_force_away():
