@@ -28,8 +28,9 @@ PARAMS = [
     Param('dt', 0.001, 'control period = encoder sample period', 's', 1e-5, 1.0),
     Param('input_sync', True,
           'lock-step: answer an encoder sample only once the pose, velocity and belt speed of '
-          'the same stamp have arrived; false (real time): the newest of each', '-',
-          node_only=True),
+          'the same stamp have arrived; false: the newest of each', '-',
+          node_only=True,
+          realtime_default=False),   # in real time pose and velocity come at 100 Hz (budget)
     Param('speed.target', 0.0, 'speed over the belt to hold; 0 = the measured belt speed (the '
           'car stays put on the treadmill); applied at the next step', 'm/s', 0.0, 5.0,
           writable=True),

@@ -1,8 +1,9 @@
-"""The Figure 10 loop's nodes started the ROS way, each with its own installed parameter file.
+"""The real-time graphs' nodes started the ROS way, each with its own installed parameter file.
 
-:func:`loop_specs` gives the :class:`~irs_bringup.processes.NodeSpec` of the rig, the estimator,
-the treadmill regulator, the controller and (optionally) the reference generator, in the
-README's order, for the real-time graph tests (by hand, the plain start, starvation).
+:func:`loop_specs` gives the :class:`~irs_bringup.processes.NodeSpec` of the Figure 10 loop (the
+rig, the estimator, the treadmill regulator, the controller and optionally the reference
+generator, in the README's order) for the real-time graph tests (by hand, the plain start,
+starvation); :func:`torque_car_specs` those of the torque car (docs/torque_car.md).
 """
 from ament_index_python.packages import get_package_share_directory
 
@@ -40,3 +41,20 @@ def loop_specs(rig_files=(), rig_params=None, reference_params=None,
                                                   'config/reference_generator.yaml')],
                               params=dict(reference_params or {})))
     return specs
+
+
+def torque_car_specs(rig_params=None) -> list:
+    """The torque car's node specs: the rig (``rig.yaml``, ``plant: two_track`` and
+    ``rig_params``), the estimator, the treadmill regulator and the chassis controller.
+    """
+    return [
+        NodeSpec('irs_vehicle_sim', 'vehicle_sim',
+                 params_files=[share('irs_vehicle_sim', 'config/rig.yaml')],
+                 params={'plant': 'two_track', **(rig_params or {})}),
+        NodeSpec('irs_sensing', 'arm_pose_estimator',
+                 params_files=[share('irs_sensing', 'config/sensing.yaml')]),
+        NodeSpec('irs_treadmill', 'treadmill_regulator',
+                 params_files=[share('irs_treadmill', 'config/treadmill.yaml')]),
+        NodeSpec('irs_control', 'chassis_controller',
+                 params_files=[share('irs_control', 'config/chassis_controller.yaml')]),
+    ]

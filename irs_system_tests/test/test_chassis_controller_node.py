@@ -89,7 +89,9 @@ class ChassisLink:
 
 
 def start(launch, **params):
-    base = {'stale_timeout': 10.0, 'status_decimation': 1}
+    # input_sync as a lock-step graph has it (the node runs on the wall clock here, where its
+    # default is false): the test sends each stamp's set and waits for its answer
+    base = {'stale_timeout': 10.0, 'status_decimation': 1, 'input_sync': True}
     launch(NodeSpec('irs_control', 'chassis_controller', params={**base, **params}))
 
 
