@@ -31,9 +31,9 @@ PARAMS = [
           'the same stamp have arrived; false: the newest of each', '-',
           node_only=True,
           realtime_default=False),   # in real time pose and velocity come at 100 Hz (budget)
-    Param('speed.target', 0.0, 'speed over the belt to hold; 0 = the measured belt speed (the '
-          'car stays put on the treadmill); applied at the next step', 'm/s', 0.0, 5.0,
-          writable=True),
+    Param('speed.target', 0.0, 'speed over the belt to hold; 0 = the belt speed measured at '
+          'the start (or when set to 0), held: the treadmill regulator keeps the car in place; '
+          'applied at the next step', 'm/s', 0.0, 5.0, writable=True),
     Param('speed.window', 10, 'samples of the arm-speed estimate (x differentiated + belt '
           'speed)', 'samples', 1, 1000),
     Param('speed.bandwidth', _C.speed_bandwidth, 'speed loop gain w_v', 'rad/s', 1e-6, 1e4),

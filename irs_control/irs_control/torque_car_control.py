@@ -41,7 +41,12 @@ class TorqueCarConfig:
     dt : float
         Control period = encoder sample period [s].
     speed_target : float
-        Speed over the belt to hold [m/s]; 0 = the measured belt speed.
+        Speed over the belt to hold [m/s]; 0 = the belt speed measured at the first step (or
+        at the first step after the target was set to 0), held from then on. The car keeps its
+        own speed and the treadmill regulator matches the belt to it, which is what keeps the
+        car at the regulator's set point: a car that followed the measured belt speed would
+        cancel every speed difference the regulator makes, so the position error would stay
+        and the regulator would slow car and belt together until the car stops (about 10 s).
     brake_start_time : float
         Brake from this time since the first step [s]; < 0 = never.
     brake_duration : float
@@ -226,6 +231,7 @@ class TorqueCarController:
         self.last_pose_ns = None
         self.pose_ok = False
         self.belt_speed = math.nan
+        self.cruise = None            # the speed held for speed_target 0 [m/s], once measured
         self.estimator.reset()
         self.holding = False
         self.reset_controllers()
@@ -299,7 +305,12 @@ class TorqueCarController:
             v_ref = self.wheels.step(omega, self.applied, braking, self.applied_locked,
                                      self.belt_speed, c.dt)
         v_abs = v_ref if c.abs_reference == 'wheels' else v_hat
-        v_target = c.speed_target if c.speed_target > 0.0 else self.belt_speed
+        if c.speed_target > 0.0:
+            v_target, self.cruise = c.speed_target, None
+        else:
+            if self.cruise is None:
+                self.cruise = self.belt_speed
+            v_target = self.cruise
         if c.yaw_control == 'off':
             yaw_rate = self.chassis.yaw_rate_reference(delta_f, v_hat)   # no yaw error
         ch = self.chassis.step(v_target, v_hat, yaw_rate, delta_f, c.dt,

@@ -54,6 +54,21 @@ def test_a_car_slower_than_the_belt_is_driven_and_a_speed_target_overrides_the_b
     assert np.all(out.torques < 0.0)
 
 
+def test_target_zero_holds_the_starting_belt_speed_and_relatches_when_set_to_zero_again():
+    ctl = controller()
+    drive(ctl, 30)                                         # starts at the 1.2 m/s belt
+    # the belt speeds up and the car keeps pace (x constant): 1.5 m/s, above the held 1.2
+    out = drive(ctl, 30, belt=1.5, k0=30)
+    assert out.v_hat == pytest.approx(1.5) and np.all(out.torques < 0.0)
+    ctl.config.speed_target = 1.0                          # a target of its own ...
+    drive(ctl, 1, belt=1.5, k0=60)
+    ctl.config.speed_target = 0.0                          # ... and back: the belt speed now
+    first = drive(ctl, 20, belt=1.5, k0=61)
+    out = drive(ctl, 10, belt=1.5, k0=81)
+    # no speed error: the speed integral stands still (held 1.2 would keep it falling)
+    assert np.array_equal(out.torques, first.torques)
+
+
 @pytest.mark.parametrize('mode', ['abs', 'abs_peak', 'open', 'locked'])
 def test_brake_modes_on_a_wheel_slipping_at_minus_half(mode):
     """The arm's speed as the ABS's reference, so the slip is known (-0.5 on FL)."""
