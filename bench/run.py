@@ -13,7 +13,8 @@ Sections (each a function below; results go to ``bench/results/<time>.json`` and
 - ``realtime``: the Figure 10 graph in real time at 1 kHz (``realtime_figure10`` and its
   composed twin), recorder on, with and without SCHED_FIFO: deadline misses, loop latency (arm
   sample published -> steering command received by the rig), per-topic rates and losses from the
-  bag, CPU per step per process;
+  bag, CPU per step per process; the torque car composed (``realtime_torque_car_composed``,
+  no SCHED_FIFO: the steering command answers the encoder sample of the same step);
 - ``lockstep``: Figure 10 in lock-step, process per node and composed: multiple of real time,
   CPU per step, and whether the two bags carry identical messages;
 - ``offline`` (bench/offline.py): the offline twin of the graph in steps/s against a
@@ -137,6 +138,9 @@ def realtime(seconds: float) -> list:
             _domain(10 + len(rows))
             r = _run_experiment(name, prio, seconds)
             rows.append(_realtime_row(f"{name}{' SCHED_FIFO' if prio else ''}", r))
+    _domain(10 + len(rows))
+    r = _run_experiment('realtime_torque_car_composed', 0, seconds)
+    rows.append(_realtime_row('realtime_torque_car_composed', r))
     return rows
 
 

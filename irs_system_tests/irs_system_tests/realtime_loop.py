@@ -44,12 +44,13 @@ def loop_specs(rig_files=(), rig_params=None, reference_params=None,
 
 
 def torque_car_specs(rig_params=None) -> list:
-    """The torque car's node specs: the rig (``rig.yaml``, ``plant: two_track`` and
-    ``rig_params``), the estimator, the treadmill regulator and the chassis controller.
+    """The torque car's node specs as docs/torque_car.md starts them: the rig (``rig.yaml``,
+    ``realtime.yaml``, ``plant: two_track`` and ``rig_params``), the estimator, the treadmill
+    regulator and the chassis controller.
     """
     return [
         NodeSpec('irs_vehicle_sim', 'vehicle_sim',
-                 params_files=[share('irs_vehicle_sim', 'config/rig.yaml')],
+                 params_files=[share('irs_vehicle_sim', 'config/rig.yaml'), REALTIME],
                  params={'plant': 'two_track', **(rig_params or {})}),
         NodeSpec('irs_sensing', 'arm_pose_estimator',
                  params_files=[share('irs_sensing', 'config/sensing.yaml')]),
