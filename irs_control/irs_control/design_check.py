@@ -48,8 +48,10 @@ from irs_models.constants import PAPER_PLANT_GAIN
 from irs_models.identified import identified_plant
 from irs_models.presets import get_preset
 
-__all__ = ['DesignCheck', 'check_plant_polynomials', 'check_design', 'check_controller',
-           'require_stable', 'delay_margin']
+from . import design_check_cache
+
+__all__ = ['DesignCheck', 'check_plant_polynomials', 'check_design', 'cached_check_design',
+           'check_controller', 'require_stable', 'delay_margin']
 
 
 @dataclass(frozen=True)
@@ -222,7 +224,9 @@ def check_design(B, A, R, S, controller_ss, dt: float, plant: str = '',
 
 
 def check_controller(cfg: dict, controller, design=None) -> DesignCheck:
-    """:func:`check_design` of a controller built by ``controller_factory.make_controller``.
+    """:func:`check_design` of a controller built by ``controller_factory.make_controller``,
+    through the on-disk cache of :mod:`.design_check_cache` (a design checked before answers
+    without importing python-control).
 
     ``cfg`` holds the controller parameters (``mode``, ``kp``, ``ki``, ``dt``, ``actuator_pole``,
     ``plant_gain``, ``speed``, ``ds``, ``check_plant`` and ``check_delay``, 0 if absent);
@@ -240,8 +244,21 @@ def check_controller(cfg: dict, controller, design=None) -> DesignCheck:
         R, S = np.array([1.0, 0.0]), np.array([float(cfg['kp']), float(cfg['ki'])])
     else:
         R, S = np.asarray(design.R, float), np.asarray(design.S, float)
-    return check_design(B, A, R, S, controller.linear_state_space(), float(cfg['dt']), plant,
-                        float(cfg.get('check_delay', 0.0)))
+    return cached_check_design(B, A, R, S, controller.linear_state_space(), float(cfg['dt']),
+                               plant, float(cfg.get('check_delay', 0.0)))
+
+
+def cached_check_design(B, A, R, S, controller_ss, dt: float, plant: str = '',
+                        delay: float = 0.0) -> DesignCheck:
+    """:func:`check_design` of these inputs, read from the on-disk cache when an entry exists
+    (:mod:`.design_check_cache`), computed and stored otherwise.
+    """
+    key = design_check_cache.cache_key(B, A, R, S, controller_ss, dt, plant, delay)
+    check = design_check_cache.load(key, DesignCheck)
+    if check is None:
+        check = check_design(B, A, R, S, controller_ss, dt, plant, delay)
+        design_check_cache.store(key, check)
+    return check
 
 
 def require_stable(cfg: dict, controller, design=None, label: str = 'design'):
