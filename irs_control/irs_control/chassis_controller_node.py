@@ -73,7 +73,7 @@ class ChassisControllerNode(Node):
         self.core = TorqueCarController(chassis_config(self.p))
         self.sync = StampSync(('enc', 'pose', 'vel', 'belt')) if self.p['input_sync'] else None
         self.latest = {'pose': None, 'vel': None, 'belt': None}   # real time: the newest
-        self.waiting_said = False     # real time: the wait for the first pose was logged
+        self.waiting_said = False     # real time: the wait for the first pose was logged (once)
         self.answer = AnswerCache()   # what was published for the last stamp (re-sent on a repeat)
         self.last_enc_time = None
         self.reason = None            # of the last published step
@@ -131,7 +131,7 @@ class ChassisControllerNode(Node):
         elif name == 'enc':
             if None not in self.latest.values():
                 self._step(stamp_ns, {'enc': msg, **self.latest}, now_ns)
-            elif not self.waiting_said:     # start-up (or a restart): pose comes at 100 Hz
+            elif not self.waiting_said:     # at start-up, once: pose comes at 100 Hz
                 self.waiting_said = True
                 self.get_logger().info('waiting for pose, velocity and belt speed before the '
                                        'first answer')
