@@ -13,8 +13,16 @@
   5000 lets a recorder stall for 2 s without loss (measurements: docs/performance.md). The cost is
   memory (up to 5000 samples of a few hundred bytes per publisher); a subscription's own depth
   stays 100, so a node that catches up after a stall is not fed 5 s of stale samples.
-- ``STATUS``: low-rate health/fault messages. RELIABLE, KEEP_LAST 1, TRANSIENT_LOCAL (latched):
-  a late joiner sees the current fault at once.
+- ``STATUS``: low-rate health/fault messages, for a subscriber that wants the current state.
+  RELIABLE, KEEP_LAST 1, TRANSIENT_LOCAL (latched): a late joiner sees the current fault at once.
+- ``STATUS_PUB``: the status *publishers*: the same, with a history of ``STATUS_HISTORY`` = 100
+  messages. A reliable writer replaces a sample its readers have not acknowledged once its
+  history is full; with a history of 1, a transition followed within a few milliseconds by the
+  next status (the rig's ``HOLDING`` then ``STOPPING``) never reached a recorder that was short
+  of CPU, and the bag lacked the transition. 100 covers 10 s of the rig's 10 Hz status plus its
+  transitions. A late joiner receives that history; ``STATUS``'s depth 1 keeps what it has not
+  yet taken to the newest, and a reader that wants only what comes after it joined subscribes
+  VOLATILE (``rig/recover``'s caller, :mod:`irs_vehicle_sim.recover_call`).
 - ``CLOCK``: /clock from the lock-step rig. RELIABLE, KEEP_LAST 100 for nodes that act on every
   tick (the reference generator); rclpy's own time source subscribes best effort, depth 1, which
   matches. ``CLOCK_PUB``, the rig's publisher, keeps ``PUBLISHER_HISTORY`` like ``SENSOR_PUB``:
@@ -29,6 +37,11 @@ COMMAND = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=100,
 STATUS = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=1,
                     reliability=ReliabilityPolicy.RELIABLE,
                     durability=DurabilityPolicy.TRANSIENT_LOCAL)
+#: History of a status publisher [messages] (module docstring).
+STATUS_HISTORY = 100
+STATUS_PUB = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=STATUS_HISTORY,
+                        reliability=ReliabilityPolicy.RELIABLE,
+                        durability=DurabilityPolicy.TRANSIENT_LOCAL)
 #: History of a 1 kHz publisher [samples]: how far a reliable reader may fall behind without loss
 #: (5 s at 1 kHz; the 10-minute soak saw recorder stalls of up to 5.4 s on a busy machine).
 PUBLISHER_HISTORY = 5000

@@ -96,10 +96,10 @@ class RigHardwareNode(Node):
         self.pub_belt = self.create_publisher(BeltSpeed, 'belt/speed', qos.SENSOR_PUB)
         self.pub_encoders = self.create_publisher(WheelEncoders, 'wheels/encoders',
                                                   qos.SENSOR_PUB) if self.p['wheels'] else None
-        self.pub_status = self.create_publisher(RigStatus, 'rig/status', qos.STATUS)
-        self.pub_diag = self.create_publisher(DiagnosticArray, 'rig/diagnostics', qos.STATUS)
+        self.pub_status = self.create_publisher(RigStatus, 'rig/status', qos.STATUS_PUB)
+        self.pub_diag = self.create_publisher(DiagnosticArray, 'rig/diagnostics', qos.STATUS_PUB)
         self.pub_timing = None if self.lockstep else self.create_publisher(
-            DiagnosticArray, 'rig/timing', qos.STATUS)
+            DiagnosticArray, 'rig/timing', qos.STATUS_PUB)
         self.timing = LoopTiming()
         self.arm_sent = {}
         self.last_steer_stamp = -1

@@ -100,7 +100,7 @@ class ArmPoseEstimatorNode(Node):
         self.pub_pose = self.create_publisher(PoseStamped, 'pose', qos.SENSOR_PUB)
         self.pub_twist = self.create_publisher(TwistStamped, 'velocity', qos.SENSOR_PUB)
         self.pub_point = self.create_publisher(PointStamped, 'lateral_position', qos.SENSOR_PUB)
-        self.pub_status = self.create_publisher(SensingStatus, 'sensing/status', qos.STATUS)
+        self.pub_status = self.create_publisher(SensingStatus, 'sensing/status', qos.STATUS_PUB)
         self.create_subscription(JointState, 'arm/joint_states', self._on_joints, qos.SENSOR)
         self.stale = StaleTimer(self, self.estimator.params.stale_timeout, self._check_stale)
 

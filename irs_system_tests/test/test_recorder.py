@@ -435,3 +435,69 @@ def test_a_frozen_recorder_loses_nothing_the_publishers_history_still_holds(ros,
     assert values == list(range(values[0], total)), (len(values), values[:3], values[-3:])
     assert values[0] <= first_kept
     assert custom.get('irs.dropped_messages') == '0', custom
+
+
+@pytest.mark.parametrize('status_profile', ['STATUS_PUB', 'STATUS'])
+def test_a_frozen_recorder_keeps_every_status_published_between_a_sensor_flood(
+        ros, launch, tmp_path, status_profile):
+    """The transitions of a status topic reach a recorder that is short of CPU, beside a 1 kHz
+    stream. While the recorder is frozen (SIGSTOP), 3000 messages of a sensor stream fill its
+    shared-memory port, and a status topic publishes one message every 100 of them (as the
+    rig publishes ``HOLDING`` and then ``STOPPING`` within a burst of 1 kHz telemetry). The
+    port overflows; what it lost is repaired from the publishers' histories. The status
+    publishers' profile ``qos.STATUS_PUB`` keeps 100, so every status is in the bag. With a
+    history of 1 (``qos.STATUS``, the subscribers' profile) only the last survives and the
+    recorder reports the others lost: the second case shows that the first can fail.
+    """
+    from std_msgs.msg import Int64
+
+    from irs_bag.reader import BagReader
+    from irs_common import qos
+
+    status_qos = getattr(qos, status_profile)
+    bag = tmp_path / 'bag'
+    watcher = StatusWatcher(ros)
+    rec = launch(recorder_spec(bag, ['/stream', '/some/status'], flush_period=0.2))
+    stream = ros.node.create_publisher(Int64, '/stream', qos.SENSOR_PUB)
+    status = ros.node.create_publisher(Int64, '/some/status', status_qos)
+    sent = {'/stream': 0, '/some/status': 0}
+
+    def publish(pub, topic):
+        pub.publish(Int64(data=sent[topic]))
+        sent[topic] += 1
+
+    # warm up until the recorder has taken a message of each (its sequence bookkeeping runs)
+    while not ros.spin_until(lambda: watcher.count('/stream') >= 1
+                             and watcher.count('/some/status') >= 1, 0.2):
+        assert sent['/stream'] < 500 and rec.poll() is None, rec.tail()
+        publish(stream, '/stream')
+        publish(status, '/some/status')
+    first_status = sent['/some/status']
+    os.killpg(rec.pid, signal.SIGSTOP)
+    try:
+        for i in range(3000):
+            publish(stream, '/stream')
+            if i % 100 == 0:
+                publish(status, '/some/status')
+    finally:
+        os.killpg(rec.pid, signal.SIGCONT)
+    # every status from the last warm-up one on is recorded or counted as dropped
+    assert ros.spin_until(
+        lambda: watcher.last is not None and watcher.count('/some/status')
+        + watcher.last['dropped'].get('/some/status', 0)
+        >= sent['/some/status'] - first_status + 1, 60.0), watcher.last
+    assert rec.stop(timeout=15.0) == 0, rec.tail()
+    with BagReader(bag) as r:
+        values = [m.data for _, m in r.decoded(['/some/status'])]
+        dropped = json.loads(dict(r.bag_metadata['custom_data'])
+                             ['irs.dropped_messages_per_topic'])
+    burst = [v for v in values if v >= first_status]
+    print(f'{status_profile}: {len(burst)} of 30 statuses recorded, dropped {dropped}')
+    if status_profile == 'STATUS_PUB':
+        assert burst == list(range(first_status, first_status + 30)), burst
+        assert dropped.get('/some/status', 0) == 0, dropped
+    else:
+        assert len(burst) < 30, burst
+    # what is missing since the first recorded status is what the recorder reports lost
+    assert dropped.get('/some/status', 0) == sent['/some/status'] - values[0] - len(values), \
+        (values, dropped)

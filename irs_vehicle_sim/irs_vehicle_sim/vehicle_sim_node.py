@@ -202,9 +202,9 @@ class VehicleSimNode(Node):
                              if self.torque_car else None)
         self.pub_tyre = (self.create_publisher(TyreState, 'rig/tyre_truth', qos.SENSOR_PUB)
                          if self.torque_car else None)
-        self.pub_status = self.create_publisher(RigStatus, 'rig/status', qos.STATUS)
+        self.pub_status = self.create_publisher(RigStatus, 'rig/status', qos.STATUS_PUB)
         self.pub_timing = (None if self.lockstep else
-                           self.create_publisher(DiagnosticArray, 'rig/timing', qos.STATUS))
+                           self.create_publisher(DiagnosticArray, 'rig/timing', qos.STATUS_PUB))
         self.timing = LoopTiming()
         self.arm_sent = {}  # real time: arm stamp [ns] -> monotonic time of publishing
         self.last_steer_stamp = -1       # real time: stamp of the newest steering command
