@@ -16,13 +16,16 @@ nanoseconds), following :func:`irs_common.input_checks.stamp_problem` with one a
   histories, controller state, stale timers) and **accepts** the message; the stamp is stored.
 * ``OK``: newer than the last one -> accepted, the stamp is stored.
 
+A rig also ages each command by the sample it answers (:func:`answer_age`).
+
 ``now=None`` skips the future check. The fast path (``OK``) is a few integer comparisons: the
 gate runs on every message of the 1 kHz loops. :meth:`reason` builds the sentence for a log
 line only when one is printed.
 """
 from .input_checks import DEFAULT_FUTURE_TOLERANCE_NS
 
-__all__ = ['StampGate', 'OK', 'REPEAT', 'FUTURE', 'OLD', 'RESET', 'DEFAULT_TIME_RESET_NS']
+__all__ = ['StampGate', 'OK', 'REPEAT', 'FUTURE', 'OLD', 'RESET', 'DEFAULT_TIME_RESET_NS',
+           'answer_age']
 
 OK = 'ok'
 REPEAT = 'repeat'
@@ -121,3 +124,17 @@ class StampGate:
         if verdict == REPEAT:
             return f'stamp {s:.9f} s repeats the last one: answered again'
         return ''
+
+
+def answer_age(stamp_ns: int, first_ns: int, now_ns: int) -> float:
+    """Age [s] of the rig sample a command answers: ``(now_ns - stamp_ns) / 1e9`` for a stamp
+    the rig gave out (from its first sample ``first_ns`` up to its current one ``now_ns``), else
+    0 (a stamp before the run, e.g. ``ros2 topic pub``'s 0, or one ahead of the rig's time).
+
+    Commands answer the rig's samples with their stamps. A rig that judges a command by this
+    age, rather than by its arrival, sees a graph that falls behind (a process short of CPU
+    answering a queue of old samples) as late as a silent one.
+    """
+    if stamp_ns < first_ns or stamp_ns >= now_ns:
+        return 0.0
+    return (now_ns - stamp_ns) * 1e-9

@@ -82,3 +82,26 @@ def test_take_step_agrees_with_check(last, stamp, now):
     assert a.take_step(stamp, now, node, node.drop, node.reset) == (verdict in (OK, RESET))
     assert a.last_ns == b.last_ns
     assert len(node.calls) == (verdict != OK)
+
+
+def test_answer_age_is_the_age_of_a_sample_the_rig_gave_out():
+    from irs_common.stamp_gate import answer_age
+
+    first, now = 1000 * MS, 1700 * MS
+    assert answer_age(1699 * MS, first, now) == 1e-3          # the last step's sample
+    assert answer_age(1100 * MS, first, now) == (600 * MS) * 1e-9   # a queue 0.6 s behind
+    assert answer_age(first, first, now) == (700 * MS) * 1e-9
+    assert answer_age(now, first, now) == 0.0                  # the current sample
+    assert answer_age(0, first, now) == 0.0                    # `ros2 topic pub`: stamp 0
+    assert answer_age(999 * MS, first, now) == 0.0             # before the run
+    assert answer_age(2000 * MS, first, now) == 0.0            # ahead of the rig (another clock)
+
+
+@given(first=st.integers(0, 10**12), span=st.integers(0, 10**10), stamp=st.integers(0, 10**13))
+def test_answer_age_is_never_negative_and_at_most_the_run(first, span, stamp):
+    from irs_common.stamp_gate import answer_age
+
+    now = first + span
+    age = answer_age(stamp, first, now)
+    assert 0.0 <= age <= span * 1e-9
+    assert (age > 0.0) == (first <= stamp < now)

@@ -47,7 +47,7 @@ from irs_common import qos
 from irs_common.loop_timing import LoopTiming
 from irs_common.node_main import run_node
 from irs_common.params import declare_table
-from irs_common.stamp_gate import FUTURE, OLD, StampGate
+from irs_common.stamp_gate import FUTURE, OLD, StampGate, answer_age
 from irs_common.stamp_sync import StampSync
 from irs_common.stamps import from_ns, to_ns
 from irs_common.start_gate import StartGate
@@ -275,7 +275,8 @@ class RigHardwareNode(Node):
             now_ns = self._stamp_ns() if self.lockstep else self.get_clock().now().nanoseconds
             if self.gates[name].check(stamp, now_ns) in (FUTURE, OLD):
                 return
-            self.received_at[name] = now
+            # a command counts from the sample it answers (a graph that falls behind is stale)
+            self.received_at[name] = now - answer_age(stamp, self.stamp0_ns, self._stamp_ns())
             self._apply(name, value, now)
             if name == 'steering' and not self.lockstep:
                 sent = self.arm_sent.pop(stamp, None)

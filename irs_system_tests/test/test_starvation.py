@@ -127,7 +127,7 @@ def test_stalls_and_cpu_hogs_keep_the_car_or_stop_it_under_control(ros, launch):
                           or watch.lost(mark), 30.0), watch.status[-1]
     assert not watch.lost(mark), watch.status[-1]
     stopped = watch.status[-1]
-    assert 'drive command silent' in stopped.stop_cause or 'treadmill' in stopped.stop_cause \
+    assert 'drive command late' in stopped.stop_cause or 'treadmill' in stopped.stop_cause \
         or 'behind' in stopped.stop_cause, stopped.stop_cause
     assert rig.output().count('controlled stop:') == rig.output().count('rig/recover: recovering')\
         + 1

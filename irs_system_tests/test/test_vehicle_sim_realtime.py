@@ -1,9 +1,13 @@
 """vehicle_sim in real time: invalid commands fall back to the safe value; a late one is held,
-then the rig stops under control (docs/safety.md); both reported on rig/status.
+then the rig stops under control (docs/safety.md); both reported on rig/status. A command is as
+old as the sample it answers: a controller that falls behind is stopped as a silent one is.
 """
+import collections
 import math
 
 from irs_common import qos
+from sensor_msgs.msg import JointState
+
 from irs_msgs.msg import RigStatus, SteeringActuatorState, SteeringCommand
 from irs_bringup.processes import NodeSpec
 
@@ -55,8 +59,53 @@ def test_invalid_steering_gives_zero_steer_and_a_late_one_is_held_then_stopped(r
     # log line; the rig steers itself back to the centre line: the 0.1 rad held turned the car
     # left (y, psi > 0), so its lane hold steers right, within the steer limit
     assert ros.spin_until(lambda: status[-1].safe_state >= RigStatus.SAFE_STOPPING, 5.0)
-    assert 'steering command silent' in status[-1].stop_cause
+    assert 'steering command late' in status[-1].stop_cause
     assert ros.spin_until(lambda: len(states) > n and -0.2618 <= states[-1].front_commanded < 0.0,
                           5.0)
+    assert status[-1].car_on_belt
+    assert proc.output().count('controlled stop:') == 1
+
+
+def test_a_controller_falling_behind_is_held_then_stopped_though_its_commands_keep_coming(
+        ros, launch):
+    """A steering controller that answers every other arm sample, oldest first, so that its
+    answers fall behind the rig by half a second per second while they keep arriving at 100 Hz
+    (a process short of CPU working through a queue). The rig ages each command by the sample it
+    answers: held once the newest answers a sample older than ``command_timeout``, then the
+    controlled stop beyond ``stall_grace``, with that cause. Judged by arrival, as before, the
+    rig would run on with commands half a second and more out of date.
+    """
+    proc = launch(NodeSpec('irs_vehicle_sim', 'vehicle_sim',
+                           params={'clock_mode': 'realtime', 'dt': 0.005, 'command_timeout': 0.1,
+                                   'stall_grace': 0.5, 'status_period': 0.01,
+                                   'start_inputs': ['steering']}))
+    node = ros.node
+    status, queue = [], collections.deque()
+    answered, arrived = [0], [0]
+    pub = node.create_publisher(SteeringCommand, 'steering/command', qos.COMMAND)
+
+    def on_arm(msg):
+        if answered[0] == 0:      # the first answer, at once: it starts the rig
+            queue.clear()
+        queue.append(msg.header.stamp)
+        arrived[0] += 1
+        if answered[0] == 0 or arrived[0] % 2 == 0:
+            cmd = SteeringCommand()
+            cmd.header.stamp = queue.popleft()
+            pub.publish(cmd)
+            answered[0] += 1
+
+    subs = [node.create_subscription(JointState, 'arm/joint_states', on_arm, qos.SENSOR),
+            node.create_subscription(RigStatus, 'rig/status', status.append, qos.STATUS)]
+    assert ros.wait_for_matched([pub, *subs], timeout=30.0)
+    assert ros.spin_until(lambda: any(s.safe_state == RigStatus.SAFE_HOLDING for s in status),
+                          10.0), [s.safe_state for s in status[-5:]]
+    holding = next(s for s in status if s.safe_state == RigStatus.SAFE_HOLDING)
+    assert holding.late_inputs == 'steering'
+    assert ros.spin_until(lambda: status[-1].safe_state >= RigStatus.SAFE_STOPPING, 10.0)
+    cause = status[-1].stop_cause
+    assert 'steering command late: the newest answers a sample' in cause, cause
+    # the answers kept coming: at least 100 Hz over the second the lag took to reach the grace
+    assert answered[0] >= 100, answered
     assert status[-1].car_on_belt
     assert proc.output().count('controlled stop:') == 1

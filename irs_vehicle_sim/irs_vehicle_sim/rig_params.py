@@ -283,9 +283,10 @@ NODE_PARAMS = node_only([
     Param(
         'stall_grace',
         0.5,
-        'real time: a steering or drive command silent for longer than this (or a treadmill '
-        'fault) brings the rig to a controlled stop (the rig steers to the centre line, the '
-        'belt coasts, the car speed follows the belt; docs/safety.md); at least '
+        'real time: a steering or drive command older than this (silent, or answering a '
+        'sample this old) or a treadmill fault brings the rig to a controlled stop (the rig '
+        'steers to the centre line, the belt coasts, the car speed follows the belt; '
+        'docs/safety.md); at least '
         'command_timeout (the larger of the two applies)',
         's',
         0.001,

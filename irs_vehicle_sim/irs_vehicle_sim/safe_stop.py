@@ -81,9 +81,10 @@ class SafeStop:
     * ``RUNNING``: every command is fresh (younger than ``command_timeout`` [s]);
     * ``HOLDING``: a steering or drive command is late (older than ``command_timeout``): its last
       value is held, as the real servos and drive hold theirs, for up to ``stall_grace`` [s];
-    * ``STOPPING``: a command silent for longer than ``stall_grace``, the rig itself more than
-      ``stall_grace`` behind real time (it is starved: its steps and the graph's answers do not
-      meet), or a treadmill fault: the controlled stop. Drive 0 V (the belt coasts down by
+    * ``STOPPING``: a command older than ``stall_grace`` (silent, or answering old samples: its
+      age counts from the sample it answers, the caller's ``received_at``), the rig itself more
+      than ``stall_grace`` behind real time (it is starved: its steps and the graph's answers do
+      not meet), or a treadmill fault: the controlled stop. Drive 0 V (the belt coasts down by
       friction), the rig's own lane hold on the front steer (:meth:`lane_steer`; 0 rad at the
       rear), and the car's own speed command follows the measured belt speed and holds
       the position the stop began at, ``u_cmd = max(0, V_b - hold_gain (x - x_stop))``, so that the
@@ -117,8 +118,9 @@ class SafeStop:
         return self.state >= STOPPING
 
     def watch(self, now: float, received_at: dict, lag: float = 0.0) -> str:
-        """Update from the inputs' last arrival times [s] (``received_at``: name -> time, the
-        watched inputs never received are not late: the start-up hold covers them) at ``now``
+        """Update from the times [s] the inputs' newest commands count from (``received_at``:
+        name -> time; the time of the sample a command answers, or its arrival; the watched
+        inputs never received are not late: the start-up hold covers them) at ``now``
         [s] and the rig's own lag behind real time ``lag`` [s]; returns the cause when a stop
         begins here, else ``''``.
         """
@@ -142,8 +144,8 @@ class SafeStop:
         if oldest <= p.stall_grace:
             self.state = HOLDING
             return ''
-        return self.stop(f'{late} command silent for {oldest:.3f} s (> stall_grace '
-                         f'{p.stall_grace:g} s)')
+        return self.stop(f'{late} command late: the newest answers a sample {oldest:.3f} s old '
+                         f'(> stall_grace {p.stall_grace:g} s)')
 
     def stop(self, cause: str) -> str:
         """Begin the controlled stop for ``cause`` (unless one is on); returns ``cause`` when it

@@ -31,7 +31,7 @@ from irs_common.msg_builder import builder
 from irs_common.node_main import run_node
 from irs_common.orientation import quaternion_from_yaw
 from irs_common.params import declare_table
-from irs_common.stamp_gate import FUTURE, OLD, StampGate
+from irs_common.stamp_gate import FUTURE, OLD, StampGate, answer_age
 from irs_common.stamp_sync import StampSync
 from irs_common.stamps import clock_now_ns, from_ns, to_ns
 from irs_common.start_gate import StartGate
@@ -103,9 +103,11 @@ class VehicleSimNode(Node):
 
     Commands that are NaN, inf or out of range are replaced by the safe value (steer 0 rad, drive 0
     V, driver speed held) with a throttled warning; the counts are on ``rig/status``. In real time
-    a steering or drive command older than ``command_timeout`` is held, and one silent for longer
-    than ``stall_grace`` (or a fault on ``treadmill/state``) brings the rig to its controlled stop,
-    car and belt together (:mod:`.safe_stop`; ``rig/status`` says which, and why, in one log line).
+    a command is as old as the rig's sample it answers (its stamp; any other stamp counts from its
+    arrival): a steering or drive command older than ``command_timeout`` is held, and one older
+    than ``stall_grace``, whether silent or answering old samples (or a fault on
+    ``treadmill/state``), brings the rig to its controlled stop, car and belt together
+    (:mod:`.safe_stop`; ``rig/status`` says which, and why, in one log line).
 
     The torque car (``plant: two_track``, docs/torque_car.md): the rig also subscribes
     ``wheels/torque_command`` (irs_msgs/WheelTorqueCommand, the lock-step input ``wheels``) and
@@ -170,7 +172,9 @@ class VehicleSimNode(Node):
         self.latest = {'steering': (0.0, 0.0), 'drive': self.p['default_drive_voltage'],
                        'driver': self.config.u0, 'wheels': SAFE['wheels']}
         self.rejected = {'steering': 0, 'drive': 0, 'driver': 0, 'wheels': 0}
-        self.received_at = {}          # input name -> time.monotonic() of its latest command
+        # input name -> time.monotonic() its latest command counts from (real time: the time of
+        # the sample it answers, ``stamp_gate.answer_age``)
+        self.received_at = {}
         self.stale_inputs = set()
         self.sync = StampSync(self.required) if self.required else None
         self.resends = 0
@@ -393,7 +397,8 @@ class VehicleSimNode(Node):
             return
         self.latest[name] = value
         now = time.monotonic()
-        self.received_at[name] = now
+        # a command counts from the sample it answers (a graph that falls behind is late)
+        self.received_at[name] = now - answer_age(stamp, self.stamp0_ns, self._stamp_ns())
         if name == 'steering' and self.started:
             sent = self.arm_sent.pop(stamp, None)
             if sent is not None:

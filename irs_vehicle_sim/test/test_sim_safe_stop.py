@@ -64,7 +64,7 @@ def test_silent_drive_holds_then_stops_car_and_belt_together():
     states, out = _run(sim, safe, cfg, 20.0, silent_from=1.0)
     assert states == {RUNNING, HOLDING, STOPPING, STOPPED}
     assert not out.fault, out.fault_reason
-    assert safe.state == STOPPED and 'drive command silent' in safe.cause
+    assert safe.state == STOPPED and 'drive command late' in safe.cause
     assert out.belt_speed < 0.01 and abs(out.u) < 0.01
     assert abs(out.x - cfg.x0) < 0.15      # the car moved with the belt, not over it
 
