@@ -15,8 +15,8 @@ The torque car's four nodes are started as docs/torque_car.md starts them (the r
 chassis controller answers each encoder sample with the newest pose, velocity and belt speed
 (they come at 100 Hz in the budget), so it keeps commanding at 1 kHz, every command finite, and
 a stop the rig makes says why. Whether the car stays on the belt is not asserted: on the 2-core
-VM the four processes miss most 1 kHz deadlines and the car is often lost within 20 s
-(docs/torque_car.md#in-real-time).
+VM the four processes miss most 1 kHz deadlines, the rig stops them, and a belt that ran away
+before the stop can still carry the car off (docs/torque_car.md#in-real-time).
 """
 import time
 
