@@ -26,6 +26,7 @@ from irs_models.arm_kinematics import ArmGeometry, ArmReachError
 from irs_models.constants import SENSOR_DISTANCE
 from irs_models.identified import IdentifiedParams, IdentifiedPlant, quadratic_roots
 from irs_models.lateral_plant import BicyclePlant, LateralPlant
+from irs_models.torque_car import GRAVITY
 
 from .actuator import ActuatorParams, ActuatorState, SteeringActuator, actuator_seed
 from .car_on_belt import CarParams, CarOnBelt, off_belt_edge, wheel_speeds
@@ -44,6 +45,10 @@ __all__ = ['RigInputs', 'RigOutputs', 'RigConfig', 'RigSimulation', 'simulate', 
 DEFAULT_STEER_REJECT_RAD = math.radians(30.0)
 #: Plants the rig can step.
 PLANTS = ('identified', 'bicycle', 'two_track')
+#: Share of the surface's grip the torque car's stop may use per wheel [-]: below the tyre's
+#: peak, with room for the load moving between the axles as the car speeds up or slows down
+#: (:meth:`RigSimulation.stop_torque_params`).
+STOP_TRACTION = 0.7
 
 
 # ----------------------------------------------------------------------------- sanitising
@@ -517,12 +522,22 @@ class RigSimulation:
         """``wheel_speed_gain`` [N m s/m] and ``torque_limit`` [N m] of the torque car's speed
         loop in a controlled stop (:meth:`~irs_vehicle_sim.safe_stop.SafeStop.stop_torque`):
         ``m R rate / 4`` for a loop rate ``rate`` [1/s]; ``{}`` for the other plants.
+
+        The limit is the motors' or what the tyres transmit without spinning, whichever is
+        smaller: ``STOP_TRACTION mu_min m g R / 4`` per wheel, ``mu_min`` the lowest friction of
+        the surface. The stop's speed loop must not spin the wheels: on mu 0.3 the motors' 0.3 N m
+        is 4.3 times what a tyre transmits (``mu m g R / 4`` = 0.069 N m), and a stop that
+        found the car 1.2 m/s slower than a belt running at 6.5 m/s (a real-time run that had lost
+        its loop) spun the wheels and lost the car; limited, it held it (offline, the state of
+        that run).
         """
         if self.torque_car is None:
             return {}
         p = self.torque_car.car.params
+        grip = STOP_TRACTION * self.torque_car.car.surface.mu_min * p.mass * GRAVITY \
+            * p.wheel_radius / 4.0
         return {'wheel_speed_gain': p.mass * p.wheel_radius * rate / 4.0,
-                'torque_limit': self.torque_car.torque_limit}
+                'torque_limit': min(self.torque_car.torque_limit, grip)}
 
     @property
     def time(self) -> float:

@@ -121,3 +121,8 @@ class SurfaceSpec:
     def mu_max(self) -> float:
         """Largest friction coefficient anywhere on this surface [-]."""
         return max(getattr(self, k) for k in SURFACE_KINDS[self.kind] if k.startswith('mu'))
+
+    @property
+    def mu_min(self) -> float:
+        """Smallest friction coefficient anywhere on this surface [-]."""
+        return min(getattr(self, k) for k in SURFACE_KINDS[self.kind] if k.startswith('mu'))

@@ -250,3 +250,48 @@ def test_the_torque_cars_stop_holds_it_with_its_wheel_torques(torque_loop):
     assert not out.fault, out.fault_reason
     assert stopped_at is not None and safe.state == STOPPED
     assert drift < 0.05 and abs(out.x - cfg.x0) < 0.05, (drift, out.x - cfg.x0)
+
+
+def _stop_from(u0, belt_speed, x0, mu, torque_limit=None):
+    """The torque car's controlled stop from a car ``u0`` [m/s] over a belt at ``belt_speed``
+    [m/s], at ``x0`` [m] on a surface of friction ``mu``; the stop's own torque limit unless
+    ``torque_limit`` [N m] is given. Returns the last outputs, the state machine, the extremes
+    of x [m] and the largest drive slip of any wheel [-].
+    """
+    cfg = RigConfig.from_dict({'plant': 'two_track', 'seed': 1, 'u0': u0,
+                               'belt_speed0': belt_speed, 'x0': x0, 'speed_cmd_max': 8.0,
+                               'surface': {'kind': 'uniform', 'mu': mu}})
+    sim = RigSimulation(cfg)
+    params = sim.stop_torque_params()
+    if torque_limit is not None:
+        params['torque_limit'] = torque_limit
+    safe = SafeStop(SafeStopParams(belt_gain=cfg.belt.gain / cfg.belt.pole, u_max=cfg.belt.u_max,
+                                   u0=1.2, curvature_gain=sim.curvature_gain, **params))
+    safe.stop('test')
+    out = sim.outputs
+    xs, slip = [out.x], 0.0
+    for _ in range(int(30 / DT)):
+        steer, drive, speed, sim.path_rate = safe.commands(out, sim.plant_speed)
+        out = sim.step(RigInputs(steer, 0.0, drive, speed, safe.stop_torque(speed, out.u)))
+        xs.append(out.x)
+        slip = max(slip, max(out.tyre.slip))
+        if out.fault or safe.state == STOPPED:
+            break
+    return out, safe, min(xs), max(xs), slip
+
+
+def test_the_torque_cars_stop_does_not_spin_its_wheels_and_holds_a_car_behind_a_fast_belt():
+    """A stop that finds the car 1.16 m/s slower than a belt at 6.52 m/s, on mu 0.3 (the state of
+    a real-time process-per-node run whose belt had run away, 2026-12-03): the stop must speed
+    the car up to the belt. Its torque is limited to 0.7 of what a tyre transmits
+    (``RigSimulation.stop_torque_params``): the wheels do not spin, and the car comes to rest
+    with the belt, on it. With the motors' 0.3 N m, 4.3 times a tyre's grip on mu 0.3, the wheels
+    spin and the car is lost.
+    """
+    out, safe, x_min, x_max, slip = _stop_from(5.36, 6.52, 0.455, 0.3)
+    assert safe.params.torque_limit < 0.3 * 9.81 * 2.86 / 4 * 0.033
+    assert not out.fault and safe.state == STOPPED, out.fault_reason
+    assert -0.5 < x_min and x_max < 0.6, (x_min, x_max)
+    assert slip < 0.2, slip
+    lost, _, _, _, spun = _stop_from(5.36, 6.52, 0.455, 0.3, torque_limit=0.3)
+    assert lost.fault and spun > 1.0, (lost.fault_reason, spun)
