@@ -31,6 +31,12 @@ class EdgeGate:
     node's time-state reset (stamps, histories, controller state), called on a time reset and
     after :meth:`clear_time`; ``warner`` the node's :class:`ThrottledWarner` (one is made on
     the node's logger if None).
+
+    A node clock at 0 is a node on simulation time that has not yet received ``/clock``: it
+    has no time to judge a stamp's future by, so the future check waits for the first clock
+    (the other checks apply). A message that arrives before the clock, as a replayed one can
+    when the player's ``/clock`` lead-in reaches a starved process late, is then taken rather
+    than dropped as stamped ahead of time 0.
     """
 
     __slots__ = ('gate', 'warner', 'dropped', 'time_resets', 'step_name', '_reset',
@@ -65,13 +71,15 @@ class EdgeGate:
         """
         if not self.start.open and not self.start.ready():
             return False
+        if now_ns == 0:
+            now_ns = None     # no /clock yet: nothing to judge the future by (class docstring)
         return self.gate.take_step(stamp_ns, now_ns, answer, self._drop_step, self._time_reset)
 
     def admit(self, what: str, stamp_ns: int, now_ns, pairing: bool = True) -> bool:
         """Whether input ``what`` stamped ``stamp_ns`` may join the pairing
         (:meth:`StampGate.admit`); a refused one is dropped, counted and reported.
         """
-        verdict = self.gate.admit(stamp_ns, now_ns, pairing)
+        verdict = self.gate.admit(stamp_ns, now_ns if now_ns != 0 else None, pairing)
         if verdict is None:
             return True
         self.drop(what, verdict, stamp_ns, now_ns)

@@ -102,3 +102,20 @@ def test_stale_timer_pauses_its_checks_after_its_own_node_was_starved():
     assert period == 0.5
     at(2000)
     assert checks[-1] == 2000 * MS
+
+
+def test_edge_gate_judges_no_future_before_the_first_clock(context):
+    """A clock at 0 (simulation time before its first /clock) takes a stamp 5 s ahead; the same
+    stamp against a clock 1 ns later than 0 is future and dropped. Out of order stays out of
+    order whatever the clock.
+    """
+    node = rclpy.create_node('edge_gate_clock0', context=context)
+    edge = EdgeGate(node, 0.5, 'readings', lambda: None, ThrottledWarner(lambda _: None, 0.0))
+    answer = Answer()
+    assert edge.take_step(5_000 * MS, 0, answer)
+    assert edge.admit('pose', 5_001 * MS, 0)
+    assert not edge.take_step(4_999 * MS, 0, answer)             # OLD, clock or not
+    assert not edge.take_step(6_000 * MS, 1, answer)             # FUTURE against 1 ns
+    assert not edge.admit('pose', 6_000 * MS, 1)
+    assert edge.dropped == 3
+    node.destroy_node()

@@ -150,7 +150,7 @@ class LateralControllerNode(Node):
                     self._control_step(vals['y'], vals['ref'])
             return
         now_ns = clock_now_ns(self.get_clock())
-        verdict = self.ref_gate.check(stamp_ns, now_ns)
+        verdict = self.ref_gate.check(stamp_ns, now_ns or None)   # 0: no /clock yet (EdgeGate)
         if verdict == OK or verdict == RESET or verdict == REPEAT:
             self.reference = msg.lateral_position    # screened by the controller at each step
         else:

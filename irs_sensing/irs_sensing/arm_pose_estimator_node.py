@@ -142,7 +142,9 @@ class ArmPoseEstimatorNode(Node):
         stamp = to_sec(msg.header.stamp)
         try:
             angles = self._angles(msg)
-            est, reason = self.estimator.update(*angles, stamp, now=now_ns * 1e-9)
+            # a clock at 0 (sim time, no /clock yet) judges no stamp's future (EdgeGate)
+            est, reason = self.estimator.update(*angles, stamp,
+                                                now=now_ns * 1e-9 if now_ns else None)
         except (CalibrationError, ValueError) as exc:
             est, reason = None, str(exc)
         if est is None:

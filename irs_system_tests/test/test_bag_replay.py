@@ -480,3 +480,38 @@ def test_play_warns_when_a_subscriber_never_acknowledges(ros, launch, tmp_path):
     warned = [ln for ln in play.output().splitlines() if 'bag play: warning:' in ln]
     assert warned == ['bag play: warning: not every subscriber acknowledged every message on '
                       '/a within 10 s'], play.output()
+
+
+def test_an_estimator_on_sim_time_answers_readings_that_come_before_any_clock(ros, launch,
+                                                                              tmp_path):
+    """A node on ``use_sim_time`` whose ``/clock`` has not come yet (its clock at 0) cannot
+    judge a stamp's future: ``bag play`` without ``--clock`` into a fresh arm_pose_estimator
+    with ``use_sim_time``, readings stamped from 5 s on, and every one is answered. Judged
+    against time 0 they were all dropped as stamped ahead; the same happens to the first
+    readings of a ``--clock`` replay whose lead-in reaches a starved estimator late (the test
+    above).
+    """
+    from geometry_msgs.msg import PointStamped
+    from rclpy.qos import HistoryPolicy, QoSProfile, ReliabilityPolicy
+
+    n, t0 = 101, 5 * 10**9
+    bag = arm_bag(tmp_path / 'arm', n, t0)
+    answered = set()
+    sub = ros.node.create_subscription(
+        PointStamped, '/lateral_noclock',
+        lambda msg: answered.add(msg.header.stamp.sec * 10**9 + msg.header.stamp.nanosec),
+        QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=10000,
+                   reliability=ReliabilityPolicy.RELIABLE))
+    est = launch(NodeSpec('irs_sensing', 'arm_pose_estimator', name='estimator_no_clock',
+                          params={'use_sim_time': True},
+                          remaps={'lateral_position': '/lateral_noclock'}))
+    assert ros.spin_until(lambda: sub.get_publisher_count() >= 1, 30.0), est.tail()
+    assert call_until_answered(ros, '/estimator_no_clock/list_parameters', 30.0), est.tail()
+    play = launch(NodeSpec('irs_bag', 'bag', name='play_no_clock', args=[
+        'play', bag, '--topics', '/arm/joint_states', '--rate', '0.1',
+        '--wait-for-subscribers', '1']))
+    stamps = {t0 + k * DT_NS for k in range(n)}
+    assert ros.spin_until(lambda: play.poll() is not None and answered >= stamps, 60.0), \
+        (play.output(), est.output()[-2000:], len(answered))
+    assert answered == stamps
+    assert 'ahead' not in est.output(), est.tail()

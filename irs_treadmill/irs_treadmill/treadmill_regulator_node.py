@@ -144,7 +144,7 @@ class TreadmillRegulatorNode(Node):
         else:
             now_ns = clock_now_ns(self.get_clock())
             stamp_ns = to_ns(msg.header.stamp)
-            if stamp_ns - now_ns > self.edge.future_tolerance_ns:
+            if now_ns and stamp_ns - now_ns > self.edge.future_tolerance_ns:
                 self.edge.drop('belt speed', FUTURE, stamp_ns, now_ns)
             else:
                 self.belt_speed = msg.speed      # screened by the regulator at each step
@@ -175,11 +175,12 @@ class TreadmillRegulatorNode(Node):
             v = vals['velocity'].twist.linear
             xdot = v.x * math.cos(psi) - v.y * math.sin(psi)
         limit = self.regulator.position_limit
+        now = now_ns * 1e-9 if now_ns else None    # clock at 0: no /clock yet (EdgeGate)
         if not (-limit <= x <= limit and -limit <= y <= limit):
             # not a measurement of a car on a 2.44 m belt (NaN included): an input fault
-            self.safety.update_position(math.nan, math.nan, stamp_ns * 1e-9, now=now_ns * 1e-9)
+            self.safety.update_position(math.nan, math.nan, stamp_ns * 1e-9, now=now)
         else:
-            self.safety.update_position(x, y, stamp_ns * 1e-9, now=now_ns * 1e-9)
+            self.safety.update_position(x, y, stamp_ns * 1e-9, now=now)
             self.pose_arrived_ns = now_ns
         out = self.regulator.update(x, belt_in, self.dt, xdot=xdot,
                                     enabled=self.safety.drive_permitted and self.p['enabled'])
