@@ -302,6 +302,28 @@ def arm_bag(path, n, t0_ns):
     return path
 
 
+def estimator_on_sim_time(ros, launch, name, topic):
+    """A fresh arm_pose_estimator on ``use_sim_time`` named ``name``, its lateral position
+    remapped to ``topic``, matched with a reliable subscription of this test's node; returns the
+    set its answers' stamps [ns] go into and the estimator's process.
+    """
+    from geometry_msgs.msg import PointStamped
+    from rclpy.qos import HistoryPolicy, QoSProfile, ReliabilityPolicy
+
+    answered = set()
+    sub = ros.node.create_subscription(
+        PointStamped, topic,
+        lambda msg: answered.add(msg.header.stamp.sec * 10**9 + msg.header.stamp.nanosec),
+        QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=10000,
+                   reliability=ReliabilityPolicy.RELIABLE))
+    est = launch(NodeSpec('irs_sensing', 'arm_pose_estimator', name=name,
+                          params={'use_sim_time': True}, remaps={'lateral_position': topic}))
+    # the estimator's answers reach us (both sides matched: the probe of the replay test below)
+    assert ros.spin_until(lambda: sub.get_publisher_count() >= 1, 30.0), est.tail()
+    assert call_until_answered(ros, f'/{name}/list_parameters', 30.0), est.tail()
+    return answered, est
+
+
 def test_play_clock_into_an_estimator_on_sim_time_loses_no_reading(ros, launch, tmp_path):
     """``bag play --clock`` into a fresh arm_pose_estimator with ``use_sim_time``: the
     estimator answers every reading. The bag's time starts at 5 s, so a
@@ -310,23 +332,9 @@ def test_play_clock_into_an_estimator_on_sim_time_loses_no_reading(ros, launch, 
     lead-in must reach the estimator's best-effort /clock subscription before the first
     reading does.
     """
-    from geometry_msgs.msg import PointStamped
-    from rclpy.qos import HistoryPolicy, QoSProfile, ReliabilityPolicy
-
     n, t0 = 401, 5 * 10**9
     bag = arm_bag(tmp_path / 'arm', n, t0)
-    answered = set()
-    sub = ros.node.create_subscription(
-        PointStamped, '/lateral_replayed',
-        lambda msg: answered.add(msg.header.stamp.sec * 10**9 + msg.header.stamp.nanosec),
-        QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=10000,
-                   reliability=ReliabilityPolicy.RELIABLE))
-    est = launch(NodeSpec('irs_sensing', 'arm_pose_estimator', name='estimator_on_clock',
-                          params={'use_sim_time': True},
-                          remaps={'lateral_position': '/lateral_replayed'}))
-    # the estimator's answers reach us (both sides matched: the probe of the replay test below)
-    assert ros.spin_until(lambda: sub.get_publisher_count() >= 1, 30.0), est.tail()
-    assert call_until_answered(ros, '/estimator_on_clock/list_parameters', 30.0), est.tail()
+    answered, est = estimator_on_sim_time(ros, launch, 'estimator_on_clock', '/lateral_replayed')
     play = launch(NodeSpec('irs_bag', 'bag', name='play_clock', args=[
         'play', bag, '--topics', '/arm/joint_states', '--clock', '--rate', '0.1',
         '--wait-for-subscribers', '1']))
@@ -491,22 +499,9 @@ def test_an_estimator_on_sim_time_answers_readings_that_come_before_any_clock(ro
     readings of a ``--clock`` replay whose lead-in reaches a starved estimator late (the test
     above).
     """
-    from geometry_msgs.msg import PointStamped
-    from rclpy.qos import HistoryPolicy, QoSProfile, ReliabilityPolicy
-
     n, t0 = 101, 5 * 10**9
     bag = arm_bag(tmp_path / 'arm', n, t0)
-    answered = set()
-    sub = ros.node.create_subscription(
-        PointStamped, '/lateral_noclock',
-        lambda msg: answered.add(msg.header.stamp.sec * 10**9 + msg.header.stamp.nanosec),
-        QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=10000,
-                   reliability=ReliabilityPolicy.RELIABLE))
-    est = launch(NodeSpec('irs_sensing', 'arm_pose_estimator', name='estimator_no_clock',
-                          params={'use_sim_time': True},
-                          remaps={'lateral_position': '/lateral_noclock'}))
-    assert ros.spin_until(lambda: sub.get_publisher_count() >= 1, 30.0), est.tail()
-    assert call_until_answered(ros, '/estimator_no_clock/list_parameters', 30.0), est.tail()
+    answered, est = estimator_on_sim_time(ros, launch, 'estimator_no_clock', '/lateral_noclock')
     play = launch(NodeSpec('irs_bag', 'bag', name='play_no_clock', args=[
         'play', bag, '--topics', '/arm/joint_states', '--rate', '0.1',
         '--wait-for-subscribers', '1']))
