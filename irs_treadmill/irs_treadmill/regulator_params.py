@@ -42,6 +42,11 @@ _META = {
                           'fault when the c.g. is closer than this to a belt end'),
     'safety.edge_margin': ('m', 0.0, BELT_HALF_WIDTH,
                            'fault when the c.g. is closer than this to a belt edge'),
+    'safety.stop_decel': ('m/s^2', 0.01, 100.0,
+                          "deceleration of the car over the ground in the rig's stop, for the "
+                          'end check of a moving car'),
+    'safety.stop_delay': ('s', 0.0, 10.0,
+                          "time before the rig's stop acts, for the end check of a moving car"),
     'safety.stale_timeout': ('s', 0.0, 10.0, 'fault when no valid position for this long (the '
                              'grace of a stalled pose input: the last drive stays in effect)'),
 }

@@ -4,7 +4,10 @@ A fault cuts the drive (0 V; the belt then coasts down by friction, it cannot br
 
 * *latched* (the car is somewhere dangerous): the car's c.g. within ``end_margin`` [m] of the
   front (+x) or rear (-x) belt end, or within ``edge_margin`` [m] of the left (+y) or right (-y)
-  belt edge. It stays until :meth:`SafetyMonitor.reset` is called;
+  belt edge. With the car's speed over the ground ``xdot`` [m/s] the end check uses where the
+  car would come to rest, ``x + sign(xdot) (|xdot| stop_delay + xdot^2 / (2 stop_decel))``: a
+  car moving fast towards an end is stopped while the stop still has room. It stays until
+  :meth:`SafetyMonitor.reset` is called;
 * *transient* (the input is missing or bad, not the car): no valid position for longer than
   ``stale_timeout`` [s] (checked in :meth:`check`), or a non-finite position / time stamp. The
   drive stays cut while it lasts and the fault clears by itself with the next valid position
@@ -66,7 +69,11 @@ _FAULT_TEXT = {
 @dataclass(frozen=True)
 class SafetyParams:
     """belt_half_length, belt_half_width [m]; end_margin, edge_margin [m] (distance from the
-    end/edge at which the fault trips); stale_timeout [s].
+    end/edge at which the fault trips); stale_timeout [s]; stop_decel [m/s^2] and stop_delay [s]:
+    how fast, and after how long, the rig's controlled stop brings the car to rest over the
+    ground (module docstring). 2 m/s^2 is what the torque car's stop transmits on a wet belt
+    (0.7 of mu 0.3 times g, ``irs_vehicle_sim.rig.STOP_TRACTION``); 0.1 s is the rig's
+    ``command_timeout``.
     """
 
     belt_half_length: float = BELT_HALF_LENGTH
@@ -74,10 +81,13 @@ class SafetyParams:
     end_margin: float = 0.15
     edge_margin: float = 0.10
     stale_timeout: float = 0.5
+    stop_decel: float = 2.0
+    stop_delay: float = 0.1
 
     def __post_init__(self) -> None:
         check_numbers(self, ('belt_half_length', 'belt_half_width', 'end_margin', 'edge_margin',
-                             'stale_timeout'), at_least=0.0)
+                             'stale_timeout', 'stop_delay'), at_least=0.0)
+        check_numbers(self, ('stop_decel',), above=0.0)
         if self.end_margin >= self.belt_half_length or self.edge_margin >= self.belt_half_width:
             raise ValueError(
                 'SafetyParams margins must be smaller than the belt half length/width.'
@@ -143,13 +153,15 @@ class SafetyMonitor:
             self.fault_detail = detail
 
     def update_position(self, x: float, y: float, stamp: float,
-                        now: Optional[float] = None) -> FaultCode:
+                        now: Optional[float] = None, xdot: Optional[float] = None) -> FaultCode:
         """Register a car c.g. position [m] measured at ``stamp`` [s]; return the fault state.
 
         ``now`` [s] is the node's clock (sim time in lock-step): a stamp more than
         ``future_tolerance`` ahead of it, or not newer than the last stored stamp, is rejected
         for timing (class docstring); the belt limits are checked either way. Non-finite x, y
-        or stamp latch ``INVALID_INPUT``.
+        or stamp latch ``INVALID_INPUT``. ``xdot`` [m/s], the car's speed over the ground along
+        the belt, moves the end check to where a stop would bring the car to rest (module
+        docstring); None or non-finite: the position alone.
         """
         p = self.params
         if not (_finite(x) and _finite(y) and _finite(stamp)):
@@ -165,15 +177,25 @@ class SafetyMonitor:
         else:
             self.rejected_stamps += 1
             self.last_rejection = f'position {verdict.value}: {why}'
-        if x > p.belt_half_length - p.end_margin:
-            self._latch(FaultCode.NEAR_FRONT_END, f'x = {x:.3f} m')
-        elif x < -p.belt_half_length + p.end_margin:
-            self._latch(FaultCode.NEAR_REAR_END, f'x = {x:.3f} m')
+        rest = x              # [m] where a stop begun now brings the car to rest
+        if xdot is not None and _finite(xdot) and xdot != 0.0:
+            reach = abs(xdot) * p.stop_delay + xdot * xdot / (2.0 * p.stop_decel)
+            rest = x + reach if xdot > 0.0 else x - reach
+        if rest > p.belt_half_length - p.end_margin:
+            self._latch(FaultCode.NEAR_FRONT_END, self._end_detail(x, xdot, rest))
+        elif rest < -p.belt_half_length + p.end_margin:
+            self._latch(FaultCode.NEAR_REAR_END, self._end_detail(x, xdot, rest))
         if y > p.belt_half_width - p.edge_margin:
             self._latch(FaultCode.NEAR_LEFT_EDGE, f'y = {y:.3f} m')
         elif y < -p.belt_half_width + p.edge_margin:
             self._latch(FaultCode.NEAR_RIGHT_EDGE, f'y = {y:.3f} m')
         return self.fault
+
+    @staticmethod
+    def _end_detail(x: float, xdot, rest: float) -> str:
+        if rest == x:
+            return f'x = {x:.3f} m'
+        return f'x = {x:.3f} m moving at {xdot:+.2f} m/s: a stop ends at {rest:.3f} m'
 
     def stamp_verdict(self, stamp: float, now: Optional[float] = None):
         """``(StampVerdict, reason or None)`` of a finite position stamp [s] against ``now`` [s]

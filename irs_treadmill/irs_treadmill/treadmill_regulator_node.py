@@ -180,7 +180,7 @@ class TreadmillRegulatorNode(Node):
             # not a measurement of a car on a 2.44 m belt (NaN included): an input fault
             self.safety.update_position(math.nan, math.nan, stamp_ns * 1e-9, now=now)
         else:
-            self.safety.update_position(x, y, stamp_ns * 1e-9, now=now)
+            self.safety.update_position(x, y, stamp_ns * 1e-9, now=now, xdot=xdot)
             self.pose_arrived_ns = now_ns
         out = self.regulator.update(x, belt_in, self.dt, xdot=xdot,
                                     enabled=self.safety.drive_permitted and self.p['enabled'])

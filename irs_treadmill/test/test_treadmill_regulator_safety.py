@@ -1,6 +1,9 @@
 """Regulator unit tests (limits, anti-wind-up) and safety latching."""
 
+import math
+
 import pytest
+from hypothesis import given, strategies as st
 
 from irs_treadmill.regulator import BeltSpeedRegulator, RegulatorParams
 from irs_treadmill.safety import FaultCode, SafetyMonitor, SafetyParams
@@ -169,3 +172,33 @@ def test_first_fault_is_kept():
     s.check(1.0)                                  # would be stale as well
     s.update_position(0.0, -0.58, 1.001)          # and near the right edge
     assert s.fault == FaultCode.NEAR_FRONT_END
+
+
+def test_a_car_moving_towards_an_end_trips_while_a_stop_still_has_room():
+    """The end check of a moving car uses where a stop would bring it to rest:
+    ``x - (|xdot| stop_delay + xdot^2 / (2 stop_decel))`` towards the rear, 0.7125 m behind a
+    car at 1.5 m/s with the defaults. At -0.5 m moving rearward at 1.5 m/s (a car falling back
+    from a belt running away) that is past the rear limit, -1.069 m: the fault. The same car
+    at rest, or moving forward, is far from it; without a speed the check is the position's.
+    """
+    def fault(x, xdot):
+        monitor = SafetyMonitor()
+        return monitor.update_position(x, 0.0, 1.0, xdot=xdot), monitor.fault_detail
+
+    code, detail = fault(-0.5, -1.5)
+    assert code == FaultCode.NEAR_REAR_END and 'moving at -1.50 m/s' in detail, detail
+    assert fault(0.5, 1.5)[0] == FaultCode.NEAR_FRONT_END
+    for xdot in (None, 0.0, math.nan, 1.5):
+        assert fault(-0.5, xdot)[0] == FaultCode.NONE, xdot
+    assert fault(-1.0, None) == fault(-1.0, 0.0) == (FaultCode.NONE, '')
+    assert fault(-1.1, None)[0] == FaultCode.NEAR_REAR_END        # the position alone
+
+
+@given(x=st.floats(-1.0, 1.0), xdot=st.floats(-5.0, 5.0), more=st.floats(0.0, 5.0))
+def test_a_faster_car_trips_no_later(x, xdot, more):
+    """Moving faster towards the same end never clears a fault the slower car had."""
+    slow, fast = SafetyMonitor(), SafetyMonitor()
+    slow.update_position(x, 0.0, 1.0, xdot=xdot)
+    fast.update_position(x, 0.0, 1.0, xdot=xdot + math.copysign(more, xdot))
+    if slow.fault != FaultCode.NONE:
+        assert fast.fault == slow.fault

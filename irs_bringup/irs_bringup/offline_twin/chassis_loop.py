@@ -75,7 +75,7 @@ class ChassisLoop(ClosedLoop):
             if est is not None and est.velocity_valid:
                 psi = _yaw_via_quaternion(est.psi)
                 xdot = est.u * math.cos(psi) - est.v * math.sin(psi)
-        self.safety.update_position(x, y, t)
+        self.safety.update_position(x, y, t, xdot=xdot)
         r = self.regulator.update(x, belt, self.reg_dt, xdot=xdot,
                                   enabled=self.safety.drive_permitted and self.reg_enabled)
         return self.safety.gate(r.voltage) if self.reg_enabled else 0.0

@@ -104,7 +104,7 @@ class ClosedLoop:
             elif est is not None and est.velocity_valid:
                 psi = _yaw_via_quaternion(est.psi)
                 xdot = est.u * math.cos(psi) - est.v * math.sin(psi)
-            self.safety.update_position(x, y, t)
+            self.safety.update_position(x, y, t, xdot=xdot)
             belt = out.belt_speed_measured
             r = self.regulator.update(x, belt, self.reg_dt, xdot=xdot,
                                       enabled=self.safety.drive_permitted and self.reg_enabled)
