@@ -22,7 +22,10 @@
   of CPU, and the bag lacked the transition. 100 covers 10 s of the rig's 10 Hz status plus its
   transitions. A late joiner receives that history; ``STATUS``'s depth 1 keeps what it has not
   yet taken to the newest, and a reader that wants only what comes after it joined subscribes
-  VOLATILE (``rig/recover``'s caller, :mod:`irs_vehicle_sim.recover_call`).
+  ``STATUS_LIVE``.
+- ``STATUS_LIVE``: a status subscriber that wants what is published from the moment it joins,
+  not the history (``rig/recover``'s caller, :mod:`irs_vehicle_sim.recover_call`, must not take
+  an old ``SAFE_RUNNING`` for its answer). RELIABLE, KEEP_LAST 10, VOLATILE.
 - ``CLOCK``: /clock from the lock-step rig. RELIABLE, KEEP_LAST 100 for nodes that act on every
   tick (the reference generator); rclpy's own time source subscribes best effort, depth 1, which
   matches. ``CLOCK_PUB``, the rig's publisher, keeps ``PUBLISHER_HISTORY`` like ``SENSOR_PUB``:
@@ -42,6 +45,9 @@ STATUS_HISTORY = 100
 STATUS_PUB = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=STATUS_HISTORY,
                         reliability=ReliabilityPolicy.RELIABLE,
                         durability=DurabilityPolicy.TRANSIENT_LOCAL)
+STATUS_LIVE = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=10,
+                         reliability=ReliabilityPolicy.RELIABLE,
+                         durability=DurabilityPolicy.VOLATILE)
 #: History of a 1 kHz publisher [samples]: how far a reliable reader may fall behind without loss
 #: (5 s at 1 kHz; the 10-minute soak saw recorder stalls of up to 5.4 s on a busy machine).
 PUBLISHER_HISTORY = 5000

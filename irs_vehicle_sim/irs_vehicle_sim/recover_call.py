@@ -11,16 +11,8 @@ from rclpy.context import Context
 from rclpy.executors import SingleThreadedExecutor
 from std_srvs.srv import Trigger
 
-from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
-
+from irs_common import qos
 from irs_msgs.msg import RigStatus
-
-#: ``rig/status`` from the moment this caller joins: VOLATILE, so the rig's status history
-#: (``qos.STATUS_PUB``, kept for late joiners) cannot pass an old ``SAFE_RUNNING`` off as the
-#: answer to this call.
-STATUS_FROM_NOW = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=10,
-                             reliability=ReliabilityPolicy.RELIABLE,
-                             durability=DurabilityPolicy.VOLATILE)
 
 
 def recover(timeout: float = 30.0, log=print) -> bool:
@@ -29,7 +21,7 @@ def recover(timeout: float = 30.0, log=print) -> bool:
     rclpy.init(context=context)
     node = rclpy.create_node('irs_recover', context=context)
     status = []
-    node.create_subscription(RigStatus, 'rig/status', status.append, STATUS_FROM_NOW)
+    node.create_subscription(RigStatus, 'rig/status', status.append, qos.STATUS_LIVE)
     client = node.create_client(Trigger, 'rig/recover')
     executor = SingleThreadedExecutor(context=context)
     executor.add_node(node)

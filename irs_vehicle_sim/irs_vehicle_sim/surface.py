@@ -117,12 +117,15 @@ class SurfaceSpec:
             return self.mu_left if y >= 0.0 else self.mu_right
         return self.mu if t < self.t_step else self.mu_after
 
+    def _frictions(self) -> list:
+        return [getattr(self, k) for k in SURFACE_KINDS[self.kind] if k.startswith('mu')]
+
     @property
     def mu_max(self) -> float:
         """Largest friction coefficient anywhere on this surface [-]."""
-        return max(getattr(self, k) for k in SURFACE_KINDS[self.kind] if k.startswith('mu'))
+        return max(self._frictions())
 
     @property
     def mu_min(self) -> float:
         """Smallest friction coefficient anywhere on this surface [-]."""
-        return min(getattr(self, k) for k in SURFACE_KINDS[self.kind] if k.startswith('mu'))
+        return min(self._frictions())
