@@ -40,10 +40,15 @@ class StampSync:
         """
         if name not in self.inputs:
             raise KeyError(f"unknown input '{name}', expected one of {self.inputs}")
-        self._pending.setdefault(int(stamp_ns), {})[name] = value
-        complete = sorted(s for s, vals in self._pending.items() if len(vals) == len(self.inputs))
-        released = [(s, self._pending.pop(s)) for s in complete]
+        stamp_ns = int(stamp_ns)
+        vals = self._pending.setdefault(stamp_ns, {})
+        vals[name] = value
+        # A complete set leaves at once, so the set just added to is the only one that can be
+        # complete: O(1) per message however many incomplete sets wait (inputs lost on the way).
+        if len(vals) == len(self.inputs):
+            del self._pending[stamp_ns]
+            return [(stamp_ns, vals)]
         while len(self._pending) > self.max_pending:
             self._pending.pop(min(self._pending))
             self.dropped += 1
-        return released
+        return []

