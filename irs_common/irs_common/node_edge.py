@@ -20,7 +20,12 @@ from .stamps import from_ns
 from .start_gate import StartGate
 from .time_jump import on_time_jump_back
 
-__all__ = ['EdgeGate', 'StaleTimer']
+__all__ = ['EdgeGate', 'StaleTimer', 'UNPAIRED_AFTER']
+
+#: [s] of node time an incomplete set of paired inputs waits before it is dropped and reported
+#: (:meth:`EdgeGate.expire_unpaired`): far beyond a lock-step step or a real-time delivery.
+UNPAIRED_AFTER = 1.0
+UNPAIRED_AFTER_NS = int(UNPAIRED_AFTER * 1e9)
 
 
 class EdgeGate:
@@ -93,6 +98,28 @@ class EdgeGate:
         gate = gate or self.gate
         self.warner.warn(f'{what}-{verdict}', f'{what}: {gate.reason(verdict, stamp_ns, now_ns)}',
                          time.monotonic())
+
+    def expire_unpaired(self, sync, now_ns: int) -> int:
+        """Take out of ``sync`` (:class:`~irs_common.stamp_sync.StampSync`) the sets that waited
+        more than :data:`UNPAIRED_AFTER` s of node time for an input of their stamp, and warn
+        (throttled) naming what came and what did not; returns how many were taken out.
+
+        A message published alone, such as one input of a pair by ``ros2 topic pub``, or an
+        input lost on the way, is then answered by a log line rather than by silence. The
+        node's stale timer calls it; a clock at 0 (no ``/clock`` yet) judges nothing.
+        """
+        if not now_ns:
+            return 0
+        gone = sync.expire(now_ns - UNPAIRED_AFTER_NS)
+        if gone:
+            stamp_ns, missing = gone[-1]
+            came = [n for n in sync.inputs if n not in missing]
+            self.warner.warn(
+                'unpaired', f'{len(gone)} input set(s) dropped unanswered: {", ".join(came)} '
+                f'stamped {stamp_ns * 1e-9:.3f} s had no {", ".join(missing)} of the same stamp '
+                f'within {UNPAIRED_AFTER:g} s ({", ".join(sync.inputs)} are paired by stamp)',
+                time.monotonic())
+        return len(gone)
 
     def own_command_stamp(self, now_msg):
         """The stamp of a command the node sends on its own, with no step to answer (an input

@@ -19,11 +19,16 @@ class StampSync:
         Names of the inputs that make a set complete.
     max_pending : int
         Stamps kept waiting at most; older incomplete sets are dropped and counted in ``dropped``.
+
+    An input lost on the way, or a message published alone (``ros2 topic pub`` of one input),
+    leaves a set that never completes: :meth:`expire` takes such sets out, for the node to say
+    what was missing.
     """
 
     inputs: tuple
     max_pending: int = 10000
     dropped: int = 0
+    expired: int = 0
     _pending: dict = field(default_factory=dict)
 
     def __post_init__(self):
@@ -52,3 +57,16 @@ class StampSync:
             self._pending.pop(min(self._pending))
             self.dropped += 1
         return []
+
+    def expire(self, before_ns: int) -> list:
+        """Remove the incomplete sets stamped before ``before_ns``; return ``(stamp_ns,
+        missing)`` of each, oldest first, ``missing`` the names of the inputs that never came
+        for that stamp. Counted in ``expired``.
+        """
+        old = sorted(s for s in self._pending if s < before_ns)
+        gone = []
+        for s in old:
+            vals = self._pending.pop(s)
+            gone.append((s, tuple(n for n in self.inputs if n not in vals)))
+        self.expired += len(gone)
+        return gone

@@ -119,3 +119,27 @@ def test_edge_gate_judges_no_future_before_the_first_clock(context):
     assert not edge.admit('pose', 6_000 * MS, 1)
     assert edge.dropped == 3
     node.destroy_node()
+
+
+def test_edge_gate_reports_a_set_of_paired_inputs_that_never_completed(context):
+    """A pose published alone (no velocity of its stamp) is dropped after UNPAIRED_AFTER of
+    node time with a line naming what came and what did not; a younger one waits; a clock at 0
+    judges nothing.
+    """
+    from irs_common.node_edge import UNPAIRED_AFTER
+    from irs_common.stamp_sync import StampSync
+    node = rclpy.create_node('edge_gate_unpaired', context=context)
+    lines = []
+    edge = EdgeGate(node, 0.5, 'pose', lambda: None, ThrottledWarner(lines.append, 0.0))
+    sync = StampSync(('pose', 'velocity'))
+    t = 100_000 * MS
+    sync.add('pose', t, 'lone')
+    sync.add('pose', t + 900 * MS, 'young')
+    assert edge.expire_unpaired(sync, 0) == 0
+    assert edge.expire_unpaired(sync, t + int(UNPAIRED_AFTER * 1e9)) == 0 and not lines
+    assert edge.expire_unpaired(sync, t + int(UNPAIRED_AFTER * 1e9) + 1) == 1
+    assert lines == ['1 input set(s) dropped unanswered: pose stamped 100.000 s had no velocity '
+                     'of the same stamp within 1 s (pose, velocity are paired by stamp)']
+    assert sync.add('velocity', t + 900 * MS, 'v') == [(t + 900 * MS,
+                                                        {'pose': 'young', 'velocity': 'v'})]
+    node.destroy_node()

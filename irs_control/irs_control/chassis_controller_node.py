@@ -206,9 +206,11 @@ class ChassisControllerNode(Node):
         return array
 
     def _check_stale(self):
+        now = self.get_clock().now()
+        if self.sync is not None:
+            self.edge.expire_unpaired(self.sync, now.nanoseconds)
         if self.last_enc_time is None or self.reason == STALE:
             return
-        now = self.get_clock().now()
         age = (now - self.last_enc_time).nanoseconds * 1e-9
         if age > self.p['stale_timeout']:
             self.core.reset_controllers()

@@ -211,6 +211,8 @@ class LateralControllerNode(Node):
                 output=float(steer), saturated=bool(saturated)))
 
     def _check_stale(self):
+        if self.sync is not None:
+            self.edge.expire_unpaired(self.sync, clock_now_ns(self.get_clock()))
         if self.state != LateralControllerStatus.STATE_RUNNING or self.last_meas_time is None:
             return
         now = self.get_clock().now()

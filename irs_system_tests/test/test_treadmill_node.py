@@ -101,3 +101,21 @@ def test_regulates_then_latches_stale_and_off_belt_faults(ros, launch):
                       f.state[-1].fault_code == FaultCode.INVALID_INPUT, x=math.nan)
     assert f.drive[-1].voltage == 0.0
     assert feed_until(ros, f, lambda: f.state[-1].mode != TreadmillState.MODE_FAULT, x=0.3)
+
+
+def test_a_pose_published_without_its_velocity_is_reported_not_answered(ros, launch):
+    """Pose and velocity are paired by stamp: a pose alone (``ros2 topic pub`` of one input,
+    NaN or not) gets no drive command; after 1 s the regulator says what was missing.
+    """
+    proc = launch(NodeSpec('irs_treadmill', 'treadmill_regulator', name='regulator_lone'))
+    f = Feeder(ros)
+    assert ros.wait_for_matched([f.pose, f.vel, *f.subs[:1]], timeout=30.0), proc.tail()
+    stamp = ros.node.get_clock().now().to_msg()
+    p = PoseStamped()
+    p.header.stamp = stamp
+    p.pose.position.x, p.pose.orientation.w = math.nan, 1.0
+    f.pose.publish(p)
+    assert ros.spin_until(lambda: 'dropped unanswered' in proc.output(), 10.0), proc.tail()
+    line = next(ln for ln in proc.output().splitlines() if 'dropped unanswered' in ln)
+    assert 'pose stamped' in line and 'had no velocity of the same stamp' in line, line
+    assert not any(d.header.stamp == stamp for d in f.drive)

@@ -67,7 +67,10 @@ class TreadmillRegulatorNode(Node):
       rig): then the regulator and the safety monitor's position timing restart (latched faults
       stay) and the step is taken; the last step again is answered with the same command;
     - the node clock jumping back (``/clock`` of ``bag play --loop --clock``) restarts the same
-      time state.
+      time state;
+    - a pose whose velocity of the same stamp never comes (a pose published alone) is not
+      answered: after 1 s of node time it is dropped and reported
+      (:meth:`~irs_common.node_edge.EdgeGate.expire_unpaired`).
 
     Writable parameters (``ros2 param set``, applied at once): ``enabled`` (false: 0 V, belt
     coasts), ``regulator.x_ref``, ``regulator.k_x``, ``regulator.k_i``, ``regulator.k_v``,
@@ -235,9 +238,10 @@ class TreadmillRegulatorNode(Node):
         one, not its stamp: a rig catching up after a stall of its own sends stamps that lag the
         clock, and its poses are not stale).
         """
+        now = self.get_clock().now()
+        self.edge.expire_unpaired(self.sync, now.nanoseconds)
         if self.safety.faulted or self.pose_arrived_ns is None:
             return
-        now = self.get_clock().now()
         if self.safety.check_age((now.nanoseconds - self.pose_arrived_ns) * 1e-9):
             self.regulator.reset()
             self._publish(self.edge.own_command_stamp(now.to_msg()), 0.0, self.belt_speed,
