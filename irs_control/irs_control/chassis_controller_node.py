@@ -59,8 +59,10 @@ class ChassisControllerNode(Node):
     answered sample (sim time in lock-step).
 
     Bad input: non-finite encoder speeds, a NaN pose (a rejected arm reading), a non-finite belt
-    speed or yaw rate (with yaw control) -> zero torques, no wheel locked, zero steer, the reason
-    on ``chassis/status`` and a throttled warning; the next valid sample runs again. No encoder
+    speed or yaw rate (with yaw control), a newest pose more than ``pose_timeout`` older than the
+    encoder sample (the estimator stopped or fell behind) -> zero torques, no wheel locked, zero
+    steer, the reason on ``chassis/status`` and a throttled warning; the next valid sample runs
+    again. No encoder
     sample for ``stale_timeout`` -> the same zero command, stamped now (STALE). Stamps follow
     :mod:`irs_common.stamp_gate` (future -> dropped; older -> dropped; a repeat -> the same answer
     again; more than 1 s back or ``/clock`` jumping back -> everything restarts). Published values

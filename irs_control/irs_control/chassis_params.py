@@ -2,8 +2,8 @@
 
 Defaults are the cores' (:mod:`.abs_control`, :mod:`.chassis_control`,
 :mod:`.torque_car_control`). Writable at run time are the driver's inputs the core reads at
-every step (speed target, brake and steer schedules) and the stale timeout; everything that
-builds the controllers is read-only.
+every step (speed target, brake and steer schedules, the pose timeout) and the stale timeout;
+everything that builds the controllers is read-only.
 """
 from irs_common.params import Param, core_values
 from irs_common.start_gate import START_SUBSCRIBERS
@@ -78,6 +78,10 @@ PARAMS = [
           10.0),
     Param('torque_limit', _A.torque_limit, 'wheel torque limit (the hub motors)', 'N m', 1e-6,
           10.0),
+    Param('pose_timeout', 0.1, 'age of the newest valid pose at an encoder sample (the '
+          'difference of their stamps) beyond which zero torque and zero steer are commanded: '
+          'the speed estimate differentiates the poses; applied at the next step', 's', 0.001,
+          10.0, writable=True),
     Param('stale_timeout', 0.05, 'encoder age after which zero torque and zero steer are '
           'commanded (applied at once)', 's', 0.001, 10.0, writable=True, node_only=True),
     Param('future_tolerance', 0.5, 'inputs stamped further ahead of the node clock are dropped',
@@ -92,7 +96,8 @@ PARAMS = [
 LIVE = {'speed.target': 'speed_target', 'brake.start_time': 'brake_start_time',
         'brake.duration': 'brake_duration',
         'brake.torque': 'brake_torque', 'brake.mode': 'brake_mode',
-        'steer.amplitude': 'steer_amplitude', 'steer.start_time': 'steer_start_time'}
+        'steer.amplitude': 'steer_amplitude', 'steer.start_time': 'steer_start_time',
+        'pose_timeout': 'pose_timeout'}
 
 
 def chassis_config(values: dict) -> TorqueCarConfig:

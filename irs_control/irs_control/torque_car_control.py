@@ -63,6 +63,11 @@ class TorqueCarConfig:
         The driver's front step steer [rad] from ``steer_start_time`` [s] (0 = straight).
     speed_window : int
         Samples of the arm-speed estimate's difference.
+    pose_timeout : float
+        [s] the newest valid pose older than this at an encoder sample (their stamps' difference)
+        is stale: zero torques and steer (``stale_pose``). The speed estimate is the pose
+        differentiated: on a pose that stopped coming it freezes, and the speed loop would drive
+        on it.
     abs : AbsParams
     chassis : ChassisParams (its ``mix`` is set from ``yaw_control``)
     peak : PeakSeekParams (its ``baseline`` is set to ``-abs.slip_target``, its car's mass to
@@ -80,6 +85,7 @@ class TorqueCarConfig:
     steer_amplitude: float = 0.0
     steer_start_time: float = 0.0
     speed_window: int = 10
+    pose_timeout: float = 0.1
     abs: AbsParams = field(default_factory=AbsParams)
     chassis: ChassisParams = field(default_factory=ChassisParams)
     peak: PeakSeekParams = field(default_factory=PeakSeekParams)
@@ -95,13 +101,15 @@ class TorqueCarConfig:
             raise ValueError(f'yaw_control must be one of {list(YAW_CONTROLS)}, got '
                              f'{self.yaw_control!r}.')
         for name in ('dt', 'speed_target', 'brake_start_time', 'brake_duration', 'brake_torque',
-                     'steer_amplitude', 'steer_start_time'):
+                     'steer_amplitude', 'steer_start_time', 'pose_timeout'):
             v = getattr(self, name)
             if not isinstance(v, (int, float)) or isinstance(v, bool) or not math.isfinite(v):
                 raise ValueError(f'{name} must be a finite number, got {v!r}.')
         if self.dt <= 0.0 or self.brake_torque <= 0.0 or self.speed_target < 0.0:
             raise ValueError(f'dt and brake torque must be > 0 and speed.target >= 0, got '
                              f'{self.dt!r}, {self.brake_torque!r}, {self.speed_target!r}.')
+        if self.pose_timeout <= 0.0:
+            raise ValueError(f'pose_timeout must be > 0 s, got {self.pose_timeout!r}.')
         if self.yaw_control != 'off':
             self.chassis.mix = self.yaw_control
         car = WheelSpeedParams(mass=self.chassis.car.mass, wheel_radius=self.abs.wheel_radius,
@@ -132,6 +140,7 @@ class TorqueCarConfig:
                    brake_mode=p['brake.mode'], abs_reference=p['abs.reference'],
                    yaw_control=p['yaw_control'], steer_amplitude=p['steer.amplitude'],
                    steer_start_time=p['steer.start_time'], speed_window=p['speed.window'],
+                   pose_timeout=p['pose_timeout'],
                    abs=abs_params, chassis=chassis, peak=peak)
 
 
@@ -210,10 +219,11 @@ class TorqueCarController:
 
     Bad input: a non-finite or missing encoder speed, a non-finite pose or belt speed (the arm
     estimator publishes NaN for a rejected reading), a pose beyond 5 m or a belt speed or speed
-    estimate beyond 20 m/s, or, with yaw control on, a non-finite yaw rate -> all torques 0, no
-    wheel locked, both steers 0 (the car coasts straight), the ABS and chassis integrals, the
-    wheels' speed and the peak seeker reset, and ``reason`` names the input; the next valid step
-    runs again (from rest of the integrals). Every output is finite.
+    estimate beyond 20 m/s, the newest valid pose more than ``pose_timeout`` older than the
+    encoder sample (``stale_pose``), or, with yaw control on, a non-finite yaw rate -> all
+    torques 0, no wheel locked, both steers 0 (the car coasts straight), the ABS and chassis
+    integrals, the wheels' speed and the peak seeker reset, and ``reason`` names the input; the
+    next valid step runs again (from rest of the integrals). Every output is finite.
     """
 
     def __init__(self, config: TorqueCarConfig | None = None):
@@ -265,11 +275,13 @@ class TorqueCarController:
             self.estimator.step(x, psi, belt_speed, dt)
             self.last_pose_ns = stamp_ns
 
-    def _problem(self, omega, yaw_rate) -> str | None:
+    def _problem(self, stamp_ns, omega, yaw_rate) -> str | None:
         if omega.shape != (4,) or not np.isfinite(omega).all():
             return 'nonfinite_encoders'
         if not self.pose_ok or not math.isfinite(self.estimator.estimate):
             return 'invalid_pose_or_belt_speed'     # (a huge finite belt speed overflows)
+        if stamp_ns - self.last_pose_ns > self.config.pose_timeout * 1e9:
+            return 'stale_pose'
         if self.config.yaw_control != 'off' and not math.isfinite(yaw_rate):
             return 'nonfinite_yaw_rate'
         v_hat = self.estimator.estimate
@@ -292,7 +304,7 @@ class TorqueCarController:
             yaw_rate = float(yaw_rate)
         except (TypeError, ValueError):
             omega, yaw_rate = np.full(4, math.nan), math.nan
-        problem = self._problem(omega, yaw_rate)
+        problem = self._problem(int(stamp_ns), omega, yaw_rate)
         if problem is not None:
             self.reset_controllers()
             v_hat = self.estimator.estimate

@@ -156,6 +156,27 @@ def test_bad_input_gives_zero_commands_and_a_reason_and_the_next_step_recovers(b
     assert out.ok and out.front_steer == 0.05
 
 
+def test_a_pose_that_stops_coming_stops_the_drive_after_pose_timeout_and_a_fresh_one_resumes():
+    """The speed estimate differentiates the poses: when they stop, it freezes. A car falling
+    back at 0.2 m/s is driven while poses come; with the last pose 100 ms old the encoder
+    samples still get an answer, beyond it zero torque and steer (``stale_pose``).
+    """
+    ctl = controller(steer_amplitude=0.05, pose_timeout=0.1)
+    fall = lambda k: 0.3 - 0.2 * k * 1e-3                  # noqa: E731
+    out = drive(ctl, 30, x=fall)
+    assert out.ok and np.all(out.torques > 0.0)
+    for k in range(30, 130):                               # encoders only: pose of k = 29
+        out = ctl.step(k * MS, [V / R] * 4, 0.0)
+        assert out.ok, k
+    out = ctl.step(130 * MS, [V / R] * 4, 0.0)             # 101 ms after the last pose
+    assert out.reason == 'stale_pose' and np.all(out.torques == 0.0)
+    assert (out.front_steer, out.rear_steer) == (0.0, 0.0)
+    out = drive(ctl, 1, x=fall, k0=131)                    # a fresh pose: driving again
+    assert out.ok and out.front_steer == 0.05
+    with pytest.raises(ValueError, match='pose_timeout'):
+        TorqueCarConfig(pose_timeout=0.0)
+
+
 def test_nan_yaw_rate_does_not_matter_without_yaw_control():
     ctl = controller(yaw_control='off')
     out = drive(ctl, 5, r=math.nan)
