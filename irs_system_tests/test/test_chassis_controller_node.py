@@ -209,16 +209,22 @@ def test_real_time_answers_each_encoder_sample_with_the_newest_pose_and_goes_sta
     start(launch, input_sync=False, stale_timeout=0.2, **{'steer.amplitude': 0.05})
     link = ChassisLink(ros)
     now = lambda: ros.node.get_clock().now().nanoseconds  # noqa: E731
+
+    def sample(stamp_ns):
+        """The measurements 1 ms before the encoder sample: the newest, not of its stamp."""
+        link.send(stamp_ns - MS, [ROLLING] * 4, order=('pose', 'vel', 'belt'))
+        return link.step(stamp_ns, [ROLLING] * 4, order=('enc',))
+
     # an encoder sample before any pose, velocity and belt speed is not answered
     stamp = now()
     link.send(stamp, [ROLLING] * 4, order=('enc',))
     assert not ros.spin_until(lambda: link.answer(stamp) is not None, 1.0)
-    # the measurements once, then encoder samples at their own (newer) stamps; the first ones
-    # may overtake the measurements (other topics): sent until one is answered
-    link.send(now(), [ROLLING] * 4, order=('pose', 'vel', 'belt'))
+    # samples with their newest measurements; the first ones may overtake the measurements
+    # (other topics): sent until one is answered
     stamps = [now()]
     deadline = time.monotonic() + 20.0
     while True:
+        link.send(stamps[-1] - MS, [ROLLING] * 4, order=('pose', 'vel', 'belt'))
         link.send(stamps[-1], [ROLLING] * 4, order=('enc',))
         if ros.spin_until(lambda: link.answer(stamps[-1]) is not None, 0.5):
             break
@@ -226,8 +232,18 @@ def test_real_time_answers_each_encoder_sample_with_the_newest_pose_and_goes_sta
         stamps.append(now())
     for _ in range(5):
         stamps.append(now())
-        cmd = link.step(stamps[-1], [ROLLING] * 4, order=('enc',))
+        cmd = sample(stamps[-1])
         assert not any(cmd.locked)
+    assert link.steer(stamps[-1]).front_angle == 0.05
+    # the poses stop, the encoder samples go on: beyond pose_timeout (0.1 s) of the newest pose
+    # the answer is zero torque and steer, reason stale_pose; a fresh pose and it drives again
+    ros.spin_until(lambda: False, 0.3)
+    stamp = now()
+    cmd = link.step(stamp, [ROLLING] * 4, order=('enc',))
+    assert list(cmd.torque) == [0.0] * 4 and link.steer(stamp).front_angle == 0.0
+    assert ros.spin_until(lambda: link.last_status()[0] == 'stale_pose', 5.0)
+    stamps.append(now())
+    sample(stamps[-1])
     assert link.steer(stamps[-1]).front_angle == 0.05
     # silence: within the timeout a zero command and the reason STALE; the command carries the
     # last step's stamp (a rig lagging real time keeps taking the steps after it)
@@ -239,7 +255,7 @@ def test_real_time_answers_each_encoder_sample_with_the_newest_pose_and_goes_sta
     assert (link.steers[-1].front_angle, link.steers[-1].rear_angle) == (0.0, 0.0)
     # the next sample runs again
     stamp = now()
-    link.step(stamp, [ROLLING] * 4, order=('enc',))
+    sample(stamp)
     assert link.steer(stamp).front_angle == 0.05
 
 
