@@ -90,8 +90,11 @@ def run_experiment(name, runs_dir='runs', plots=True, log=print, rt_priority=0,
     exp = exp.deployed(deployment)
     result = ExperimentRunner(exp, runs_dir=runs_dir, log=log, rt_priority=rt_priority,
                               view=view, view_topics=view_topics).run()
-    log(f'[experiment] {exp.name}: {result.message}; simulated {result.sim_time:.3f} s in '
-        f'{result.wall_time:.1f} s wall; run directory {result.run_dir}')
+    ran = (f'simulated {result.sim_time:.3f} s in {result.wall_time:.1f} s wall'
+           if exp.clock == 'lockstep' else
+           f'ran {result.sim_time:.1f} s in real time ({result.wall_time:.1f} s wall with '
+           'start-up)')
+    log(f'[experiment] {exp.name}: {result.message}; {ran}; run directory {result.run_dir}')
     if plots and result.interrupted is None:
         _post_process(result, log, wait=wait_plots)
     return result

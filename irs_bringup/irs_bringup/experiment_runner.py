@@ -32,6 +32,7 @@ import yaml
 
 from irs_common import qos
 from irs_common.cli import SignalGuard, current_guard
+from irs_common.loop_timing import format_ms
 from irs_common.stamps import to_sec
 from irs_msgs.msg import RigStatus
 
@@ -91,6 +92,7 @@ class RunResult:
     cpu: dict = field(default_factory=dict)      # process label -> CPU seconds used in the run
     running_time: float = float('nan')           # wall time from rig/start to the end [s]
     interrupted: int | None = None               # the signal that stopped the run, if any
+    safe_stop: str = ''                          # real time: the rig's controlled stop, if any
 
 
 def _git_commit() -> str:
@@ -138,7 +140,9 @@ class ExperimentRunner:
     4. it follows the run (the rig's ``rig/status``, 10 Hz of simulated time, in lock-step; wall
        time in real time) with a progress line, checking every process: if one dies the run stops,
        naming the node and its last output; if the rig reports that the car left the belt, the run
-       stops too;
+       stops too; a controlled stop of the rig (real time, ``rig/status``) is logged when it
+       begins, with its time and cause, and named in the result (``RunResult.safe_stop``): the
+       run goes on to its end, car and belt at rest;
     5. on completion or a stop request every node is stopped with SIGINT (then SIGTERM/SIGKILL per
        process group, all at once: :func:`~.processes.stop_processes`), the recorder last so it
        writes everything it received; no process is left behind.
@@ -171,6 +175,7 @@ class ExperimentRunner:
         self.dt = _rig_dt(exp)
         self.phase = 'created'   # -> starting -> running -> stopping -> done (for observers)
         self.stop_signal = None  # set by request_stop: the signal number (0: asked, no signal)
+        self.safe_stop = ''      # the rig's controlled stop: 'at t = ... s: <cause>'
 
     # ------------------------------------------------------------------ processes
     def _placeholders(self, value):
@@ -339,6 +344,7 @@ class ExperimentRunner:
         clock = {'t': 0.0}
         cpu0 = {}
         running = float('nan')
+        t_start = None
         completed = False
         message = ''
         self.phase = 'starting'
@@ -382,6 +388,8 @@ class ExperimentRunner:
             completed = self._follow(watcher, clock, t_start)
             running = clock.get('done_at', time.monotonic()) - t_start
             message = 'completed' if completed else 'stopped'
+            if self.safe_stop:
+                message += f', the rig in its controlled stop since {self.safe_stop}'
         except (KeyboardInterrupt, _StopRequested):
             if self.stop_signal is None:
                 self.stop_signal = signal.SIGINT     # a KeyboardInterrupt of the caller's own
@@ -398,20 +406,24 @@ class ExperimentRunner:
             watcher.node.destroy_node()
             rclpy.try_shutdown(context=context)
             self.phase = 'done'
-        sim_time = clock['t'] if exp.clock == 'lockstep' else time.monotonic() - t_wall0
+        if t_start is not None and running != running:     # stopped while running
+            running = time.monotonic() - t_start
+        sim_time = clock['t'] if exp.clock == 'lockstep' else (
+            running if running == running else 0.0)
         timing = clock.get('timing', {})
         if timing:
             (self.run_dir / 'timing.json').write_text(json.dumps(timing, indent=1))
             self.log(
                 '[experiment] real-time loop: {steps} steps, {miss_pct:.3f} % deadline misses, '
-                'latency p50 {latency_p50_ms:.3f} / p99 {latency_p99_ms:.3f} / max '
-                '{latency_max_ms:.3f} ms, {late_ticks} late ticks'.format(**timing)
+                'latency p50 {p50} / p99 {p99} / max {latency_max_ms:.3f} ms, {late_ticks} late '
+                'ticks'.format(p50=format_ms(timing['latency_p50_ms']),
+                               p99=format_ms(timing['latency_p99_ms']), **timing)
             )
         cpu = {label: getattr(proc, 'cpu_at_stop', float('nan')) - cpu0.get(label, float('nan'))
                for label, proc in self.procs.items()}   # CPU of the run itself, start-up excluded
         return RunResult(self.run_dir, bag_dir, completed, sim_time, time.monotonic() - t_wall0,
                          codes, message, timing, cpu, running,
-                         None if completed else self.stop_signal)
+                         None if completed else self.stop_signal, self.safe_stop)
 
     def _recorder_caught_up(self, steps: int, since: float) -> bool:
         """The recorder's status counts every step's ``/clock``, and its counts of every topic
@@ -528,6 +540,12 @@ class ExperimentRunner:
             if rig is not None and not rig.car_on_belt:
                 raise ExperimentFailed(f'the car left the belt ({rig.fault_text}) at '
                                        f't = {t:.3f} s; the run is stopped')
+            if rig is not None and rig.safe_state >= RigStatus.SAFE_STOPPING \
+                    and not self.safe_stop:
+                self.safe_stop = f't = {t:.2f} s ({rig.stop_cause})'
+                self.log(('\n' if self.progress and tty else '')
+                         + f'[experiment] the rig stops car and belt under control at '
+                         f'{self.safe_stop}')
             rig_done = clock.get('complete') or (self.exp.rig() is None and t >= end)
             if rig_done or (exp.clock == 'realtime' and t >= end + 5.0):
                 if self.progress and tty:

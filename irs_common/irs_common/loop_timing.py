@@ -5,15 +5,28 @@ from publishing the arm reading stamped t_k to receiving the steering command st
 *deadline miss* is a step k+1 taken before the command answering step k arrived (the plant then
 runs one more period on the older command). Latencies go into a histogram of ``bin_s`` wide bins
 up to ``max_s`` (the last bin collects everything above), so percentiles over a run of any length
-cost O(1) memory and O(bins) to read.
+cost O(1) memory and O(bins) to read. A percentile that falls in that last bin is only known to
+be beyond ``max_s``: :func:`format_ms` writes it so (``> 50``), not as the bin's edge.
 """
 import numpy as np
+
+#: [s] the reach of the latency histogram (its last bin collects everything beyond)
+LATENCY_RANGE = 0.05
+
+
+def format_ms(value_ms: float, range_s: float = LATENCY_RANGE) -> str:
+    """A latency [ms] of :meth:`LoopTiming.summary` for a report: ``'0.271'``, or ``'> 50'``
+    when it lies beyond the histogram's reach ``range_s`` [s].
+    """
+    if value_ms >= 1e3 * range_s:
+        return f'> {1e3 * range_s:g}'
+    return f'{value_ms:.3f}'
 
 
 class LoopTiming:
     """Counts steps, misses and late ticks; keeps the latency histogram (module docstring)."""
 
-    def __init__(self, bin_s: float = 10e-6, max_s: float = 0.05):
+    def __init__(self, bin_s: float = 10e-6, max_s: float = LATENCY_RANGE):
         if not (bin_s > 0 and max_s > bin_s):
             raise ValueError(f'need 0 < bin_s < max_s, got bin_s={bin_s}, max_s={max_s}')
         self.bin_s = bin_s

@@ -237,7 +237,7 @@ def test_real_time_answers_each_encoder_sample_with_the_newest_pose_and_goes_sta
     assert link.steer(stamps[-1]).front_angle == 0.05
     # the poses stop, the encoder samples go on: beyond pose_timeout (0.1 s) of the newest pose
     # the answer is zero torque and steer, reason stale_pose; a fresh pose and it drives again
-    ros.spin_until(lambda: False, 0.3)
+    ros.spin_until(lambda: False, 0.3)      # the newest pose ages 0.3 s (spinning meanwhile)
     stamp = now()
     cmd = link.step(stamp, [ROLLING] * 4, order=('enc',))
     assert list(cmd.torque) == [0.0] * 4 and link.steer(stamp).front_angle == 0.0

@@ -5,6 +5,7 @@ import os
 import signal
 import subprocess
 import threading
+import time
 
 import numpy as np
 import pytest
@@ -87,6 +88,32 @@ def test_killing_a_node_ends_the_run_with_a_clear_message(tmp_path):
     assert "node 'arm_pose_estimator' died" in result.message
     for name, pid in pids.items():
         assert not _alive(pid), f'{name} (pid {pid}) left behind'
+
+
+def test_a_controlled_stop_of_the_rig_is_logged_once_and_named_in_the_result(tmp_path):
+    """Real time, composed: the loop's process stopped for 1.2 s (SIGSTOP) falls more than the
+    stall grace behind real time and the rig stops car and belt under control. The runner logs
+    the stop once when it begins, with its cause, and the run's result message names it.
+    """
+    exp = load_experiment('realtime_figure10_composed').with_duration(8.0)
+    logs = []
+    runner = ExperimentRunner(exp, runs_dir=tmp_path, progress=False, log=logs.append)
+    box = {}
+    thread = threading.Thread(target=lambda: box.setdefault('result', runner.run()))
+    thread.start()
+    assert wait_until(lambda: runner.phase in ('running', 'done'), 120.0)
+    assert runner.phase == 'running', 'the run must be under way when its process stops'
+    loop = runner.procs['loop']
+    os.kill(loop.pid, signal.SIGSTOP)
+    time.sleep(1.2)                  # the stimulus: the process frozen for 1.2 s
+    os.kill(loop.pid, signal.SIGCONT)
+    thread.join(120)
+    assert not thread.is_alive()
+    result = box['result']
+    assert result.completed and result.safe_stop, (result.message, logs)
+    lines = [ln for ln in logs if 'stops car and belt under control' in ln]
+    assert len(lines) == 1 and result.safe_stop in lines[0], logs
+    assert 'stall_grace' in result.safe_stop and result.safe_stop in result.message
 
 
 def test_a_dead_recorder_names_bag_recover_and_its_last_output_once(tmp_path):

@@ -26,7 +26,7 @@ from std_srvs.srv import Trigger
 
 from irs_common import qos
 from irs_common.input_checks import ThrottledWarner
-from irs_common.loop_timing import LoopTiming
+from irs_common.loop_timing import LoopTiming, format_ms
 from irs_common.msg_builder import builder
 from irs_common.node_main import run_node
 from irs_common.orientation import quaternion_from_yaw
@@ -552,7 +552,7 @@ class VehicleSimNode(Node):
         status = DiagnosticStatus(level=DiagnosticStatus.OK, name='vehicle_sim: real-time loop',
                                   hardware_id='irs_rig',
                                   message=(f"{summary['miss_pct']:.2f} % deadline misses, latency "
-                                           f"p99 {summary['latency_p99_ms']:.3f} ms"))
+                                           f"p99 {format_ms(summary['latency_p99_ms'])} ms"))
         status.values = [KeyValue(key=k, value=f'{v:.6g}' if isinstance(v, float) else str(v))
                          for k, v in summary.items()]
         array = DiagnosticArray(status=[status])
