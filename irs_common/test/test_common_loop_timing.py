@@ -1,5 +1,6 @@
 """LoopTiming (irs_common.loop_timing): misses, latency percentiles from the histogram, and a
-percentile beyond the histogram's reach written as such."""
+percentile beyond the histogram's reach written as such.
+"""
 import math
 
 from hypothesis import given, settings

@@ -69,15 +69,23 @@ def test_treadmill_regulation_keeps_the_car_on_the_belt(tmp_path):
         assert counts[topic] == len(expected), f'{topic}: {counts[topic] - len(expected)} repeated'
 
 
-def test_killing_a_node_ends_the_run_with_a_clear_message(tmp_path):
-    exp = load_experiment('figure10_mrc_with_actuator')
-    exp.duration = 60.0
-    runner = ExperimentRunner(exp, runs_dir=tmp_path, progress=False)
+def run_in_thread(exp, tmp_path, **kw):
+    """``exp``'s runner started in a thread and its run under way: ``(runner, thread, box)``,
+    ``box['result']`` its RunResult once the thread has ended.
+    """
+    runner = ExperimentRunner(exp, runs_dir=tmp_path, progress=False, **kw)
     box = {}
     thread = threading.Thread(target=lambda: box.setdefault('result', runner.run()))
     thread.start()
     assert wait_until(lambda: runner.phase in ('running', 'done'), 120.0)
-    assert runner.phase == 'running', 'the run must be under way when the node is killed'
+    assert runner.phase == 'running', 'the run must be under way'
+    return runner, thread, box
+
+
+def test_killing_a_node_ends_the_run_with_a_clear_message(tmp_path):
+    exp = load_experiment('figure10_mrc_with_actuator')
+    exp.duration = 60.0
+    runner, thread, box = run_in_thread(exp, tmp_path)
     victim = runner.procs['arm_pose_estimator']
     pids = {name: p.pid for name, p in runner.procs.items()}
     os.kill(victim.pid, signal.SIGKILL)
@@ -97,12 +105,7 @@ def test_a_controlled_stop_of_the_rig_is_logged_once_and_named_in_the_result(tmp
     """
     exp = load_experiment('realtime_figure10_composed').with_duration(8.0)
     logs = []
-    runner = ExperimentRunner(exp, runs_dir=tmp_path, progress=False, log=logs.append)
-    box = {}
-    thread = threading.Thread(target=lambda: box.setdefault('result', runner.run()))
-    thread.start()
-    assert wait_until(lambda: runner.phase in ('running', 'done'), 120.0)
-    assert runner.phase == 'running', 'the run must be under way when its process stops'
+    runner, thread, box = run_in_thread(exp, tmp_path, log=logs.append)
     loop = runner.procs['loop']
     os.kill(loop.pid, signal.SIGSTOP)
     time.sleep(1.2)                  # the stimulus: the process frozen for 1.2 s
@@ -125,12 +128,7 @@ def test_a_dead_recorder_names_bag_recover_and_its_last_output_once(tmp_path):
     exp = load_experiment('figure10_mrc_with_actuator')
     exp.duration = 60.0
     logs = []
-    runner = ExperimentRunner(exp, runs_dir=tmp_path, progress=False, log=logs.append)
-    box = {}
-    thread = threading.Thread(target=lambda: box.setdefault('result', runner.run()))
-    thread.start()
-    assert wait_until(lambda: runner.phase in ('running', 'done'), 120.0)
-    assert runner.phase == 'running', 'the run must be under way when the recorder is killed'
+    runner, thread, box = run_in_thread(exp, tmp_path, log=logs.append)
     recorder = runner.procs['recorder']
     os.kill(recorder.pid, signal.SIGKILL)
     thread.join(120)
