@@ -117,7 +117,8 @@ class EdgeGate:
             self.warner.warn(
                 'unpaired', f'{len(gone)} input set(s) dropped unanswered: {", ".join(came)} '
                 f'stamped {stamp_ns * 1e-9:.3f} s had no {", ".join(missing)} of the same stamp '
-                f'within {UNPAIRED_AFTER:g} s ({", ".join(sync.inputs)} are paired by stamp)',
+                f'within {UNPAIRED_AFTER:g} s ({", ".join(sync.inputs)} are paired by stamp: '
+                'a partner lost on the way, or a message published alone)',
                 time.monotonic())
         return len(gone)
 

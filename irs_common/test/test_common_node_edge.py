@@ -139,7 +139,8 @@ def test_edge_gate_reports_a_set_of_paired_inputs_that_never_completed(context):
     assert edge.expire_unpaired(sync, t + int(UNPAIRED_AFTER * 1e9)) == 0 and not lines
     assert edge.expire_unpaired(sync, t + int(UNPAIRED_AFTER * 1e9) + 1) == 1
     assert lines == ['1 input set(s) dropped unanswered: pose stamped 100.000 s had no velocity '
-                     'of the same stamp within 1 s (pose, velocity are paired by stamp)']
+                     'of the same stamp within 1 s (pose, velocity are paired by stamp: a '
+                     'partner lost on the way, or a message published alone)']
     assert sync.add('velocity', t + 900 * MS, 'v') == [(t + 900 * MS,
                                                         {'pose': 'young', 'velocity': 'v'})]
     node.destroy_node()
