@@ -175,7 +175,7 @@ class ExperimentRunner:
         self.dt = _rig_dt(exp)
         self.phase = 'created'   # -> starting -> running -> stopping -> done (for observers)
         self.stop_signal = None  # set by request_stop: the signal number (0: asked, no signal)
-        self.safe_stop = ''      # the rig's controlled stop: 'at t = ... s: <cause>'
+        self.safe_stop = ''      # the rig's controlled stop: 't = <s> s (<cause>)'
 
     # ------------------------------------------------------------------ processes
     def _placeholders(self, value):

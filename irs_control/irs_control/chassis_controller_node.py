@@ -62,8 +62,9 @@ class ChassisControllerNode(Node):
     speed or yaw rate (with yaw control), a newest pose more than ``pose_timeout`` older than the
     encoder sample (the estimator stopped or fell behind) -> zero torques, no wheel locked, zero
     steer, the reason on ``chassis/status`` and a throttled warning; the next valid sample runs
-    again. No encoder
-    sample for ``stale_timeout`` -> the same zero command, stamped now (STALE). Stamps follow
+    again. No encoder sample for ``stale_timeout`` -> the same zero command, stamped now
+    (STALE). A set of inputs paired by stamp (``input_sync``) that never completes is dropped
+    after 1 s with a line naming what was missing. Stamps follow
     :mod:`irs_common.stamp_gate` (future -> dropped; older -> dropped; a repeat -> the same answer
     again; more than 1 s back or ``/clock`` jumping back -> everything restarts). Published values
     are always finite.
