@@ -51,7 +51,8 @@ class LateralControllerNode(Node):
     One control step per measurement (the measurement stream sets the rate; ``dt`` must equal its
     period, 1 kHz by default). With ``reference_sync`` (lock-step runs) a measurement is answered
     only once the reference with the same stamp has arrived, so the run does not depend on DDS
-    delivery order; otherwise the latest reference is used. A NaN/inf measurement, or a measurement
+    delivery order (one whose partner never comes is dropped after 1 s with a line naming what
+    was missing); otherwise the latest reference is used. A NaN/inf measurement, or a measurement
     older than ``stale_timeout`` (checked on a timer), gives zero steer and a STALE/INVALID status;
     the controller restarts from rest when valid measurements return.
 
