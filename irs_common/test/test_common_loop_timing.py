@@ -28,7 +28,9 @@ def test_a_percentile_bounds_the_latencies_to_one_bin_or_is_beyond_the_reach(lat
     for v in lat:
         t.add_latency(v)
     p = t.percentile(q)
-    below = sum(max(v, 0.0) < p for v in lat)
+    # at or below the upper edge of the percentile's bin (a latency on an edge may fall either
+    # side of it by the rounding of latency / bin_s)
+    below = sum(max(v, 0.0) <= p * (1.0 + 1e-12) for v in lat)
     assert below >= q / 100.0 * len(lat) - 1e-9 or p > LATENCY_RANGE
     text = format_ms(1e3 * p)
     assert text == '> 50' if p > LATENCY_RANGE else float(text) == round(1e3 * p, 3)
