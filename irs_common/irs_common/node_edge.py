@@ -22,10 +22,9 @@ from .time_jump import on_time_jump_back
 
 __all__ = ['EdgeGate', 'StaleTimer', 'UNPAIRED_AFTER']
 
-#: [s] of node time an incomplete set of paired inputs waits before it is dropped and reported
+#: [s] of wall time an incomplete set of paired inputs waits before it is dropped and reported
 #: (:meth:`EdgeGate.expire_unpaired`): far beyond a lock-step step or a real-time delivery.
 UNPAIRED_AFTER = 1.0
-UNPAIRED_AFTER_NS = int(UNPAIRED_AFTER * 1e9)
 
 
 class EdgeGate:
@@ -45,7 +44,7 @@ class EdgeGate:
     """
 
     __slots__ = ('gate', 'warner', 'dropped', 'time_resets', 'step_name', '_reset',
-                 '_drop_step', '_time_reset', 'jump_handle', 'start')
+                 '_drop_step', '_time_reset', 'jump_handle', 'start', '_unpaired_at')
 
     def __init__(self, node, future_tolerance: float, step_name: str, reset,
                  warner: ThrottledWarner | None = None):
@@ -60,6 +59,7 @@ class EdgeGate:
         self._time_reset = self._on_time_reset
         self.jump_handle = on_time_jump_back(node, lambda _delta: self.clear_time())
         self.start = StartGate(node)    # lock-step: the first step waits for the consumers
+        self._unpaired_at = None         # monotonic time of the last expire_unpaired
 
     @property
     def future_tolerance_ns(self) -> int:
@@ -99,18 +99,22 @@ class EdgeGate:
         self.warner.warn(f'{what}-{verdict}', f'{what}: {gate.reason(verdict, stamp_ns, now_ns)}',
                          time.monotonic())
 
-    def expire_unpaired(self, sync, now_ns: int) -> int:
-        """Take out of ``sync`` (:class:`~irs_common.stamp_sync.StampSync`) the sets that waited
-        more than :data:`UNPAIRED_AFTER` s of node time for an input of their stamp, and warn
-        (throttled) naming what came and what did not; returns how many were taken out.
+    def expire_unpaired(self, sync, now: float | None = None) -> int:
+        """Take out of ``sync`` (:class:`~irs_common.stamp_sync.StampSync`) the sets that have
+        waited 1-2 s (:data:`UNPAIRED_AFTER`, by arrival on the monotonic clock ``now``, so any
+        stamps qualify) for an input of their stamp, and warn (throttled) naming what came and
+        what did not; returns how many were taken out.
 
         A message published alone, such as one input of a pair by ``ros2 topic pub``, or an
         input lost on the way, is then answered by a log line rather than by silence. The
-        node's stale timer calls it; a clock at 0 (no ``/clock`` yet) judges nothing.
+        node's stale timer calls it as often as it likes; it acts once per ``UNPAIRED_AFTER``.
         """
-        if not now_ns:
+        now = time.monotonic() if now is None else now
+        last = self._unpaired_at
+        if last is not None and now - last < UNPAIRED_AFTER:
             return 0
-        gone = sync.expire(now_ns - UNPAIRED_AFTER_NS)
+        self._unpaired_at = now
+        gone = sync.expire()
         if gone:
             stamp_ns, missing = gone[-1]
             came = [n for n in sync.inputs if n not in missing]
@@ -118,8 +122,7 @@ class EdgeGate:
                 'unpaired', f'{len(gone)} input set(s) dropped unanswered: {", ".join(came)} '
                 f'stamped {stamp_ns * 1e-9:.3f} s had no {", ".join(missing)} of the same stamp '
                 f'within {UNPAIRED_AFTER:g} s ({", ".join(sync.inputs)} are paired by stamp: '
-                'a partner lost on the way, or a message published alone)',
-                time.monotonic())
+                'a partner lost on the way, or a message published alone)', now)
         return len(gone)
 
     def own_command_stamp(self, now_msg):

@@ -30,6 +30,7 @@ class StampSync:
     dropped: int = 0
     expired: int = 0
     _pending: dict = field(default_factory=dict)
+    _marked: set = field(default_factory=set)
 
     def __post_init__(self):
         self.inputs = tuple(self.inputs)
@@ -58,15 +59,17 @@ class StampSync:
             self.dropped += 1
         return []
 
-    def expire(self, before_ns: int) -> list:
-        """Remove the incomplete sets stamped before ``before_ns``; return ``(stamp_ns,
-        missing)`` of each, oldest first, ``missing`` the names of the inputs that never came
-        for that stamp. Counted in ``expired``.
+    def expire(self) -> list:
+        """Remove the incomplete sets that were already waiting at the previous call; return
+        ``(stamp_ns, missing)`` of each, oldest first, ``missing`` the names of the inputs that
+        never came for that stamp. Counted in ``expired``. Called every T s, it drops the sets
+        that waited between T and 2 T, whatever time base their stamps are in.
         """
-        old = sorted(s for s in self._pending if s < before_ns)
+        old = sorted(s for s in self._marked if s in self._pending)
         gone = []
         for s in old:
             vals = self._pending.pop(s)
             gone.append((s, tuple(n for n in self.inputs if n not in vals)))
         self.expired += len(gone)
+        self._marked = set(self._pending)
         return gone

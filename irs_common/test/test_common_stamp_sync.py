@@ -46,13 +46,15 @@ def test_releases_what_a_full_scan_of_the_waiting_sets_would(arrivals):
         assert sync.add(name, stamp, (name, stamp)) == expected
 
 
-def test_expire_takes_out_the_sets_that_never_completed_and_names_what_was_missing():
+def test_expire_takes_out_the_sets_that_waited_since_the_last_call_and_names_what_was_missing():
     sync = StampSync(('pose', 'velocity', 'belt'))
     sync.add('pose', 1, 'p1')                       # alone
     sync.add('pose', 2, 'p2')
     sync.add('belt', 2, 'b2')                       # velocity lost
-    sync.add('velocity', 5, 'v5')                   # newer: still waiting
-    assert sync.expire(5) == [(1, ('velocity', 'belt')), (2, ('velocity',))]
-    assert sync.expired == 2 and sync.expire(5) == []
+    assert sync.expire() == []                      # first call: they have not waited yet
+    sync.add('velocity', 5, 'v5')                   # arrived after that call: still waits
+    assert sync.expire() == [(1, ('velocity', 'belt')), (2, ('velocity',))]
+    assert sync.expired == 2
     assert sync.add('pose', 5, 'p5') == [] and sync.add('belt', 5, 'b5') == [
         (5, {'velocity': 'v5', 'pose': 'p5', 'belt': 'b5'})]
+    assert sync.expire() == []

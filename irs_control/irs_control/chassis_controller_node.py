@@ -211,7 +211,7 @@ class ChassisControllerNode(Node):
     def _check_stale(self):
         now = self.get_clock().now()
         if self.sync is not None:
-            self.edge.expire_unpaired(self.sync, now.nanoseconds)
+            self.edge.expire_unpaired(self.sync)
         if self.last_enc_time is None or self.reason == STALE:
             return
         age = (now - self.last_enc_time).nanoseconds * 1e-9

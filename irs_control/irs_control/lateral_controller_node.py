@@ -213,7 +213,7 @@ class LateralControllerNode(Node):
 
     def _check_stale(self):
         if self.sync is not None:
-            self.edge.expire_unpaired(self.sync, clock_now_ns(self.get_clock()))
+            self.edge.expire_unpaired(self.sync)
         if self.state != LateralControllerStatus.STATE_RUNNING or self.last_meas_time is None:
             return
         now = self.get_clock().now()

@@ -69,7 +69,7 @@ class TreadmillRegulatorNode(Node):
     - the node clock jumping back (``/clock`` of ``bag play --loop --clock``) restarts the same
       time state;
     - a pose whose velocity of the same stamp never comes (a pose published alone) is not
-      answered: after 1 s of node time it is dropped and reported
+      answered: after waiting 1-2 s (by arrival) it is dropped and reported
       (:meth:`~irs_common.node_edge.EdgeGate.expire_unpaired`).
 
     Writable parameters (``ros2 param set``, applied at once): ``enabled`` (false: 0 V, belt
@@ -239,7 +239,7 @@ class TreadmillRegulatorNode(Node):
         clock, and its poses are not stale).
         """
         now = self.get_clock().now()
-        self.edge.expire_unpaired(self.sync, now.nanoseconds)
+        self.edge.expire_unpaired(self.sync)
         if self.safety.faulted or self.pose_arrived_ns is None:
             return
         if self.safety.check_age((now.nanoseconds - self.pose_arrived_ns) * 1e-9):
