@@ -279,6 +279,14 @@ class ExperimentRunner:
             codes.update(stop_processes([self.procs['recorder']], RECORDER_GRACE))
         if self.devices:
             codes.update(stop_processes(list(self.devices.values()), NODE_GRACE))
+        for label, proc in [*self.procs.items(), *self.devices.items()]:
+            if proc.escalated_to:
+                grace = RECORDER_GRACE if label == 'recorder' else NODE_GRACE
+                where = (f'; it was asked for its Python stacks (SIGUSR1) before that, see '
+                         f'the end of {proc.log_path}' if proc.stacks_dumped else
+                         f'; its log: {proc.log_path}')
+                self.log(f'[experiment] {label} did not stop within {grace:g} s of SIGINT: '
+                         f'ended by {proc.escalated_to} (exit code {codes.get(label)}){where}')
         return codes
 
     def scheduling_report(self) -> str:

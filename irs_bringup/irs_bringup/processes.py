@@ -4,7 +4,9 @@ Each node runs as its own process in its own session (process group), with its o
 log file (a pipe could fill up and block a 1 kHz node), and is set to receive SIGTERM should the
 starting process die without stopping it. Stopping sends SIGINT (what Ctrl-C in
 ``ros2 run`` sends), then SIGTERM, then SIGKILL to the whole group, each after a timeout, so no
-child survives; :func:`stop_processes` does it for many at once, with one deadline for all. A
+child survives; :func:`stop_processes` does it for many at once, with one deadline for all.
+Before the SIGTERM a process that catches SIGUSR1 (every IRS node: ``run_node`` prints the Python
+stack of each thread on it) gets SIGUSR1, so its log shows where it was waiting. A
 process that does not handle SIGTERM yet (still starting: the interpreter and its imports, before
 ``run_node`` installs its handlers; read from ``/proc/<pid>/status``) gets SIGTERM instead of
 SIGINT: the default action ends it at once and silently, where SIGINT would print Python's
@@ -97,6 +99,8 @@ class NodeProcess:
         self.log_path = Path(log_dir) / f'{self.label}.log'
         self.log_path.parent.mkdir(parents=True, exist_ok=True)
         self.cmd = spec.command(overrides_file=Path(log_dir) / f'{self.label}.params.yaml')
+        self.escalated_to = None    # 'SIGTERM' or 'SIGKILL' if the last stop needed it
+        self.stacks_dumped = False  # the process printed its stacks before that (SIGUSR1)
         self._log = open(self.log_path, 'wb')
         self.popen = subprocess.Popen(self.cmd, stdout=self._log, stderr=subprocess.STDOUT,
                                       stdin=subprocess.DEVNULL, env=env, start_new_session=True,
@@ -153,13 +157,18 @@ class NodeProcess:
 
 
 def handles_sigterm(pid: int) -> bool:
-    """Whether ``pid`` has a handler for SIGTERM (``SigCgt`` of ``/proc/<pid>/status``): an IRS
-    process installs one (``run_node``, ``irs_common.cli``) once it is past its imports.
+    """Whether ``pid`` has a handler for SIGTERM: an IRS process installs one (``run_node``,
+    ``irs_common.cli``) once it is past its imports.
     """
+    return catches_signal(pid, signal.SIGTERM)
+
+
+def catches_signal(pid: int, sig: int) -> bool:
+    """Whether ``pid`` has a handler for ``sig`` (``SigCgt`` of ``/proc/<pid>/status``)."""
     try:
         for line in Path(f'/proc/{pid}/status').read_text().splitlines():
             if line.startswith('SigCgt:'):
-                return bool(int(line.split()[1], 16) >> (signal.SIGTERM - 1) & 1)
+                return bool(int(line.split()[1], 16) >> (sig - 1) & 1)
     except (OSError, ValueError):
         pass
     return False
@@ -173,6 +182,7 @@ def stop_processes(procs, grace: float = 5.0, term_grace: float = 2.0) -> dict:
     """
     procs = list(procs)
     for p in procs:
+        p.escalated_to, p.stacks_dumped = None, False
         if p.popen.poll() is None:
             p.interrupt()
         else:
@@ -187,9 +197,29 @@ def stop_processes(procs, grace: float = 5.0, term_grace: float = 2.0) -> dict:
         left = [p for p in procs if p.popen.poll() is None]
         if not left or sig is None:
             break
+        if sig == signal.SIGTERM and _dump_stacks(left):
+            time.sleep(STACK_DUMP_WAIT)
         for p in left:
+            p.escalated_to = signal.Signals(sig).name
             p.signal_group(sig)
     return {p.label: p.finish() for p in procs}
+
+
+#: Seconds given to the processes' stack dumps (SIGUSR1) before the SIGTERM.
+STACK_DUMP_WAIT = 0.2
+
+
+def _dump_stacks(procs) -> bool:
+    """SIGUSR1 to each process of ``procs`` that catches it (module docstring); whether any did."""
+    sent = False
+    for p in procs:
+        if catches_signal(p.popen.pid, signal.SIGUSR1):
+            try:
+                os.kill(p.popen.pid, signal.SIGUSR1)
+                sent = p.stacks_dumped = True
+            except (ProcessLookupError, PermissionError):
+                pass
+    return sent
 
 
 def kill_processes(procs) -> None:

@@ -14,12 +14,18 @@ out of range), and an ``RCLError`` from a bad ``--ros-args`` or ``--params-file`
 gives a parameter another type are start-up errors too
 (:func:`irs_common.params.params_file_problems`).
 
-Signals end the process with exit code 0. The environment switches on real-time priority
-(``IRS_RT_PRIORITY``), allocation tracing (``IRS_MEMTRACE``) and profiling (``IRS_PROFILE``):
-:func:`run_nodes`. It exists so that every executable starts, fails and stops the same way.
+Signals end the process with exit code 0. SIGUSR1 prints the Python stack of every thread to
+stderr (:mod:`faulthandler`, which works while the main thread is blocked in C) and the node
+goes on: ``kill -USR1 <pid>`` shows where a node that does not stop is waiting, and the
+experiment runner sends it before escalating to SIGTERM. The environment switches on real-time
+priority (``IRS_RT_PRIORITY``), allocation tracing (``IRS_MEMTRACE``) and profiling
+(``IRS_PROFILE``): :func:`run_nodes`. It exists so that every executable starts, fails and
+stops the same way.
 """
+import faulthandler
 import gc
 import os
+import signal
 import sys
 
 import rclpy
@@ -97,6 +103,7 @@ def run_nodes(factories, args=None, guard=None) -> int:
     """
     own_guard = guard is None
     guard = _take_guard(guard)
+    register_stack_dump()
     rt_note = set_realtime_priority()
     nodes = []
     executor = None
@@ -149,6 +156,17 @@ def run_nodes(factories, args=None, guard=None) -> int:
         if own_guard and args is not None:
             _release_guard(guard)   # called in-process; as the process's main the guard stays
     return 0
+
+
+def register_stack_dump(sig: int = signal.SIGUSR1) -> None:
+    """On ``sig``, print the Python stack of every thread to stderr and go on (module docstring).
+    The dump is written from the C signal handler, so it shows a main thread stuck in a C call
+    (rcl, DDS) too, where a Python handler would never run.
+    """
+    try:
+        faulthandler.register(sig, file=sys.stderr, all_threads=True, chain=False)
+    except (AttributeError, ValueError, RuntimeError, OSError):
+        pass    # no usable stderr (closed, or not a file): no dump, the node runs as before
 
 
 def _take_guard(guard: SignalGuard | None) -> SignalGuard:

@@ -177,7 +177,7 @@ class VehicleSimNode(Node):
         self.received_at = {}
         self.stale_inputs = set()
         self.sync = StampSync(self.required) if self.required else None
-        self.resends = 0
+        self.resends = {}           # lock-step: step -> times its outputs were published again
         tolerance_ns = int(round(self.p['future_tolerance'] * 1e9))
         self.gates = {name: StampGate(tolerance_ns) for name in self.inputs}   # real time
         self.resets = 0
@@ -522,7 +522,7 @@ class VehicleSimNode(Node):
         if self._done():
             return
         if time.monotonic() - self.last_progress > self.p['lockstep_resend_period']:
-            self.resends += 1
+            self.resends[self.sim.k] = self.resends.get(self.sim.k, 0) + 1
             self.warner.warn(
                 'resend', f'lock-step: no commands for t = {self._stamp_ns() * 1e-9:.3f} s from '
                 f'{list(self.required)} for {self.p["lockstep_resend_period"]} s; '
@@ -564,7 +564,8 @@ class VehicleSimNode(Node):
     def _complete(self):
         if not self.run_complete:
             self.run_complete = True
-            self.get_logger().info(f'run complete: {self.sim.k} steps ({self.sim.time:.3f} s)')
+            self.get_logger().info(f'run complete: {self.sim.k} steps ({self.sim.time:.3f} s)'
+                                   + resends_text(self.resends))
             if self.pub_timing is not None:
                 self._publish_timing()
             self._publish_status(self.sim.outputs, from_ns(self._stamp_ns()))
@@ -662,6 +663,19 @@ def tyre_state_msg(stamp, frame: str, truth) -> TyreState:
               for key in ('slip', 'slip_angle', 'fx', 'fy', 'fz', 'mu', 'omega')}
     return _TYRE_STATE(header=_HEADER(stamp=stamp, frame_id=frame), x_belt=float(truth.x_belt),
                        u=float(truth.u), **arrays)
+
+
+def resends_text(resends: dict, most: int = 10) -> str:
+    """The part of the ``run complete`` line that names the lock-step steps whose outputs were
+    published again, ``{step: times}`` ('' for none), at most ``most`` steps named:
+    ``; outputs re-sent while no commands came (step: times) 0: 3, 540: 4``.
+    """
+    if not resends:
+        return ''
+    steps = sorted(resends)
+    more = f' and {len(steps) - most} more steps' if len(steps) > most else ''
+    return ('; outputs re-sent while no commands came (step: times) '
+            + ', '.join(f'{k}: {resends[k]}' for k in steps[:most]) + more)
 
 
 def main(args=None):
