@@ -71,10 +71,11 @@ demo: $(BUILD_STAMP)
 	./irs run irs_studies figure10
 
 # Two pytest-xdist workers (each with its own ROS domain), a test module per worker at a time (its
-# module fixtures run once); tests marked `exclusive` run alone (conftest.py).
+# module fixtures run once); tests marked `exclusive` run alone (conftest.py). The 25 slowest
+# tests are listed at the end (--durations).
 TEST_WORKERS ?= 2
 test: $(BUILD_STAMP)
-	./irs exec python -m pytest -n $(TEST_WORKERS) --dist loadscope
+	./irs exec python -m pytest -n $(TEST_WORKERS) --dist loadscope --durations=25
 
 # The paper's Figures 5-10 through the graph: experiments, identification, PNGs in docs/img.
 # ONLY='treadmill vehicle' runs those parts only (make reads --options itself: hence a variable).
