@@ -1,9 +1,12 @@
 """``rig/reset`` (std_srvs/Trigger) on vehicle_sim: after the car left the belt, it is put back.
 
-Real time, no controller: a full steering command drives the car off the belt edge within about
-a second; the rig latches ``off_belt`` on ``rig/status``. ``rig/reset`` puts the car back at its
-start pose (time runs on) and the rig reports ``car_on_belt`` again, with the ground truth back at
-the start pose.
+Real time, no controller: the rig holds the car at its start pose until the test's first
+steering command (``start_inputs: [steering]``: however long discovery takes, the car is on the
+belt when the test looks; released, it leaves the belt at the front within about 3 s even
+straight ahead, with no regulator), a full steering command drives the car off the belt within
+about a second; the rig latches ``off_belt`` on ``rig/status``. ``rig/reset`` puts the car back
+at its start pose (time runs on) and the rig reports ``car_on_belt`` again, with the ground truth
+back at the start pose.
 """
 from nav_msgs.msg import Odometry
 from std_srvs.srv import Trigger
@@ -16,8 +19,9 @@ from irs_vehicle_sim.rig import RigConfig
 
 def test_rig_reset_puts_the_car_back_on_the_belt(ros, launch):
     proc = launch(NodeSpec('irs_vehicle_sim', 'vehicle_sim',
-                           params={'clock_mode': 'realtime', 'dt': 0.002, 'start_inputs': [''],
-                                   'command_timeout': 60.0, 'status_period': 0.05}))
+                           params={'clock_mode': 'realtime', 'dt': 0.002,
+                                   'start_inputs': ['steering'], 'command_timeout': 60.0,
+                                   'status_period': 0.05}))
     node = ros.node
     status, odom = [], []
     pub = node.create_publisher(SteeringCommand, 'steering/command', qos.COMMAND)
@@ -34,7 +38,7 @@ def test_rig_reset_puts_the_car_back_on_the_belt(ros, launch):
         cmd.front_angle = angle
         pub.publish(cmd)
 
-    # full left steer: off the belt
+    # full left steer, the first command (it releases the car): off the belt
     steer(0.26)
     assert ros.spin_until(lambda: not status[-1].car_on_belt, 20.0), status[-1]
     assert status[-1].fault_text.startswith('off_belt')

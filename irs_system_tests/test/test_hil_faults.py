@@ -9,7 +9,8 @@ timeout 20 ms, board watchdog 25 ms), but ``command_timeout``: no controller run
 one steering command the test sends stays in force.
 
 Bounds [s] from the injection, the sum of the mechanism's own times plus ``SLACK`` (10 ms)
-for scheduling:
+for scheduling, plus any stall of the machine inside the window as the board's own sampler
+measured it (the intervals it missed there; 0 on a machine that does not stall):
 - board killed: the pty hangs up (a read error) or, first, the link timeout (20 ms, checked
   after each read wait of at most 5 ms) latches, and the drive's set-point 0 follows in one
   Modbus request (timeout 50 ms): latched 0.025 + SLACK, drive at 0 V 0.075 + SLACK;
@@ -54,6 +55,8 @@ from irs_hardware.emulator.wire import DRIVE_VOLTAGE, DRIVE_ZERO_AT, Wire
 from irs_msgs.msg import RigStatus, SteeringCommand, TreadmillDriveCommand
 
 SLACK = 0.01
+#: The emulated board's sampling interval [s] (``config/rig.yaml``'s dt).
+BOARD_INTERVAL = 0.001
 #: A message from this test's process (normal priority, a loaded machine) reaches the node
 #: within this [s]: DDS delivery, not the rig's fault handling.
 DELIVERY = 0.1
@@ -150,6 +153,14 @@ class Hil:
         except (OSError, ValueError):
             return {}
 
+    def stalled(self, t_from: float, t_to: float) -> float:
+        """Time [s] the board's sampler missed between ``t_from`` and ``t_to``
+        (``time.monotonic``): its late wake-ups in that window (``recent_misses`` of its status)
+        times its interval. 0 for a board that is gone (its last status lists none since).
+        """
+        return BOARD_INTERVAL * sum(n for t, n in self.board_state().get('recent_misses', [])
+                                    if t_from <= t <= t_to)
+
     def fault(self) -> str:
         return self.status[-1].fault_text if self.status else ''
 
@@ -171,7 +182,11 @@ class Hil:
                 and abs(b['pulse_us'] - self.centre) <= 0.5)
 
     def check(self, fault, t0):
-        """Latched and safe within the fault's bounds, and still so 0.3 s later."""
+        """Latched and safe within the fault's bounds, and still so 0.3 s later. A stall of the
+        machine inside a bound's window (this VM stalls every process for 2-12 ms now and then,
+        docs/performance.md) extends that bound by the time it lasted, as the board's sampler
+        measured it: the intervals it missed (:meth:`stalled`).
+        """
         words, latch_bound, safe_bound, safe_from, where = BOUNDS[fault]
         board = where == 'board'
 
@@ -188,11 +203,15 @@ class Hil:
         safe = (self.board_state()['safe_at'] if board else self.wire.get(DRIVE_ZERO_AT)) - t0
         if safe_from == 'latch':
             safe -= latch
+        self.ros.spin_until(lambda: False, 0.3)   # the board's status is 50 ms old at most
+        safe_t0 = t0 + latch if safe_from == 'latch' else t0
+        latch_stall = self.stalled(t0, t0 + latch)
+        safe_stall = self.stalled(safe_t0, safe_t0 + safe)
         print(f'{fault}: latched after {1e3 * latch:.1f} ms, safe ({where}) after '
-              f'{1e3 * safe:.1f} ms (from the {safe_from})')
-        assert 0.0 <= latch <= latch_bound, f'{fault}: latched after {latch:.4f} s'
-        assert 0.0 <= safe <= safe_bound, f'{fault}: safe after {safe:.4f} s'
-        self.ros.spin_until(lambda: False, 0.3)
+              f'{1e3 * safe:.1f} ms (from the {safe_from}); the board sampler stalled '
+              f'{1e3 * latch_stall:.0f} / {1e3 * safe_stall:.0f} ms within them')
+        assert 0.0 <= latch <= latch_bound + latch_stall, f'{fault}: latched after {latch:.4f} s'
+        assert 0.0 <= safe <= safe_bound + safe_stall, f'{fault}: safe after {safe:.4f} s'
         assert latched(), self.fault()
         assert self.status[-1].safe_state == RigStatus.SAFE_STOPPED \
             and self.status[-1].stop_cause == self.fault(), self.status[-1]

@@ -17,7 +17,8 @@ cable cut for S seconds: nothing in or out), ``jig X Y PSI`` / ``jig off`` (the 
 calibration jig at that pose [m, m, rad]) and ``stop``; ``--status`` is rewritten every 50 ms
 with the board's state as JSON (servo pulse, enable line, the torque car's motor commands,
 ``safe_at``: the ``time.monotonic()`` the outputs last turned safe, watchdog, counts, loop
-misses, ADC-sample-to-servo latency and deadline misses). With ``-p plant=two_track`` the board
+misses (``recent_misses``: the latest late wake-ups as ``[time, intervals missed]``),
+ADC-sample-to-servo latency and deadline misses). With ``-p plant=two_track`` the board
 has the torque car's 4 wheel counters and motor outputs.
 ``--driver`` is the car's speed profile ``t:v,...`` [s:m/s], held between breakpoints.
 """
@@ -210,6 +211,10 @@ def main(argv=None) -> int:
     return 0
 
 
+#: How many of the sampler's latest late wake-ups the status lists (``recent_misses``).
+RECENT_MISSES = 64
+
+
 @dataclass
 class BoardLoop:
     """The emulator's event loop: the pty, the control socket, the sampler's ticks."""
@@ -221,6 +226,8 @@ class BoardLoop:
     running: bool = True
     silent_until: float = 0.0
     misses: int = 0
+    #: the latest late wake-ups of the sampler: (time.monotonic(), intervals missed)
+    recent_misses: deque = field(default_factory=lambda: deque(maxlen=RECENT_MISSES))
     ticks: int = 0
     next_tick: float | None = None
     next_status: float = 0.0
@@ -312,6 +319,7 @@ class BoardLoop:
         late = int((now - self.next_tick) / interval)
         if late:
             self.misses += late
+            self.recent_misses.append((now, late))
             board.timing.late_ticks += late
             self.next_tick += late * interval   # the sampler skips what it missed
         self.ticks += 1
@@ -329,7 +337,8 @@ class BoardLoop:
                'commands': s.commands, 'bad_host_frames': s.bad_host_frames,
                'dropped': s.dropped, 'garbled': s.garbled, 'watchdog_trips': s.watchdog_trips,
                'link_dropped': self.link.dropped,
-               'loop_misses': self.misses, 'loop_ticks': self.ticks, 'time': board.sim.time,
+               'loop_misses': self.misses, 'recent_misses': list(self.recent_misses),
+               'loop_ticks': self.ticks, 'time': board.sim.time,
                'belt_speed': board.sim.outputs.belt_speed,
                'belt_position': board.sim.belt.position,
                'belt_count': int(board.sim.belt.encoder.count), 'y_s': board.sim.outputs.y_s,
