@@ -359,7 +359,9 @@ def flood_a_frozen_recorder(ros, launch, bag, topic, pub_qos, frozen, **rec_para
     # every message after the warm-up is either recorded or counted as dropped
     assert ros.spin_until(
         lambda: status.last is not None and status.count(topic)
-        + status.last['dropped'].get(topic, 0) >= total - first_kept, 60.0), status.last
+        + status.last['dropped'].get(topic, 0) >= total - first_kept, 60.0), \
+        (f'{status.last}; published {total}, from {first_kept} on; the publisher matched '
+         f'{pub.get_subscription_count()} subscription(s)\nrecorder: {rec.tail(30)}')
     assert rec.stop(timeout=15.0) == 0, rec.tail()
     with BagReader(bag) as r:
         values = [m.data for _, m in r.decoded([topic])]
