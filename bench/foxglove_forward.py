@@ -42,8 +42,8 @@ def main() -> int:
     with socket.socket() as s:
         s.bind(('127.0.0.1', 0))
         port = s.getsockname()[1]
-    bridge = FoxgloveBridge(f'ws://127.0.0.1:{port}')
-    bridge.add_topic('/ground_truth/odom', 'nav_msgs/msg/Odometry')
+    bridge = FoxgloveBridge(f'ws://127.0.0.1:{port}',
+                            {'/ground_truth/odom': 'nav_msgs/msg/Odometry'})
     rows = {'bytes': len(data), 'no_client_us': _forward(bridge, data, args.messages)}
     client = Client(f'ws://127.0.0.1:{port}')
     client.wait(lambda: bool(client.channels), 'advertisement')

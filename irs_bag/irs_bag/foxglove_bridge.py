@@ -12,7 +12,7 @@ to a channel nobody subscribes to costs a few microseconds. No rclpy here:
 """
 from __future__ import annotations
 
-from typing import Dict, Tuple
+from typing import Dict, Mapping, Tuple
 from urllib.parse import urlsplit
 
 from .msg_definitions import get_message_definition
@@ -39,38 +39,47 @@ def parse_ws_url(url: str) -> Tuple[str, int]:
 
 
 class FoxgloveBridge:
-    """A Foxglove WebSocket server and one ``cdr`` channel per forwarded ROS topic."""
+    """A Foxglove WebSocket server with one ``cdr`` channel per forwarded ROS topic.
 
-    def __init__(self, url: str, name: str = 'irs'):
+    The channels are made before the server starts and stay for its life: a client that
+    connects gets them all in its first ``advertise``. (foxglove-sdk 0.30 races a channel added
+    while a client connects: the client may get the channel advertised but have its
+    ``subscribe`` refused as "unknown channel", and then receives nothing on it.)
+
+    Parameters
+    ----------
+    url
+        ``ws://host:port`` to listen on (port 0: any free port, see :attr:`port`).
+    topics
+        ROS topic -> its type, ``pkg/msg/Type``.
+    name
+        The server's name in ``serverInfo``.
+
+    Raises
+    ------
+    ValueError
+        ``url`` is not ``ws://host:port``.
+    irs_bag.msg_definitions.MessageDefinitionError
+        A type's ``.msg`` definition is not installed.
+    """
+
+    def __init__(self, url: str, topics: Mapping[str, str], name: str = 'irs'):
         import foxglove
-        self._foxglove = foxglove
         host, port = parse_ws_url(url)
         self.context = foxglove.Context()      # its own channels, not the global context's
+        self.channels: Dict[str, object] = {}
+        for topic, type_name in topics.items():
+            schema = foxglove.Schema(name=type_name, encoding='ros2msg',
+                                     data=get_message_definition(type_name).encode())
+            self.channels[topic] = foxglove.Channel(topic, message_encoding='cdr',
+                                                    schema=schema, context=self.context)
         self.server = foxglove.start_server(name=name, host=host, port=port,
                                             context=self.context)
-        self.channels: Dict[str, object] = {}
 
     @property
     def port(self) -> int:
         """The port the server listens on (the one asked for, or the free one it took)."""
         return int(self.server.port)
-
-    def add_topic(self, topic: str, type_name: str):
-        """The channel of ``topic`` (``type_name``: ``pkg/msg/Type``), created once.
-
-        Raises
-        ------
-        irs_bag.msg_definitions.MessageDefinitionError
-            The type's ``.msg`` definition is not installed.
-        """
-        channel = self.channels.get(topic)
-        if channel is None:
-            f = self._foxglove
-            schema = f.Schema(name=type_name, encoding='ros2msg',
-                              data=get_message_definition(type_name).encode())
-            channel = self.channels[topic] = f.Channel(topic, message_encoding='cdr',
-                                                       schema=schema, context=self.context)
-        return channel
 
     def forward(self, topic: str, data: bytes, log_time_ns: int) -> None:
         """Send one serialized message of ``topic`` (CDR as taken) stamped ``log_time_ns``."""

@@ -92,23 +92,23 @@ class LiveViewNode(Node):
                 self.rec = open_stream(info, url=self.p['url'], save=self.p['save'])
             except (OSError, RuntimeError, ValueError) as exc:
                 raise ValueError(f'cannot open the rerun stream {rerun_to} ({exc})') from None
-        if self.p['foxglove']:
-            self.bridge = _open_bridge(self.p['foxglove'], self.p['run_name'])
+        chosen = {suffix: msg_type for suffix, msg_type in _types().items()
+                  if suffix in self.p['topics']}
+        if self.p['foxglove']:      # before the subscriptions: up when the graph sees the view
+            self.bridge = _open_bridge(
+                self.p['foxglove'], self.p['run_name'],
+                {self.resolve_topic_name(suffix): _type_name(msg_type)
+                 for suffix, msg_type in chosen.items()})
         qos = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=int(self.p['qos_depth']),
                          reliability=ReliabilityPolicy.BEST_EFFORT,
                          durability=DurabilityPolicy.VOLATILE)
         self.feeds = []
-        for suffix, msg_type in _types().items():
-            if suffix not in self.p['topics']:
-                continue
+        for suffix, msg_type in chosen.items():
             check_is_valid_msg_type(msg_type)
             with self.handle:
                 handle = _rclpy.Subscription(self.handle, msg_type, suffix,
                                              qos.get_c_qos_profile())
-            feed = _Feed(suffix, msg_type, handle)
-            if self.bridge is not None:
-                self.bridge.add_topic(feed.topic, _type_name(msg_type))
-            self.feeds.append(feed)
+            self.feeds.append(_Feed(suffix, msg_type, handle))
         self.rows = {}                       # rows sent per entity so far
         self.forwarded = 0                   # messages sent to Foxglove's channels
         self.create_timer(self.p['period'], self.tick)
@@ -173,15 +173,17 @@ def _ws_host(url: str) -> str:
     return parse_ws_url(url)[0]
 
 
-def _open_bridge(url: str, name: str):
-    """The Foxglove server at ``url``; a one-line ValueError if it cannot be had."""
+def _open_bridge(url: str, name: str, topics: dict):
+    """The Foxglove server at ``url`` with a channel per topic (full name -> ``pkg/msg/Type``);
+    a one-line ValueError if it cannot be had.
+    """
     try:
         from .foxglove_bridge import FoxgloveBridge
-        return FoxgloveBridge(url, name=name)
+        return FoxgloveBridge(url, topics, name=name)
     except ImportError as exc:
         raise ValueError(f'foxglove-sdk is not installed ({exc}); see env/requirements.txt') \
             from None
-    except (OSError, RuntimeError, ValueError) as exc:
+    except (OSError, RuntimeError, ValueError, LookupError) as exc:
         raise ValueError(f'cannot start the Foxglove server at {url} '
                          f'({" ".join(str(exc).split())})') from None
 

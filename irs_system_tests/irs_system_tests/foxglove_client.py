@@ -28,6 +28,7 @@ class Client:
     def __init__(self, url: str):
         self.url = url
         self.channels = {}            # channel id -> advertised channel (JSON object)
+        self.advertised = []          # the channel ids of each 'advertise', in order
         self.server_info = None
         self.subprotocol = None
         self.messages = []            # (topic, receive time [ns], payload bytes)
@@ -87,6 +88,7 @@ class Client:
                     self.server_info = msg
                 elif msg['op'] == 'advertise':
                     new = []
+                    self.advertised.append([ch['id'] for ch in msg['channels']])
                     for ch in msg['channels']:
                         self.channels[ch['id']] = ch
                         subs[len(subs) + 1] = ch['topic']

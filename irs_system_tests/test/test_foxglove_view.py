@@ -32,11 +32,9 @@ def test_bridge_serves_cdr_channels_with_ros2msg_schemas_to_a_client():
     types = {'/ground_truth/sensor_point': PointStamped, '/steering/state': SteeringActuatorState}
     names = {'/ground_truth/sensor_point': 'geometry_msgs/msg/PointStamped',
              '/steering/state': 'irs_msgs/msg/SteeringActuatorState'}
-    bridge = FoxgloveBridge('ws://127.0.0.1:0', name='test')
+    bridge = FoxgloveBridge('ws://127.0.0.1:0', names, name='test')
     client = None
     try:
-        for topic, name in names.items():
-            bridge.add_topic(topic, name)
         client = Client(f'ws://127.0.0.1:{bridge.port}')
         client.wait(lambda: len(client.channels) == 2, 'advertisement')
         assert client.subprotocol in SUBPROTOCOLS
@@ -70,6 +68,43 @@ def test_bridge_serves_cdr_channels_with_ros2msg_schemas_to_a_client():
         if client is not None:
             client.stop()
         bridge.close()
+
+
+def test_a_client_connecting_while_the_bridge_starts_gets_every_channel():
+    """A client that keeps trying to connect (as the test of a running graph does) while the
+    bridge starts, ten times with the start 0-50 ms after the first attempt: its first
+    ``advertise`` holds every channel, and it receives messages on each one.
+    """
+    import random
+
+    from geometry_msgs.msg import PointStamped
+    from rclpy.serialization import serialize_message
+
+    from irs_bag.foxglove_bridge import FoxgloveBridge
+    names = {f'/t{i}': 'geometry_msgs/msg/PointStamped' for i in range(4)}
+    data = serialize_message(PointStamped())
+    rng = random.Random(1)
+    for _ in range(10):
+        url = f'ws://127.0.0.1:{_free_port()}'
+        client = Client(url)
+        bridge = None
+        try:
+            time.sleep(rng.uniform(0.0, 0.05))      # the stimulus: a start at a random phase
+            bridge = FoxgloveBridge(url, names)
+            deadline = time.monotonic() + DEADLINE
+            while min(len(client.of(t)) for t in names) == 0:
+                assert time.monotonic() < deadline, \
+                    {t: len(client.of(t)) for t in names}    # a channel never delivered
+                for topic in names:
+                    bridge.forward(topic, data, 1)
+                with client.changed:
+                    client.changed.wait(0.01)
+            assert client.error is None, repr(client.error)
+            assert sorted(client.advertised[0]) == sorted(client.channels), client.advertised
+        finally:
+            client.stop()
+            if bridge is not None:
+                bridge.close()
 
 
 def test_a_bad_foxglove_url_is_refused_in_one_line():
