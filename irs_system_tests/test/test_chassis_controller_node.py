@@ -218,9 +218,12 @@ def test_real_time_answers_each_encoder_sample_with_the_newest_pose_and_goes_sta
     def drives_again():
         """After a stale episode: samples with fresh measurements until one is answered with
         the step steer (an encoder sample may overtake its measurements, which travel on other
-        topics, and meet the stale pose); its stamp, or None after 20 tries.
+        topics, and meet the stale pose); its stamp, or None after 20 tries and at least 20 s
+        (a stalled machine may spend the tries within one stall).
         """
-        for _ in range(20):
+        deadline, tries = time.monotonic() + 20.0, 0
+        while tries < 20 or time.monotonic() < deadline:
+            tries += 1
             stamps.append(now())
             sample(stamps[-1])
             if link.steer(stamps[-1]).front_angle == 0.05:
