@@ -55,8 +55,10 @@ def test_regulator_x_ref_and_enabled_change_behaviour_read_only_refused(ros, lau
                     params={'safety.stale_timeout': 5.0, 'state_decimation': 1}))
     f = Feeder(ros)
     assert ros.wait_for_matched([f.pose, f.vel, f.belt, *f.subs], timeout=30.0)
-    # the car at its set point: the drive slews up from 0 V and settles (the last 5 equal)
-    assert feed_until(ros, f, lambda: settled(f.drive), x=0.3)
+    # the car at its set point: the drive slews up from 0 V and settles (the last 5 equal).
+    # The two topics' writers match the test's readers one at a time (DDS discovery), so the
+    # drive can settle before the first state arrives: wait for both.
+    assert feed_until(ros, f, lambda: settled(f.drive) and f.state, x=0.3)
     assert f.state[-1].position_setpoint == 0.3
     assert f.state[-1].mode == TreadmillState.MODE_DRIVE
     drive_at_setpoint = f.drive[-1].voltage
