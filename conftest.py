@@ -12,9 +12,12 @@ they carry ``@pytest.mark.exclusive`` and run alone. Every other test holds a sh
 whole run protocol (set-up, call, tear-down, so a module fixture's graph run counts too), an
 exclusive test holds it exclusively; a turnstile lock taken first keeps a waiting exclusive test
 from being overtaken by the next shared ones (readers-writer lock with writer preference, on
-``flock``; the locks go with the process, also a killed one). Without xdist nothing is locked.
+``flock``; the locks go with the process, also a killed one). A worker keeps the exclusive lock
+from one exclusive test to the next one it runs (:class:`MachineTurn`): a module of exclusive
+tests then waits once for the other worker's test to end, not once per test. Without xdist
+nothing is locked.
 """
-from contextlib import contextmanager
+from contextlib import ExitStack, contextmanager
 import fcntl
 import os
 from pathlib import Path
@@ -56,11 +59,52 @@ def machine_lock(run_id: str, exclusive: bool, lock_dir: str | None = None):
             fcntl.flock(lock, fcntl.LOCK_UN)
 
 
+class MachineTurn:
+    """A worker's machine lock through its sequence of tests.
+
+    A shared test takes the shared lock for its own run. An exclusive test takes the exclusive
+    lock unless the worker holds it already, and keeps it when the worker's next test is
+    exclusive too; otherwise it lets it go at its end.
+    """
+
+    def __init__(self, run_id: str, lock_dir: str | None = None):
+        self.run_id, self.lock_dir = run_id, lock_dir
+        self._held = ExitStack()         # the exclusive lock while a run of exclusive tests lasts
+        self.holding = False
+
+    @contextmanager
+    def test(self, exclusive: bool, next_exclusive: bool):
+        """Hold the lock ``exclusive`` needs for the ``with`` body (one test's run protocol)."""
+        if not exclusive:
+            with machine_lock(self.run_id, False, self.lock_dir):
+                yield
+            return
+        if not self.holding:
+            self._held.enter_context(machine_lock(self.run_id, True, self.lock_dir))
+            self.holding = True
+        try:
+            yield
+        finally:
+            if not next_exclusive:
+                self.holding = False
+                self._held.close()
+
+
+_turn: MachineTurn | None = None
+
+
+def _exclusive(item) -> bool:
+    return item is not None and item.get_closest_marker('exclusive') is not None
+
+
 @pytest.hookimpl(hookwrapper=True)
 def pytest_runtest_protocol(item, nextitem):
+    global _turn
     run_id = os.environ.get('PYTEST_XDIST_TESTRUNUID')
     if run_id is None:
         yield
         return
-    with machine_lock(run_id, item.get_closest_marker('exclusive') is not None):
+    if _turn is None:
+        _turn = MachineTurn(run_id)
+    with _turn.test(_exclusive(item), _exclusive(nextitem)):
         yield

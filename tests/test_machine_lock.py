@@ -70,3 +70,27 @@ def test_a_waiting_exclusive_test_holds_the_turnstile_against_new_shared_ones(tm
 def _enter_exclusive(tmp_path, entered):
     with root_conftest.machine_lock('run1', True, lock_dir=str(tmp_path)):
         entered.set()
+
+
+def test_a_run_of_exclusive_tests_keeps_the_lock_until_a_shared_test_follows(tmp_path):
+    lock = tmp_path / 'irs_test_machine_run1.lock'
+    turn = root_conftest.MachineTurn('run1', lock_dir=str(tmp_path))
+    # two exclusive tests in a row: the lock is not let go between them
+    with turn.test(exclusive=True, next_exclusive=True):
+        assert not _can_take(lock, fcntl.LOCK_SH)
+    assert turn.holding and not _can_take(lock, fcntl.LOCK_SH), 'kept for the next one'
+    with turn.test(exclusive=True, next_exclusive=False):
+        assert not _can_take(lock, fcntl.LOCK_SH)
+    assert not turn.holding and _can_take(lock, fcntl.LOCK_EX), 'let go before a shared test'
+    with turn.test(exclusive=False, next_exclusive=True):
+        assert _can_take(lock, fcntl.LOCK_SH) and not _can_take(lock, fcntl.LOCK_EX)
+    assert _can_take(lock, fcntl.LOCK_EX)
+
+
+def test_a_failing_exclusive_test_before_a_shared_one_lets_the_lock_go(tmp_path):
+    turn = root_conftest.MachineTurn('run1', lock_dir=str(tmp_path))
+    with pytest.raises(AssertionError):
+        with turn.test(exclusive=True, next_exclusive=False):
+            raise AssertionError('the test failed')
+    assert not turn.holding
+    assert _can_take(tmp_path / 'irs_test_machine_run1.lock', fcntl.LOCK_EX)
