@@ -260,9 +260,10 @@ def test_real_time_answers_each_encoder_sample_with_the_newest_pose_and_goes_sta
     assert drives_again() is not None
     # silence: within the timeout a zero command and the reason STALE; the command carries the
     # last step's stamp (a rig lagging real time keeps taking the steps after it)
-    n = len(link.torques)
+    # (torque and steer travel on two topics: wait for a new message on each)
+    n, n_steer = len(link.torques), len(link.steers)
     assert ros.spin_until(lambda: link.last_status()[0] == 'stale_encoders', 5.0)
-    assert ros.spin_until(lambda: len(link.torques) > n, 5.0)
+    assert ros.spin_until(lambda: len(link.torques) > n and len(link.steers) > n_steer, 5.0)
     assert list(link.torques[-1].torque) == [0.0] * 4
     assert to_ns(link.torques[-1].header.stamp) == stamps[-1]
     assert (link.steers[-1].front_angle, link.steers[-1].rear_angle) == (0.0, 0.0)
