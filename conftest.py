@@ -33,6 +33,8 @@ if 'IRS_TEST_DOMAIN_FIXED' not in os.environ:
 os.environ.setdefault('ROS_AUTOMATIC_DISCOVERY_RANGE', 'LOCALHOST')
 # The design-check cache (irs_control/design_check_cache.py) of this run only, shared by its
 # workers and the processes they start; never the developer's ~/.cache.
+# A node process that does not stop leaves its native stacks too (irs_bringup.processes).
+os.environ.setdefault('IRS_NATIVE_STACKS', '1')
 if 'IRS_CACHE_DIR' not in os.environ:
     _run = os.environ.get('PYTEST_XDIST_TESTRUNUID') or str(os.getpid())
     os.environ['IRS_CACHE_DIR'] = os.path.join(tempfile.gettempdir(), f'irs_test_cache_{_run}')

@@ -285,6 +285,8 @@ class ExperimentRunner:
                 where = (f'; it was asked for its Python stacks (SIGUSR1) before that, see '
                          f'the end of {proc.log_path}' if proc.stacks_dumped else
                          f'; its log: {proc.log_path}')
+                if proc.native_stacks:
+                    where += f'; its native stacks: {proc.native_stacks}'
                 self.log(f'[experiment] {label} did not stop within {grace:g} s of SIGINT: '
                          f'ended by {proc.escalated_to} (exit code {codes.get(label)}){where}')
         return codes

@@ -11,10 +11,17 @@ process that does not handle SIGTERM yet (still starting: the interpreter and it
 ``run_node`` installs its handlers; read from ``/proc/<pid>/status``) gets SIGTERM instead of
 SIGINT: the default action ends it at once and silently, where SIGINT would print Python's
 ``KeyboardInterrupt`` report. No rclpy here.
+
+A Python stack ends at the C call a thread waits in (rcl, the DDS library). With
+``IRS_NATIVE_STACKS`` set (the test suite sets it) and ``gdb`` on the PATH, a process that has
+not stopped by the SIGTERM also gets its native stacks written to ``<label>.native_stacks.txt``
+beside its log (``gdb -batch``, ``thread apply all bt``; at most :data:`NATIVE_STACKS_TIMEOUT`
+s, the process paused meanwhile).
 """
 from dataclasses import dataclass, field
 import os
 from pathlib import Path
+import shutil
 import signal
 import subprocess
 import time
@@ -101,6 +108,7 @@ class NodeProcess:
         self.cmd = spec.command(overrides_file=Path(log_dir) / f'{self.label}.params.yaml')
         self.escalated_to = None    # 'SIGTERM' or 'SIGKILL' if the last stop needed it
         self.stacks_dumped = False  # the process printed its stacks before that (SIGUSR1)
+        self.native_stacks = None   # the file of its native stacks, if written (module docstring)
         self._log = open(self.log_path, 'wb')
         self.popen = subprocess.Popen(self.cmd, stdout=self._log, stderr=subprocess.STDOUT,
                                       stdin=subprocess.DEVNULL, env=env, start_new_session=True,
@@ -182,7 +190,7 @@ def stop_processes(procs, grace: float = 5.0, term_grace: float = 2.0) -> dict:
     """
     procs = list(procs)
     for p in procs:
-        p.escalated_to, p.stacks_dumped = None, False
+        p.escalated_to, p.stacks_dumped, p.native_stacks = None, False, None
         if p.popen.poll() is None:
             p.interrupt()
         else:
@@ -197,8 +205,10 @@ def stop_processes(procs, grace: float = 5.0, term_grace: float = 2.0) -> dict:
         left = [p for p in procs if p.popen.poll() is None]
         if not left or sig is None:
             break
-        if sig == signal.SIGTERM and _dump_stacks(left):
-            time.sleep(STACK_DUMP_WAIT)
+        if sig == signal.SIGTERM:
+            if _dump_stacks(left):
+                time.sleep(STACK_DUMP_WAIT)
+            _write_native_stacks(left)
         for p in left:
             p.escalated_to = signal.Signals(sig).name
             p.signal_group(sig)
@@ -220,6 +230,32 @@ def _dump_stacks(procs) -> bool:
             except (ProcessLookupError, PermissionError):
                 pass
     return sent
+
+
+#: The most [s] ``gdb`` may take for one process's native stacks.
+NATIVE_STACKS_TIMEOUT = 30.0
+
+
+def _write_native_stacks(procs) -> None:
+    """``gdb``'s backtrace of every thread of each process of ``procs`` into
+    ``<label>.native_stacks.txt`` beside its log, with ``IRS_NATIVE_STACKS`` set and ``gdb``
+    found (module docstring); sets ``native_stacks`` to the file written.
+    """
+    gdb = shutil.which('gdb')
+    if not os.environ.get('IRS_NATIVE_STACKS') or gdb is None:
+        return
+    for p in procs:
+        out = p.log_path.with_name(f'{p.label}.native_stacks.txt')
+        try:
+            with open(out, 'w') as f:
+                subprocess.run([gdb, '-p', str(p.popen.pid), '-batch', '-nx',
+                                '-iex', 'set auto-load python-scripts off', '-ex',
+                                'thread apply all bt'], stdout=f,
+                               stderr=subprocess.STDOUT, stdin=subprocess.DEVNULL,
+                               timeout=NATIVE_STACKS_TIMEOUT)
+            p.native_stacks = out
+        except (OSError, subprocess.TimeoutExpired):
+            pass
 
 
 def kill_processes(procs) -> None:

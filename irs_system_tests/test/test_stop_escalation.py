@@ -5,6 +5,7 @@ which writes from the C signal handler, so a main thread blocked in C is shown t
 :func:`irs_bringup.processes.stop_processes` sends SIGUSR1 to a process still running after its
 grace, before the SIGTERM, and records how the process ended (``escalated_to``).
 """
+import shutil
 import signal
 import sys
 import textwrap
@@ -80,3 +81,10 @@ def test_a_process_that_ignores_the_stop_signals_is_killed_after_printing_its_st
     assert codes == {'stuck': -signal.SIGKILL}
     assert proc.escalated_to == 'SIGKILL' and proc.stacks_dumped
     assert 'in wait_for_a_lock_nobody_releases' in proc.output(), proc.tail(40)
+    # the native stacks beside the log (IRS_NATIVE_STACKS is set for the suite), where gdb is
+    if shutil.which('gdb'):
+        assert proc.native_stacks == tmp_path / 'stuck.native_stacks.txt'
+        text = proc.native_stacks.read_text()
+        assert 'Thread 1' in text and '#0 ' in text, text[-2000:]
+    else:
+        assert proc.native_stacks is None
