@@ -29,13 +29,14 @@ class Feeder:
             ),
         ]
 
-    def publish(self, x, y=0.0, belt=1.0):
+    def publish(self, x, y=0.0, belt=1.0, vx=0.0):
         stamp = self.ros.node.get_clock().now().to_msg()
         p = PoseStamped()
         p.header.stamp = stamp
         p.pose.position.x, p.pose.position.y, p.pose.orientation.w = x, y, 1.0
         v = TwistStamped()
         v.header.stamp = stamp
+        v.twist.linear.x = vx
         b = BeltSpeed()
         b.header.stamp = stamp
         b.speed = belt
@@ -43,9 +44,9 @@ class Feeder:
             pub.publish(msg)
 
 
-def feed_until(ros, feeder, predicate, x, y=0.0, timeout=15.0):
+def feed_until(ros, feeder, predicate, x, y=0.0, timeout=15.0, vx=0.0):
     def step():
-        feeder.publish(x, y)
+        feeder.publish(x, y, vx=vx)
         ros.executor.spin_once(timeout_sec=0.005)
         return predicate()
     return ros.spin_until(step, timeout)
@@ -119,3 +120,26 @@ def test_a_pose_published_without_its_velocity_is_reported_not_answered(ros, lau
     line = next(ln for ln in proc.output().splitlines() if 'dropped unanswered' in ln)
     assert 'pose stamped' in line and 'had no velocity of the same stamp' in line, line
     assert not any(d.header.stamp == stamp for d in f.drive)
+
+
+def test_a_velocity_not_yet_finite_at_start_is_the_estimators_warm_up_not_bad_input(ros, launch):
+    """The pose estimator publishes NaN velocities until its differentiators have filled: at
+    start that is no velocity yet, not a fault to report. Once a finite velocity has come, a
+    NaN one is bad input again, reported once while it lasts.
+    """
+    proc = launch(NodeSpec('irs_treadmill', 'treadmill_regulator', name='regulator_warmup',
+                           params={'state_decimation': 1}))
+    f = Feeder(ros)
+    assert ros.wait_for_matched([f.pose, f.vel, f.belt, *f.subs], timeout=30.0), proc.tail()
+
+    def feed(n, vx):
+        """``n`` steps answered (drive commands received) with velocity ``vx``."""
+        k = len(f.drive)
+        assert feed_until(ros, f, lambda: len(f.drive) >= k + n, x=0.3, vx=vx), proc.tail()
+
+    feed(20, math.nan)                  # the estimator warming up
+    feed(20, 0.0)                       # its first finite velocities
+    assert 'xdot' not in proc.output(), proc.tail()
+    feed(20, math.nan)                  # a velocity lost after it had been valid
+    assert ros.spin_until(lambda: 'xdot is not finite' in proc.output(), 5.0), proc.tail()
+    assert all(math.isfinite(d.voltage) for d in f.drive)

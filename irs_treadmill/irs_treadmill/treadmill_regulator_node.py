@@ -34,6 +34,11 @@ from .regulator import BeltSpeedRegulator
 from .regulator_params import regulator_config, regulator_parameter_table
 from .safety import TRANSIENT, SafetyMonitor
 
+#: [s] of stamps after the first velocity during which a non-finite one is the estimator's
+#: warm-up, not bad input (its 20-sample differentiators fill in 0.02 s at 1 kHz, 0.2 s at 100 Hz).
+VELOCITY_WARMUP = 1.0
+VELOCITY_WARMUP_NS = int(VELOCITY_WARMUP * 1e9)
+
 # Builders of the messages published every step (irs_common.msg_builder).
 _HEADER, _DRIVE, _STATE = builder(Header), builder(TreadmillDriveCommand), builder(TreadmillState)
 
@@ -59,8 +64,12 @@ class TreadmillRegulatorNode(Node):
     - values: a pose with ``|x|`` or ``|y|`` beyond the regulator's position limit (5 m; the belt
       is 2.44 x 1.22 m) is not a measurement: treated like a NaN pose (drive cut, transient input
       fault); a bad belt speed gives 0 V and a regulator reset; a bad velocity makes the regulator
-      use its internal estimate (``BeltSpeedRegulator.update`` rule). The reason is logged through
-      a throttled warner (at most once a second per kind) and the fault is on ``treadmill/state``;
+      use its internal estimate (``BeltSpeedRegulator.update`` rule); a non-finite velocity
+      before the first finite one, for up to :data:`VELOCITY_WARMUP` s of stamps after the first
+      velocity, is the estimator's differentiators still filling (it publishes NaN until they
+      are) and is taken as no velocity yet, silently, as without the topic. The reason is
+      logged through a throttled warner (at most once a second per kind) and the fault is on
+      ``treadmill/state``;
     - stamps, against the node clock: a pose/velocity/belt speed stamped more than
       ``future_tolerance`` s ahead is dropped (not answered, not stored); an older step than the
       last is dropped as out of order unless it is more than 1 s older (a replay loop, a restarted
@@ -90,6 +99,8 @@ class TreadmillRegulatorNode(Node):
         self.sync = StampSync(self.inputs)
         self.belt_speed = math.nan
         self.belt_seen = False
+        self.velocity_seen = False    # a finite velocity has arrived
+        self.velocity_from_ns = None  # stamp [ns] of the first velocity (VELOCITY_WARMUP)
         self.pose_arrived_ns = None   # node clock [ns] when the last valid pose arrived
         self.answer = AnswerCache()   # what was published for the last stamp (re-sent on a repeat)
         self.reported_fault = None
@@ -177,6 +188,13 @@ class TreadmillRegulatorNode(Node):
             psi = yaw_from_quaternion(q.x, q.y, q.z, q.w)
             v = vals['velocity'].twist.linear
             xdot = v.x * math.cos(psi) - v.y * math.sin(psi)
+            if math.isfinite(xdot):
+                self.velocity_seen = True
+            elif not self.velocity_seen:
+                if self.velocity_from_ns is None:
+                    self.velocity_from_ns = stamp_ns
+                if 0 <= stamp_ns - self.velocity_from_ns <= VELOCITY_WARMUP_NS:
+                    xdot = None     # the estimator is warming up: no velocity yet
         limit = self.regulator.position_limit
         now = now_ns * 1e-9 if now_ns else None    # clock at 0: no /clock yet (EdgeGate)
         if not (-limit <= x <= limit and -limit <= y <= limit):
