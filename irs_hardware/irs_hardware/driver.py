@@ -156,7 +156,10 @@ class SerialModbusRig(RigIO):
                 return msgs
             try:
                 select.select([self.serial.fileno()], [], [], left)
-            except (OSError, ValueError, serial.SerialException) as exc:
+            except (OSError, ValueError, TypeError, serial.SerialException) as exc:
+                # TypeError: the port closed by another thread (rig/reset) between its read
+                # and this wait; pyserial's close() clears the descriptor before it marks
+                # the port closed, so fileno() gives None in between
                 raise LinkError(f'board at {self.port_name}: read failed ({exc})') from None
 
     def read(self, timeout: float) -> list:

@@ -34,3 +34,38 @@ def test_a_host_reading_late_loses_whole_frames_not_bytes(tmp_path):
     gaps = [b - a for a, b in zip(ticks, ticks[1:]) if b - a != 1]
     assert parser.bad == 0, f'{parser.bad} garbled frames'
     assert len(ticks) > 500 and gaps, (len(ticks), gaps)     # whole frames lost in the stall
+
+
+def test_a_port_closed_by_another_thread_mid_read_is_a_link_error(tmp_path):
+    """``rig/reset`` closes the port while the node's read thread waits on it. pyserial's
+    ``close()`` clears the descriptor before it marks the port closed; a wait that starts in
+    between must end in a :class:`LinkError` (which the read thread expects after a reset), not
+    a ``TypeError`` that ends the thread.
+    """
+    import os
+
+    from irs_hardware.driver import LinkError, SerialModbusRig
+    master, slave = os.openpty()
+    try:
+        rig = SerialModbusRig(os.ttyname(slave), 115200, drive=None)
+        rig.serial = serial.Serial(os.ttyname(slave), 115200, timeout=0)
+        assert rig._messages(0.01) == []          # open: nothing waiting, no error
+        port, fd = rig.serial, rig.serial.fd
+
+        def read_then_closed(n):
+            data = serial.Serial.read(port, n)    # the read finds nothing waiting ...
+            port.fd = None                         # ... then close() is between its steps
+            return data
+        port.read = read_then_closed
+        try:
+            rig._messages(0.05)
+        except LinkError as exc:
+            assert 'read failed' in str(exc), exc
+        else:
+            raise AssertionError('no LinkError for a port closed mid-read')
+        finally:
+            port.fd = fd
+            port.close()
+    finally:
+        os.close(master)
+        os.close(slave)
