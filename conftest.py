@@ -31,10 +31,10 @@ if 'IRS_TEST_DOMAIN_FIXED' not in os.environ:
     _domain, _domain_lock = claim_domain(os.getpid())   # held as long as this process lives
     os.environ['ROS_DOMAIN_ID'] = str(_domain)
 os.environ.setdefault('ROS_AUTOMATIC_DISCOVERY_RANGE', 'LOCALHOST')
-# The design-check cache (irs_control/design_check_cache.py) of this run only, shared by its
-# workers and the processes they start; never the developer's ~/.cache.
 # A node process that does not stop leaves its native stacks too (irs_bringup.processes).
 os.environ.setdefault('IRS_NATIVE_STACKS', '1')
+# The design-check cache (irs_control/design_check_cache.py) of this run only, shared by its
+# workers and the processes they start; never the developer's ~/.cache.
 if 'IRS_CACHE_DIR' not in os.environ:
     _run = os.environ.get('PYTEST_XDIST_TESTRUNUID') or str(os.getpid())
     os.environ['IRS_CACHE_DIR'] = os.path.join(tempfile.gettempdir(), f'irs_test_cache_{_run}')

@@ -233,7 +233,7 @@ def _dump_stacks(procs) -> bool:
 
 
 #: The most [s] ``gdb`` may take for one process's native stacks.
-NATIVE_STACKS_TIMEOUT = 30.0
+NATIVE_STACKS_TIMEOUT = 10.0
 
 
 def _write_native_stacks(procs) -> None:
