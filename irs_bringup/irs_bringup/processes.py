@@ -12,11 +12,13 @@ process that does not handle SIGTERM yet (still starting: the interpreter and it
 SIGINT: the default action ends it at once and silently, where SIGINT would print Python's
 ``KeyboardInterrupt`` report. No rclpy here.
 
-A Python stack ends at the C call a thread waits in (rcl, the DDS library). With
-``IRS_NATIVE_STACKS`` set (the test suite sets it) and ``gdb`` on the PATH, a process that has
-not stopped by the SIGTERM also gets its native stacks written to ``<label>.native_stacks.txt``
-beside its log (``gdb -batch``, ``thread apply all bt``; at most :data:`NATIVE_STACKS_TIMEOUT`
-s, the process paused meanwhile).
+The SIGUSR1 dump (``faulthandler``) reads the other threads' frames while they run, and CPython
+3.11 can crash doing so (python/cpython#116008): a composed graph whose recorder thread is busy
+has been seen to end in SIGSEGV there. With ``IRS_NATIVE_STACKS`` set (the test suite sets it)
+and ``gdb`` on the PATH, a process that has not stopped by the SIGTERM is therefore not sent
+SIGUSR1; ``gdb -batch`` writes every thread's Python stack (``py-bt``, where the interpreter's
+gdb extension is installed) and native stack (``bt``) to ``<label>.native_stacks.txt`` beside
+its log, the process paused meanwhile (at most :data:`NATIVE_STACKS_TIMEOUT` s).
 """
 from dataclasses import dataclass, field
 import os
@@ -205,10 +207,8 @@ def stop_processes(procs, grace: float = 5.0, term_grace: float = 2.0) -> dict:
         left = [p for p in procs if p.popen.poll() is None]
         if not left or sig is None:
             break
-        if sig == signal.SIGTERM:
-            if _dump_stacks(left):
-                time.sleep(STACK_DUMP_WAIT)
-            _write_native_stacks(left)
+        if sig == signal.SIGTERM and not _write_native_stacks(left) and _dump_stacks(left):
+            time.sleep(STACK_DUMP_WAIT)
         for p in left:
             p.escalated_to = signal.Signals(sig).name
             p.signal_group(sig)
@@ -236,26 +236,28 @@ def _dump_stacks(procs) -> bool:
 NATIVE_STACKS_TIMEOUT = 10.0
 
 
-def _write_native_stacks(procs) -> None:
-    """``gdb``'s backtrace of every thread of each process of ``procs`` into
+def _write_native_stacks(procs) -> bool:
+    """``gdb``'s Python and native stacks of every thread of each process of ``procs`` into
     ``<label>.native_stacks.txt`` beside its log, with ``IRS_NATIVE_STACKS`` set and ``gdb``
-    found (module docstring); sets ``native_stacks`` to the file written.
+    found (module docstring); sets ``native_stacks`` to the file written. Whether it ran.
     """
     gdb = shutil.which('gdb')
     if not os.environ.get('IRS_NATIVE_STACKS') or gdb is None:
-        return
+        return False
     for p in procs:
         out = p.log_path.with_name(f'{p.label}.native_stacks.txt')
         try:
             with open(out, 'w') as f:
+                # the interpreter's gdb extension (py-bt) sits beside its binary
                 subprocess.run([gdb, '-p', str(p.popen.pid), '-batch', '-nx',
-                                '-iex', 'set auto-load python-scripts off', '-ex',
-                                'thread apply all bt'], stdout=f,
-                               stderr=subprocess.STDOUT, stdin=subprocess.DEVNULL,
+                                '-iex', 'set auto-load safe-path /',
+                                '-ex', 'thread apply all py-bt', '-ex', 'thread apply all bt'],
+                               stdout=f, stderr=subprocess.STDOUT, stdin=subprocess.DEVNULL,
                                timeout=NATIVE_STACKS_TIMEOUT)
             p.native_stacks = out
         except (OSError, subprocess.TimeoutExpired):
             pass
+    return True
 
 
 def kill_processes(procs) -> None:

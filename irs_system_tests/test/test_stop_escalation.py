@@ -3,12 +3,15 @@
 Every IRS node prints the Python stack of each thread on SIGUSR1 (``run_node``; faulthandler,
 which writes from the C signal handler, so a main thread blocked in C is shown too) and runs on.
 :func:`irs_bringup.processes.stop_processes` sends SIGUSR1 to a process still running after its
-grace, before the SIGTERM, and records how the process ended (``escalated_to``).
+grace, before the SIGTERM, and records how the process ended (``escalated_to``); with
+``IRS_NATIVE_STACKS`` and gdb it has gdb write the stacks instead.
 """
 import shutil
 import signal
 import sys
 import textwrap
+
+import pytest
 
 from irs_bringup.processes import NodeProcess, NodeSpec, catches_signal, stop_processes, wait_until
 
@@ -69,7 +72,7 @@ def test_a_node_prints_its_stacks_on_sigusr1_and_goes_on(tmp_path):
     assert proc.escalated_to is None and not proc.stacks_dumped
 
 
-def test_a_process_that_ignores_the_stop_signals_is_killed_after_printing_its_stacks(tmp_path):
+def _stop_stuck(tmp_path):
     proc = NodeProcess(ScriptSpec(STUCK), tmp_path, label='stuck')
     try:
         assert wait_until(lambda: 'ready' in proc.output() or proc.poll() is not None,
@@ -79,12 +82,29 @@ def test_a_process_that_ignores_the_stop_signals_is_killed_after_printing_its_st
     finally:
         proc.signal_group(signal.SIGKILL)
     assert codes == {'stuck': -signal.SIGKILL}
-    assert proc.escalated_to == 'SIGKILL' and proc.stacks_dumped
+    assert proc.escalated_to == 'SIGKILL'
+    return proc
+
+
+def test_a_process_that_ignores_the_stop_signals_is_killed_after_printing_its_stacks(
+        tmp_path, monkeypatch):
+    monkeypatch.delenv('IRS_NATIVE_STACKS', raising=False)
+    proc = _stop_stuck(tmp_path)
+    assert proc.stacks_dumped and proc.native_stacks is None
     assert 'in wait_for_a_lock_nobody_releases' in proc.output(), proc.tail(40)
-    # the native stacks beside the log (IRS_NATIVE_STACKS is set for the suite), where gdb is
-    if shutil.which('gdb'):
-        assert proc.native_stacks == tmp_path / 'stuck.native_stacks.txt'
-        text = proc.native_stacks.read_text()
-        assert 'Thread 1' in text and '#0 ' in text, text[-2000:]
-    else:
-        assert proc.native_stacks is None
+
+
+@pytest.mark.skipif(shutil.which('gdb') is None, reason='needs gdb')
+def test_with_native_stacks_gdb_writes_them_and_no_sigusr1_is_sent(tmp_path, monkeypatch):
+    """The suite's setting: gdb reads the stacks of the paused process, instead of the
+    SIGUSR1 dump that can crash a process whose other threads run (module docstring of
+    irs_bringup.processes).
+    """
+    monkeypatch.setenv('IRS_NATIVE_STACKS', '1')
+    proc = _stop_stuck(tmp_path)
+    assert not proc.stacks_dumped and 'Thread 0x' not in proc.output(), proc.tail(40)
+    assert proc.native_stacks == tmp_path / 'stuck.native_stacks.txt'
+    text = proc.native_stacks.read_text()
+    assert 'Thread 1' in text and '#0 ' in text, text[-2000:]     # native frames
+    if 'Undefined command: "py-bt"' not in text:                   # the interpreter's extension
+        assert 'in wait_for_a_lock_nobody_releases' in text, text[-3000:]
