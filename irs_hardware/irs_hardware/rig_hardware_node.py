@@ -35,6 +35,7 @@ import collections
 import math
 import threading
 import time
+import traceback
 
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
 from rclpy.node import Node
@@ -364,9 +365,17 @@ class RigHardwareNode(Node):
             generation = self.generation
             try:
                 readings = self.rig.io.read(READ_WAIT)
-            except LinkError as exc:
+            except Exception as exc:    # this thread must outlive any of them
                 with self.lock:
                     if generation == self.generation:    # not the port a reset closed
+                        if not isinstance(exc, LinkError):
+                            # a driver bug, not the link: latched like a link fault (the
+                            # board's watchdog holds the outputs safe), its traceback logged
+                            # with the first trip, and the thread reads on
+                            if self.rig.ok:
+                                self.get_logger().error('board read failed unexpectedly:\n'
+                                                        + traceback.format_exc())
+                            exc = f'board read failed unexpectedly ({exc!r})'
                         self.rig.trip(str(exc), time.monotonic())
                         self._publish_status(force=True)
                 time.sleep(0.05 if generation == self.generation else 0.0)
