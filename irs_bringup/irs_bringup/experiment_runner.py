@@ -269,19 +269,25 @@ class ExperimentRunner:
                 raise ExperimentFailed(f'{what} died (exit code {code}){hint}',
                                        f'its last output:\n{proc.tail(15)}')
 
+    def _holds_recorder(self, label: str) -> bool:
+        """Whether the process ``label`` is the recorder or a container holding it."""
+        return label == 'recorder' or 'recorder' in self.members.get(label, ())
+
     def _stop_all(self) -> dict:
         """Every node at once, then the recorder (class docstring), then the devices (the
         emulators outlive the nodes that talk to them); ``{label: exit code}``.
         """
-        nodes = [p for label, p in self.procs.items() if label != 'recorder']
-        codes = stop_processes(nodes, NODE_GRACE)
-        if 'recorder' in self.procs:
-            codes.update(stop_processes([self.procs['recorder']], RECORDER_GRACE))
+        holds = {label: self._holds_recorder(label) for label in self.procs}
+        codes = stop_processes([p for label, p in self.procs.items() if not holds[label]],
+                               NODE_GRACE)
+        recording = [p for label, p in self.procs.items() if holds[label]]
+        if recording:     # the recorder alone, or a container with it: it closes the bag
+            codes.update(stop_processes(recording, RECORDER_GRACE))
         if self.devices:
             codes.update(stop_processes(list(self.devices.values()), NODE_GRACE))
         for label, proc in [*self.procs.items(), *self.devices.items()]:
             if proc.escalated_to:
-                grace = RECORDER_GRACE if label == 'recorder' else NODE_GRACE
+                grace = RECORDER_GRACE if self._holds_recorder(label) else NODE_GRACE
                 where = (f'; it was asked for its Python stacks (SIGUSR1) before that, see '
                          f'the end of {proc.log_path}' if proc.stacks_dumped else
                          f'; its log: {proc.log_path}')
