@@ -6,7 +6,7 @@ Usage::
                  [--remap OLD:=NEW ...] [--start-offset S] [--loop]
                  [--clock [--clock-from {auto,log,header}]]
                  [--wait-for-subscribers N | --paused-until-matched] [--wait-timeout S]
-                 [--qos-depth D] [--quiet] [--dry-run] [--ros-args ...]
+                 [--ack-timeout S] [--qos-depth D] [--quiet] [--dry-run] [--ros-args ...]
 
 This module checks the options and reads the plan (:func:`prepare`, no rclpy): the messages
 to play (read into memory first, so chunk decompression never delays one) and their time line
@@ -25,6 +25,7 @@ from __future__ import annotations
 
 import argparse
 import importlib
+import math
 import signal
 import sys
 from dataclasses import dataclass, field
@@ -102,8 +103,11 @@ def _check_options(args):
     rate = 0.0 if args.fast else args.rate
     if rate < 0 or rate != rate:
         raise UsageError(f'--rate must be >= 0, got {args.rate}')
-    if args.start_offset < 0:
-        raise UsageError(f'--start-offset must be >= 0 s, got {args.start_offset}')
+    for option, value in (('--start-offset', args.start_offset),
+                          ('--wait-timeout', args.wait_timeout),
+                          ('--ack-timeout', args.ack_timeout)):
+        if not (0.0 <= value < math.inf):
+            raise UsageError(f'{option} must be a finite number of seconds >= 0, got {value}')
     return rate, max(args.wait_for_subscribers, 1 if args.paused_until_matched else 0)
 
 
@@ -211,6 +215,9 @@ def build_parser() -> argparse.ArgumentParser:
                    help='same as --wait-for-subscribers 1')
     p.add_argument('--wait-timeout', type=float, default=60.0, metavar='S',
                    help='give up waiting for subscribers after S seconds (exit 1)')
+    p.add_argument('--ack-timeout', type=float, default=10.0, metavar='S',
+                   help='longest wait for the reliable subscribers to acknowledge the first '
+                        '/clock and, at the end, every message; then a warning (default 10)')
     p.add_argument('--qos-depth', type=int, default=1000, help='publisher KEEP_LAST depth')
     p.add_argument('--quiet', action='store_true', help='only print the final summary')
     p.add_argument('--dry-run', action='store_true',

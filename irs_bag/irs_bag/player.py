@@ -17,9 +17,10 @@
    ``t_i`` right before it; sleeping in slices of at most ``SLICE_S``, spinning the last
    ``SPIN_S``; a message published late does not shift the ones after it (absolute times);
 5. the end: every reliable subscriber's acknowledgement of every message is awaited
-   (at most ``ACK_TIMEOUT_S``; a warning names the topics still unacknowledged), then one
-   summary line. With ``/clock`` consumers a warning says what the player cannot see: a
-   message a consumer received and then dropped against its clock (the consumer logs it).
+   (at most ``--ack-timeout``, default ``ACK_TIMEOUT_S``; a warning names the topics still
+   unacknowledged), then one summary line. With ``/clock`` consumers a warning says what the
+   player cannot see: a message a consumer received and then dropped against its clock (the
+   consumer logs it).
 
 SIGINT and SIGTERM set a flag (rclpy's handlers are off) that the schedule, the waits and the
 lead-in check: the player stops within ``SLICE_S``, destroys its node and returns
@@ -44,7 +45,8 @@ SLICE_S = 0.05
 CLOCK_REPEAT_S = 0.01
 #: How long the first clock value is repeated after the last /clock subscription matched [s].
 CLOCK_LEAD_S = 0.2
-#: Longest wait for the reliable subscribers' acknowledgements, at the lead-in and the end [s].
+#: Default of ``--ack-timeout``: the longest wait for the reliable subscribers'
+#: acknowledgements, at the lead-in and at the end [s].
 ACK_TIMEOUT_S = 10.0
 
 
@@ -205,7 +207,8 @@ class Player:
         first = self.plan.clock_times[0]
         msg = self._clock_msg(first)
         now = time.monotonic
-        deadline = now() + ACK_TIMEOUT_S
+        timeout = self.args.ack_timeout
+        deadline = now() + timeout
         matched, matched_at = -1, now()
         while not self.interrupt:
             self.clock_pub.publish(msg)
@@ -218,7 +221,7 @@ class Player:
                 break
             if now() > deadline:
                 print(f'bag play: warning: /clock {first * 1e-9:.9f} s not acknowledged by every '
-                      f'reliable /clock subscriber within {ACK_TIMEOUT_S:.0f} s; playing on',
+                      f'reliable /clock subscriber within {timeout:g} s; playing on',
                       file=sys.stderr, flush=True)
                 break
             time.sleep(CLOCK_REPEAT_S)
@@ -262,17 +265,18 @@ class Player:
         self.last_clock = last_clock
 
     def _wait_for_acks(self) -> None:
-        """Every reliable subscriber acknowledged every message (<= ``ACK_TIMEOUT_S``)."""
+        """Every reliable subscriber acknowledged every message (<= ``--ack-timeout``)."""
         from rclpy.duration import Duration
+        timeout = self.args.ack_timeout
         t0 = time.monotonic()
         pending = self._endpoints()
-        while pending and not self.interrupt and time.monotonic() - t0 < ACK_TIMEOUT_S:
+        while pending and not self.interrupt and time.monotonic() - t0 < timeout:
             pending = [p for p in pending if not p.wait_for_all_acked(Duration(seconds=0.05))]
         if self.interrupt:
             return
         if pending:
             print(f'bag play: warning: not every subscriber acknowledged every message on '
-                  f'{", ".join(p.topic_name for p in pending)} within {ACK_TIMEOUT_S:.0f} s',
+                  f'{", ".join(p.topic_name for p in pending)} within {timeout:g} s',
                   file=sys.stderr, flush=True)
             return
         self.log(f'bag play: all messages acknowledged ({(time.monotonic() - t0) * 1e3:.1f} ms)')

@@ -133,7 +133,9 @@ def test_replay_start_offset_and_usage_errors(ros, launch, tmp_path):
     for args, code in ((['play', bag, '--topics', '/nope'], 2),
                        (['play', tmp_path / 'missing'], 2),
                        (['play', bag, '--remap', 'a=b'], 2),
-                       (['play', bag, '--rate', '-1'], 2)):
+                       (['play', bag, '--rate', '-1'], 2),
+                       (['play', bag, '--ack-timeout', 'nan'], 2),
+                       (['play', bag, '--start-offset', 'inf'], 2)):
         res = subprocess.run([exe, *map(str, args)], capture_output=True, text=True,
                              timeout=60)
         assert res.returncode == code, (args, res.stderr)
@@ -463,7 +465,7 @@ def test_sensing_rerun_from_replay_reproduces_poses(ros, launch, tmp_path):
 
 def test_play_warns_when_a_subscriber_never_acknowledges(ros, launch, tmp_path):
     """A reliable subscriber that stops answering mid-play (its process frozen): the player
-    waits at most ``ACK_TIMEOUT_S`` for its acknowledgements, then names the topic in one
+    waits at most ``--ack-timeout`` for its acknowledgements, then names the topic in one
     warning line and ends normally.
     """
     import os
@@ -476,7 +478,8 @@ def test_play_warns_when_a_subscriber_never_acknowledges(ros, launch, tmp_path):
     rec = launch(recorder_spec(tmp_path / 'rec', ['/a']))
     assert ros.spin_until(lambda: status.last is not None, 30.0), rec.tail()
     play = launch(NodeSpec('irs_bag', 'bag', name='play_unacked', args=[
-        'play', bag, '--rate', '0.1', '--wait-for-subscribers', '1']))     # 4 s of play
+        'play', bag, '--rate', '0.1', '--wait-for-subscribers', '1',      # 4 s of play
+        '--ack-timeout', '1.5']))
     assert ros.spin_until(lambda: status.count('/a') >= 1 or play.poll() is not None, 60.0), \
         (play.output(), rec.tail())
     os.kill(rec.pid, signal.SIGSTOP)      # every thread of it: no acknowledgement from now on
@@ -487,7 +490,7 @@ def test_play_warns_when_a_subscriber_never_acknowledges(ros, launch, tmp_path):
     assert play.poll() == 0, play.output()
     warned = [ln for ln in play.output().splitlines() if 'bag play: warning:' in ln]
     assert warned == ['bag play: warning: not every subscriber acknowledged every message on '
-                      '/a within 10 s'], play.output()
+                      '/a within 1.5 s'], play.output()
 
 
 def test_an_estimator_on_sim_time_answers_readings_that_come_before_any_clock(ros, launch,
