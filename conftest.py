@@ -16,6 +16,10 @@ from being overtaken by the next shared ones (readers-writer lock with writer pr
 from one exclusive test to the next one it runs (:class:`MachineTurn`): a module of exclusive
 tests then waits once for the other worker's test to end, not once per test. Without xdist
 nothing is locked.
+
+An exclusive test that fails is judged by the floor measured right after it
+(:mod:`irs_system_tests.floor_verdict`): when the machine could not run even the floor's
+minimal 1 kHz loop then, the failure is reported as a skip that says so.
 """
 from contextlib import ExitStack, contextmanager
 import fcntl
@@ -26,6 +30,8 @@ import tempfile
 import pytest
 
 from irs_system_tests.domains import claim_domain
+
+pytest_plugins = ['irs_system_tests.floor_verdict']
 
 if 'IRS_TEST_DOMAIN_FIXED' not in os.environ:
     _domain, _domain_lock = claim_domain(os.getpid())   # held as long as this process lives

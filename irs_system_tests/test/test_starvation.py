@@ -41,6 +41,9 @@ from irs_system_tests.scheduling import check_fifo
 GRAPH = loop_specs(rig_files=[REALTIME], rig_params={'status_period': 0.01},
                    reference=False)
 END_CLEARANCE = 1.2192 - 0.225     # [m] |x| of the c.g. at which the car leaves a belt end
+#: the rig's stop causes (irs_vehicle_sim.safe_stop, vehicle_sim_node) a stalled regulator
+#: explains: its drive command late, the rig itself behind real time, the treadmill's fault
+STALLED_REGULATOR = ('drive command late', 'behind real time', 'treadmill fault')
 
 
 class Watch:
@@ -113,8 +116,9 @@ def test_stalls_and_cpu_hogs_keep_the_car_or_stop_it_under_control(ros, launch):
     status, _xs = watch.since(mark)
     assert not watch.lost(mark), status[-1:]
     if any(s.safe_state >= RigStatus.SAFE_STOPPING for s in status):
-        assert 'silent' in status[-1].stop_cause or 'behind' in status[-1].stop_cause \
-            or 'treadmill' in status[-1].stop_cause, status[-1].stop_cause
+        # the regulator's drive among the late inputs (the stall of the whole machine that
+        # stretched it may have delayed the steering too: 'steering, drive command late')
+        assert any(w in status[-1].stop_cause for w in STALLED_REGULATOR), status[-1].stop_cause
         assert ros.spin_until(lambda: watch.status[-1].safe_state == RigStatus.SAFE_STOPPED
                               or watch.lost(mark), 30.0), watch.status[-1]
         _recover(ros, watch)
@@ -127,8 +131,7 @@ def test_stalls_and_cpu_hogs_keep_the_car_or_stop_it_under_control(ros, launch):
                           or watch.lost(mark), 30.0), watch.status[-1]
     assert not watch.lost(mark), watch.status[-1]
     stopped = watch.status[-1]
-    assert 'drive command late' in stopped.stop_cause or 'treadmill' in stopped.stop_cause \
-        or 'behind' in stopped.stop_cause, stopped.stop_cause
+    assert any(w in stopped.stop_cause for w in STALLED_REGULATOR), stopped.stop_cause
     assert rig.output().count('controlled stop:') == rig.output().count('rig/recover: recovering')\
         + 1
     for proc in procs[1:]:
