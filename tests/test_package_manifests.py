@@ -24,6 +24,7 @@ ROSDEP_KEYS = {
     'mcap_ros2': 'python3-mcap-ros2-pip', 'rerun': 'python3-rerun-sdk-pip',
     'pymodbus': 'python3-pymodbus-pip', 'rosbags': 'python3-rosbags-pip',
     'foxglove': 'python3-foxglove-sdk-pip', 'tornado': 'python3-tornado',
+    'pytest': 'python3-pytest', '_pytest': 'python3-pytest',
 }
 #: Imported by every package's setup.py only (a build tool, not a run-time dependency).
 BUILD_ONLY = {'setuptools'}
