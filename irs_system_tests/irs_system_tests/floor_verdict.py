@@ -7,8 +7,9 @@ good it is. So when such a test fails, the floor is measured at once, after the 
 processes have stopped: ``bench/floor.py``'s minimal loop of three processes (one message per
 hop, a raw rcl wait set, no IRS code) at 1 kHz in real time for ``FLOOR_SECONDS``.
 
-- The floor misses at most ``FLOOR_MISS_LIMIT`` of its deadlines (it misses 0.5-1 % on this
-  machine in an ordinary phase): the failure stands, and the floor's figures are added to it.
+- The floor misses at most ``FLOOR_MISS_LIMIT`` of its deadlines (0.7 and 5.2 % in the bench
+  runs of 2026-12-03 23:48 and 2026-12-04 07:42, 60-100 % in the slow phase of 2026-12-04
+  11:20-11:40): the failure stands, and the floor's figures are added to it.
 - It misses more: the machine could not run any 1 kHz graph of processes just then. The test
   is reported as skipped, with the floor's figures and the first line of the failure, so the run
   shows what happened and passes or fails on what it could judge.
@@ -31,7 +32,7 @@ import pytest
 from _pytest.runner import runtestprotocol
 
 #: A floor that misses more of its 1 kHz deadlines than this [%] means the machine, not the
-#: graph (the floor misses 0.5-1 % in an ordinary phase of this VM, 60-100 % in a slow one).
+#: graph (module docstring: 0.7-5.2 % in ordinary phases of this VM, 60-100 % in a slow one).
 FLOOR_MISS_LIMIT = 10.0
 #: How long the floor runs [s] (about 5 s more for its start and discovery).
 FLOOR_SECONDS = 3.0
