@@ -96,20 +96,24 @@ def test_realtime_graph_started_by_hand_keeps_the_car_and_follows_the_reference(
     assert all(p.poll() is None for p in procs)
     assert status and all(s.car_on_belt for s in status)
     run = np.array([(t - t_start, x, y) for t, x, y in points if t >= t_start])
-    # the checks below cover the whole run: ground truth (100 Hz, best effort into this busy
-    # process, which may drop some) from its start to its end without a long gap
-    assert run.shape[0] > 0 and run[0, 0] < 1.0 and run[-1, 0] > 19.0, (run[:1], run[-1:])
-    assert np.max(np.diff(run[:, 0])) < 1.0, 'a gap of more than 1 s in the ground truth'
-    assert np.all(np.abs(run[:, 1]) < 1.2192 - 0.15), 'clear of the belt ends'
+    assert run.shape[0] > 0 and np.all(np.abs(run[:, 1]) < 1.2192 - 0.15), \
+        'clear of the belt ends'
     # a controlled stop steers the car to the centre line and holds it there; on failure,
     # every process's last lines say why
     stops = [(s.step, s.safe_state, s.stop_cause) for s in status
              if s.safe_state >= RigStatus.SAFE_STOPPING]
     if form == 'per_node' and stops:
+        # a graph starved enough to stop starves this process too (normal priority under five
+        # SCHED_FIFO processes): its best-effort ground truth may have gaps; rig/status
+        # (reliable; a car off the belt is latched there) says the car stayed on the belt
         assert all(cause for _, _, cause in stops), stops[:1]
         print(f'per node: the rig stopped the car: {stops[0][2]}')
         return
     assert not stops, (stops[:1], [p.tail(5) for p in procs])
+    # the ground truth (100 Hz, best effort into this busy process, which may drop some)
+    # covers the whole run without a long gap
+    assert run[0, 0] < 1.0 and run[-1, 0] > 19.0, (run[:1], run[-1:])
+    assert np.max(np.diff(run[:, 0])) < 1.0, 'a gap of more than 1 s in the ground truth'
     levels = follows(tracking)
     # the reference's levels reached the controller and the car followed them: +-0.02 m
     # (composed, a square wave), 0.02 m (per node, after the step at 2 s)
