@@ -18,7 +18,8 @@ has been seen to end in SIGSEGV there. With ``IRS_NATIVE_STACKS`` set (the test 
 and ``gdb`` on the PATH, a process that has not stopped by the SIGTERM is therefore not sent
 SIGUSR1; ``gdb -batch`` writes every thread's Python stack (``py-bt``, where the interpreter's
 gdb extension is installed) and native stack (``bt``) to ``<label>.native_stacks.txt`` beside
-its log, the process paused meanwhile (at most :data:`NATIVE_STACKS_TIMEOUT` s).
+its log, the process paused meanwhile (at most :data:`NATIVE_STACKS_TIMEOUT` s; what gdb
+wrote by then is kept, and a last line says it did not finish).
 """
 from dataclasses import dataclass, field
 import os
@@ -254,9 +255,12 @@ def _write_native_stacks(procs) -> bool:
                                 '-ex', 'thread apply all py-bt', '-ex', 'thread apply all bt'],
                                stdout=f, stderr=subprocess.STDOUT, stdin=subprocess.DEVNULL,
                                timeout=NATIVE_STACKS_TIMEOUT)
-            p.native_stacks = out
-        except (OSError, subprocess.TimeoutExpired):
-            pass
+        except subprocess.TimeoutExpired:     # what gdb wrote before it hung is kept
+            with open(out, 'a') as f:
+                f.write(f'\n[gdb did not finish within {NATIVE_STACKS_TIMEOUT:g} s]\n')
+        except OSError:
+            continue
+        p.native_stacks = out
     return True
 
 

@@ -108,3 +108,16 @@ def test_with_native_stacks_gdb_writes_them_and_no_sigusr1_is_sent(tmp_path, mon
     assert 'Thread 1' in text and '#0 ' in text, text[-2000:]     # native frames
     if 'Undefined command: "py-bt"' not in text:                   # the interpreter's extension
         assert 'in wait_for_a_lock_nobody_releases' in text, text[-3000:]
+
+
+@pytest.mark.skipif(shutil.which('gdb') is None, reason='needs gdb')
+def test_a_gdb_that_does_not_finish_leaves_what_it_wrote_and_says_so(tmp_path, monkeypatch):
+    """A gdb that does not finish within the timeout (it can hang after attaching) leaves its
+    file, with a last line saying so.
+    """
+    import irs_bringup.processes as processes
+    monkeypatch.setenv('IRS_NATIVE_STACKS', '1')
+    monkeypatch.setattr(processes, 'NATIVE_STACKS_TIMEOUT', 0.001)    # gdb needs ~0.7 s
+    proc = _stop_stuck(tmp_path)
+    assert proc.native_stacks == tmp_path / 'stuck.native_stacks.txt'
+    assert proc.native_stacks.read_text().endswith('[gdb did not finish within 0.001 s]\n')
