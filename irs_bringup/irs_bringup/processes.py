@@ -256,8 +256,11 @@ def _write_native_stacks(procs) -> bool:
                                stdout=f, stderr=subprocess.STDOUT, stdin=subprocess.DEVNULL,
                                timeout=NATIVE_STACKS_TIMEOUT)
         except subprocess.TimeoutExpired:     # what gdb wrote before it hung is kept
-            with open(out, 'a') as f:
-                f.write(f'\n[gdb did not finish within {NATIVE_STACKS_TIMEOUT:g} s]\n')
+            try:
+                with open(out, 'a') as f:
+                    f.write(f'\n[gdb did not finish within {NATIVE_STACKS_TIMEOUT:g} s]\n')
+            except OSError:
+                continue
         except OSError:
             continue
         p.native_stacks = out
