@@ -19,7 +19,8 @@ nothing is locked.
 
 An exclusive test that fails is judged by the floor measured right after it
 (:mod:`irs_system_tests.floor_verdict`): when the machine could not run even the floor's
-minimal 1 kHz loop then, the failure is reported as a skip that says so.
+minimal 1 kHz loop then, the test runs once more when the floor holds again, and is reported as
+a skip that says so if it does not within 90 s.
 """
 from contextlib import ExitStack, contextmanager
 import fcntl

@@ -10,9 +10,14 @@ hop, a raw rcl wait set, no IRS code) at 1 kHz in real time for ``FLOOR_SECONDS`
 - The floor misses at most ``FLOOR_MISS_LIMIT`` of its deadlines (0.7 and 5.2 % in the bench
   runs of 2026-12-03 23:48 and 2026-12-04 07:42, 60-100 % in the slow phase of 2026-12-04
   11:20-11:40): the failure stands, and the floor's figures are added to it.
-- It misses more: the machine could not run any 1 kHz graph of processes just then. The test
-  is reported as skipped, with the floor's figures and the first line of the failure, so the run
-  shows what happened and passes or fails on what it could judge.
+- It misses more: the machine could not run any 1 kHz graph of processes just then. The floor
+  is measured again until it is back within the limit (the exclusive lock keeps every other test
+  off the machine meanwhile; such a phase ends about 30 s after the load that started it), for
+  at most ``RECOVERY_WAIT`` s, and the test runs once more, judged as it was the first time.
+  If it passes, it passes with a warning in the run's summary that names the first failure and
+  both floors. If the machine does not recover in time, or the second run fails while the floor
+  is out again, the test is reported as skipped, with the floor's figures and the first line of
+  the failure: the run shows what happened and passes or fails on what it could judge.
 
 A passing test is never measured (no cost), and a failure in set-up or tear-down stands as it
 is. ``IRS_FLOOR_VERDICT=0`` turns the verdict off (every failure stands).
@@ -26,6 +31,7 @@ from __future__ import annotations
 import importlib.util
 import os
 from pathlib import Path
+import time
 from typing import Callable, Optional
 
 import pytest
@@ -36,6 +42,8 @@ from _pytest.runner import runtestprotocol
 FLOOR_MISS_LIMIT = 10.0
 #: How long the floor runs [s] (about 5 s more for its start and discovery).
 FLOOR_SECONDS = 3.0
+#: How long the machine may take to hold the floor again before a second run [s].
+RECOVERY_WAIT = 90.0
 #: ``bench/floor.py`` of this checkout.
 FLOOR_SCRIPT = Path(__file__).resolve().parents[2] / 'bench' / 'floor.py'
 
@@ -69,12 +77,16 @@ def _first_line(report) -> str:
     return text.strip().splitlines()[0][:300] if text.strip() else 'failed'
 
 
+def failed_call(reports):
+    """The failed call report among ``reports``, or None."""
+    return next((r for r in reports if r.when == 'call' and r.failed), None)
+
+
 def judge(item, reports, measure: Callable[[], dict]) -> Optional[dict]:
     """Apply the verdict to ``reports`` of ``item`` (in place); the floor measured, or None."""
-    failed = [r for r in reports if r.when == 'call' and r.failed]
-    if not failed:
+    report = failed_call(reports)
+    if report is None:
         return None
-    report = failed[0]
     try:
         floor = measure()
     except Exception as exc:      # the floor itself failed: the failure stands, and says so
@@ -91,14 +103,64 @@ def judge(item, reports, measure: Callable[[], dict]) -> Optional[dict]:
     return floor
 
 
+def wait_for_recovery(measure: Callable[[], dict], wait: float,
+                      clock: Callable[[], float] = time.monotonic) -> Optional[dict]:
+    """Measure the floor until it holds (:func:`machine_at_fault` false); that floor, or None
+    when it did not hold within ``wait`` s (or could not be measured).
+    """
+    end = clock() + wait
+    while clock() < end:
+        try:
+            floor = measure()
+        except Exception:
+            return None
+        if not machine_at_fault(floor):
+            return floor
+    return None
+
+
+def run_judged(item, nextitem, measure: Callable[[], dict], wait: Optional[float] = None):
+    """Run ``item``'s protocol; a call that failed while the floor blames the machine runs once
+    more after the floor holds again (within ``wait`` s, default ``RECOVERY_WAIT``). Returns the
+    reports to log.
+    """
+    wait = RECOVERY_WAIT if wait is None else wait
+    reports = runtestprotocol(item, nextitem=nextitem, log=False)
+    first = failed_call(reports)
+    if first is None:
+        return reports
+    first_line = _first_line(first)
+    floor = judge(item, reports, measure)
+    if floor is None or not first.skipped:
+        return reports
+    recovered = wait_for_recovery(measure, wait)
+    if recovered is None:
+        path, line, reason = first.longrepr
+        first.longrepr = (path, line, f'{reason}; the floor did not hold 1 kHz again within '
+                          f'{wait:g} s')
+        return reports
+    again = runtestprotocol(item, nextitem=nextitem, log=False)
+    second = failed_call(again)
+    if second is None:
+        item.warn(pytest.PytestWarning(
+            f'passed when run again: its first run failed with "{first_line}" while '
+            f'{describe(floor)}; before the second run {describe(recovered)}'))
+    else:
+        judge(item, again, measure)
+        if second.skipped:
+            path, line, reason = second.longrepr
+            second.longrepr = (path, line, f'{reason} (its second run; the first failed with '
+                               f'"{first_line}" while {describe(floor)})')
+    return again
+
+
 @pytest.hookimpl(tryfirst=True)
 def pytest_runtest_protocol(item, nextitem):
     """Run an exclusive test, judge a failed call by the floor, then log the reports."""
     if item.get_closest_marker('exclusive') is None or os.environ.get('IRS_FLOOR_VERDICT') == '0':
         return None
     item.ihook.pytest_runtest_logstart(nodeid=item.nodeid, location=item.location)
-    reports = runtestprotocol(item, nextitem=nextitem, log=False)
-    judge(item, reports, lambda: measure_floor())   # looked up at the call: replaceable
+    reports = run_judged(item, nextitem, lambda: measure_floor())  # looked up at the call
     for report in reports:
         item.ihook.pytest_runtest_logreport(report=report)
     item.ihook.pytest_runtest_logfinish(nodeid=item.nodeid, location=item.location)
