@@ -40,9 +40,12 @@ Metadata
 ``metadata`` is a JSON object text. On a command line, quote it as a YAML string, or ``-p``
 parses it as a mapping: ``-p "metadata:='{\"git_commit\": \"abc\"}'"``; in a params file
 write it as a quoted string. It becomes the MCAP metadata record ``irs_experiment`` (written at
-start, so it survives a crash) plus ``recorder.topics``. A small ``recorder/status`` message
-(std_msgs/String, JSON: bag, messages per topic, drops, chunks; latched) is published every
-``status_period`` s, for supervisors and tests.
+start, so it survives a crash) plus ``recorder.topics``. With ``node_parameters`` (default),
+every other node of the graph is asked once for its parameters, and each answer becomes a
+metadata record ``irs_node_parameters`` (:mod:`irs_bag.node_parameters`; asked every
+``PARAMETER_POLL_PERIOD`` s), so that a bag recorded by hand says what the nodes ran with.
+A small ``recorder/status`` message (std_msgs/String, JSON: bag, messages per topic, drops,
+chunks; latched) is published every ``status_period`` s, for supervisors and tests.
 """
 from __future__ import annotations
 
@@ -63,10 +66,13 @@ from irs_common.params import declare_table
 
 from .writer import BagWriter, BagWriterError, qos_profiles_yaml
 from .msg_definitions import MessageDefinitionError
+from .node_parameters import RECORD, ParameterAsker
 from .recorder_params import NODE_PARAMS
 
 #: Where a recorder without ``output`` writes, relative to the working directory.
 DEFAULT_OUTPUT = 'runs/bags/irs_bag_%Y_%m_%d-%H_%M_%S'
+#: How often the graph is looked at for nodes whose parameters to ask for [s].
+PARAMETER_POLL_PERIOD = 0.5
 #: Longest final drain on shutdown [s] (``final_drain`` is the quiet time that ends it).
 FINAL_DRAIN_MAX_S = 1.0
 
@@ -189,6 +195,10 @@ class Recorder(Node):
             self.create_timer(self.p['status_period'], self.publish_status)
         self.create_timer(self.p['discovery_period'], self._discover)
         self.create_timer(self.p['flush_period'], self._flush)
+        self.asker = None
+        if self.p['node_parameters']:
+            self.asker = ParameterAsker(self, self._write_node_parameters)
+            self.create_timer(PARAMETER_POLL_PERIOD, self.asker.poll)
         self.get_logger().info(
             f"recording {topics} to {self.output} ({self.p['compression']})")
 
@@ -290,6 +300,13 @@ class Recorder(Node):
             rec.last_seq = seq
         self.writer.write(rec.topic, rec.type_name, data, recv, src, (seq or 0) & 0xFFFFFFFF)
 
+    def _write_node_parameters(self, node: str, params: dict) -> None:
+        if self.writer.closed:
+            return
+        self.writer.add_metadata(RECORD, {'node': node,
+                                          'parameters': json.dumps(params, sort_keys=True)})
+        self.get_logger().info(f'{node}: its {len(params)} parameters are in the bag')
+
     def _flush(self):
         if not self.writer.closed:
             self.writer.flush()
@@ -348,6 +365,8 @@ class Recorder(Node):
                 f'{s.dropped_total} ({drops})')
 
     def destroy_node(self):
+        if getattr(self, 'asker', None) is not None:
+            self.asker.close()
         if not self.writer.closed:
             self.final_drain()
             print(self.close(), flush=True)

@@ -15,6 +15,10 @@ NODE_PARAMS = [
     Param('metadata', '{}', "JSON object of string -> string written as MCAP metadata record "
           "'irs_experiment' (experiment file, parameters, versions, git commit)", '-',
           read_only=True),
+    Param('node_parameters', True, "ask every other node of the graph for its parameters once "
+          "and write them as MCAP metadata records 'irs_node_parameters' (a bag recorded by "
+          "hand then names its controller and rig); the experiment runner writes the "
+          "experiment's own in 'metadata' and sets this false", '-'),
     Param('compression', 'zstd', "chunk compression: 'zstd', 'lz4' or 'none'", '-',
           read_only=True),
     Param('chunk_size', 1 << 20, 'uncompressed chunk size', 'bytes', 1024, 1 << 30,

@@ -1,11 +1,12 @@
 """What a recorded run is, from its bag's metadata: name, controller, arm and car (no rclpy).
 
 The experiment runner writes the MCAP metadata record ``irs_experiment`` (experiment name,
-``node_parameters`` as JSON, start time). The plots put :attr:`RunInfo.title` (run and
-controller) on every figure, and the rerun export draws the arm and the car
-with the rig's own geometry (``vehicle_sim`` parameters ``arm.*``, ``car.length``,
-``car.width``). A bag without that record (recorded by hand) gets the defaults of
-docs/conventions.md and the controller ``'controller unknown'``.
+``node_parameters`` as JSON, start time). A recorder started by hand writes instead what each
+node of the graph answered when asked for its parameters (records ``irs_node_parameters``,
+:mod:`irs_bag.node_parameters`). The plots put :attr:`RunInfo.title` (run and controller) on
+every figure, and the rerun export draws the arm and the car with the rig's own geometry
+(``vehicle_sim`` parameters ``arm.*``, ``car.length``, ``car.width``). A bag with neither gets
+the defaults of docs/conventions.md and the controller ``'controller unknown'``.
 """
 from __future__ import annotations
 
@@ -14,6 +15,8 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 from irs_models.arm_kinematics import ArmGeometry
+
+from .node_parameters import node_parameters_from_records
 
 __all__ = ['RunInfo', 'controller_label', 'run_info', 'run_info_from_metadata', 'run_name']
 
@@ -75,16 +78,22 @@ def _geometry(rig: dict) -> ArmGeometry:
         return ArmGeometry()
 
 
-def run_info_from_metadata(name: str, meta: dict | None) -> RunInfo:
-    """:class:`RunInfo` from the ``irs_experiment`` record (a dict of strings) or None."""
-    if not meta:
+def run_info_from_metadata(name: str, meta: dict | None,
+                           graph_parameters: dict | None = None) -> RunInfo:
+    """:class:`RunInfo` from the ``irs_experiment`` record (a dict of strings) or None; without
+    node parameters in it, from ``graph_parameters`` (``{node: {parameter: value}}``, what the
+    nodes of a graph recorded by hand answered).
+    """
+    if not meta and not graph_parameters:
         return RunInfo(name)
+    meta = meta or {}
     try:
         params = json.loads(meta.get('node_parameters', '{}'))
     except json.JSONDecodeError:
         params = {}
     if not isinstance(params, dict):
         params = {}
+    params = params or dict(graph_parameters or {})
     rig = params.get('vehicle_sim') or {}
     try:
         length = float(rig.get('car.length', CAR_LENGTH))
@@ -97,5 +106,7 @@ def run_info_from_metadata(name: str, meta: dict | None) -> RunInfo:
 
 def run_info(reader) -> RunInfo:
     """:class:`RunInfo` of an open :class:`~irs_bag.reader.BagReader`."""
-    meta = dict(reader.metadata_records()).get('irs_experiment')
-    return run_info_from_metadata(run_name(reader.path), meta)
+    records = reader.metadata_records()
+    meta = dict(records).get('irs_experiment')
+    return run_info_from_metadata(run_name(reader.path), meta,
+                                  node_parameters_from_records(records))

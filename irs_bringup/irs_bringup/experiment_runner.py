@@ -233,9 +233,10 @@ class ExperimentRunner:
         # No use_sim_time: the recorder logs receive times on the system clock either way, and
         # without it it does not take /clock every step (unless /clock is recorded).
         # status every 0.1 s: the runner's drain reads the counts (_drain)
+        # the experiment's node parameters are in 'metadata': the recorder asks for none
         params = {'topics': list(self.exp.record_topics), 'output': str(bag_dir),
                   'metadata': json.dumps(experiment_metadata(self.exp)),
-                  'status_period': DRAIN_STATUS_PERIOD}
+                  'status_period': DRAIN_STATUS_PERIOD, 'node_parameters': False}
         return NodeSpec('irs_bag', 'recorder', 'recorder', params=params)
 
     def _view_spec(self):

@@ -541,3 +541,39 @@ def test_a_frozen_recorder_keeps_every_status_published_between_a_sensor_flood(
     # what is missing since the first recorded status is what the recorder reports lost
     assert dropped.get('/some/status', 0) == sent['/some/status'] - values[0] - len(values), \
         (values, dropped)
+
+
+def test_a_recorder_started_by_hand_writes_the_parameters_of_the_nodes_beside_it(launch,
+                                                                                  tmp_path):
+    """A recorder started by hand beside a lateral controller started with its file (PI mode,
+    as ``-p`` gives it) asks it for its parameters: the bag has them as a metadata record, and
+    the plots' title names the controller from them.
+    """
+    from pathlib import Path
+
+    from ament_index_python.packages import get_package_share_directory
+    import yaml
+
+    from irs_bag import BagReader, validate
+    from irs_bag.node_parameters import node_parameters_from_records
+    from irs_bag.run_info import run_info
+
+    config = Path(get_package_share_directory('irs_control')) / 'config' / \
+        'lateral_controller.yaml'
+    file_params = yaml.safe_load(config.read_text())['lateral_controller']['ros__parameters']
+    ctrl = launch(NodeSpec('irs_control', 'lateral_controller', params_files=[config],
+                           params={'mode': 'pi'}))
+    bag = tmp_path / 'bag'
+    rec = launch(recorder_spec(bag, ['/lateral/status']))
+    assert wait_until(lambda: '/lateral_controller: its' in rec.output(), 60.0), \
+        rec.tail() + '\n' + ctrl.tail()
+    assert rec.stop() == 0, rec.tail()
+    assert validate(bag).ok
+    with BagReader(bag) as reader:
+        params = node_parameters_from_records(reader.metadata_records())
+        info = run_info(reader)
+    ctrl_params = params['lateral_controller']
+    assert ctrl_params['mode'] == 'pi'
+    assert ctrl_params['kp'] == file_params['kp'] and ctrl_params['ki'] == file_params['ki']
+    assert ctrl_params['reference_model_den'] == file_params['reference_model_den']
+    assert info.controller == f"PI (kp {file_params['kp']:g}, ki {file_params['ki']:g})"
