@@ -134,6 +134,17 @@ class NodeProcess:
     def tail(self, lines: int = 20) -> str:
         return '\n'.join(self.output().splitlines()[-lines:])
 
+    def write_native_stacks(self) -> str:
+        """Where the running process waits, for a failure's report: ``gdb``'s Python and native
+        stacks of its threads (as at a stop, module docstring), or a line saying why there are
+        none.
+        """
+        if self.poll() is not None:
+            return f'{self.label}: no stacks, it has exited ({self.poll()})'
+        if not _write_native_stacks([self]) or self.native_stacks is None:
+            return f'{self.label}: no stacks (IRS_NATIVE_STACKS unset or no gdb)'
+        return self.native_stacks.read_text(errors='replace')
+
     def cpu_seconds(self) -> float:
         """User + system CPU time [s] the process has used so far (Linux /proc), NaN if gone."""
         try:

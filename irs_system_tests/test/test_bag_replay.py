@@ -106,7 +106,8 @@ def test_replay_is_byte_exact_with_clock_and_waits_for_subscribers(ros, launch, 
         '--wait-for-subscribers', '2']))   # our two /a subscriptions
     assert ros.spin_until(lambda: play2.poll() is not None and len(got2['/a']) >= N
                           and len(got2['/clock']) >= N, 60.0), \
-        (play2.output(), len(got2['/a']), len(got2['/clock']), len(got['/a']))
+        (play2.output(), len(got2['/a']), len(got2['/clock']), len(got['/a']),
+         play2.write_native_stacks()[-6000:])     # where a player that did not finish waits
     assert play2.poll() == 0
     assert got2['/a'] == recorded['/a']
     assert after_lead_in([stamp_ns(c) for c in got2['/clock']]) == [k * DT_NS for k in range(N)]

@@ -121,3 +121,24 @@ def test_a_gdb_that_does_not_finish_leaves_what_it_wrote_and_says_so(tmp_path, m
     proc = _stop_stuck(tmp_path)
     assert proc.native_stacks == tmp_path / 'stuck.native_stacks.txt'
     assert proc.native_stacks.read_text().endswith('[gdb did not finish within 0.001 s]\n')
+
+
+@pytest.mark.skipif(shutil.which('gdb') is None, reason='needs gdb')
+def test_a_running_process_shows_where_it_waits_for_a_failure_report(tmp_path, monkeypatch):
+    """``write_native_stacks`` on a process that still runs (a test about to fail on it): the
+    stacks as text, the process left running; after it exited, a line saying so.
+    """
+    monkeypatch.setenv('IRS_NATIVE_STACKS', '1')
+    proc = NodeProcess(ScriptSpec(STUCK), tmp_path, label='stuck')
+    try:
+        assert wait_until(lambda: 'ready' in proc.output() or proc.poll() is not None,
+                          START_TIMEOUT), proc.tail()
+        text = proc.write_native_stacks()
+        assert 'Thread 1' in text and '#0 ' in text, text[-2000:]
+        if 'Undefined command: "py-bt"' not in text:
+            assert 'in wait_for_a_lock_nobody_releases' in text, text[-3000:]
+        assert proc.poll() is None
+    finally:
+        proc.signal_group(signal.SIGKILL)
+        proc.popen.wait(10)
+    assert proc.write_native_stacks() == f'stuck: no stacks, it has exited ({-signal.SIGKILL})'
