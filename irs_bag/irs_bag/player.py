@@ -8,19 +8,23 @@
    subscriptions do;
 2. with ``--wait-for-subscribers N``: wait until every publisher has matched N subscriptions;
 3. the ``/clock`` lead-in: the first clock value is published every ``CLOCK_REPEAT_S`` until
-   every ``/clock`` subscription has matched, the reliable ones have acknowledged it, and it
-   has been repeated for ``CLOCK_LEAD_S`` after the last subscription matched (rclpy's time
-   source subscribes best effort: nothing acknowledges, a repeat reaches it once it matched).
-   So a consumer on ``use_sim_time`` has the data's time before the first message, and does
-   not drop it as stamped ahead of its clock;
+   every ``/clock`` subscription has matched and ``CLOCK_LEAD_S`` have passed since the last
+   one did (rclpy's time source subscribes best effort: nothing acknowledges, a repeat reaches
+   it once it matched); then the reliable ones' acknowledgements of those values are awaited,
+   with no new value published meanwhile (a value published while waiting would be one more
+   to acknowledge: a writer learns of acknowledgements at its heartbeats, and a check right
+   after a publish never sees all acknowledged). At most ``--ack-timeout`` in all, then a
+   warning. So a consumer on ``use_sim_time`` has the data's time before the first message,
+   and does not drop it as stamped ahead of its clock;
 4. the schedule: message i at ``wall_start + (t_i - t_first) / rate``, ``/clock`` advanced to
    ``t_i`` right before it; sleeping in slices of at most ``SLICE_S``, spinning the last
    ``SPIN_S``; a message published late does not shift the ones after it (absolute times);
 5. the end: every reliable subscriber's acknowledgement of every message is awaited
    (at most ``--ack-timeout``, default ``ACK_TIMEOUT_S``; a warning names the topics still
-   unacknowledged), then one summary line. With ``/clock`` consumers a warning says what the
-   player cannot see: a message a consumer received and then dropped against its clock (the
-   consumer logs it).
+   unacknowledged), then one summary line. The player's writers send heartbeats every 50 ms
+   (:func:`use_player_profile`), so acknowledgements come within about 0.1 s. With ``/clock``
+   consumers a warning says what the player cannot see: a message a consumer received and then
+   dropped against its clock (the consumer logs it).
 
 SIGINT and SIGTERM set a flag (rclpy's handlers are off) that the schedule, the waits and the
 lead-in check: the player stops within ``SLICE_S``, destroys its node and returns
@@ -28,6 +32,7 @@ lead-in check: the player stops within ``SLICE_S``, destroys its node and return
 """
 from __future__ import annotations
 
+import os
 import signal
 import sys
 import threading
@@ -210,21 +215,26 @@ class Player:
         timeout = self.args.ack_timeout
         deadline = now() + timeout
         matched, matched_at = -1, now()
+        acked = False
         while not self.interrupt:
             self.clock_pub.publish(msg)
             self.clocks += 1
             count = self.clock_pub.get_subscription_count()
             if count != matched:
                 matched, matched_at = count, now()
-            acked = self.clock_pub.wait_for_all_acked(Duration(seconds=0))
-            if count >= self.plan.n_wait and acked and now() - matched_at >= CLOCK_LEAD_S:
+            if count >= self.plan.n_wait and now() - matched_at >= CLOCK_LEAD_S:
                 break
             if now() > deadline:
-                print(f'bag play: warning: /clock {first * 1e-9:.9f} s not acknowledged by every '
-                      f'reliable /clock subscriber within {timeout:g} s; playing on',
-                      file=sys.stderr, flush=True)
                 break
             time.sleep(CLOCK_REPEAT_S)
+        # Then the acknowledgements of what was published, with no new value in the way: a
+        # writer learns of them at its next heartbeat (Fast DDS: every 3 s by default).
+        while not self.interrupt and not acked and now() <= deadline:
+            acked = self.clock_pub.wait_for_all_acked(Duration(seconds=SLICE_S))
+        if not acked and not self.interrupt:
+            print(f'bag play: warning: /clock {first * 1e-9:.9f} s not acknowledged by every '
+                  f'reliable /clock subscriber within {timeout:g} s; playing on',
+                  file=sys.stderr, flush=True)
         self.last_clock = first
 
     def _play_once(self) -> None:
@@ -300,16 +310,44 @@ class Player:
         print(f'bag play: {what} in {elapsed:.3f} s; {timing}', flush=True)
 
 
+#: The environment variables naming a Fast DDS XML profile file (Fast DDS 2 reads the first).
+PROFILE_VARIABLES = ('FASTRTPS_DEFAULT_PROFILES_FILE', 'FASTDDS_DEFAULT_PROFILES_FILE')
+
+
+def use_player_profile(environ=os.environ) -> Optional[str]:
+    """Name the player's Fast DDS profile (``config/bag_play_fastdds.xml`` of ``irs_bag``:
+    heartbeats every 50 ms, so the acknowledgements the player waits for come in about 0.1 s
+    instead of up to 3 s) in ``environ``, unless a profile file is named there already; the
+    file named, or None. Called before ``rclpy.init``: Fast DDS reads it once per process.
+    """
+    if any(environ.get(v) for v in PROFILE_VARIABLES):
+        return None
+    from ament_index_python.packages import PackageNotFoundError, get_package_share_directory
+    try:
+        path = os.path.join(get_package_share_directory('irs_bag'), 'config',
+                            'bag_play_fastdds.xml')
+    except PackageNotFoundError:
+        return None
+    if not os.path.isfile(path):
+        return None
+    environ[PROFILE_VARIABLES[0]] = path
+    return path
+
+
 def run_player(args, ros_args: List[str], plan, interrupt: Interrupt) -> int:
     """``rclpy.init`` (its signal handlers off: :class:`Interrupt` has them), one node, the
-    :class:`Player`, clean shutdown; returns the exit code.
+    :class:`Player`, clean shutdown; returns the exit code. The process's Fast DDS writers use
+    the player's profile (:func:`use_player_profile`).
     """
+    profile = use_player_profile()
     import rclpy
     from rclpy.signals import SignalHandlerOptions
-    rclpy.init(args=['bag_play', *ros_args], signal_handler_options=SignalHandlerOptions.NO)
     node = None
     try:
+        rclpy.init(args=['bag_play', *ros_args], signal_handler_options=SignalHandlerOptions.NO)
         node = rclpy.create_node('bag_player')
+        if profile is not None:    # read by now; not for processes this one may start
+            os.environ.pop(PROFILE_VARIABLES[0], None)
         return Player(args, plan, interrupt, node).run()
     finally:
         if node is not None:

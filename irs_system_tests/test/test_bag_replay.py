@@ -97,6 +97,8 @@ def test_replay_is_byte_exact_with_clock_and_waits_for_subscribers(ros, launch, 
     # lead-in that repeats the first one until the subscribers have it
     assert after_lead_in([stamp_ns(c) for c in got['/clock']]) == log_times
     assert 'timing error mean' in out, out
+    # the lead-in's values are acknowledged, not given up on after --ack-timeout (10 s)
+    assert 'not acknowledged' not in out, out
 
     # --clock-from header: /clock follows header.stamp; only /a played, as fast as possible
     got2 = raw_recorder(ros, {'/a': PointStamped, '/clock': Clock})
@@ -109,6 +111,7 @@ def test_replay_is_byte_exact_with_clock_and_waits_for_subscribers(ros, launch, 
         (play2.output(), len(got2['/a']), len(got2['/clock']), len(got['/a']),
          play2.write_native_stacks()[-6000:])     # where a player that did not finish waits
     assert play2.poll() == 0
+    assert 'not acknowledged' not in play2.output(), play2.output()
     assert got2['/a'] == recorded['/a']
     assert after_lead_in([stamp_ns(c) for c in got2['/clock']]) == [k * DT_NS for k in range(N)]
 
