@@ -12,6 +12,7 @@ import json
 
 import pytest
 
+from irs_bag.node_parameters import RECORD
 from irs_bag.reader import BagReader
 from irs_bringup.experiment import load_experiment
 from irs_bringup.experiment_runner import ExperimentRunner
@@ -58,8 +59,11 @@ def _run(exp, runs_dir) -> dict:
     assert set(result.exit_codes) == (groups if None not in groups else set(exp.processes()))
     assert all(code == 0 for code in result.exit_codes.values()), result.exit_codes
     with BagReader(result.bag_dir) as reader:   # the deployment is in the bag's metadata
-        recorded = json.loads(dict(reader.metadata_records())['irs_experiment']['processes'])
+        records = reader.metadata_records()
+    recorded = json.loads(dict(records)['irs_experiment']['processes'])
     assert recorded == exp.processes()
+    # the experiment's node parameters are in that record: the recorder asks the nodes for none
+    assert [name for name, _ in records if name == RECORD] == []
     return _payloads(result.bag_dir)
 
 
