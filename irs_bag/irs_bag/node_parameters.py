@@ -69,12 +69,15 @@ class _Asking:
 
 class ParameterAsker:
     """Asks each node of ``owner``'s graph for its parameters once; ``write(node, params)``
-    gets each answer (``params``: ``{name: value}``, plain Python values).
+    gets each answer (``params``: ``{name: value}``, each ``rcl_interfaces/ParameterValue``
+    made a plain Python value by ``to_python``: ``rclpy.parameter.parameter_value_to_python``,
+    which the node passes in, so that this module needs no rclpy).
     """
 
     def __init__(self, owner, write: Callable[[str, dict], None],
+                 to_python: Callable[[object], object],
                  clock: Callable[[], float] = time.monotonic):
-        self.owner, self.write, self.clock = owner, write, clock
+        self.owner, self.write, self.to_python, self.clock = owner, write, to_python, clock
         self.own = _full_name(owner.get_name(), owner.get_namespace())
         self.done: set = set()
         self.asking: Dict[str, _Asking] = {}
@@ -106,9 +109,7 @@ class ParameterAsker:
             if a.names is None:
                 a.names = list(response.result.names)
             else:
-                from rclpy.parameter import parameter_value_to_python
-                params = {n: parameter_value_to_python(v)
-                          for n, v in zip(a.names, response.values)}
+                params = {n: self.to_python(v) for n, v in zip(a.names, response.values)}
                 self._finish(a)
                 self.write(a.node, params)
                 return

@@ -57,6 +57,7 @@ import time
 from pathlib import Path
 
 from rclpy.node import Node
+from rclpy.parameter import parameter_value_to_python
 from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
 from std_msgs.msg import String
 
@@ -197,7 +198,8 @@ class Recorder(Node):
         self.create_timer(self.p['flush_period'], self._flush)
         self.asker = None
         if self.p['node_parameters']:
-            self.asker = ParameterAsker(self, self._write_node_parameters)
+            self.asker = ParameterAsker(self, self._write_node_parameters,
+                                        parameter_value_to_python)
             self.create_timer(PARAMETER_POLL_PERIOD, self.asker.poll)
         self.get_logger().info(
             f"recording {topics} to {self.output} ({self.p['compression']})")

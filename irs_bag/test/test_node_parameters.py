@@ -4,6 +4,7 @@ what is written, and what a node that does not answer gets; and the records read
 import json
 
 from rcl_interfaces.msg import ParameterType, ParameterValue
+from rclpy.parameter import parameter_value_to_python
 
 from irs_bag.node_parameters import (ATTEMPTS, RECORD, TIMEOUT_S, ParameterAsker,
                                      node_parameters_from_records)
@@ -91,7 +92,8 @@ def _get_answer(values):
 def test_each_other_node_is_asked_once_and_its_answer_written():
     owner = Owner([('recorder', '/'), ('lateral_controller', '/'), ('rig', '/lab')])
     written = []
-    asker = ParameterAsker(owner, lambda node, params: written.append((node, params)))
+    asker = ParameterAsker(owner, lambda node, params: written.append((node, params)),
+                           parameter_value_to_python)
     asker.poll()
     services = sorted(c.service for c in owner.clients)
     assert services == ['/lab/rig/list_parameters', '/lateral_controller/list_parameters']
@@ -117,7 +119,8 @@ def test_each_other_node_is_asked_once_and_its_answer_written():
 def test_a_node_that_does_not_answer_is_asked_again_then_left_out():
     now = [0.0]
     owner = Owner([('mute', '/')])
-    asker = ParameterAsker(owner, lambda *a: None, clock=lambda: now[0])
+    asker = ParameterAsker(owner, lambda *a: None, parameter_value_to_python,
+                           clock=lambda: now[0])
     for attempt in range(ATTEMPTS):
         asker.poll()                   # a new list_parameters request
         assert len(owner.clients) == attempt + 1 and len(owner.clients[-1].futures) == 1
@@ -131,7 +134,7 @@ def test_a_node_that_does_not_answer_is_asked_again_then_left_out():
 
 def test_a_service_not_yet_discovered_is_waited_for():
     owner = Owner([('slow', '/')], ready=False)
-    asker = ParameterAsker(owner, lambda *a: None)
+    asker = ParameterAsker(owner, lambda *a: None, parameter_value_to_python)
     asker.poll()
     asker.poll()
     assert len(owner.clients) == 1 and owner.clients[0].futures == []
