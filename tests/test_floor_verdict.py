@@ -27,13 +27,13 @@ REAL = pytest.StashKey()
 
 def pytest_configure(config):
     config.addinivalue_line('markers', 'exclusive: real time, alone')
-    config.stash[REAL] = verdict.measure_floor, verdict.RECOVERY_WAIT
+    config.stash[REAL] = verdict.measure_floor, verdict.RECOVERY_WAIT, verdict.RECOVERY_IDLE
     verdict.measure_floor = fake_floor
-    verdict.RECOVERY_WAIT = 0.5
+    verdict.RECOVERY_WAIT, verdict.RECOVERY_IDLE = 0.5, 0.05
 
 
 def pytest_unconfigure(config):      # the inner run shares the module with the outer one
-    verdict.measure_floor, verdict.RECOVERY_WAIT = config.stash[REAL]
+    verdict.measure_floor, verdict.RECOVERY_WAIT, verdict.RECOVERY_IDLE = config.stash[REAL]
 
 
 def fake_floor(seconds=verdict.FLOOR_SECONDS):
@@ -115,8 +115,8 @@ def test_a_machine_that_misses_the_floor_turns_the_failure_into_a_skip_that_says
     result, calls = _run(pytester, 92.0)
     result.assert_outcomes(passed=1, failed=1, skipped=1, errors=1)
     # the failed call of the exclusive test, then the wait for the floor to hold (0.5 s of
-    # 0.1 s floors): nothing else is measured
-    assert 3 <= calls <= 7, calls
+    # 0.1 s floors, each after 0.05 s idle): nothing else is measured
+    assert 3 <= calls <= 6, calls
     result.stdout.fnmatch_lines([
         '*SKIPPED*test_inner.py:*the machine could not run a 1 kHz graph just now: the floor*'
         'missed 92.0 % of its deadlines (p99 12.50 ms, 800 us of CPU per hop), measured right '
@@ -149,6 +149,27 @@ def test_without_a_floor_or_with_the_verdict_off_every_failure_stands(pytester, 
 def test_the_inner_runs_leave_the_real_floor_in_place():
     import irs_system_tests.floor_verdict as verdict
     assert verdict.measure_floor.__module__ == 'irs_system_tests.floor_verdict'
+    assert (verdict.RECOVERY_WAIT, verdict.RECOVERY_IDLE) == (90.0, 20.0)
+
+
+def test_the_machine_is_left_idle_before_each_floor_of_the_recovery_wait(monkeypatch):
+    import irs_system_tests.floor_verdict as verdict
+    events, now = [], [0.0]
+    monkeypatch.setattr(verdict.time, 'sleep', lambda s: (events.append(('idle', s)),
+                                                          now.__setitem__(0, now[0] + s)))
+
+    def floor():
+        now[0] += 5.0
+        events.append(('floor', now[0]))
+        return {'miss_pct': 50.0 if len(events) < 4 else 1.0}
+    held = verdict.wait_for_recovery(floor, 60.0, clock=lambda: now[0], idle=20.0)
+    assert held == {'miss_pct': 1.0}
+    assert events == [('idle', 20.0), ('floor', 25.0), ('idle', 20.0), ('floor', 50.0)]
+    events.clear()
+    now[0] = 0.0
+    assert verdict.wait_for_recovery(lambda: {'miss_pct': 50.0}, 30.0, clock=lambda: now[0],
+                                     idle=20.0) is None
+    assert events == [('idle', 20.0), ('idle', 10.0)]
 
 
 def test_the_skip_crosses_xdist_workers(pytester):
