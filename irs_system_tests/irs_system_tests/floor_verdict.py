@@ -13,11 +13,12 @@ hop, a raw rcl wait set, no IRS code) at 1 kHz in real time for ``FLOOR_SECONDS`
 - It misses more: the machine could not run any 1 kHz graph of processes just then. The floor
   is measured again, each time after ``RECOVERY_IDLE`` s with nothing running (the exclusive
   lock keeps every other test off the machine; such a phase ends about 30 s after the load
-  that started it), until it is back within the limit, for at most ``RECOVERY_WAIT`` s, and the test runs once more, judged as it was the first time.
-  If it passes, it passes with a warning in the run's summary that names the first failure and
-  both floors. If the machine does not recover in time, or the second run fails while the floor
-  is out again, the test is reported as skipped, with the floor's figures and the first line of
-  the failure: the run shows what happened and passes or fails on what it could judge.
+  that started it), until it is back within the limit, for at most ``RECOVERY_WAIT`` s, and
+  the test runs once more, judged as it was the first time. If it passes, it passes with a
+  warning in the run's summary that names the first failure and both floors. If the machine
+  does not recover in time, or the second run fails while the floor is out again, the test is
+  reported as skipped, with the floor's figures and the first line of the failure: the run
+  shows what happened and passes or fails on what it could judge.
 
 A passing test is never measured (no cost), and a failure in set-up or tear-down stands as it
 is. ``IRS_FLOOR_VERDICT=0`` turns the verdict off (every failure stands).
@@ -45,8 +46,9 @@ FLOOR_SECONDS = 3.0
 #: How long the machine may take to hold the floor again before a second run [s].
 RECOVERY_WAIT = 90.0
 #: The machine is left idle this long before each floor of the recovery wait [s]: a floor
-#: (three processes started, 3 s at 1 kHz) is load itself, and back-to-back floors kept a slow
-#: phase going for 90 s (the CI run of 2026-12-04 14:55, commit 83d9190).
+#: (three processes started, 3 s at 1 kHz) is load itself. After 20 s of two busy cores,
+#: back-to-back floors held again after 40 s once and not within 98 s once; with 20 s idle
+#: before each, the floor held at 25 s and at 50 s (2026-12-04 15:20-15:30, commit 3ad74d5).
 RECOVERY_IDLE = 20.0
 #: ``bench/floor.py`` of this checkout.
 FLOOR_SCRIPT = Path(__file__).resolve().parents[2] / 'bench' / 'floor.py'
