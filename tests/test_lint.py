@@ -50,3 +50,14 @@ def test_cores_do_not_import_rclpy():
                 and not rel.endswith('_node.py'):
             offenders.append(rel)
     assert not offenders, f'rclpy imported outside node wrappers: {offenders}'
+
+
+def test_no_tracked_file_is_named_like_an_option():
+    """A file named ``--help`` is what a tool writes when it takes an option for its output."""
+    res = subprocess.run(['git', 'ls-files', '-z'], cwd=ROOT, capture_output=True, text=True,
+                         timeout=60)
+    assert res.returncode == 0, res.stderr
+    names = [p for p in res.stdout.split('\0') if p]
+    assert names, 'git ls-files listed nothing'
+    offenders = [p for p in names if any(part.startswith('-') for part in p.split('/'))]
+    assert not offenders, offenders

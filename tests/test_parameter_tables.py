@@ -1,6 +1,7 @@
 """Meta-tests of the nodes' parameters: documented with units, docs current, YAML consistent."""
 from pathlib import Path
 
+import pytest
 import yaml
 
 from irs_bringup.experiment import NODE_TOPICS
@@ -124,3 +125,15 @@ def test_parameter_tables_are_well_formed_for_the_mechanism():
         for p in table:
             assert p.coerce(p.default) == p.default, f'{node_name}.{p.name}'
             assert p.writable is not p.read_only
+
+
+def test_param_docs_help_prints_usage_and_writes_nothing(tmp_path, monkeypatch, capsys):
+    from irs_bringup.param_docs import main
+    monkeypatch.chdir(tmp_path)
+    with pytest.raises(SystemExit) as exc:
+        main(['--help'])
+    assert exc.value.code == 0
+    assert 'usage:' in capsys.readouterr().out
+    assert list(tmp_path.iterdir()) == []
+    assert main([str(tmp_path / 'p.md')]) == 0
+    assert (tmp_path / 'p.md').read_text() == render()

@@ -2,6 +2,7 @@
 
 Run as ``python -m irs_bringup.param_docs``.
 """
+import argparse
 import sys
 
 from irs_common.params import markdown_table
@@ -46,8 +47,12 @@ def render() -> str:
 
 
 def main(argv=None) -> int:
-    args = sys.argv[1:] if argv is None else argv
-    path = args[0] if args else 'docs/parameters.md'
+    parser = argparse.ArgumentParser(
+        prog='python -m irs_bringup.param_docs',
+        description="Write the nodes' parameter tables as markdown.")
+    parser.add_argument('output', nargs='?', default='docs/parameters.md',
+                        help='the file to write (default: %(default)s)')
+    path = parser.parse_args(argv).output
     with open(path, 'w') as f:
         f.write(render())
     print(f'wrote {path}')

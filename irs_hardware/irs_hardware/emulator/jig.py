@@ -14,8 +14,8 @@ data sheets): ``python -m irs_hardware.emulator.jig <out.yaml> torque_car``.
 """
 from __future__ import annotations
 
+import argparse
 import math
-import sys
 
 import numpy as np
 
@@ -119,8 +119,20 @@ def calibrate_emulated_wheels(truth: BoardTruth | None = None, turns: float = 10
                             truth.motor_constant, truth.driver_full_scale, truth.motor_sign)
 
 
-if __name__ == '__main__':
+def main(argv=None) -> int:
+    parser = argparse.ArgumentParser(
+        prog='python -m irs_hardware.emulator.jig',
+        description='Calibrate the emulated rig by the procedure of docs/hardware.md.')
+    parser.add_argument('output', help='the calibration YAML to write')
+    parser.add_argument('car', nargs='?', choices=['torque_car'],
+                        help='torque_car: add the wheels section')
+    args = parser.parse_args(argv)
     cal = calibrate_emulated()
-    if sys.argv[2:] == ['torque_car']:
+    if args.car == 'torque_car':
         cal = cal.model_copy(update={'wheels': calibrate_emulated_wheels()})
-    save_calibration(cal, sys.argv[1])
+    save_calibration(cal, args.output)
+    return 0
+
+
+if __name__ == '__main__':
+    raise SystemExit(main())
