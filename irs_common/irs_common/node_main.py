@@ -34,11 +34,11 @@ from rclpy.executors import ExternalShutdownException
 from rclpy.impl.implementation_singleton import rclpy_implementation as _rclpy
 from rclpy.signals import SignalHandlerOptions
 
-from . import cli
+from . import cli, node_help
 from .cli import SignalGuard
 from .executor import LeanExecutor
 from .intra_process import enabled_by_env as intra_process_enabled
-from .params import params_file_problems, ros_args_params_files
+from .params import parameter_table, params_file_problems, ros_args_params_files
 from .sim_time import guard_clock
 
 #: Exceptions that mean "the command line or the parameters are wrong", reported in one line.
@@ -241,8 +241,35 @@ def _start_memtrace(prefix: str, period: float) -> None:
 
 
 def run_node(node_factory, args=None) -> int:
-    """``run_nodes([node_factory], args)``: the ``main`` of a single-node executable."""
+    """``run_nodes([node_factory], args)``: the ``main`` of a single-node executable.
+
+    ``args`` (default ``sys.argv``) outside ``--ros-args ... [--]``: ``-h``/``--help`` prints
+    the node's usage and parameters and returns 0; anything else is refused in one line (exit
+    code 2) before rclpy starts (:mod:`irs_common.node_help`).
+    """
+    answered = answer_own_arguments(node_factory, sys.argv if args is None else args)
+    if answered is not None:
+        return answered
     return run_nodes([node_factory], args)
+
+
+def answer_own_arguments(node_factory, argv) -> int | None:
+    """The exit code for a command line with arguments outside ``--ros-args``; None if it has
+    none (then ``rclpy.init`` parses the ROS arguments and reports a malformed one).
+    """
+    own = node_help.own_arguments(argv)
+    if not own:
+        return None
+    module = getattr(node_factory, '__module__', '') or ''
+    package, executable = node_help.executable_of(module) or (
+        module.split('.')[0], os.path.basename(argv[0] if argv else '') or module)
+    if node_help.wants_help(own):
+        text = node_help.help_text(package, executable, node_help.summary(module),
+                                   parameter_table(package, executable))
+        sys.stdout.write(text)
+        sys.stdout.flush()
+        return 0
+    return _fail(node_help.refusal(own, executable))
 
 
 def _one_line(exc) -> str:

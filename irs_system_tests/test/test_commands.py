@@ -59,6 +59,40 @@ def test_help_of_every_command(tmp_path, package, exe, args):
     assert tree(tmp_path) == set()
 
 
+def test_every_node_answers_help_with_its_usage_and_parameters_and_starts_nothing(tmp_path):
+    """``<node> --help`` prints the usage and the node's parameter table, exit code 0, before
+    rclpy starts (no bag, no log directory), for every node that registers a table.
+    """
+    from irs_common.params import registered_tables
+    tables = registered_tables()
+    assert len(tables) >= 10, sorted(tables)
+    procs = {key: subprocess.Popen([resolve_executable(*key), '--help'], cwd=tmp_path,
+                                   stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+                                   env={**os.environ, 'ROS_LOG_DIR': str(tmp_path / 'log')})
+             for key in tables}
+    for (package, exe), proc in procs.items():
+        out, err = proc.communicate(timeout=120)
+        assert proc.returncode == 0, (exe, err)
+        assert out.startswith(f'usage: ros2 run {package} {exe} [--ros-args'), (exe, out[:300])
+        for p in tables[(package, exe)]:
+            assert f'\n  {p.name} [{p.unit}] = ' in out, (exe, p.name)
+    assert tree(tmp_path) == set()
+
+
+@pytest.mark.parametrize('args,shown', [
+    (['-p', 'clock_mode:=lockstep'], '-p clock_mode:=lockstep'),
+    (['clock_mode:=lockstep'], '-p clock_mode:=lockstep'),
+])
+def test_node_parameters_without_ros_args_are_refused_in_one_line(tmp_path, args, shown):
+    """rclpy would ignore them (or read a remap rule) and start the rig in real time."""
+    res = run('irs_vehicle_sim', 'vehicle_sim', *args, cwd=tmp_path, timeout=120)
+    assert res.returncode == 2, res
+    assert res.stderr.startswith('[FATAL] vehicle_sim takes no arguments of its own') \
+        and res.stderr.count('\n') == 1, res.stderr
+    assert f'vehicle_sim --ros-args {shown} ' in res.stderr, res.stderr
+    assert tree(tmp_path) == set()
+
+
 def test_experiment_list_reads_the_files_only(tmp_path):
     """No ROS, no schema, no parameter tables: the list is YAML read from the share folder."""
     code = ('import sys; from irs_bringup.experiment_cli import main; main(["list"]); '
