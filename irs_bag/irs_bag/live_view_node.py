@@ -9,6 +9,11 @@ taken goes, as its CDR bytes, to the channel of its topic on a Foxglove WebSocke
 (:class:`irs_bag.foxglove_bridge.FoxgloveBridge`). ``experiment run <name> --view`` starts it
 (``--view ws://...``: Foxglove only), or ``./irs run irs_bag live_view`` by hand.
 
+The runner passes the run's ``metadata`` (node parameters: the arm's geometry, the car's size,
+the controller). Started by hand, with ``node_parameters`` (default), the view asks the graph's
+nodes for their parameters as the recorder does (:mod:`irs_bag.node_parameters`) and, once
+``vehicle_sim`` answers, logs the static entities again with its arm and car.
+
 Cost to the graph: the subscriptions are BEST_EFFORT, KEEP_LAST ``qos_depth``, so a publisher
 never waits for, nor resends to, the view. They are bare subscription handles (as the
 ``recorder``'s, :mod:`irs_bag.recorder_node`; rclpy 7.1.6's ``_rclpy.Subscription``) that no
@@ -24,6 +29,7 @@ import time
 
 from rclpy.impl.implementation_singleton import rclpy_implementation as _rclpy
 from rclpy.node import Node
+from rclpy.parameter import parameter_value_to_python
 from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
 from rclpy.serialization import deserialize_message
 from rclpy.type_support import check_is_valid_msg_type
@@ -33,6 +39,8 @@ from irs_common.params import declare_table
 
 from .live_view import LiveFeed, open_stream
 from .live_view_params import NODE_PARAMS
+from .node_parameters import POLL_PERIOD, ParameterAsker
+from .rerun_entities import log_static
 from .run_info import run_info_from_metadata
 
 __all__ = ['LiveViewNode', 'main']
@@ -112,6 +120,11 @@ class LiveViewNode(Node):
         self.rows = {}                       # rows sent per entity so far
         self.forwarded = 0                   # messages sent to Foxglove's channels
         self.create_timer(self.p['period'], self.tick)
+        self.asker, self.graph_parameters = None, {}
+        if not meta and self.p['node_parameters']:
+            self.asker = ParameterAsker(self, self._on_node_parameters, parameter_value_to_python,
+                                        missing='its parameters are not known to the view')
+            self.create_timer(POLL_PERIOD, self.asker.poll)
         where = [rerun_to] if rerun_to else []
         if self.bridge is not None:
             where.append(f'Foxglove at ws://{_ws_host(self.p["foxglove"])}:{self.bridge.port}')
@@ -146,7 +159,23 @@ class LiveViewNode(Node):
             for ent, n in self.feed.flush(self.rec).items():
                 self.rows[ent] = self.rows.get(ent, 0) + n
 
+    def _on_node_parameters(self, node: str, params: dict) -> None:
+        """A node answered: the run's info again from every answer so far; if it changed, the
+        feed draws with it and the static entities are logged again (static data replaces).
+        """
+        self.graph_parameters[node.rsplit('/', 1)[-1]] = params
+        info = run_info_from_metadata(self.p['run_name'], None, self.graph_parameters)
+        if info == self.feed.info:
+            return
+        self.feed.info = info
+        if self.rec is not None:
+            log_static(self.rec, info)
+        self.get_logger().info(
+            f'{node} answered: {info.controller}; car {info.car_length:g} x {info.car_width:g} m')
+
     def destroy_node(self):
+        if self.asker is not None:
+            self.asker.close()
         try:
             self.tick()
             if self.rec is not None:

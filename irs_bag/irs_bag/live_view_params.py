@@ -48,6 +48,10 @@ NODE_PARAMS = [
           read_only=True, validator=_ws_url),
     Param('metadata', '{}', "JSON object of the run (the recorder's 'irs_experiment' record): "
           'car size and arm geometry for the 3-D view', '-', read_only=True),
+    Param('node_parameters', True, "when 'metadata' is '{}' (the view started by hand): ask "
+          "the graph's nodes once for their parameters, draw the arm and the car with "
+          "vehicle_sim's geometry (the defaults until it answers) and name the controller in "
+          'the log', '-', read_only=True),
     Param('run_name', 'live', 'recording name shown by the viewer', '-', read_only=True),
     Param('period', 0.05, 'period of taking the messages (the batches sent to rerun and to '
           'Foxglove)', 's', 0.01, 1.0, read_only=True),

@@ -13,10 +13,11 @@ node:
 :func:`node_parameters_from_records` reads them back as ``{node name: {parameter: value}}``,
 the form of the experiment runner's ``node_parameters`` (:mod:`irs_bag.run_info`).
 
-The calls are asynchronous (the node's executor takes the responses); :meth:`ParameterAsker.poll`
-runs on the recorder's discovery timer: it notes new nodes, sends the next request of each, and
-writes what has come back. A node that does not answer within ``TIMEOUT_S`` is asked again on
-a later poll, at most ``ATTEMPTS`` times.
+The ``live_view`` node started by hand asks the same way and draws the arm and the car with the
+rig's geometry. The calls are asynchronous (the node's executor takes the responses);
+:meth:`ParameterAsker.poll` runs on a timer of the node every ``POLL_PERIOD`` s: it notes new
+nodes, sends the next request of each, and writes what has come back. A node that does not
+answer within ``TIMEOUT_S`` is asked again on a later poll, at most ``ATTEMPTS`` times.
 """
 from __future__ import annotations
 
@@ -26,6 +27,8 @@ from typing import Callable, Dict, Iterable, List, Optional, Tuple
 
 #: Name of the MCAP metadata records.
 RECORD = 'irs_node_parameters'
+#: How often the graph is looked at for nodes to ask [s].
+POLL_PERIOD = 0.5
 #: A request not answered within this long is given up and sent again on a later poll [s].
 TIMEOUT_S = 5.0
 #: How often one node is asked before it is left out.
@@ -71,13 +74,16 @@ class ParameterAsker:
     """Asks each node of ``owner``'s graph for its parameters once; ``write(node, params)``
     gets each answer (``params``: ``{name: value}``, each ``rcl_interfaces/ParameterValue``
     made a plain Python value by ``to_python``: ``rclpy.parameter.parameter_value_to_python``,
-    which the node passes in, so that this module needs no rclpy).
+    which the node passes in, so that this module needs no rclpy). ``missing``: what the warning
+    says of a node that never answered.
     """
 
     def __init__(self, owner, write: Callable[[str, dict], None],
                  to_python: Callable[[object], object],
-                 clock: Callable[[], float] = time.monotonic):
+                 clock: Callable[[], float] = time.monotonic,
+                 missing: str = 'its parameters are not in the bag'):
         self.owner, self.write, self.to_python, self.clock = owner, write, to_python, clock
+        self.missing = missing
         self.own = _full_name(owner.get_name(), owner.get_namespace())
         self.done: set = set()
         self.asking: Dict[str, _Asking] = {}
@@ -135,7 +141,7 @@ class ParameterAsker:
         if a.attempts >= ATTEMPTS:
             self._finish(a)
             self.owner.get_logger().warning(
-                f'{a.node}: its parameters are not in the bag ({why}, {ATTEMPTS} times)')
+                f'{a.node}: {self.missing} ({why}, {ATTEMPTS} times)')
 
     def _finish(self, a: _Asking) -> None:
         self._drop_clients(a)

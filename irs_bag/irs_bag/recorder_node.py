@@ -43,7 +43,7 @@ write it as a quoted string. It becomes the MCAP metadata record ``irs_experimen
 start, so it survives a crash) plus ``recorder.topics``. With ``node_parameters`` (default),
 every other node of the graph is asked once for its parameters, and each answer becomes a
 metadata record ``irs_node_parameters`` (:mod:`irs_bag.node_parameters`; asked every
-``PARAMETER_POLL_PERIOD`` s), so that a bag recorded by hand says what the nodes ran with.
+``POLL_PERIOD`` s), so that a bag recorded by hand says what the nodes ran with.
 A small ``recorder/status`` message (std_msgs/String, JSON: bag, messages per topic, drops,
 chunks; latched) is published every ``status_period`` s, for supervisors and tests.
 """
@@ -67,13 +67,11 @@ from irs_common.params import declare_table
 
 from .writer import BagWriter, BagWriterError, qos_profiles_yaml
 from .msg_definitions import MessageDefinitionError
-from .node_parameters import RECORD, ParameterAsker
+from .node_parameters import POLL_PERIOD, RECORD, ParameterAsker
 from .recorder_params import NODE_PARAMS
 
 #: Where a recorder without ``output`` writes, relative to the working directory.
 DEFAULT_OUTPUT = 'runs/bags/irs_bag_%Y_%m_%d-%H_%M_%S'
-#: How often the graph is looked at for nodes whose parameters to ask for [s].
-PARAMETER_POLL_PERIOD = 0.5
 #: Longest final drain on shutdown [s] (``final_drain`` is the quiet time that ends it).
 FINAL_DRAIN_MAX_S = 1.0
 
@@ -200,7 +198,7 @@ class Recorder(Node):
         if self.p['node_parameters']:
             self.asker = ParameterAsker(self, self._write_node_parameters,
                                         parameter_value_to_python)
-            self.create_timer(PARAMETER_POLL_PERIOD, self.asker.poll)
+            self.create_timer(POLL_PERIOD, self.asker.poll)
         self.get_logger().info(
             f"recording {topics} to {self.output} ({self.p['compression']})")
 

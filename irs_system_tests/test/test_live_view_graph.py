@@ -164,3 +164,44 @@ def test_view_argument_picks_a_url_or_a_file(tmp_path):
     spec = ExperimentRunner(exp, runs_dir=tmp_path, view=DEFAULT_VIEW_URL,
                             view_topics=args.view_topics)._view_spec()
     assert spec.params['topics'] == ['ground_truth/odom', 'steering/state']
+
+
+def _last_static(rrd, path, column):
+    """The value of the last static chunk of an entity's component in an .rrd file."""
+    from rerun.chunk import RrdReader
+    last = None
+    for c in RrdReader(str(rrd)).stream().to_chunks():
+        if c.entity_path.lstrip('/') == path and c.is_static:
+            batch = c.to_record_batch()
+            if column in batch.schema.names:
+                last = batch.column(column).to_pylist()[0]
+    return last
+
+
+def test_a_view_started_by_hand_draws_the_car_and_arm_of_the_rig_beside_it(launch, tmp_path):
+    """``live_view`` started by hand (no ``metadata``) asks ``vehicle_sim`` for its parameters
+    and logs the static entities again with its car size and arm base; the defaults first.
+    """
+    from irs_bag.run_info import CAR_LENGTH, CAR_WIDTH
+    from irs_bringup.processes import NodeSpec, wait_until
+
+    rig = launch(NodeSpec('irs_vehicle_sim', 'vehicle_sim',
+                          params={'clock_mode': 'lockstep', 'car.length': 0.6,
+                                  'car.width': 0.3, 'arm.base_x': 0.05}))
+    live = tmp_path / 'live.rrd'
+    view = launch(NodeSpec('irs_bag', 'live_view', params={'save': str(live)}))
+    assert wait_until(lambda: '/vehicle_sim answered' in view.output(), 60.0), \
+        view.tail() + '\n' + rig.tail()
+    assert view.stop() == 0, view.tail()
+    assert 'car 0.6 x 0.3 m' in view.output(), view.tail()
+    from rerun.chunk import RrdReader
+    sizes = [c.to_record_batch().column('Boxes3D:half_sizes').to_pylist()[0]
+             for c in RrdReader(str(live)).stream().to_chunks()
+             if c.entity_path.lstrip('/') == 'world/car' and c.is_static
+             and 'Boxes3D:half_sizes' in c.to_record_batch().schema.names]
+    assert [[round(v, 6) for v in s[0]] for s in sizes] == [
+        [CAR_LENGTH / 2, CAR_WIDTH / 2, 0.01], [0.3, 0.15, 0.01]], sizes
+    base = _last_static(live, 'world/arm/base', 'Points3D:positions')
+    from irs_models.arm_kinematics import ArmGeometry
+    assert ArmGeometry().base_x != 0.05
+    assert [round(v, 6) for v in base[0]] == [0.05, round(ArmGeometry().base_y, 6), 0.0], base
