@@ -51,8 +51,11 @@ from .wire import Wire
 
 def _rig_params(files, overrides) -> dict:
     """The rig's parameters of ``vehicle_sim`` parameter files and ``key=value`` overrides (the
-    node's own parameters, clock_mode and the like, left out).
+    node's own parameters, clock_mode and the like, left out of the files). An override is
+    ``key=value`` or, as ``-p`` of a ROS node, ``key:=value``; a key that is no rig parameter
+    is a ``ValueError`` naming the closest ones.
     """
+    import difflib
     from irs_vehicle_sim.rig_params import rig_parameter_table
     keys = {p.name for p in rig_parameter_table()}
     values = {}
@@ -60,12 +63,19 @@ def _rig_params(files, overrides) -> dict:
         doc = yaml_io.safe_load(resolve(path).read_text()) or {}
         for section in doc.values():
             values.update(flatten((section or {}).get('ros__parameters', {})))
+    values = {k: v for k, v in values.items() if k in keys}
     for item in overrides or []:
         key, sep, text = item.partition('=')
-        if not sep:
-            raise ValueError(f'-p {item!r}: expected key=value')
-        values[key.strip()] = yaml_io.safe_load(text)
-    return {k: v for k, v in values.items() if k in keys}
+        key = key.strip().removesuffix(':')
+        if not sep or not key:
+            raise ValueError(f'-p {item!r}: expected key=value (or key:=value)')
+        if key not in keys:
+            close = difflib.get_close_matches(key, sorted(keys), n=3)
+            hint = f" (did you mean {', '.join(close)}?)" if close else ''
+            raise ValueError(f'-p {item!r}: {key!r} is not a parameter of the rig{hint}; the '
+                             f"rig's parameters: docs/parameters.md#vehicle_sim-irs_vehicle_sim")
+        values[key] = yaml_io.safe_load(text)
+    return values
 
 
 def _driver(text):
@@ -148,18 +158,36 @@ class Link:
 
 
 def _arguments(argv):
-    ap = argparse.ArgumentParser(prog='board_emulator', description=__doc__.split('\n')[0])
-    ap.add_argument('--link', required=True, type=Path)
-    ap.add_argument('--rig-params', action='append', default=[])
-    ap.add_argument('-p', dest='params', action='append', default=[])
-    ap.add_argument('--wire', type=Path)
-    ap.add_argument('--control', type=Path)
-    ap.add_argument('--status', type=Path)
-    ap.add_argument('--baud', type=int, default=1_000_000)
-    ap.add_argument('--usb-latency', type=float, default=0.0005)
-    ap.add_argument('--driver', default='')
-    ap.add_argument('--rt-priority', type=int, default=0)
-    ap.add_argument('--lockstep-delay', type=int, default=0)
+    ap = argparse.ArgumentParser(
+        prog='board_emulator', description='The emulated arm and servo board (and the torque '
+        "car's wheel counters and motor outputs) on a pseudo-terminal; docs/hardware.md.")
+    ap.add_argument('--link', required=True, type=Path,
+                    help='symbolic link to create to the pty (the host opens it as it opens '
+                    '/dev/ttyACM0)')
+    ap.add_argument('--rig-params', action='append', default=[], metavar='FILE',
+                    help="vehicle_sim parameter file of the emulated rig (repeatable; the "
+                    "node's own parameters in it are ignored)")
+    ap.add_argument('-p', dest='params', action='append', default=[], metavar='KEY=VALUE',
+                    help='a rig parameter, e.g. -p plant=two_track (key:=value too; '
+                    'repeatable; after the files)')
+    ap.add_argument('--wire', type=Path,
+                    help='shared-memory file of the belt speed, shared with drive_emulator')
+    ap.add_argument('--control', type=Path,
+                    help='Unix datagram socket taking garble N, drop N, silence S, jig X Y PSI, '
+                    'jig off, stop')
+    ap.add_argument('--status', type=Path,
+                    help="JSON file rewritten every 50 ms with the board's state")
+    ap.add_argument('--baud', type=int, default=1_000_000,
+                    help="the link's emulated rate [bit/s] (default %(default)s)")
+    ap.add_argument('--usb-latency', type=float, default=0.0005,
+                    help="added to each frame's transfer time [s] (default %(default)s)")
+    ap.add_argument('--driver', default='', metavar='T:V,...',
+                    help="the car's speed profile [s:m/s], held between breakpoints")
+    ap.add_argument('--rt-priority', type=int, default=0,
+                    help="the sampler's SCHED_FIFO priority where permitted (0: none)")
+    ap.add_argument('--lockstep-delay', type=int, default=0,
+                    help='lock-step (triggered) mode: a command applies this many steps later '
+                    '(0..1000)')
     return ap.parse_args(argv)
 
 

@@ -134,10 +134,15 @@ async def _serve(state: DriveState, port: int):
 
 
 def main(argv=None) -> int:
-    ap = argparse.ArgumentParser(prog='drive_emulator', description=__doc__.split('\n')[0])
-    ap.add_argument('--port', type=int, default=5020)
-    ap.add_argument('--wire', type=Path)
-    ap.add_argument('--volts-full-scale', type=float, default=12.7)
+    ap = argparse.ArgumentParser(
+        prog='drive_emulator', description="The treadmill's drive as a Modbus TCP server on "
+        '127.0.0.1; docs/hardware.md.')
+    ap.add_argument('--port', type=int, default=5020,
+                    help='TCP port of the Modbus server (default %(default)s)')
+    ap.add_argument('--wire', type=Path,
+                    help='shared-memory file of the belt speed, shared with board_emulator')
+    ap.add_argument('--volts-full-scale', type=float, default=12.7,
+                    help="the drive's output at full scale [V] (default %(default)s)")
     ap.add_argument('--rt-priority', type=int, default=0, help='SCHED_FIFO priority (0: none)')
     args = ap.parse_args(argv)
     state = DriveState(Wire(args.wire) if args.wire else None, args.volts_full_scale)
