@@ -136,6 +136,13 @@ def test_view_with_offline_or_a_bad_url_is_refused_in_one_line(capsys):
         main(['run', 'figure10_pi', '--view', 'localhost:9876'])
     assert info.value.code == 2
     assert 'neither a rerun URL' in capsys.readouterr().err
+    with socket.socket() as idle:            # a port bound but not listening: no viewer
+        idle.bind(('127.0.0.1', 0))
+        port = idle.getsockname()[1]
+        with pytest.raises(SystemExit) as info:
+            main(['run', 'figure10_pi', '--view', f'rerun+http://127.0.0.1:{port}/proxy'])
+    assert info.value.code == 2
+    assert f'no rerun viewer listens at 127.0.0.1:{port}' in capsys.readouterr().err
     with pytest.raises(SystemExit) as info:
         main(['run', 'figure10_pi', '--view-topics', 'pose'])
     assert info.value.code == 2
