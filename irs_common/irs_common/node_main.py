@@ -38,7 +38,8 @@ from . import cli, node_help
 from .cli import SignalGuard
 from .executor import LeanExecutor
 from .intra_process import enabled_by_env as intra_process_enabled
-from .params import parameter_table, params_file_problems, ros_args_params_files
+from .params import (check_pending_params_files, expect_params_files, parameter_table,
+                     ros_args_params_files)
 from .sim_time import guard_clock
 
 #: Exceptions that mean "the command line or the parameters are wrong", reported in one line.
@@ -187,18 +188,19 @@ def _release_guard(guard: SignalGuard) -> None:
 
 def _build_nodes(factories, nodes: list, args) -> None:
     """Build the nodes in order into ``nodes``; ``ValueError`` for a ``--params-file`` that does
-    not fit a node (no section for it, a parameter re-typed by a later file).
+    not fit a node (no section for it, a parameter re-typed by a later file): checked by the
+    node's first ``declare_table``, before it logs anything, or here after a node that has none.
     """
     global_files = ros_args_params_files(args)[0]
     for factory in factories:
-        nodes.append(factory())
-        guard_clock(nodes[-1])   # a bad /clock message is dropped, not fatal
         own_files = ros_args_params_files(getattr(factory, 'ros_args', ()))[0]
-        problems = params_file_problems(global_files + own_files,
-                                        nodes[-1].get_fully_qualified_name())
-        if problems:
-            more = f' (and {len(problems) - 1} more)' if len(problems) > 1 else ''
-            raise ValueError(problems[0] + more)
+        expect_params_files(global_files + own_files)
+        try:
+            nodes.append(factory())
+            check_pending_params_files(nodes[-1].get_fully_qualified_name())
+        finally:
+            expect_params_files(None)
+        guard_clock(nodes[-1])   # a bad /clock message is dropped, not fatal
 
 
 def _spin(executor) -> None:

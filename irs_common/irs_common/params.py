@@ -277,6 +277,32 @@ def section_matches(section: str, node_fqn: str) -> bool:
     return re.fullmatch(regex, node_fqn) is not None
 
 
+#: The ``--params-file`` files of the node being built (:func:`expect_params_files`), checked
+#: by its first :func:`declare_table`, before the node does or says anything else.
+_PENDING_FILES: list | None = None
+
+
+def expect_params_files(files) -> None:
+    """The next node built gets ``files`` (None: nothing to check): :func:`declare_table` checks
+    them against its name (:func:`check_pending_params_files`); ``run_nodes`` sets them before
+    it builds each node.
+    """
+    global _PENDING_FILES
+    _PENDING_FILES = None if files is None else list(files)
+
+
+def check_pending_params_files(node_fqn: str) -> None:
+    """``ValueError`` naming the first of :func:`params_file_problems` of the files expected by
+    :func:`expect_params_files` (and how many more), once: the expectation is then cleared.
+    """
+    global _PENDING_FILES
+    files, _PENDING_FILES = _PENDING_FILES, None
+    problems = params_file_problems(files, node_fqn) if files else []
+    if problems:
+        more = f' (and {len(problems) - 1} more)' if len(problems) > 1 else ''
+        raise ValueError(problems[0] + more)
+
+
 def params_file_problems(files, node_fqn: str) -> list:
     """What is wrong with the ``--params-file`` ``files`` (in order) given to node ``node_fqn``:
     a file none of whose sections applies to the node (a misspelt node name), and a parameter
@@ -527,9 +553,10 @@ def declare_table(node, table, on_change=None, *, strict: bool = False,
     * **Start-up errors are one ``ValueError``** naming the parameter, the value and what was
       expected (``run_node`` turns it into one line and exit code 2), also when a second params
       file gives a parameter another type.
-    * **Parameter files are checked** before the node spins (:func:`params_file_problems`, called
-      by ``run_nodes``): a ``--params-file`` with no section for the node (a misspelt node name)
-      and a later file that gives a parameter another type are start-up errors; rcl drops both
+    * **Parameter files are checked** first (:func:`params_file_problems` of the files
+      ``run_nodes`` expects for the node, :func:`expect_params_files`), before the node does or
+      logs anything: a ``--params-file`` with no section for the node (a misspelt node name) and
+      a later file that gives a parameter another type are start-up errors; rcl drops both
       silently.
     * **Unknown names are reported.** Overrides (params files, ``-p``) naming no declared parameter
       are listed in one warning at the end of ``declare_table``, with the closest declared names;
@@ -539,6 +566,7 @@ def declare_table(node, table, on_change=None, *, strict: bool = False,
       ``check_unknown=False`` to all but the last call, so that names of a later table are not
       reported.
     """
+    check_pending_params_files(node.get_fully_qualified_name())
     writable = [p.name for p in table if p.writable]
     if writable and on_change is None:
         raise TypeError(

@@ -217,6 +217,17 @@ def test_params_file_without_a_section_for_the_node_is_one_line(tmp_path):
                                   "for node /driver: it has drivr (a misspelt 'driver'?)")
 
 
+def test_a_node_refuses_a_params_file_before_it_says_anything_else(tmp_path):
+    """The rig logs nothing ('rig up: ...') before the one line that refuses its file."""
+    (tmp_path / 'a.yaml').write_text('vehicle_sm:\n  ros__parameters:\n    x0: 0.3\n')
+    res = run('irs_vehicle_sim', 'vehicle_sim', '--ros-args', '--params-file', 'a.yaml',
+              cwd=tmp_path, timeout=120)
+    assert res.returncode == 2, res
+    assert res.stdout == '' and res.stderr == (
+        '[FATAL] configuration error: --params-file a.yaml: no section for node /vehicle_sim: '
+        "it has vehicle_sm (a misspelt 'vehicle_sim'?)\n"), res
+
+
 def test_second_params_file_retyping_a_parameter_is_one_line(tmp_path):
     (tmp_path / 'a.yaml').write_text('driver:\n  ros__parameters:\n    rate: 50.0\n')
     (tmp_path / 'b.yaml').write_text('driver:\n  ros__parameters:\n    rate: fast\n')
