@@ -114,3 +114,38 @@ def test_a_controller_falling_behind_is_held_then_stopped_though_its_commands_ke
     assert answered[0] >= 50 and max(gaps) < 0.5 / 2, (answered, max(gaps))   # stall_grace / 2
     assert status[-1].car_on_belt
     assert proc.output().count('controlled stop:') == 1
+
+
+def test_the_hold_and_the_run_stamp_their_samples_on_one_1ms_grid(ros, launch):
+    """The rig holding the car before its start publishes the start pose stamped ``t_0 + n dt``
+    (steps a late timer tick missed published back to back), and the run goes on from the last
+    hold step: every arm sample before and after the start lies on one 1 ms grid, stamps
+    strictly increasing. A gap off ``dt`` would restart the estimator's differentiators, and
+    the treadmill regulator would get a NaN velocity at the start.
+    """
+    rig = launch(NodeSpec('irs_vehicle_sim', 'vehicle_sim',
+                          params={'clock_mode': 'realtime', 'start_inputs': ['steering']}))
+    node = ros.node
+    stamps, status = [], []
+    pub = node.create_publisher(SteeringCommand, 'steering/command', qos.COMMAND)
+    subs = [node.create_subscription(
+        JointState, 'arm/joint_states',
+        lambda m: stamps.append(m.header.stamp.sec * 10**9 + m.header.stamp.nanosec),
+        qos.SENSOR),
+        node.create_subscription(RigStatus, 'rig/status', status.append, qos.STATUS)]
+    assert ros.wait_for_matched([pub, *subs], timeout=30.0)
+    assert ros.spin_until(lambda: len(stamps) >= 500, 10.0), len(stamps)   # 0.5 s of hold
+    held = len(stamps)
+    deadline = time.monotonic() + 10.0
+    while time.monotonic() < deadline and len(stamps) < held + 500:     # started: 0.5 s more
+        cmd = SteeringCommand()
+        cmd.header.stamp = node.get_clock().now().to_msg()
+        pub.publish(cmd)
+        ros.executor.spin_once(timeout_sec=0.005)
+    assert len(stamps) >= held + 500, (held, len(stamps))
+    assert "inputs ['steering'] present: starting" in rig.output(), rig.tail()
+    assert status and not status[-1].stop_cause, status[-1:]
+    gaps = [b - a for a, b in zip(stamps, stamps[1:])]
+    off_grid = [(i, g) for i, g in enumerate(gaps) if g <= 0 or g % 1_000_000]
+    assert not off_grid, (held, off_grid[:10])
+    assert collections.Counter(gaps).most_common(1)[0][0] == 1_000_000

@@ -89,7 +89,8 @@ class VehicleSimNode(Node):
       ignore stamps they have seen.
 
     Start in real time: with ``autostart`` the rig holds the car at its start pose (publishing its
-    sensors stamped with the current time, the simulation not advancing) until every input in
+    sensors every step on the 1 ms grid the run then continues, the simulation not advancing:
+    :meth:`_hold`) until every input in
     ``start_inputs`` has delivered a command, so a graph started by hand in any order does not lose
     the car while its nodes are still joining. ``rig/start`` (std_srvs/Trigger) starts it at once.
 
@@ -260,27 +261,45 @@ class VehicleSimNode(Node):
         self.get_logger().info(text)
 
     def _hold(self):
-        """Real time, before the start: publish the start pose at the step rate, stamped now."""
+        """Real time, before the start: publish the start pose at the step rate, the simulation
+        not advancing. The stamps are those of a run started at the hold's first tick: ``t_0 + n
+        dt`` for hold step n, the steps a late tick missed published back to back (at most 0.1
+        s, as :meth:`_realtime_tick`), and the run goes on from the last hold step. So the
+        samples' stamps stay 1 ms apart across the start, and an estimator differentiating
+        them is not reset by the timer's jitter (a gap off ``dt`` restarts its
+        differentiators).
+        """
         self.holding = True
         self.get_logger().info(
             f'holding the car at its start pose until {list(self.start_inputs)} '
             'have delivered a command (or rig/start is called)'
         )
+        self.hold_clock = (clock_now_ns(self.get_clock()), time.monotonic())
+        self.hold_sent = -1            # the last hold step published
 
         def hold_tick():
             missing = [n for n in self.start_inputs if n not in self.received_at]
             if missing:
-                self.stamp0_ns = clock_now_ns(self.get_clock())
-                self._publish_outputs()
+                stamp0_ns, wall0 = self.hold_clock
+                due = int((time.monotonic() - wall0) / self.config.dt)
+                for n in range(max(self.hold_sent + 1, due - 99), due + 1):
+                    self.stamp0_ns = stamp0_ns + n * self.dt_ns
+                    self._publish_outputs()
+                self.hold_sent = max(self.hold_sent, due)
                 return
             self.get_logger().info(f'inputs {list(self.start_inputs)} present: starting')
             self._start()
         self.timer = self.create_timer(self.config.dt, hold_tick)
 
     def _start(self):
+        resume = None
         if self.holding:
             self.holding = False
             self.destroy_timer(self.timer)
+            if self.hold_sent >= 0:    # step 0 of the run is the last hold step
+                stamp0_ns, wall0 = self.hold_clock
+                resume = (stamp0_ns + self.hold_sent * self.dt_ns,
+                          wall0 + self.hold_sent * self.config.dt)
         self.started = True
         if self.lockstep:
             self.stamp0_ns = 0
@@ -295,8 +314,10 @@ class VehicleSimNode(Node):
                 self.timer = self.create_timer(0.05, self._lockstep_watchdog)
             self.timer = self.create_timer(0.01, begin)
         else:
-            self.stamp0_ns = clock_now_ns(self.get_clock())
-            self.wall0 = self.next_timing = self.tick_now = time.monotonic()
+            if resume is None:
+                resume = (clock_now_ns(self.get_clock()), time.monotonic())
+            self.stamp0_ns, self.wall0 = resume
+            self.next_timing = self.tick_now = time.monotonic()
             self.timer = self.create_timer(self.config.dt, self._realtime_tick)
 
     def _on_start(self, _request, response):
