@@ -228,6 +228,14 @@ def test_a_node_refuses_a_params_file_before_it_says_anything_else(tmp_path):
         "it has vehicle_sm (a misspelt 'vehicle_sim'?)\n"), res
 
 
+def test_recover_without_a_rig_fails_in_one_line_after_discovery(tmp_path):
+    """No rig in the domain: exit code 1 and one line once discovery had its time (5 s)."""
+    res = run('irs_bringup', 'experiment', 'recover', cwd=tmp_path, timeout=120)
+    assert one_line_error(res, 'experiment', code=1).startswith(
+        'experiment: error: recover: no rig/recover service within 5 s')
+    assert tree(tmp_path) == set()
+
+
 def test_second_params_file_retyping_a_parameter_is_one_line(tmp_path):
     (tmp_path / 'a.yaml').write_text('driver:\n  ros__parameters:\n    rate: 50.0\n')
     (tmp_path / 'b.yaml').write_text('driver:\n  ros__parameters:\n    rate: fast\n')
