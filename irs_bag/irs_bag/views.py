@@ -20,6 +20,8 @@ import sys
 from pathlib import Path
 from typing import Callable, List, Optional
 
+from irs_common.cli import describe
+
 from .columns import merge_specs, read_columns
 from .reader import BagError, reading
 from .run_info import run_info
@@ -101,7 +103,7 @@ def make_views(bag_dir, run_dir, log: Callable[[str], None] = print) -> List[Pat
 def main(argv: Optional[List[str]] = None) -> int:
     """``python -m irs_bag.views BAG RUN_DIR``: :func:`make_views`; exit 1 if a part failed."""
     import resource
-    p = argparse.ArgumentParser(prog='irs_bag.views', description=__doc__.splitlines()[0])
+    p = argparse.ArgumentParser(prog='irs_bag.views', description=describe(__doc__))
     p.add_argument('bag', help='bag directory')
     p.add_argument('run_dir', help='run folder: plots/, run.rrd and views.done go there')
     p.add_argument('--nice', type=int, default=0, help='lower the priority by this much first')

@@ -23,8 +23,8 @@ import sys
 import yaml
 
 from irs_common import yaml_io
-from irs_common.cli import (BUG_HINT, EXIT_BUG, InputError, Interrupted, SignalGuard,
-                            did_you_mean, one_line)
+from irs_common.cli import (BUG_HINT, EXIT_BUG, InputError, Interrupted, SignalGuard, did_you_mean,
+                            one_line, plain_text)
 
 GROUP = 'irs_components'
 
@@ -141,7 +141,7 @@ def main(argv=None) -> int:
     try:
         argv = sys.argv[1:] if argv is None else argv
         own = argv[:argv.index('--ros-args')] if '--ros-args' in argv else argv
-        parser = argparse.ArgumentParser(prog='container', description=__doc__,
+        parser = argparse.ArgumentParser(prog='container', description=plain_text(__doc__),
                                          formatter_class=argparse.RawDescriptionHelpFormatter)
         parser.add_argument('spec', help='YAML file listing the nodes and their --ros-args')
         args = parser.parse_args(own)

@@ -23,7 +23,7 @@ Exit codes: docs/cli.md.
 import argparse
 import sys
 
-from irs_common.cli import EXIT_FAILED, InputError, run_cli
+from irs_common.cli import EXIT_FAILED, InputError, plain_text, run_cli
 
 from .experiment import experiments_dir, load_experiment
 
@@ -142,7 +142,7 @@ def list_experiments(out=print) -> int:
 
 
 def build_parser() -> argparse.ArgumentParser:
-    parser = argparse.ArgumentParser(prog='experiment', description=__doc__,
+    parser = argparse.ArgumentParser(prog='experiment', description=plain_text(__doc__),
                                      formatter_class=argparse.RawDescriptionHelpFormatter)
     sub = parser.add_subparsers(dest='cmd', required=True)
     sub.add_parser('list', help='installed experiment files')

@@ -20,6 +20,7 @@ process at once with ``os._exit(128 + signum)``.
 from __future__ import annotations
 
 import os
+import re
 import signal
 import sys
 import traceback
@@ -267,3 +268,26 @@ def did_you_mean(name: str, names, what: str, listing: str = '') -> str:
     else:
         known = f'{len(names)} installed' + (f' ({listing} lists them)' if listing else '')
     return f"no {what} '{name}'{hint}; {known}"
+
+
+def plain_text(rst: str) -> str:
+    """reStructuredText of a docstring as a terminal shows it: inline literals lose their
+    double backquotes; a role's target stays (``:mod:`~a.b``` and ``:class:`.b``` give ``b``,
+    ``:func:`a.b``` gives ``a.b``); a line ending in a double colon ends in one; line breaks are
+    kept.
+    """
+    def role(match):
+        target = match.group(1)
+        if target.startswith('~'):
+            return target.rsplit('.', 1)[-1]
+        return target.lstrip('.')
+    text = re.sub(r':[a-z]+:`([^`]+)`', role, rst)
+    text = text.replace('``', '')
+    return re.sub(r'::$', ':', text, flags=re.M)
+
+
+def describe(doc: str) -> str:
+    """A command's ``--help`` description: the first paragraph of its module docstring, on one
+    line, in plain text (:func:`plain_text`).
+    """
+    return plain_text(' '.join((doc or '').strip().split('\n\n')[0].split()))

@@ -20,6 +20,8 @@ import importlib.util
 import re
 import textwrap
 
+from .cli import describe
+
 HELP_FLAGS = ('-h', '--help')
 
 #: Where the full tables are, with the real-time defaults explained.
@@ -67,11 +69,8 @@ def summary(module: str) -> str:
     if spec is None or not spec.origin or not spec.origin.endswith('.py'):
         return ''
     with open(spec.origin, encoding='utf-8') as f:
-        doc = ast.get_docstring(ast.parse(f.read())) or ''
-    first = ' '.join(doc.split('\n\n')[0].split())
-    first = re.sub(r'^``[\w]+`` node:\s*', '', first)
-    first = re.sub(r':\w+:`[~.]*([^`]+)`', r'\1', first)      # :mod:`.rig` -> rig
-    first = first.replace('``', '')
+        first = describe(ast.get_docstring(ast.parse(f.read())) or '')
+    first = re.sub(r'^\w+ node:\s*', '', first)
     return first[:1].upper() + first[1:]
 
 

@@ -132,3 +132,12 @@ def test_a_signal_during_a_held_block_is_delivered_after_it():
         assert stops == [signal.SIGTERM]
     finally:
         cli.GUARD = before
+
+
+def test_help_text_is_plain_text_of_the_docstring():
+    from irs_common.cli import describe, plain_text
+    doc = ('``sweep``: runs :class:`~irs_studies.sweep.Sweep` over\n:mod:`.rig` and '
+           ':func:`a.b`.\n\nUsage::\n\n    sweep x\n')
+    assert describe(doc) == 'sweep: runs Sweep over rig and a.b.'
+    assert plain_text(doc).splitlines()[3] == 'Usage:'
+    assert describe('') == ''

@@ -40,7 +40,7 @@ import yaml
 from pydantic import ValidationError
 
 from irs_common import yaml_io
-from irs_common.cli import InputError, run_cli
+from irs_common.cli import InputError, describe, run_cli
 from irs_models.arm_kinematics import ArmGeometry, inverse_kinematics
 
 from . import protocol as P
@@ -208,7 +208,7 @@ def _servo(board, pulses):
 
 
 def _main(argv) -> int:
-    ap = argparse.ArgumentParser(prog='calibrate', description=__doc__.split('\n')[0])
+    ap = argparse.ArgumentParser(prog='calibrate', description=describe(__doc__))
     ap.add_argument('what', choices=('pots', 'servo', 'belt', 'drive', 'wheels'))
     ap.add_argument('--port', default='/dev/ttyACM0')
     ap.add_argument('--baud', type=int, default=1_000_000)

@@ -29,7 +29,7 @@ import sys
 import time
 from pathlib import Path
 
-from irs_common.cli import BUG_HINT, InputError, RunFailed, error, one_line, run_cli
+from irs_common.cli import BUG_HINT, InputError, RunFailed, describe, error, one_line, run_cli
 
 #: part -> module holding its ``reproduce_figures``
 PARTS = {
@@ -75,7 +75,7 @@ def reproduce(parts, img_dir: Path, runs_dir: Path, log=print) -> tuple[dict, li
 
 def _main(argv) -> int:
     import argparse
-    parser = argparse.ArgumentParser(prog='figures', description=__doc__.splitlines()[0])
+    parser = argparse.ArgumentParser(prog='figures', description=describe(__doc__))
     add_arguments(parser)
     args = parser.parse_args(argv)
     parts = args.only or list(PARTS)

@@ -1,4 +1,4 @@
-"""``sysid``: identify a part of the rig from a recorded bag (``irs-sysid <kind> <bag>``).
+"""``sysid``: identify a part of the rig from a recorded bag (``sysid <kind> <bag>``).
 
     ./irs run irs_sysid sysid treadmill runs/<run>/bag [--png fig5.png]
     ./irs run irs_sysid sysid actuator  <bag> [<bag> ...] [--png ...]
@@ -16,7 +16,7 @@ import argparse
 import importlib
 import sys
 
-from irs_common.cli import InputError, run_cli
+from irs_common.cli import InputError, describe, run_cli
 
 #: kind -> (module under irs_sysid, one-line help)
 KINDS = {
@@ -30,7 +30,7 @@ KINDS = {
 
 
 def build_parser() -> argparse.ArgumentParser:
-    parser = argparse.ArgumentParser(prog='sysid', description=__doc__.splitlines()[0])
+    parser = argparse.ArgumentParser(prog='sysid', description=describe(__doc__))
     sub = parser.add_subparsers(dest='kind', required=True, metavar='KIND')
     for kind, (module, help_text) in KINDS.items():
         p = sub.add_parser(kind, help=help_text)

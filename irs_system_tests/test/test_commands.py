@@ -8,6 +8,7 @@ import json
 import math
 import os
 from pathlib import Path
+import re
 import signal
 import socket
 import subprocess
@@ -51,11 +52,14 @@ def tree(root: Path) -> set:
     ('irs_studies', 'figure10', ['--help']), ('irs_studies', 'figures', ['--help']),
     ('irs_studies', 'sweep', ['--help']), ('irs_studies', 'torque_car', ['--help']),
     ('irs_sysid', 'sysid', ['--help']), ('irs_bringup', 'container', ['--help']),
-    ('irs_bringup', 'experiment', ['run', '--help']),
+    ('irs_bringup', 'experiment', ['run', '--help']), ('irs_bringup', 'experiment', ['--help']),
+    ('irs_hardware', 'calibrate', ['--help']), ('irs_hardware', 'board_emulator', ['--help']),
+    ('irs_hardware', 'drive_emulator', ['--help']),
 ])
 def test_help_of_every_command(tmp_path, package, exe, args):
     res = run(package, exe, *args, cwd=tmp_path, timeout=120)
     assert res.returncode == 0 and 'usage' in res.stdout.lower(), res.stderr
+    assert not re.search(r'``|:(mod|class|func|meth|data):`|::\n', res.stdout), res.stdout
     assert tree(tmp_path) == set()
 
 

@@ -15,7 +15,7 @@ from pathlib import Path
 import sys
 
 from irs_bringup.experiment_cli import PER_NODE_HELP
-from irs_common.cli import Interrupted, RunFailed, run_cli
+from irs_common.cli import Interrupted, RunFailed, describe, run_cli
 
 FIGURE10 = {'mrc_with_actuator': 'figure10_mrc_with_actuator',
             'mrc_without_actuator': 'figure10_mrc_without_actuator',
@@ -53,7 +53,7 @@ def figure10(out_dir, offline=False, runs_dir='runs', log=print, deployment='def
 
 
 def _main(argv) -> int:
-    parser = argparse.ArgumentParser(prog='figure10', description=__doc__.splitlines()[0])
+    parser = argparse.ArgumentParser(prog='figure10', description=describe(__doc__))
     parser.add_argument('--offline', action='store_true', help='simulate the cores without ROS')
     parser.add_argument('--process-per-node', action='store_true', help=PER_NODE_HELP)
     parser.add_argument('--runs-dir', default='runs', help='where run directories go')

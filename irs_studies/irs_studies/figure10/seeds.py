@@ -26,6 +26,8 @@ from pathlib import Path
 
 import numpy as np
 
+from irs_common.cli import describe
+
 from .report import (RESIDUAL_DELAY, RUN_LABELS, RUN_NAMES, reference_model_response,
                        run_metrics)
 
@@ -358,7 +360,7 @@ def reproduce_figures(img_dir: Path, runs_dir: Path, seeds: int = N_SEEDS, jobs:
 
 def main(argv=None) -> int:
     p = argparse.ArgumentParser(prog='python -m irs_studies.figure10.seeds',
-                                description=__doc__.split('\n\n')[0])
+                                description=describe(__doc__))
     p.add_argument('--img-dir', default='docs/img', type=Path)
     p.add_argument('--runs-dir', default='runs/figure10_seeds', type=Path)
     p.add_argument('--seeds', type=int, default=N_SEEDS)

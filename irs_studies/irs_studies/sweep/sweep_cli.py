@@ -23,13 +23,13 @@ import os
 from pathlib import Path
 import sys
 
-from irs_common.cli import InputError, run_cli
+from irs_common.cli import InputError, describe, run_cli
 
 COMMANDS = ('run', 'list', 'similitude')
 
 
 def build_parser() -> argparse.ArgumentParser:
-    parser = argparse.ArgumentParser(prog='sweep', description=__doc__.splitlines()[0])
+    parser = argparse.ArgumentParser(prog='sweep', description=describe(__doc__))
     sub = parser.add_subparsers(dest='cmd', required=True)
     p = sub.add_parser('run', help='run a sweep file (the default command)')
     p.add_argument('sweep', help='sweep file path, or the name of an installed one')

@@ -24,7 +24,7 @@ import math
 import sys
 from pathlib import Path
 
-from irs_common.cli import InputError, RunFailed, run_cli
+from irs_common.cli import InputError, RunFailed, describe, run_cli
 
 from .metrics import braking_metrics, run_kind, step_steer_metrics
 from .report import braking_table, step_steer_table
@@ -116,7 +116,7 @@ def run_experiments(names, runs_dir: Path, warn=print, deployment='default') -> 
 
 
 def build_parser() -> argparse.ArgumentParser:
-    p = argparse.ArgumentParser(prog=PROG, description=__doc__.splitlines()[0])
+    p = argparse.ArgumentParser(prog=PROG, description=describe(__doc__))
     p.add_argument('paths', nargs='*', help='run directories, bag directories or .mcap files')
     p.add_argument('--run', action='store_true',
                    help='run the experiments through the graph first (see --experiments)')
