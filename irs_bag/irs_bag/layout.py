@@ -50,8 +50,10 @@ def resolve_bag(path: PathLike, warnings: Optional[List[str]] = None
              ) -> Tuple[Path, List[Path], Optional[dict]]:
     """(bag path, mcap files, rosbag2_bagfile_information or None).
 
-    An unusable metadata.yaml is ignored (one line appended to ``warnings``, or a
-    :class:`BagError` if ``warnings`` is None) and the directory's ``*.mcap`` files are used.
+    ``path``: a bag directory, an ``.mcap`` file, or a run's directory (``runs/<run>``: the
+    bag is its ``bag`` directory). An unusable metadata.yaml is ignored (one line appended to
+    ``warnings``, or a :class:`BagError` if ``warnings`` is None) and the directory's
+    ``*.mcap`` files are used.
     """
     p = Path(path)
     if not p.exists():
@@ -78,6 +80,8 @@ def resolve_bag(path: PathLike, warnings: Optional[List[str]] = None
             meta, files = None, []
     if not files:
         files = sorted(p.glob('*.mcap'))
+        if not files and problem is None and (p / 'bag').is_dir():
+            return resolve_bag(p / 'bag', warnings)     # a run's directory: its bag
         if not files:
             raise BagError(problem or f'{p}: no metadata.yaml and no .mcap file in this directory')
     if problem:

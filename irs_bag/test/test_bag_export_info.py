@@ -218,3 +218,24 @@ def test_info_of_a_realtime_bag_says_so(bag):
     text = out.getvalue()
     assert 'Clock:        real time (assumed): no experiment record and no /clock' in text
     assert 'Sim time' not in text
+
+
+def test_a_run_directory_stands_for_its_bag(tmp_path):
+    """``bag info runs/<run>`` reads ``runs/<run>/bag``; a directory with neither is refused."""
+    import shutil
+    from irs_bag.errors import BagError
+    from irs_bag.layout import resolve_bag
+    run = tmp_path / 'figure10_pi-20261204'
+    with BagWriter(run / 'bag') as w:
+        w.write('/js', JS, bytes(TS.serialize_cdr(G[JS](
+            header=G['std_msgs/msg/Header'](stamp=_time(T0), frame_id='arm'), name=['j1'],
+            position=np.zeros(1), velocity=np.zeros(1), effort=np.zeros(0)), JS)), T0)
+    (run / 'logs').mkdir()
+    path, files, meta = resolve_bag(run)
+    assert path == run / 'bag' and [f.parent for f in files] == [run / 'bag'] and meta
+    out = io.StringIO()
+    assert bag_info.main([str(run)], out=out) == 0
+    assert 'Messages:     1' in out.getvalue()
+    shutil.rmtree(run / 'bag')
+    with pytest.raises(BagError, match='no metadata.yaml and no .mcap file'):
+        resolve_bag(run)
