@@ -129,15 +129,17 @@ def list_experiments(out=print) -> int:
     import yaml
 
     from irs_common import yaml_io
-    for path in sorted(experiments_dir().glob('*.yaml')):
+    paths = sorted(experiments_dir().glob('*.yaml'))
+    width = max((len(p.stem) for p in paths), default=0)
+    for path in paths:
         try:
             doc = yaml_io.safe_load(path.read_text())
             doc = doc if isinstance(doc, dict) else {}
             duration = float(doc.get('duration'))
-            out(f'{path.stem:36s} {str(doc.get("clock", "lockstep")):9s} {duration:7.1f} s  '
+            out(f'{path.stem:{width}s} {str(doc.get("clock", "lockstep")):9s} {duration:7.1f} s  '
                 f'{doc.get("description", "")}')
         except (OSError, yaml.YAMLError, TypeError, ValueError) as exc:
-            out(f'{path.stem:36s} (unreadable: {" ".join(str(exc).split())[:80]})')
+            out(f'{path.stem:{width}s} (unreadable: {" ".join(str(exc).split())[:80]})')
     return 0
 
 

@@ -532,7 +532,9 @@ class ExperimentRunner:
     def _follow(self, watcher, clock, t_start) -> bool:
         exp = self.exp
         last_t, last_change = -1.0, time.monotonic()
-        last_print = 0.0
+        # a terminal gets a bar at once, redrawn every 0.5 s; a log a line every 10 s from
+        # 10 s on (a bar at 0 s in a log says nothing)
+        last_print = 0.0 if sys.stdout.isatty() else last_change
         end = exp.duration - 0.5 * self.dt
         while True:
             watcher.executor.spin_once(timeout_sec=0.05)

@@ -111,6 +111,9 @@ def test_experiment_list_reads_the_files_only(tmp_path):
     assert {'figure10_pi', 'realtime_figure10_composed', 'treadmill_regulation'} <= set(names)
     pi = next(ln for ln in lines if ln.startswith('figure10_pi '))
     assert 'lockstep' in pi and '8.0 s' in pi
+    # one column each, whatever the length of the names
+    assert len({ln.index(' lockstep ' if ' lockstep ' in ln else ' realtime ')
+                for ln in lines[:-1]}) == 1, lines
 
 
 def test_sweep_list_and_similitude(tmp_path):
