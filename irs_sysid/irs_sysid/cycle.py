@@ -290,6 +290,14 @@ def delay_phase_margin(res: dict) -> float:
 def report(res: dict) -> str:
     """The identified-vs-configured table and the design/following lines of one cycle."""
     lines = [format_report(f"[{res['plant']}] {res['title']}", res['estimates'])]
+    outside = [e for e in res['estimates'] if math.isfinite(e.configured)
+               and not e.within_tolerance()]
+    response = [e for e in res['estimates'] if e.name.startswith('max |P/P_configured')]
+    if outside and response and all(e.within_tolerance() for e in response):
+        lines.append(f"[{res['plant']}] the OUTSIDE rows are coefficients the chirp cannot "
+                     'pin down (a zero/pole pair above its band trades off against the gain); '
+                     'the response they make together is within tolerance (max |P/P_configured'
+                     ' - 1|), and that is what the design uses')
     rows = []
     check, paper = res['check'], res['paper_check']
     if res['spec'] is None:

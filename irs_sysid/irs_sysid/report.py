@@ -61,8 +61,10 @@ def _num(v: float) -> str:
 
 
 def format_report(title: str, estimates) -> str:
-    """A fixed-width table: name, identified +- 95 % CI, configured, error, tolerance, verdict."""
-    lines = [title, f'{"parameter":28s} {"identified":>12s} {"+-95%":>9s} {"configured":>11s} '
+    """A fixed-width table: name, identified, the half-width of its 95 % confidence interval (in
+    the unit of the value), configured, error, tolerance, verdict.
+    """
+    lines = [title, f'{"parameter":28s} {"identified":>12s} {"+- CI95":>9s} {"configured":>11s} '
              f'{"error":>8s} {"tolerance":>10s}  unit']
     for e in estimates:
         rel = e.relative_error

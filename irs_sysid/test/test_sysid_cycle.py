@@ -29,4 +29,10 @@ def test_cycle_on_irs_2wd(tmp_path):
     assert abs(f['y_s'][i] - 0.02) < 0.003
     text = cycle.report(res)
     assert "paper's MRC: max Re(pole)" in text and 'following RMS error' in text
+    # irs_2wd's zero/pole pair above the band: its coefficient rows are OUTSIDE, and the
+    # report says why beside the response row that is within tolerance
+    outside = [e.name for e in res['estimates'] if math.isfinite(e.configured)
+               and not e.within_tolerance()]
+    assert outside and ('the OUTSIDE rows are coefficients the chirp cannot pin down'
+                        in text), (outside, text)
     assert cycle.plot_cycle([res], tmp_path / 'cycle.png').stat().st_size > 10_000
