@@ -229,8 +229,8 @@ class _Figures:
                           f'belt speed, {BELT_AVERAGE:g} s moving average')
             if driver is not None:
                 self.line(ax['speed'], *driver, 'reference', "driver's command (car over belt)")
-            ax['speed'].set(ylabel='speed [m/s]', title='Treadmill: belt speed and driver '
-                            'command')
+            ax['speed'].set(ylabel='speed [m/s]', title='Treadmill: belt speed' + (
+                " and the driver's speed command" if driver is not None else ''))
             ax['speed'].legend(loc='best', fontsize=9)
         if 'x' in ax:
             if x is not None:

@@ -172,6 +172,17 @@ def test_offline_run_writes_traces_metrics_and_plots_in_its_own_folder(tmp_path)
     assert {p.split('/')[0] for p in tree(tmp_path)} == {'out'}
 
 
+def test_offline_plots_are_titled_with_the_controller_as_a_bags_are(tmp_path, monkeypatch):
+    import irs_bag.plots
+    from irs_bringup.experiment_cli import run_offline
+    seen = []
+    monkeypatch.setattr(irs_bag.plots, 'plot_series',
+                        lambda data, out_dir, info=None: seen.append(info) or [])
+    run_offline('figure10_pi', tmp_path, duration=0.2, log=lambda *_: None)
+    assert seen and seen[0].controller.startswith('PI (kp '), seen
+    assert seen[0].experiment == 'figure10_pi'
+
+
 @pytest.mark.parametrize('value,what', [
     ('0', 'a finite number of seconds > 0 expected, got 0.0'),
     ('-1', 'got -1.0'), ('nan', 'got nan'), ('inf', 'got inf'),

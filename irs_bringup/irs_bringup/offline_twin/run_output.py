@@ -85,9 +85,15 @@ def write_run(res: dict, exp, run_dir: Path, plots: bool = True, log=print) -> l
     written[1].write_text(json.dumps(doc, indent=1) + '\n')
     if plots:
         from irs_bag.plots import plot_series
+        from irs_bag.run_info import run_info_from_metadata
+
+        from ..experiment import node_parameters
         data = {PLOT_LABELS[k]: (t[:len(v)], np.asarray(v, dtype=float))
                 for k, v in res.items() if k in PLOT_LABELS and np.ndim(v) == 1}
-        written += plot_series(data, run_dir / 'plots')
+        params = {n.name: node_parameters(n) for n in exp.nodes}    # the graph's, as its bag's
+        info = run_info_from_metadata(run_dir.name, {
+            'experiment_name': exp.name, 'node_parameters': json.dumps(params, default=str)})
+        written += plot_series(data, run_dir / 'plots', info)
     for path in written:
         log(f'[experiment] wrote {path}')
     return written

@@ -75,8 +75,9 @@ def plot_braking(surface: str, runs: dict, path, slip_target: float = -0.10) -> 
         if mode != 'locked' and status is not None and np.isfinite(status['v_ref']).any():
             ax_w.plot(status['t'] - tb, status['v_ref'], linestyle=ls, color=colours[6], lw=1.4,
                       label=f'ABS reference speed (wheels), {name}')
-        for i, w in enumerate(WHEELS):
-            ax_s.plot(tt, tyre['slip'][:, i], linestyle=ls, color=colours[i], lw=1.0)
+        for i, w in enumerate(WHEELS):     # left wheels wide beneath, right ones narrow above:
+            ax_s.plot(tt, tyre['slip'][:, i], linestyle=ls, color=colours[i],  # equal in a
+                      lw=2.4 if i % 2 == 0 else 0.9, zorder=2 + i % 2)          # straight stop
         if mode == 'abspeak' and status is not None:
             for i, w in enumerate(WHEELS):
                 ax_s.step(status['t'] - tb, status['target'][:, i], where='post',
@@ -97,7 +98,7 @@ def plot_braking(surface: str, runs: dict, path, slip_target: float = -0.10) -> 
                       label=f'belt speed, {name}')
     for i, w in enumerate(WHEELS):
         ax_w.plot([], [], '-', color=colours[i], lw=0.7, label=f'{w} rim speed (encoder)')
-        ax_s.plot([], [], '-', color=colours[i], label=w)
+        ax_s.plot([], [], '-', color=colours[i], lw=2.4 if i % 2 == 0 else 0.9, label=w)
     ax_s.axhline(slip_target, color='grey', lw=1.0, ls=(0, (1, 2)), label='fixed ABS target')
     if 'abspeak' in runs:
         ax_s.plot([], [], '-', color='grey', lw=3.0, alpha=0.35, label='peak-seeking targets')
