@@ -154,6 +154,12 @@ class DesignCheck:
                     f'delay (stable without it: rightmost poles {shown} rad/s): delay margin '
                     f'{dm}, phase margin {pm} at {self.wcp:.3g} rad/s, gain margin {gm} '
                     f'(sampled loop with the delay |z| max {self.max_abs_z_delayed:.6f})')
+        if not len(self.unstable_poles()):   # the continuous loop is stable, the sampled not
+            rightmost = self.poles[np.argsort(-self.poles.real)][:3]
+            shown = ', '.join(fmt(z) for z in rightmost if z.imag >= -1e-9 * abs(z))
+            return (f"closed loop on plant '{self.plant}' UNSTABLE as sampled: |z| max "
+                    f'{self.max_abs_z:.6f} (the continuous loop: rightmost poles {shown} rad/s), '
+                    f'gain margin {gm}, phase margin {pm}')
         return (f"closed loop on plant '{self.plant}' UNSTABLE: poles {shown} rad/s "
                 f'(largest real part {self.max_real:+.3g} rad/s; sampled loop |z| max '
                 f'{self.max_abs_z:.6f}), gain margin {gm}, phase margin {pm}')

@@ -203,3 +203,18 @@ def test_check_delay_is_validated():
         make_controller({'check_delay': -0.01})
     with pytest.raises(ValueError, match='check_delay must be a finite number'):
         make_controller({'check_delay': math.nan})
+
+
+def test_summary_of_a_loop_unstable_only_as_sampled_names_its_z_and_continuous_poles():
+    """Continuous poles all in the left half plane, a sampled pole outside |z| = 1: the line
+    gives the sampled loop's |z| and the continuous loop's rightmost poles.
+    """
+    from irs_control.design_check import DesignCheck
+    check = DesignCheck('full_size_sedan', poles=np.array([-0.293, -1.5 + 2.0j, -1.5 - 2.0j]),
+                        discrete_poles=np.array([1.000136, 0.99]), gain_margin=0.998,
+                        phase_margin=0.284, wcg=1.0, wcp=1.0, delay=0.017,
+                        delay_margin=-math.inf)
+    assert not check.stable and not check.stable_without_delay
+    text = check.summary()
+    assert "plant 'full_size_sedan' UNSTABLE as sampled: |z| max 1.000136" in text, text
+    assert 'rightmost poles -0.293, -1.5 +- 2j rad/s' in text and 'none' not in text, text
