@@ -335,12 +335,20 @@ def plot_cycle(results: list, path) -> Path:
         name = res['plant'] if res['plant'] != 'identified' else 'identified (Eq. 6)'
         if f is None:
             chk = res['check']
-            why = ('design impossible' if res['spec'] is None else
-                   f'designed MRC unstable on this plant (max Re {chk.max_real:+.2f} 1/s): not run'
-                   if not chk.stable_without_delay else
-                   f'designed MRC refused: delay margin {1000 * chk.delay_margin:+.1f} ms with '
-                   f'the {1000 * chk.delay:.0f} ms transport delay: not run')
-            ax.text(0.5, 0.5, why, ha='center', va='center', transform=ax.transAxes)
+            if res['spec'] is None:
+                why = 'design impossible'
+            elif chk.max_real >= 0.0:
+                why = f'designed MRC unstable on this plant (max Re {chk.max_real:+.2f} 1/s)'
+            elif not chk.stable_without_delay:
+                why = (f'designed MRC unstable as sampled at 1 kHz (|z| max {chk.max_abs_z:.6f};'
+                       f' continuous max Re {chk.max_real:+.2f} 1/s, phase margin '
+                       f'{chk.phase_margin:.2g} deg)')
+            else:
+                why = (f'designed MRC refused: delay margin {1000 * chk.delay_margin:+.1f} ms '
+                       f'with the {1000 * chk.delay:.0f} ms transport delay')
+            ax.text(0.5, 0.5, (why + ': not run').replace(' (', '\n(', 1), ha='center',
+                    va='center', transform=ax.transAxes)
+            ax.set_axis_off()
             ax.set_title(f'rig plant {name}')
             continue
         ax.plot(f['t'], 1000 * f['r'], ':', color='0.3', label='reference')
@@ -349,7 +357,7 @@ def plot_cycle(results: list, path) -> Path:
         ax.plot(f['t'], 1000 * f['y_s'], color='C0', lw=1.2,
                 label=f"rig, MRC on the identified model (RMS error {1000 * f['rms_y_s']:.2f} "
                       'mm)')
-        ax.set_ylabel('y_s  [mm]')
+        ax.set(ylabel='y_s  [mm]', xlabel='time  [s]')
         pm = res['check'].phase_margin
         if f['rms_y_s'] > FOLLOWING_FAIL:
             ax.set_ylim(-40.0, 40.0)
@@ -362,7 +370,6 @@ def plot_cycle(results: list, path) -> Path:
                      f'{delay_phase_margin(res):.0f} deg with the 17 ms delay', fontsize=9)
         ax.grid(True, alpha=0.3)
         ax.legend(loc='upper right', fontsize=8)
-    axes[-1, 0].set_xlabel('time  [s]')
     fig.suptitle('Identify - design - run: MRC designed on the identified plant, model following',
                  fontsize=11)
     return save_figure(fig, path, dpi=100)
