@@ -182,8 +182,8 @@ def cycle(plant: str, runs_dir: Path, offline: bool = False, source: str = 'achi
        ``--input command`` takes the paper's way (steer command, the actuator a 4.6 Hz lag);
     2. **design**: on the Eq. 6 structure, or on the order-1 model ``K (s + c0)/(s^2 (s + d0))``
        when that fits as well (:data:`ORDER_1_RATIO`: a zero and a pole of the vehicle cancel
-       within what the data tell; a zero/pole pair the fit parks above the band -- irs_2wd's -6.86
-       and -7.88 come out as about -80 and -60 -- is dropped, its gain z/p kept,
+       within what the data tell; a zero/pole pair the fit parks above the band -- on irs_2wd a
+       zero near -9e4 and a pole near -500 rad/s, 2026-12-04 -- is dropped, its gain z/p kept,
        :func:`.vehicle_fit.reduced_vehicle_polynomials`), the paper's MRC
        (:func:`irs_control.rst_design.design_rst` through
        :func:`irs_control.controller_factory.make_controller`, ``plant: custom``): the identified
