@@ -12,6 +12,19 @@ import numpy as np
 
 #: [s] the reach of the latency histogram (its last bin collects everything beyond)
 LATENCY_RANGE = 0.05
+#: [%] deadline misses of a run from which its timing is a warning, and an error: at 1 % the
+#: plant runs one step in a hundred on a stale steer; the composed graph misses 0.2-0.5 % here
+#: (docs/performance.md).
+MISS_WARN_PCT, MISS_ERROR_PCT = 1.0, 10.0
+
+
+def timing_level(summary: dict) -> int:
+    """The ``diagnostic_msgs/DiagnosticStatus`` level of a :meth:`LoopTiming.summary`: 0 (OK)
+    below :data:`MISS_WARN_PCT` deadline misses, 1 (WARN) below :data:`MISS_ERROR_PCT`, else
+    2 (ERROR).
+    """
+    pct = summary['miss_pct']
+    return 0 if pct < MISS_WARN_PCT else 1 if pct < MISS_ERROR_PCT else 2
 
 
 def format_ms(value_ms: float, range_s: float = LATENCY_RANGE) -> str:

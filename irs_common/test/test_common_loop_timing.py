@@ -40,3 +40,15 @@ def test_format_ms_writes_a_latency_beyond_the_histogram_as_a_bound():
     assert format_ms(0.2714) == '0.271'
     assert format_ms(50.01) == '> 50' and format_ms(49.99) == '49.990'
     assert format_ms(math.inf) == '> 50'
+
+
+def test_timing_level_is_ok_warn_error_by_the_share_of_missed_deadlines():
+    from irs_common.loop_timing import MISS_ERROR_PCT, MISS_WARN_PCT, LoopTiming, timing_level
+    t = LoopTiming()
+    assert timing_level(t.summary()) == 0                   # no step yet
+    levels = []
+    for misses in (0, 9, 10, 99, 100, 1000):
+        t.steps, t.misses = 1000, misses
+        levels.append(timing_level(t.summary()))
+    assert levels == [0, 0, 1, 1, 2, 2]
+    assert (MISS_WARN_PCT, MISS_ERROR_PCT) == (1.0, 10.0)

@@ -45,7 +45,7 @@ from std_msgs.msg import Empty
 from std_srvs.srv import Trigger
 
 from irs_common import qos
-from irs_common.loop_timing import LoopTiming
+from irs_common.loop_timing import LoopTiming, format_ms, timing_level
 from irs_common.node_main import run_node
 from irs_common.params import declare_table
 from irs_common.stamp_gate import FUTURE, OLD, StampGate, answer_age
@@ -61,6 +61,9 @@ from .drive_modbus import ModbusDrive
 from .hardware_params import hardware_config, hardware_problem, NODE_PARAMS
 from .hardware_rig import HardwareRig
 from .paths import resolve
+
+#: ``rig/timing`` levels of :func:`irs_common.loop_timing.timing_level`.
+TIMING_LEVELS = (DiagnosticStatus.OK, DiagnosticStatus.WARN, DiagnosticStatus.ERROR)
 
 ARM_JOINTS = ['arm_joint1', 'arm_joint2', 'arm_joint3']
 READ_WAIT = 0.005       # [s] the reader thread's longest wait for the board's next samples
@@ -527,8 +530,11 @@ class RigHardwareNode(Node):
             summary = {**self.timing.summary(), 'lost_samples': rig.lost_samples,
                        'bad_frames': io.bad_frames, 'commands_sent': rig.commands_sent,
                        'faults': rig.faults}
-            t = DiagnosticStatus(level=DiagnosticStatus.OK, name='rig_hardware: real-time loop',
-                                 hardware_id='irs_rig', message='',
+            t = DiagnosticStatus(level=TIMING_LEVELS[timing_level(summary)],
+                                 name='rig_hardware: real-time loop', hardware_id='irs_rig',
+                                 message=(f"{summary['miss_pct']:.2f} % deadline misses, "
+                                          f"latency p99 {format_ms(summary['latency_p99_ms'])} "
+                                          'ms'),
                                  values=[KeyValue(key=k, value=f'{v:.6g}' if isinstance(v, float)
                                                   else str(v)) for k, v in summary.items()])
             a = DiagnosticArray(status=[t])

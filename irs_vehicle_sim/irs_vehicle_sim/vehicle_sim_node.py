@@ -26,7 +26,7 @@ from std_srvs.srv import Trigger
 
 from irs_common import qos
 from irs_common.input_checks import ThrottledWarner
-from irs_common.loop_timing import LoopTiming, format_ms
+from irs_common.loop_timing import LoopTiming, format_ms, timing_level
 from irs_common.msg_builder import builder
 from irs_common.node_main import run_node
 from irs_common.orientation import quaternion_from_yaw
@@ -44,6 +44,9 @@ from .rig import RigInputs, RigSimulation
 from .rig_params import NODE_PARAMS, rig_config, vehicle_sim_parameter_table
 from .rig_torque_car import NOT_LOCKED, ZERO_TORQUE
 from .safe_stop import HOLDING, RECOVERING, STOPPING, SafeStop, SafeStopParams
+
+#: ``rig/timing`` levels of :func:`irs_common.loop_timing.timing_level`.
+TIMING_LEVELS = (DiagnosticStatus.OK, DiagnosticStatus.WARN, DiagnosticStatus.ERROR)
 
 #: lock-step input name -> (topic, message type)
 INPUTS = {
@@ -570,7 +573,8 @@ class VehicleSimNode(Node):
 
     def _publish_timing(self):
         summary = self.timing.summary()
-        status = DiagnosticStatus(level=DiagnosticStatus.OK, name='vehicle_sim: real-time loop',
+        status = DiagnosticStatus(level=TIMING_LEVELS[timing_level(summary)],
+                                  name='vehicle_sim: real-time loop',
                                   hardware_id='irs_rig',
                                   message=(f"{summary['miss_pct']:.2f} % deadline misses, latency "
                                            f"p99 {format_ms(summary['latency_p99_ms'])} ms"))
