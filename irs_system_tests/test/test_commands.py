@@ -167,7 +167,7 @@ def test_offline_run_writes_traces_metrics_and_plots_in_its_own_folder(tmp_path)
     assert m['final_y_s'] == pytest.approx(traces['y_s'][-1])
     assert 0 < m['max_abs_error'] < 0.05 and m['ise'] > 0
     plots = sorted(p.name for p in (run_dir / 'plots').iterdir())
-    assert plots == ['belt.png', 'lateral.png', 'steering.png']
+    assert plots == ['belt.png', 'car_position.png', 'lateral.png', 'steering.png']
     assert all((run_dir / 'plots' / p).stat().st_size > 10000 for p in plots)
     assert {p.split('/')[0] for p in tree(tmp_path)} == {'out'}
 

@@ -126,15 +126,16 @@ class ClosedLoop:
         for _ in range(n):
             inputs, ref, y_meas = control(out)
             add_row((out.time, out.y_s, y_meas, ref, out.actuator_front.achieved, out.x,
-                     out.belt_speed, out.fault))
+                     out.belt_speed, out.fault, out.y))
             add_cmd((inputs.front_steer, inputs.drive_voltage))
             out = step(inputs)
         # The last instant: outputs only (no command is computed for it), the reference as the
         # reference generator publishes it.
         rows.append((out.time, out.y_s, math.nan, float(self.signal(out.time)),
-                     out.actuator_front.achieved, out.x, out.belt_speed, out.fault))
+                     out.actuator_front.achieved, out.x, out.belt_speed, out.fault, out.y))
         a = np.array(rows, dtype=float)
         c = np.array(cmds, dtype=float).reshape(-1, 2)
         return {'time': a[:, 0], 'y_s': a[:, 1], 'y_measured': a[:, 2], 'reference': a[:, 3],
                 'steer_achieved': a[:, 4], 'x': a[:, 5], 'belt_speed': a[:, 6],
-                'fault': a[:, 7].astype(bool), 'steer_cmd': c[:, 0], 'drive_voltage': c[:, 1]}
+                'fault': a[:, 7].astype(bool), 'y': a[:, 8], 'steer_cmd': c[:, 0],
+                'drive_voltage': c[:, 1]}
