@@ -211,3 +211,31 @@ def check_digests(digests: dict) -> None:
             assert digests[name].get(topic) == expected, (
                 f'{name} {topic}: bag differs from the one of commit {reference["commit"]}')
     assert digests == reference['runs'], 'a run or topic was added or removed'
+
+
+def test_a_sine_reference_through_the_graph_is_the_offline_cores_to_the_bit(tmp_path):
+    """Figure 10's PI on a 2 s sine for 2.5 s: reference, y_s and steer equal the offline
+    loop's bit for bit. The reference generator evaluates the sine at ``(k dt_ns) 1e-9`` s,
+    which differs from ``k dt`` in the last bit at about a quarter of the steps; a step
+    reference cannot tell the two apart, a sine can.
+    """
+    import yaml
+    from irs_bringup.experiment import experiments_dir
+    doc = yaml.safe_load((experiments_dir() / 'figure10_pi.yaml').read_text())
+    doc.update(name='figure10_pi_sine', duration=2.5)
+    doc['nodes']['reference_generator']['params'].update(
+        {'signal.type': 'sine', 'signal.amplitude': 0.015, 'signal.period': 2.0})
+    path = tmp_path / 'figure10_pi_sine.yaml'
+    path.write_text(yaml.safe_dump(doc))
+    result = run_experiment(str(path), runs_dir=tmp_path, plots=False)
+    assert result.completed, result.message
+    run, off = lateral_run(result.bag_dir), offline_run(str(path))
+    idx = np.round(run['time'] * 1000).astype(int)
+    assert len(idx) == len(off['time']) == 2501
+    assert np.ptp(off['reference']) > 0.02          # the sine, not a constant
+    k = np.arange(len(off['time']))
+    assert np.any(k * 1_000_000 * 1e-9 != k * 0.001)   # the two clocks do differ
+    for signal in ('reference', 'y_s'):
+        assert np.array_equal(run[signal], off[signal][idx]), signal
+    n = len(off['steer_cmd'])
+    assert np.array_equal(run['steer_cmd'][:n], off['steer_cmd'])

@@ -12,7 +12,12 @@ Data flow per step k (exactly the ROS graph's, see docs/architecture.md):
 6. the rig steps t_k -> t_{k+1} with those commands held.
 
 Node parameters are given as the same flat dicts the nodes take, so an experiment file drives
-both this simulation and the graph; the graph's recorded outputs must equal these.
+both this simulation and the graph; the graph's recorded outputs must equal these, to the bit.
+So each core gets the time as its node computes it from step k's stamp ``k dt_ns`` [ns]: the
+reference generator, the driver and the treadmill's safety monitor ``(k dt_ns) 1e-9``, the
+pose estimator ``sec + nanosec 1e-9`` of the stamp (:func:`irs_common.stamps.to_sec`). The rig's
+own ``k dt`` differs from these in the last bit at about a quarter of the steps, which a sine
+reference turns into different steer commands.
 """
 from dataclasses import dataclass, field
 import math
@@ -59,6 +64,7 @@ class ClosedLoop:
         self.cfg = cfg
         self.rig = RigSimulation(rig_config(cfg.rig))
         self.dt = self.rig.config.dt
+        self.dt_ns = int(round(self.dt * 1e9))      # vehicle_sim's step in its stamps [ns]
         est = estimator_config(cfg.estimator)
         self.calibration = est.calibration
         self.raw_input = est.input == 'raw'
@@ -81,12 +87,14 @@ class ClosedLoop:
         self._inputs = RigInputs()
 
     def _control(self, out):
-        t = out.time
+        stamp_ns = self.rig.k * self.dt_ns
+        t = stamp_ns * 1e-9                                  # the ticker's and the regulator's
+        sec, nanosec = divmod(stamp_ns, 1_000_000_000)
         angles = out.arm_angles
         try:
             if self.raw_input:
                 angles = self.calibration.to_angles(tuple(angles))
-            est, _reason = self.estimator.update(*angles, t)
+            est, _reason = self.estimator.update(*angles, sec + nanosec * 1e-9)   # to_sec
         except ValueError:
             est = None
         y_s = est.y_s if est is not None else math.nan
@@ -131,7 +139,8 @@ class ClosedLoop:
             out = step(inputs)
         # The last instant: outputs only (no command is computed for it), the reference as the
         # reference generator publishes it.
-        rows.append((out.time, out.y_s, math.nan, float(self.signal(out.time)),
+        t_last = self.rig.k * self.dt_ns * 1e-9
+        rows.append((out.time, out.y_s, math.nan, float(self.signal(t_last)),
                      out.actuator_front.achieved, out.x, out.belt_speed, out.fault, out.y))
         a = np.array(rows, dtype=float)
         c = np.array(cmds, dtype=float).reshape(-1, 2)
