@@ -105,11 +105,15 @@ def run_offline(name, runs_dir='runs', plots=True, duration=None, log=print):
     (:mod:`.offline_twin.run_output`); the run folder.
     """
     from .experiment import new_run_dir
-    from .offline_twin.from_experiment import offline_run
+    from .offline_twin.from_experiment import offline_run, refuse_as_the_node_does
     from .offline_twin.run_output import write_run
     exp = load_experiment(name)
     if duration is not None:
         exp = exp.with_duration(duration)
+    try:
+        refuse_as_the_node_does(exp, log)
+    except ValueError as exc:
+        raise InputError(f'{exp.name}: lateral_controller: {exc}') from None
     res = offline_run(exp)
     run_dir = new_run_dir(runs_dir, f'{exp.name}-offline')
     write_run(res, exp, run_dir, plots=plots, log=log)

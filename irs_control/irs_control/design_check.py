@@ -39,6 +39,7 @@ controller's ``actuator_pole`` (29 rad/s, Eq. 6).
 from __future__ import annotations
 
 import math
+import warnings
 from dataclasses import dataclass
 
 import numpy as np
@@ -139,7 +140,9 @@ class DesignCheck:
         p = self.unstable_poles() if not self.stable_without_delay else \
             self.poles[np.argsort(-self.poles.real)][:3]
         shown = ', '.join(fmt(z) for z in p if z.imag >= -1e-9 * abs(z)) or 'none'
-        gm = 'inf' if not math.isfinite(self.gain_margin) else f'{self.gain_margin:.3g}'
+        gm = 'inf' if not math.isfinite(self.gain_margin) else f'{self.gain_margin:.3g}' + (
+            ' (a lower margin: unstable below that factor of the gain)'
+            if self.gain_margin < 1.0 else '')
         pm = 'inf' if not math.isfinite(self.phase_margin) else f'{self.phase_margin:.3g} deg'
         td = f'{1000 * self.delay:.3g} ms'
         dm = ('inf' if math.isinf(self.delay_margin) and self.delay_margin > 0
@@ -213,7 +216,9 @@ def check_design(B, A, R, S, controller_ss, dt: float, plant: str = '',
     poles = np.asarray(control.poles(control.feedback(P, C)), complex)
     # python-control returns (gm, pm, sm, wpc, wgc, wms): wpc is the phase crossover (where the
     # gain margin is read), wgc the gain crossover (where the phase margin is read).
-    gm, pm, _sm, wcg, wcp, _wms = control.stability_margins(P * C)
+    with warnings.catch_warnings():   # python-control compares NaN responses (RuntimeWarning
+        warnings.simplefilter('ignore', RuntimeWarning)     # on stderr); its results stand
+        gm, pm, _sm, wcg, wcp, _wms = control.stability_margins(P * C)
     Pd = control.c2d(control.ss(P), dt, method='zoh')
     K = control.ss(*controller_ss, dt)
     # u = K y and y = P u: a positive-feedback interconnection (K already carries the minus).
@@ -246,7 +251,9 @@ def check_controller(cfg: dict, controller, design=None) -> DesignCheck:
     else:
         B, A = check_plant_polynomials(plant, cfg['actuator_pole'], cfg['plant_gain'],
                                        cfg['speed'], cfg['ds'])
-    if cfg['mode'] == 'pi':
+    if cfg['mode'] == 'pi' and float(cfg['ki']) == 0.0:      # P: no integrator, no pole at 0
+        R, S = np.array([1.0]), np.array([float(cfg['kp'])])
+    elif cfg['mode'] == 'pi':
         R, S = np.array([1.0, 0.0]), np.array([float(cfg['kp']), float(cfg['ki'])])
     else:
         R, S = np.asarray(design.R, float), np.asarray(design.S, float)

@@ -87,8 +87,11 @@ class DiscretePiController(InputGuard):
 
     def linear_state_space(self):
         """``(Ad, Bd, Cd, Dd)`` of the linear law from y [m] to u [rad] (reference zero):
-        ``I_{k+1} = I_k - dt K_i y_k``, ``u_k = I_k - K_p y_k`` (for :mod:`.design_check`).
+        ``I_{k+1} = I_k - dt K_i y_k``, ``u_k = I_k - K_p y_k`` (for :mod:`.design_check`);
+        with ``K_i = 0`` the static gain ``u_k = -K_p y_k`` (no state).
         """
+        if self.ki == 0.0:            # a P controller: no integrator state
+            return (np.zeros((0, 0)), np.zeros((0, 1)), np.zeros((1, 0)), np.array([[-self.kp]]))
         return (np.array([[1.0]]), np.array([[-self.dt * self.ki]]), np.array([[1.0]]),
                 np.array([[-self.kp]]))
 
@@ -103,7 +106,9 @@ class DiscretePiController(InputGuard):
         e = ref - measurement
         u = self.kp * e + self.integral
         v = min(max(u, self.u_min), self.u_max)
-        aw = (v - u) / self.tracking_time if self.anti_windup else 0.0
+        # with ki = 0 (a P controller) the integral stays 0: back-calculation alone would
+        # leave it at what the last saturation wound it to, a steer offset for good
+        aw = (v - u) / self.tracking_time if self.anti_windup and self.ki > 0.0 else 0.0
         integral = self.integral + self.dt * (self.ki * e + aw)
         if not (math.isfinite(u) and math.isfinite(integral)):
             return self._invalid(ref, f'PI state became non-finite (u = {u!r}, integral = '

@@ -218,3 +218,25 @@ def test_summary_of_a_loop_unstable_only_as_sampled_names_its_z_and_continuous_p
     text = check.summary()
     assert "plant 'full_size_sedan' UNSTABLE as sampled: |z| max 1.000136" in text, text
     assert 'rightmost poles -0.293, -1.5 +- 2j rad/s' in text and 'none' not in text, text
+
+
+def test_a_p_controller_has_no_integrator_pole_and_winds_up_no_integral():
+    """PI with ki = 0 is a P controller: the check closes kp alone (no pole at s = 0, no
+    discrete pole at z = 1), and a saturation leaves no integral behind (back-calculation
+    would wind one up and keep it as a steer offset).
+    """
+    cfg, spec, chk = _check('pi', 'identified', kp=0.5, ki=0.0)
+    assert chk.stable, chk.summary()
+    assert np.all(np.abs(chk.discrete_poles) < 1.0) and np.max(chk.poles.real) < 0.0
+    B, A = check_plant_polynomials('identified', cfg['actuator_pole'], cfg['plant_gain'],
+                                   cfg['speed'], cfg['ds'])
+    roots = np.roots(np.polyadd(A, 0.5 * np.asarray(B)))    # A + kp B
+    assert np.allclose(np.sort_complex(roots), np.sort_complex(chk.poles))
+    c = spec.controller
+    for _ in range(500):
+        assert c.step(1.0, 0.0).saturated        # kp e = 0.5 rad beyond the steer limit
+    assert c.integral == 0.0 and c.step(0.0, 0.0).u_sat == 0.0
+    from irs_control.design_check import check_design
+    as_pi = check_design(B, A, [1.0, 0.0], [0.5, 0.0], (np.eye(1), np.zeros((1, 1)), np.eye(1),
+                                                        -0.5 * np.eye(1)), cfg['dt'])
+    assert not as_pi.stable and np.isclose(as_pi.max_real, 0.0)    # the integrator's pole at 0

@@ -183,6 +183,29 @@ def test_offline_plots_are_titled_with_the_controller_as_a_bags_are(tmp_path, mo
     assert seen[0].experiment == 'figure10_pi'
 
 
+def test_offline_refuses_the_design_the_node_refuses_and_runs_it_when_allowed(tmp_path):
+    """The paper's MRC checked on irs_2wd: the graph's lateral_controller refuses it at start,
+    and so does ``--offline`` (one line, exit 2, no run folder); ``allow_unstable_design`` runs
+    it with a warning, as the node does.
+    """
+    from irs_bringup.experiment import experiments_dir
+    doc = yaml.safe_load((experiments_dir() / 'figure10_mrc_with_actuator.yaml').read_text())
+    doc.update(name='mrc_on_2wd', duration=0.2)
+    doc['nodes']['lateral_controller'].setdefault('params', {})['check_plant'] = 'irs_2wd'
+    (tmp_path / 'mrc_on_2wd.yaml').write_text(yaml.safe_dump(doc))
+    res = run('irs_bringup', 'experiment', 'run', 'mrc_on_2wd.yaml', '--offline', '--runs-dir',
+              'out', cwd=tmp_path)
+    err = one_line_error(res, 'experiment')
+    assert 'mrc_on_2wd: lateral_controller: MRC design' in err and 'UNSTABLE' in err, err
+    assert not (tmp_path / 'out').exists()
+    doc['nodes']['lateral_controller']['params']['allow_unstable_design'] = True
+    (tmp_path / 'mrc_on_2wd.yaml').write_text(yaml.safe_dump(doc))
+    res = run('irs_bringup', 'experiment', 'run', 'mrc_on_2wd.yaml', '--offline', '--runs-dir',
+              'out', cwd=tmp_path)
+    assert res.returncode == 0, res.stderr
+    assert '[experiment] warning: MRC design' in res.stdout and 'running anyway' in res.stdout
+
+
 @pytest.mark.parametrize('value,what', [
     ('0', 'a finite number of seconds > 0 expected, got 0.0'),
     ('-1', 'got -1.0'), ('nan', 'got nan'), ('inf', 'got inf'),

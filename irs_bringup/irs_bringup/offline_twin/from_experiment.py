@@ -28,6 +28,26 @@ def loop_config_from_experiment(exp: Experiment) -> LoopConfig:
         default_drive_voltage=float(rig.get('default_drive_voltage', 0.0)))
 
 
+def refuse_as_the_node_does(exp: Experiment, log=print) -> None:
+    """The ``lateral_controller``'s start-up design check on the experiment's controller: the
+    ``ValueError`` the node raises for a design unstable on its configured plant (unless
+    ``allow_unstable_design``), so that ``experiment run --offline`` refuses what the graph
+    refuses. The offline loop itself does not check (a sweep explores unstable designs too).
+    """
+    params = _params(exp, 'irs_control', 'lateral_controller')
+    if params is None:
+        return
+    from irs_control.controller_factory import make_controller
+    from irs_control.design_check import require_stable
+    from irs_control.lateral_params import controller_config
+    cfg = controller_config(params)
+    spec = make_controller(cfg)
+    _check, message, ok = require_stable(cfg, spec.controller, spec.design,
+                                         f"{cfg['mode'].upper()} design")
+    if not ok:
+        log(f'[experiment] warning: {message}')
+
+
 def chassis_loop_config(exp: Experiment) -> ChassisLoopConfig:
     """The parameters an experiment file gives each node of the torque-car graph."""
     rig = _params(exp, *RIG_KEY) or {}
