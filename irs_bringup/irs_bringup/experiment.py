@@ -334,7 +334,7 @@ def load_experiment(name_or_path: str) -> Experiment:
                      list(model.record.topics), path, text, model.record.process,
                      {n: (d.package, d.executable, list(d.args))
                       for n, d in model.devices.items()})
-    problems = _parameter_problems(exp) or _duration_problems(exp)
+    problems = _parameter_problems(exp) or _duration_problems(exp) or _lockstep_problems(exp)
     if problems:
         raise ExperimentError(one_line(path, problems))
     return exp
@@ -384,6 +384,45 @@ def _parameter_problems(exp: Experiment) -> list:
                                                                entry.executable, [ref]))]
                 where = f'nodes.{entry.name}.params_files[{files[-1] if files else 0}]'
             problems.append((where, message))
+    return problems
+
+
+#: The topic each of the rig's ``lockstep_inputs`` takes its commands on (its subscriptions).
+LOCKSTEP_INPUT_TOPICS = {'steering': 'steering/command', 'drive': 'treadmill/drive',
+                         'driver': 'driver/command', 'wheels': 'wheels/torque_command'}
+
+
+def _lockstep_problems(exp: Experiment) -> list:
+    """A lock-step run waits, each step, for every input in the rig's ``lockstep_inputs`` and,
+    with ``reference_sync``, the lateral controller for its reference: a topic of these that no
+    node of the experiment publishes would stop the run at t = 0. ``[(key path, message)]``.
+    """
+    if exp.clock != 'lockstep':
+        return []
+    from irs_common.params import parameter_table
+    published = {absolute(e.remaps.get(t, t)) for e in exp.nodes for t in node_topics(e)['pub']}
+    waits = []        # (key path, name, topic)
+    rig = exp.rig()
+    if rig is not None:
+        inputs = node_parameters(rig).get('lockstep_inputs')
+        if inputs is None:
+            inputs = next((p.default for p in parameter_table(*rig.key) or []
+                           if p.name == 'lockstep_inputs'), [])
+        for name in inputs:
+            if name in LOCKSTEP_INPUT_TOPICS:
+                waits.append((f'nodes.{rig.name}.params.lockstep_inputs', repr(name),
+                              LOCKSTEP_INPUT_TOPICS[name], rig))
+    for e in exp.nodes:
+        if e.key == ('irs_control', 'lateral_controller') and \
+                node_parameters(e).get('reference_sync') is True:
+            waits.append((f'nodes.{e.name}.params.reference_sync', 'reference_sync',
+                          'lateral/reference', e))
+    problems = []
+    for key, what, topic, entry in waits:
+        topic = absolute(entry.remaps.get(topic, topic))
+        if topic not in published:
+            problems.append((key, f'{what} waits each step for {topic}, which no node of the '
+                                  'experiment publishes (the run would not get past t = 0)'))
     return problems
 
 

@@ -113,7 +113,7 @@ def run_offline(name, runs_dir='runs', plots=True, duration=None, log=print):
     try:
         refuse_as_the_node_does(exp, log)
     except ValueError as exc:
-        raise InputError(f'{exp.name}: lateral_controller: {exc}') from None
+        raise InputError(f'{exp.path or exp.name}: {exc}') from None
     res = offline_run(exp)
     run_dir = new_run_dir(runs_dir, f'{exp.name}-offline')
     write_run(res, exp, run_dir, plots=plots, log=log)

@@ -23,9 +23,18 @@ def _anti_windup_problem(value):
     return None
 
 
+#: The control laws of ``mode``.
+MODES = ('mrc', 'pi')
+
+
+def _mode_problem(value):
+    return None if value in MODES else f"expected one of {', '.join(MODES)}, got {value!r}"
+
+
 PARAMS = [
     Param(
-        'mode', D['mode'], "control law: 'mrc' (RST model reference) or 'pi'", '-', read_only=True
+        'mode', D['mode'], "control law: 'mrc' (RST model reference) or 'pi'", '-', read_only=True,
+        validator=_mode_problem,
     ),
     Param('dt', D['dt'], 'controller period = measurement period', 's', 1e-5, 1.0, read_only=True),
     Param('plant', D['plant'], "design plant: 'identified' (paper Eq. 6), a vehicle preset name "

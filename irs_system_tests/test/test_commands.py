@@ -196,7 +196,8 @@ def test_offline_refuses_the_design_the_node_refuses_and_runs_it_when_allowed(tm
     res = run('irs_bringup', 'experiment', 'run', 'mrc_on_2wd.yaml', '--offline', '--runs-dir',
               'out', cwd=tmp_path)
     err = one_line_error(res, 'experiment')
-    assert 'mrc_on_2wd: lateral_controller: MRC design' in err and 'UNSTABLE' in err, err
+    assert 'mrc_on_2wd.yaml: nodes.lateral_controller: MRC design' in err, err
+    assert 'UNSTABLE' in err, err
     assert not (tmp_path / 'out').exists()
     doc['nodes']['lateral_controller']['params']['allow_unstable_design'] = True
     (tmp_path / 'mrc_on_2wd.yaml').write_text(yaml.safe_dump(doc))

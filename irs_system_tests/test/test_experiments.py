@@ -214,7 +214,7 @@ VALID = {
     'nodes': {
         'vehicle_sim': {'package': 'irs_vehicle_sim', 'executable': 'vehicle_sim',
                         'params_files': ['pkg://irs_vehicle_sim/config/rig.yaml'],
-                        'params': {'x0': 0.3}},
+                        'params': {'x0': 0.3, 'lockstep_inputs': ['drive']}},
         'treadmill_regulator': {'package': 'irs_treadmill', 'executable': 'treadmill_regulator',
                                 'params_files': ['pkg://irs_treadmill/config/treadmill.yaml']}},
     'record': {'topics': ['/pose']}}
@@ -343,6 +343,17 @@ BAD_FILES = {
                                'got 5.0 (out of range)'),
     'boolean for a double parameter': (_doc(**{VS + 'params': {'ds': True}}),
                                        'nodes.vehicle_sim.params.ds', 'got True (boolean)'),
+    'lock-step input nobody publishes': (
+        _doc(**{VS + 'params': {'x0': 0.3, 'lockstep_inputs': ['steering', 'drive']}}),
+        'nodes.vehicle_sim.params.lockstep_inputs',
+        "'steering' waits each step for /steering/command, which no node of the experiment "
+        'publishes (the run would not get past t = 0)'),
+    'reference_sync without a reference': (
+        _doc(nodes__lateral_controller={
+            'package': 'irs_control', 'executable': 'lateral_controller',
+            'params': {'mode': 'pi', 'reference_sync': True}}),
+        'nodes.lateral_controller.params.reference_sync',
+        'reference_sync waits each step for /lateral/reference, which no node'),
     'misspelt parameter of a node with a whole table': (
         _doc(nodes__treadmill_regulator__params={'enabeld': False}),
         'nodes.treadmill_regulator.params.enabeld',
@@ -390,7 +401,8 @@ def test_schema_the_valid_document_loads_with_its_values(tmp_path):
     assert load_experiment(str(_write(tmp_path, _doc(duration=0.001)))).duration == 0.001
     assert load_experiment(str(_write(tmp_path, _doc(duration=2)))).duration == 2.0
     # empty sections (YAML null) are empty, a number list with ints is doubles
-    doc = _doc(record=None, **{VS + 'remaps': None, VS + 'params': {'x0': 0.3}})
+    doc = _doc(record=None, **{VS + 'remaps': None,
+                               VS + 'params': {'x0': 0.3, 'lockstep_inputs': ['drive']}})
     assert load_experiment(str(_write(tmp_path, doc))).record_topics == []
     assert NodeModel(package='p', executable='e', params={'poles': [1, 2.5]}).params == {
         'poles': [1.0, 2.5]
@@ -536,13 +548,19 @@ def test_schema_cli_prints_one_line_and_exits_2(tmp_path, capsys, case):
 def test_schema_offline_run_with_a_parameter_only_the_cores_check_is_one_line(tmp_path, capsys):
     doc = _doc(
         nodes__lateral_controller={'package': 'irs_control', 'executable': 'lateral_controller',
-                                   'params': {'mode': 'bogus'}}
+                                   'params': {'mode': 'mrc', 'reference_model_den': [1.0, -1.0]}}
     )
     path = _write(tmp_path, doc)
     assert experiment_main(['run', str(path), '--offline']) == 2
     _out, err = capsys.readouterr()
-    assert err == (f'experiment: error: {path}: nodes: the offline closed loop refuses a '
-                   "parameter: mode must be 'mrc' or 'pi', got 'bogus'\n")
+    assert err == (f'experiment: error: {path}: nodes.lateral_controller: reference_model_den '
+                   'must be stable (all roots with negative real part); got roots [1.] of '
+                   '[1.0, -1.0].\n')
+    # a mode the table knows not is refused at loading, naming the file and the key
+    doc['nodes']['lateral_controller']['params'] = {'mode': 'lqr'}
+    with pytest.raises(ExperimentError, match=r"nodes\.lateral_controller\.params\.mode: .*"
+                       r"expected one of mrc, pi, got 'lqr'"):
+        load_experiment(str(_write(tmp_path, doc)))
 
 
 def test_schema_the_installed_command_prints_one_line_and_exits_2(tmp_path):

@@ -34,16 +34,19 @@ def refuse_as_the_node_does(exp: Experiment, log=print) -> None:
     ``allow_unstable_design``), so that ``experiment run --offline`` refuses what the graph
     refuses. The offline loop itself does not check (a sweep explores unstable designs too).
     """
-    params = _params(exp, 'irs_control', 'lateral_controller')
-    if params is None:
+    entry = exp.node('irs_control', 'lateral_controller')
+    if entry is None:
         return
     from irs_control.controller_factory import make_controller
     from irs_control.design_check import require_stable
     from irs_control.lateral_params import controller_config
-    cfg = controller_config(params)
-    spec = make_controller(cfg)
-    _check, message, ok = require_stable(cfg, spec.controller, spec.design,
-                                         f"{cfg['mode'].upper()} design")
+    try:
+        cfg = controller_config(node_parameters(entry))
+        spec = make_controller(cfg)
+        _check, message, ok = require_stable(cfg, spec.controller, spec.design,
+                                             f"{cfg['mode'].upper()} design")
+    except ValueError as exc:
+        raise ValueError(f'nodes.{entry.name}: {exc}') from None
     if not ok:
         log(f'[experiment] warning: {message}')
 
