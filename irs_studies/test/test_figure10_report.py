@@ -129,6 +129,12 @@ def test_ise_vs_model_and_window_and_band_crossings():
     assert mn['crossings_2pct'] == 0
     with pytest.raises(ValueError):
         F.run_metrics(_run(t, y, np.zeros(t.size), steer))   # no step
+    sine = 0.015 * np.sin(np.pi * np.maximum(t - 1.0, 0.0))   # changes every sample from 1 s
+    with pytest.raises(ValueError, match='the reference is no step: it changes again'):
+        F.run_metrics(_run(t, y, sine, steer))
+    square = np.where(t >= 1.0, 0.02, 0.0) - np.where(t >= 1.05, 0.01, 0.0)   # held 0.05 s
+    with pytest.raises(ValueError, match='changes again 0.05 s after its first change at 1 s'):
+        F.run_metrics(_run(t, y, square, steer))
 
 
 # --------------------------------------------------------------------------- report

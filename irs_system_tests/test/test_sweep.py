@@ -129,6 +129,20 @@ def test_refused_point_is_a_row_not_a_crash(small):
     assert 'actuator_pole' in row['error'] and math.isnan(row['ise_norm'])
 
 
+def test_a_sine_reference_has_no_step_metrics_but_keeps_its_margins(small):
+    """The step metrics refuse a reference that is no step (the reason is in ``error``); the
+    point's linear metrics and ``off_belt`` are measured all the same.
+    """
+    prep, _ = small
+    p = dict(prep.points[0])
+    p['overrides'] = {**p['overrides'], 'reference.signal.type': 'sine',
+                      'reference.signal.period': 0.2}
+    row = run_point(prep.cfg, prep.duration, p, ['ise_norm', 'stable', 'phase_margin_deg',
+                                                  'off_belt'])
+    assert 'the reference is no step' in row['error'] and math.isnan(row['ise_norm']), row
+    assert row['stable'] == 1.0 and row['phase_margin_deg'] > 10 and row['off_belt'] == 0.0
+
+
 def _set(key, value):
     def change(doc):
         doc[key] = value

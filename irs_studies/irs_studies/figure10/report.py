@@ -140,10 +140,16 @@ def _align(x, n):
     raise ValueError(f'steer array length {x.size} is neither {n} nor {n - 1}')
 
 
+#: [s] the least time a reference must hold its first new value to be a step (a sine, ramp or
+#: chirp changes every sample: the step metrics would describe one sample).
+MIN_STEP_HOLD = 0.1
+
+
 def step_window(time, reference):
     """``(y0, setpoint, t_step, t_end, i0, i1)`` of the first reference step (:func:`run_metrics`).
 
-    ``i0:i1`` is the index slice of the step window.
+    ``i0:i1`` is the index slice of the step window. ``ValueError`` when the reference never
+    changes, or changes again within :data:`MIN_STEP_HOLD` of its first change (no step).
     """
     t = np.asarray(time, dtype=float)
     r = _hold_nonfinite(reference)
@@ -155,6 +161,10 @@ def step_window(time, reference):
     sp = r[i0]
     later = np.nonzero(np.abs(r[i0:] - sp) > 1e-12 * max(1.0, abs(sp)))[0]
     i1 = i0 + int(later[0]) if later.size else t.size
+    if i1 < t.size and t[i1] - t[i0] < MIN_STEP_HOLD:
+        raise ValueError(f'the reference is no step: it changes again {t[i1] - t[i0]:.3g} s '
+                         f'after its first change at {t[i0]:.3g} s (the step metrics need a '
+                         f'value held at least {MIN_STEP_HOLD:g} s)')
     return float(y0), float(sp), float(t[i0]), float(t[i1 - 1]), i0, i1
 
 

@@ -143,7 +143,8 @@ def colour_scale(plot, values, diverged_mask, units):
     else:
         norm = Normalize(vmin=vmin, vmax=vmax if vmax > vmin else vmin + 1.0)
     cmap = matplotlib.colormaps['viridis'].with_extremes(bad='0.85', over=OVER_COLOUR)
-    return cmap, norm, 'max' if np.nanmax(values) > norm.vmax else 'neither'
+    finite = values[np.isfinite(values)]
+    return cmap, norm, 'max' if finite.size and finite.max() > norm.vmax else 'neither'
 
 
 def _cross(ax, D) -> None:
