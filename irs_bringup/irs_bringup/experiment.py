@@ -258,6 +258,21 @@ def new_run_dir(runs_dir, name: str) -> Path:
     return path
 
 
+def make_run_dir(path: Path) -> Path:
+    """Create the run directory ``path`` (:func:`new_run_dir`) and return it; when another run
+    created it meanwhile (two runs of one experiment started within a second), the next free
+    ``<path>-2``, ``-3`` ... instead. ``mkdir`` decides, so two processes never share one.
+    """
+    candidate, n = Path(path), 1
+    while True:
+        try:
+            candidate.mkdir(parents=True)
+            return candidate
+        except FileExistsError:
+            n += 1
+            candidate = Path(path).with_name(f'{Path(path).name}-{n}')
+
+
 def experiments_dir() -> Path:
     """``share/irs_bringup/config/experiments`` of the installed package."""
     from ament_index_python.packages import get_package_share_directory

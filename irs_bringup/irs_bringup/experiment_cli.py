@@ -104,7 +104,7 @@ def run_offline(name, runs_dir='runs', plots=True, duration=None, log=print):
     """The experiment's cores without ROS, into ``<runs_dir>/<name>-offline-<time>/``
     (:mod:`.offline_twin.run_output`); the run folder.
     """
-    from .experiment import new_run_dir
+    from .experiment import make_run_dir, new_run_dir
     from .offline_twin.from_experiment import offline_run, refuse_as_the_node_does
     from .offline_twin.run_output import write_run
     exp = load_experiment(name)
@@ -115,7 +115,7 @@ def run_offline(name, runs_dir='runs', plots=True, duration=None, log=print):
     except ValueError as exc:
         raise InputError(f'{exp.path or exp.name}: {exc}') from None
     res = offline_run(exp)
-    run_dir = new_run_dir(runs_dir, f'{exp.name}-offline')
+    run_dir = make_run_dir(new_run_dir(runs_dir, f'{exp.name}-offline'))
     write_run(res, exp, run_dir, plots=plots, log=log)
     last = (f'final y_s = {res["y_s"][-1]:.6f} m' if 'y_s' in res else
             f'final x_belt = {res["x_belt"][-1]:.6f} m, u = {res["u"][-1]:.6f} m/s')

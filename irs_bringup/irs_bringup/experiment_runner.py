@@ -37,7 +37,7 @@ from irs_common.stamps import to_sec
 from irs_msgs.msg import RigStatus
 
 from .experiment import (Experiment, absolute, clock_overrides, expected_endpoints,
-                         new_run_dir, node_parameters, resolve_params_file)
+                         make_run_dir, new_run_dir, node_parameters, resolve_params_file)
 from .graph import make_watcher
 from .processes import NodeProcess, NodeSpec, kill_processes, stop_processes
 
@@ -349,8 +349,9 @@ class ExperimentRunner:
 
     def _run(self) -> RunResult:
         exp = self.exp
+        self.run_dir = make_run_dir(self.run_dir)      # another run may have taken the name
         logs = self.run_dir / 'logs'
-        logs.mkdir(parents=True)
+        logs.mkdir()
         bag_dir = self.run_dir / 'bag' if exp.record_topics else None
         context = Context()
         # The runner's own signal handling (run): rclpy's handlers would shut the context down

@@ -582,10 +582,11 @@ def test_surface_section_becomes_the_rigs_surface_parameters(tmp_path):
     the installed torque-car experiments use it.
     """
     doc = _doc(surface={'kind': 'split', 'mu_left': 0.8, 'mu_right': 0.3},
-               **{VS + 'params': {'plant': 'two_track'}})
+               **{VS + 'params': {'plant': 'two_track', 'lockstep_inputs': ['drive']}})
     rig = load_experiment(str(_write(tmp_path, doc))).node('irs_vehicle_sim', 'vehicle_sim')
-    assert rig.params == {'plant': 'two_track', 'surface.kind': 'split',
-                          'surface.mu_left': 0.8, 'surface.mu_right': 0.3}
+    assert rig.params == {'plant': 'two_track', 'lockstep_inputs': ['drive'],
+                          'surface.kind': 'split', 'surface.mu_left': 0.8,
+                          'surface.mu_right': 0.3}
     low = load_experiment('torque_braking_abs_low').node('irs_vehicle_sim', 'vehicle_sim')
     assert low.params['surface.kind'] == 'uniform' and low.params['surface.mu'] == 0.3
 
@@ -604,3 +605,18 @@ def test_surface_section_refused_in_one_line(tmp_path, surface, rig_params, what
         load_experiment(str(path))
     msg = str(info.value)
     assert msg.startswith(f'{path}: surface') and what in msg and '\n' not in msg, msg
+
+
+def test_two_runs_started_in_one_second_get_a_directory_each(tmp_path):
+    """Both runners pick the same name (a 1 s resolution); creating it decides who has it."""
+    from concurrent.futures import ThreadPoolExecutor
+
+    from irs_bringup.experiment import make_run_dir, new_run_dir
+    exp = load_experiment('figure10_pi')
+    first, second = (ExperimentRunner(exp, runs_dir=tmp_path, progress=False) for _ in range(2))
+    assert first.run_dir == second.run_dir and not first.run_dir.exists()
+    with ThreadPoolExecutor(8) as pool:
+        made = list(pool.map(make_run_dir, [first.run_dir] * 8))
+    assert len(set(made)) == 8 and all(p.is_dir() for p in made)
+    assert first.run_dir in made and first.run_dir.with_name(first.run_dir.name + '-8') in made
+    assert make_run_dir(new_run_dir(tmp_path, 'other')).parent == tmp_path

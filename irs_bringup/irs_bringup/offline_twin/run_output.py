@@ -72,7 +72,7 @@ def write_run(res: dict, exp, run_dir: Path, plots: bool = True, log=print) -> l
     """
     import pyarrow as pa
     import pyarrow.parquet as pq
-    run_dir.mkdir(parents=True, exist_ok=False)
+    run_dir.mkdir(parents=True, exist_ok=True)      # made by make_run_dir, or here
     written = [run_dir / 'traces.parquet', run_dir / 'metrics.json']
     cols = columns(res)
     pq.write_table(pa.table(cols), written[0])
