@@ -13,6 +13,7 @@ one).
 """
 from __future__ import annotations
 
+import re
 import struct
 from typing import Callable, Dict, Iterable, Optional, Tuple
 
@@ -24,6 +25,10 @@ _STAMPED_FIRST = ('std_msgs/Header', 'std_msgs/msg/Header', 'Header',
                   'builtin_interfaces/Time', 'builtin_interfaces/msg/Time')
 
 
+#: A constant's line of a ``ros2msg`` definition: ``TYPE NAME = VALUE`` (spaces optional).
+_CONSTANT = re.compile(r'^\S+\s+\w+\s*=')
+
+
 def _first_field_type(definition: str) -> str:
     """Type of the first field of a ``ros2msg`` definition ('' if none; constants skipped)."""
     for line in definition.splitlines():
@@ -32,8 +37,10 @@ def _first_field_type(definition: str) -> str:
             continue
         if s.startswith('=' * 10):
             break
+        if _CONSTANT.match(s):        # 'uint8 SOURCE_FUNCTION = 0' as well as 'NAME=0'
+            continue
         parts = s.split()
-        if len(parts) >= 2 and '=' not in parts[1] and '=' not in parts[0]:
+        if len(parts) >= 2:
             return parts[0]
     return ''
 
