@@ -95,6 +95,25 @@ class RunResult:
     safe_stop: str = ''                          # real time: the rig's controlled stop, if any
 
 
+#: Written into every run folder at the end of the run, completed or not (:func:`write_result`).
+RESULT_FILE = 'result.json'
+
+
+def write_result(result: RunResult, exp: Experiment) -> None:
+    """``<run>/result.json``: whether the run completed and why not, its duration (the file's,
+    or ``--duration``'s), simulated and wall time, exit codes, a controlled stop; so a failed
+    run's folder says so. A folder that cannot be written to is left as it is.
+    """
+    doc = {'experiment': exp.name, 'completed': result.completed, 'message': result.message,
+           'duration': exp.duration, 'sim_time': result.sim_time,
+           'wall_time': result.wall_time, 'exit_codes': result.exit_codes,
+           'interrupted': result.interrupted, 'safe_stop': result.safe_stop}
+    try:
+        (result.run_dir / RESULT_FILE).write_text(json.dumps(doc, indent=1, default=str) + '\n')
+    except OSError:
+        pass
+
+
 def _git_commit() -> str:
     try:
         return subprocess.run(['git', 'rev-parse', 'HEAD'], capture_output=True, text=True,
@@ -109,7 +128,8 @@ def experiment_metadata(exp: Experiment) -> dict:
     import scipy
     params = {n.name: node_parameters(n) for n in exp.nodes}
     return {'experiment_name': exp.name, 'experiment_file': str(exp.path or ''),
-            'experiment_yaml': exp.text, 'node_parameters': json.dumps(params, default=str),
+            'experiment_yaml': exp.text, 'duration': repr(exp.duration),
+            'node_parameters': json.dumps(params, default=str),
             'processes': json.dumps(exp.processes()),
             'clock': exp.clock, 'python': platform.python_version(), 'numpy': numpy.__version__,
             'scipy': scipy.__version__, 'ros_distro': os.environ.get('ROS_DISTRO', 'jazzy'),
@@ -439,9 +459,11 @@ class ExperimentRunner:
             )
         cpu = {label: getattr(proc, 'cpu_at_stop', float('nan')) - cpu0.get(label, float('nan'))
                for label, proc in self.procs.items()}   # CPU of the run itself, start-up excluded
-        return RunResult(self.run_dir, bag_dir, completed, sim_time, time.monotonic() - t_wall0,
-                         codes, message, timing, cpu, running,
-                         None if completed else self.stop_signal, self.safe_stop)
+        result = RunResult(self.run_dir, bag_dir, completed, sim_time, time.monotonic() - t_wall0,
+                           codes, message, timing, cpu, running,
+                           None if completed else self.stop_signal, self.safe_stop)
+        write_result(result, exp)
+        return result
 
     def _recorder_caught_up(self, steps: int, since: float) -> bool:
         """The recorder's status counts every step's ``/clock``, and its counts of every topic

@@ -30,6 +30,15 @@ def test_the_prompt_comes_back_before_the_plots_which_then_appear(tmp_path):
     (run,) = (tmp_path / 'runs').glob('figure10_pi-*')
     done = run / 'views.done'
     assert not done.exists()          # made after the prompt (its imports alone take ~1 s)
+    # the run's duration is --duration's, in the folder and in the bag (the file says 8 s)
+    import json
+
+    from irs_bag import BagReader
+    result = json.loads((run / 'result.json').read_text())
+    assert result['completed'] is True and result['duration'] == 0.5, result
+    with BagReader(run / 'bag') as reader:
+        assert dict(reader.metadata_records())['irs_experiment']['duration'] == '0.5'
+
     m = re.search(r'plots and run\.rrd: being made in the background \(pid (\d+)\), into '
                   r'(\S+)/ and (\S+)\n.*they are done when (\S+) exists \(log (\S+);',
                   res.stdout)

@@ -1,6 +1,7 @@
 """Whole experiments through the ROS graph (lock-step, recorded): every node its own process, or
 composed in one (``Experiment.composed``) where the test is about the result, not the processes.
 """
+import json
 import os
 import signal
 import subprocess
@@ -27,6 +28,7 @@ def test_treadmill_regulation_keeps_the_car_on_the_belt(tmp_path):
     exp = load_experiment('treadmill_regulation').composed()
     result = ExperimentRunner(exp, runs_dir=tmp_path, progress=False).run()
     assert result.completed, result.message
+    assert json.loads((result.run_dir / 'result.json').read_text())['completed'] is True
     assert result.exit_codes == {'graph': 0}, result.exit_codes
     assert validate(result.bag_dir).ok
     data = series_by_stamp(result.bag_dir)
@@ -96,6 +98,10 @@ def test_killing_a_node_ends_the_run_with_a_clear_message(tmp_path):
     assert "node 'arm_pose_estimator' died" in result.message
     for name, pid in pids.items():
         assert not _alive(pid), f'{name} (pid {pid}) left behind'
+    # the run folder says that the run failed, and why
+    doc = json.loads((result.run_dir / 'result.json').read_text())
+    assert doc['completed'] is False and doc['message'] == result.message
+    assert doc['duration'] == 60.0 and doc['experiment'] == 'figure10_mrc_with_actuator'
 
 
 def test_a_controlled_stop_of_the_rig_is_logged_once_and_named_in_the_result(tmp_path):
