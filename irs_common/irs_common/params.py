@@ -15,6 +15,7 @@ detail: :func:`declare_table`.
 from dataclasses import dataclass, replace
 import difflib
 import math
+import sys
 from typing import Callable
 
 from rcl_interfaces.msg import (FloatingPointRange, IntegerRange, ParameterDescriptor,
@@ -413,7 +414,20 @@ class ParameterGuard:
         return guard
 
     def pre_set(self, parameters):
-        """Integers for double (array) parameters become doubles before rclpy's type check."""
+        """Integers for double (array) parameters become doubles before rclpy's type check.
+
+        A name the node has not declared is refused here, naming it and the closest declared
+        names: rclpy 7.1.6 refuses it too, but its message lists no name
+        (``_check_undeclared_parameters`` hands ``any()`` a generator, then lists what is
+        left of it: ``Invalid access to undeclared parameter(s): []``).
+        """
+        undeclared = [p.name for p in parameters if not self.node.has_parameter(p.name)]
+        if undeclared and not getattr(self.node, '_allow_undeclared_parameters', False):
+            declared = self.node.list_parameters([], 0).names
+            listed = ', '.join(name + _did_you_mean(name, declared) for name in undeclared)
+            # rclpy's own exception, which its parameter service answers as a refusal (rclpy
+            # is loaded: it calls this); not imported here, so that this module stays ROS-free
+            raise sys.modules['rclpy.exceptions'].ParameterNotDeclaredException(listed)
         out = []
         for param in parameters:
             p = self.params.get(param.name)

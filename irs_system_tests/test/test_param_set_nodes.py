@@ -123,3 +123,8 @@ def test_controller_default_reference_applies_at_once(ros, launch):
     assert steer() > 0.0              # the reference is 0.2 m to the left now: steer left
     [res] = set_params(ros, 'lateral_controller', mode='pi')
     assert not res.successful and 'read-only' in res.reason
+    # a name the node does not have: refused, naming it and the closest names
+    [res] = set_params(ros, 'lateral_controller', default_referenc=0.1)
+    assert not res.successful and res.reason == (
+        'Invalid access to undeclared parameter(s): default_referenc (did you mean '
+        'default_reference?)'), res.reason
