@@ -4,6 +4,7 @@ Shared by the node and the offline closed loop, so both build the same reference
 """
 from irs_common.params import Param, core_values, node_only
 from irs_common.start_gate import START_SUBSCRIBERS
+from irs_models.constants import BELT_HALF_WIDTH
 
 from .reference import CONSOLE_LIMIT, from_dict
 
@@ -50,8 +51,12 @@ def signal_params(unit: str, limit: float, default_type: str = 'step',
     ]
 
 
+#: The largest lateral reference the generator publishes [m]: the belt's half width (a reference
+#: beyond its edge is none for a car on it; the controller's own input limit is 2 m).
+REFERENCE_LIMIT = BELT_HALF_WIDTH
+
 # The signal.* parameters are writable: the node rebuilds the signal at once (same time base).
-PARAMS = [*signal_params('m', 1.0)] + node_only([
+PARAMS = [*signal_params('m', REFERENCE_LIMIT)] + node_only([
     Param('source', 'function',
           "'function' (signal below) or 'console' (console/lateral_position)", '-',
           read_only=True),
@@ -99,15 +104,14 @@ def signal_range(p: dict) -> tuple[float, float]:
     return min(values), max(values)
 
 
-#: The largest lateral reference the generator publishes [m] (the controller's own limit is 2 m).
-REFERENCE_LIMIT = 1.0
 
 
 def reference_problem(values: dict):
     """``None``, or why the generator's signal would leave +-``REFERENCE_LIMIT``."""
     low, high = signal_range(values)
     if low < -REFERENCE_LIMIT or high > REFERENCE_LIMIT:
-        return (f'the reference spans [{low:g}, {high:g}] m, beyond +-{REFERENCE_LIMIT:g} m')
+        return (f"the reference spans [{low:g}, {high:g}] m, beyond the belt's edges at "
+                f'+-{REFERENCE_LIMIT:g} m')
     return None
 
 

@@ -132,3 +132,16 @@ def test_signal_from_params_schedule_and_chirp():
         0.05 * math.sin(2 * math.pi * 1.0 * 2.0 / math.log(4.0) * (4.0 ** (0.25 / 2.0) - 1)))
     with pytest.raises(ValueError, match='one value per time'):
         signal_from_params(_defaults(**{'signal.type': 'schedule', 'signal.times': [1.0, 2.0]}))
+
+
+def test_the_generator_keeps_its_reference_on_the_belt():
+    """+-0.6096 m (the belt's half width) for every value and for the signal as a whole."""
+    from irs_control.reference_params import PARAMS, REFERENCE_LIMIT, reference_problem
+    from irs_models.constants import BELT_HALF_WIDTH
+    assert REFERENCE_LIMIT == BELT_HALF_WIDTH
+    amp = next(p for p in PARAMS if p.name == 'signal.amplitude')
+    assert (amp.low, amp.high) == (-BELT_HALF_WIDTH, BELT_HALF_WIDTH)
+    assert reference_problem({'signal.type': 'sine', 'signal.amplitude': 0.5,
+                              'signal.offset': 0.1}) is None
+    assert "beyond the belt's edges at +-0.6096 m" in reference_problem(
+        {'signal.type': 'sine', 'signal.amplitude': 0.4, 'signal.offset': 0.4})
