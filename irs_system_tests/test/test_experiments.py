@@ -2,6 +2,7 @@
 composed in one (``Experiment.composed``) where the test is about the result, not the processes.
 """
 import json
+from pathlib import Path
 import os
 import signal
 import subprocess
@@ -626,3 +627,13 @@ def test_two_runs_started_in_one_second_get_a_directory_each(tmp_path):
     assert len(set(made)) == 8 and all(p.is_dir() for p in made)
     assert first.run_dir in made and first.run_dir.with_name(first.run_dir.name + '-8') in made
     assert make_run_dir(new_run_dir(tmp_path, 'other')).parent == tmp_path
+
+
+def test_the_example_of_docs_experiments_loads(tmp_path):
+    """The experiment file docs/experiments.md shows is one the runner takes."""
+    import re
+    text = (Path(__file__).resolve().parents[2] / 'docs' / 'experiments.md').read_text()
+    (example,) = re.findall(r'```yaml\n(.*?)```', text, re.S)
+    exp = load_experiment(str(_write(tmp_path, example, name='my_pi_sine.yaml')))
+    ctl = exp.node('irs_control', 'lateral_controller')
+    assert exp.name == 'my_pi_sine' and ctl.params['kp'] == 4.0
