@@ -200,8 +200,9 @@ class _Figures:
                                  (ach, 'achieved', 'servo achieved')):
             if got is not None:
                 self.line(ax, *got, role, label, scale=180.0 / np.pi)
-        ax.set(ylabel='front steer angle [deg]', title='Front steer: command, servo input, '
-               'achieved angle')
+        drawn = [name for got, name in ((cmd, 'command'), (inp, 'servo input'),
+                                        (ach, 'achieved angle')) if got is not None]
+        ax.set(ylabel='front steer angle [deg]', title='Front steer: ' + ', '.join(drawn))
         ax.legend(loc='best', fontsize=9)
         return fig
 
