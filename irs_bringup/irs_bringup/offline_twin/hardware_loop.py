@@ -63,6 +63,7 @@ class HardwareClosedLoop(ClosedLoop):
         super().__init__(cfg)
         self.rig = rig
         self.dt = rig.config.dt
+        self.dt_ns = int(round(self.dt * 1e9))
 
 
 class HardwareChassisLoop(ChassisLoop):

@@ -65,6 +65,7 @@ class ClosedLoop:
         self.rig = RigSimulation(rig_config(cfg.rig))
         self.dt = self.rig.config.dt
         self.dt_ns = int(round(self.dt * 1e9))      # vehicle_sim's step in its stamps [ns]
+        self.k = 0                                  # the step being answered
         est = estimator_config(cfg.estimator)
         self.calibration = est.calibration
         self.raw_input = est.input == 'raw'
@@ -87,7 +88,7 @@ class ClosedLoop:
         self._inputs = RigInputs()
 
     def _control(self, out):
-        stamp_ns = self.rig.k * self.dt_ns
+        stamp_ns = self.k * self.dt_ns
         t = stamp_ns * 1e-9                                  # the ticker's and the regulator's
         sec, nanosec = divmod(stamp_ns, 1_000_000_000)
         angles = out.arm_angles
@@ -131,7 +132,8 @@ class ClosedLoop:
         control, step = self._control, self.rig.step
         add_row, add_cmd = rows.append, cmds.append
         out = self.rig.outputs
-        for _ in range(n):
+        for k in range(n):
+            self.k = k                                 # the step _control answers
             inputs, ref, y_meas = control(out)
             add_row((out.time, out.y_s, y_meas, ref, out.actuator_front.achieved, out.x,
                      out.belt_speed, out.fault, out.y))
@@ -139,7 +141,8 @@ class ClosedLoop:
             out = step(inputs)
         # The last instant: outputs only (no command is computed for it), the reference as the
         # reference generator publishes it.
-        t_last = self.rig.k * self.dt_ns * 1e-9
+        self.k = n
+        t_last = n * self.dt_ns * 1e-9
         rows.append((out.time, out.y_s, math.nan, float(self.signal(t_last)),
                      out.actuator_front.achieved, out.x, out.belt_speed, out.fault, out.y))
         a = np.array(rows, dtype=float)
