@@ -48,27 +48,31 @@ def run_point(cfg, duration: float, point: dict, metrics: list) -> dict:
     row['error'] = ''
     errors = []
 
-    def measure(what):
+    def attempt(compute):
+        """``compute()``, or None with its refusal noted in ``errors``."""
         try:
-            row.update({m: v for m, v in what().items() if m in metrics})
+            return compute()
         except REFUSALS as exc:
             msg = exc.args[0] if isinstance(exc, KeyError) and exc.args else exc
             errors.append(f'{type(exc).__name__}: {" ".join(str(msg).split())}')
+            return None
 
-    loops = []
-    measure(lambda: loops.append(ClosedLoop(apply_overrides(cfg, point['overrides']))) or {})
-    if loops:      # the simulated and the linear metrics apart: a sine reference has no step
-        loop = loops[0]     # metrics, and still its margins
+    def keep(values):
+        row.update({m: v for m, v in (values or {}).items() if m in metrics})
+
+    # the simulated and the linear metrics apart: a sine reference has no step metrics, and
+    # still its margins
+    loop = attempt(lambda: ClosedLoop(apply_overrides(cfg, point['overrides'])))
+    if loop is not None:
         if any(m in FIGURE10_METRICS or m in ('off_belt', 'settled') for m in metrics):
-            runs = []
-            measure(lambda: runs.append(loop.run(duration)) or {})
-            if runs:
-                measure(lambda: {'off_belt': float(any(runs[0]['fault']))})
-                measure(lambda: simulation_metrics(runs[0]))
+            run = attempt(lambda: loop.run(duration))
+            if run is not None:
+                keep({'off_belt': float(any(run['fault']))})
+                keep(attempt(lambda: simulation_metrics(run)))
         if any(m in LINEAR_METRICS for m in metrics):
             ctl = loop.cfg.controller
-            measure(lambda: linear_metrics(None if ctl is None else {
-                k: v for k, v in ctl.items() if k in _controller_keys()}, loop.rig))
+            keep(attempt(lambda: linear_metrics(None if ctl is None else {
+                k: v for k, v in ctl.items() if k in _controller_keys()}, loop.rig)))
     row['error'] = '; '.join(errors)[:300]
     assert set(metrics) <= set(METRICS)
     return row
