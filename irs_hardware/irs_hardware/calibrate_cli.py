@@ -113,7 +113,9 @@ def calibrate_wheels(read_samples, mark, turns: float, motor_constant: float,
 class BoardReader:
     """The board alone for the procedure (no drive): free-running, read by a thread that
     answers every sample with the current pulse and enable line (the watchdog stays fed).
-    ``read()`` returns the samples that came since the last call, waiting up to 1 s for one.
+    ``read()`` returns the samples that came since the last call, waiting up to 1 s for one
+    (``P.HELLO_WAIT`` for the first: the HELLO is repeated until the board samples, as
+    :meth:`.driver.SerialModbusRig.start` does).
     """
 
     def __init__(self, port, baud, pulse_us=1500.0, enable=False):
@@ -124,15 +126,23 @@ class BoardReader:
         self.samples, self.error = [], None
         self.cond = threading.Condition()
         self.running = True
-        self.serial.write(P.encode(P.Hello(0, 200, 1000, int(round(pulse_us * 2)))))
+        self.hello = P.encode(P.Hello(0, 200, 1000, int(round(pulse_us * 2))))
+        self.begin, self.sampling = time.monotonic(), False
+        self.serial.write(self.hello)
         self.thread = threading.Thread(target=self._loop, daemon=True)
         self.thread.start()
 
     def _loop(self):
+        sent = 1
         try:
             while self.running:
                 got = [m for m in self.parser.feed(self.serial.read(4096))
                        if isinstance(m, P.Sample)]
+                self.sampling = self.sampling or bool(got)
+                since = time.monotonic() - self.begin
+                if not self.sampling and sent * P.HELLO_RESEND <= since < P.HELLO_WAIT:
+                    self.serial.write(self.hello)       # a board reset by the port's opening
+                    sent += 1
                 if got:
                     self.serial.write(P.encode(P.Command(
                         got[-1].tick, int(round(self.pulse_us * 2)),
@@ -147,14 +157,15 @@ class BoardReader:
                 self.cond.notify_all()
 
     def read(self):
-        deadline = time.monotonic() + 1.0
+        wait = 1.0 if self.sampling else max(1.0, self.begin + P.HELLO_WAIT - time.monotonic())
+        deadline = time.monotonic() + wait
         with self.cond:
             while not self.samples and self.error is None and time.monotonic() < deadline:
                 self.cond.wait(deadline - time.monotonic())
             if self.error is not None:
                 raise OSError(f'board: {self.error}')
             if not self.samples:
-                raise OSError('board: no sample for 1 s (IRSL firmware? baud rate?)')
+                raise OSError(f'board: no sample for {wait:.1f} s (IRSL firmware? baud rate?)')
             out, self.samples = self.samples, []
         return out
 

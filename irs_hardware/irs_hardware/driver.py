@@ -93,13 +93,16 @@ class SerialModbusRig(RigIO):
         self.parser = P.FrameParser()
         self.info = None
         self.early = []            # samples that came with the INFO answer
+        self.newest = None         # the newest sample tick of the session
 
     def start(self, triggered: bool) -> None:
-        """Drive: comm timeout, set-point 0, run; board: HELLO, INFO checked (1 s; firmware
-        version, and the wheel counters the torque car needs). Samples before the INFO are the
-        board's previous session (a reset) and are dropped. The board's watchdog arms with the
-        first command the caller sends; free-running with ``stall_grace`` > 0, the board keeper
-        starts (:mod:`.board_keeper`).
+        """Drive: comm timeout, set-point 0, run; board: HELLO, INFO checked (firmware version,
+        and the wheel counters the torque car needs). The HELLO is repeated every
+        ``P.HELLO_RESEND`` for ``P.HELLO_WAIT`` while no INFO has come (a board reset by the
+        port's opening boots first). Samples before the INFO are the board's previous session
+        (a reset) and are dropped. The board's watchdog arms with the first command the caller
+        sends; free-running with ``stall_grace`` > 0, the board keeper starts
+        (:mod:`.board_keeper`).
         """
         import serial
         self.drive.start()
@@ -109,19 +112,26 @@ class SerialModbusRig(RigIO):
         except (serial.SerialException, OSError) as exc:
             raise LinkError(f'board at {self.port_name}: cannot open ({exc})') from None
         self.parser = P.FrameParser()
-        self.info, self.early = None, []
-        self._write(P.encode(P.Hello(1 if triggered else 0, self.watchdog_ms, 1000,
-                                     self.safe_ticks)))
-        deadline = time.monotonic() + 1.0
+        self.info, self.early, self.newest = None, [], None
+        hello = P.encode(P.Hello(1 if triggered else 0, self.watchdog_ms, 1000,
+                                 self.safe_ticks))
+        begin = time.monotonic()
+        sent = 0
         while self.info is None:
-            for msg in self._messages(max(0.0, deadline - time.monotonic())):
+            now = time.monotonic()
+            if now >= begin + P.HELLO_WAIT:
+                raise LinkError(f'board at {self.port_name}: no INFO answer to {sent} HELLO '
+                                f'in {P.HELLO_WAIT:g} s (not IRSL firmware, or a different '
+                                'baud rate)')
+            if now >= begin + sent * P.HELLO_RESEND:
+                self._write(hello)
+                sent += 1
+            wait = min(P.HELLO_WAIT, sent * P.HELLO_RESEND) - (now - begin)
+            for msg in self._messages(max(0.0, wait)):
                 if isinstance(msg, P.Info):
-                    self.info = msg
+                    self.info = self.info or msg
                 elif isinstance(msg, P.Sample) and self.info is not None:
                     self.early.append(msg)     # before the INFO: the board's previous session
-            if self.info is None and time.monotonic() >= deadline:
-                raise LinkError(f'board at {self.port_name}: no INFO answer to HELLO in 1 s '
-                                '(not IRSL firmware, or a different baud rate)')
         if self.info.firmware != P.VERSION:
             raise LinkError(f'board at {self.port_name}: firmware {self.info.firmware}, the '
                             f'host speaks IRSL {P.VERSION}')
@@ -163,11 +173,20 @@ class SerialModbusRig(RigIO):
                 raise LinkError(f'board at {self.port_name}: read failed ({exc})') from None
 
     def read(self, timeout: float) -> list:
+        """The samples of the session in order; a sample whose tick is not after the newest
+        one is an answer to a repeated HELLO and is dropped.
+        """
         early, self.early = self.early, []
         msgs = early + self._messages(0.0 if early else timeout)
         now = time.monotonic()
-        return [Reading(m.tick, m.ack, m.adc, m.belt, m.status, now, m.wheels)
-                for m in msgs if isinstance(m, P.Sample)]
+        out = []
+        for m in msgs:
+            if isinstance(m, P.Sample):
+                newest = self.newest
+                if newest is None or 0 < (m.tick - newest) % P.TICK_MODULUS < P.TICK_MODULUS // 2:
+                    self.newest = m.tick
+                    out.append(Reading(m.tick, m.ack, m.adc, m.belt, m.status, now, m.wheels))
+        return out
 
     def write_board(self, seq: int, pulse_us: float, enable: bool, wheels=None) -> None:
         """The COMMAND to the board, offered to the keeper first (:mod:`.board_keeper`) every

@@ -23,6 +23,12 @@ costs one frame, never the stream. Types (host -> board: 0x0*, board -> host: 0x
   frame since the last sample, bit 2 sampler overrun; a board with wheels adds 4 x i32 wheel
   encoder counts, wrapping at 2^32).
 
+A host repeats its HELLO every ``HELLO_RESEND`` until the INFO comes, for ``HELLO_WAIT``: a
+board that resets when its port is opened (an Arduino's DTR auto-reset) runs its bootloader
+first and loses what comes meanwhile. A board answers every HELLO it reads; an answer to a
+repeated HELLO in the triggered mode carries a sample of the same tick again, which the host
+drops (a tick is never older than the newest of the session).
+
 At 1 kHz a SAMPLE is 24 bytes (40 with wheels) and a COMMAND 12 (20) (:mod:`.link_budget`).
 Own firmware instead of Firmata: docs/hardware.md (16-bit ADC, CRC, sequence numbers, a
 watchdog, 1 kHz).
@@ -45,6 +51,11 @@ WATCHDOG_TRIPPED, BAD_HOST_FRAME, OVERRUN = 0x01, 0x02, 0x04
 DRIVE_ENABLE = 0x01
 FRAME_OVERHEAD = 7           # sync 2 + version + type + length + crc 2
 MAX_PAYLOAD = 64
+#: How often a host repeats its HELLO while no INFO has come, and for how long [s]: an
+#: Arduino's bootloader after the DTR reset of opening the port takes 0.5-2 s.
+HELLO_RESEND, HELLO_WAIT = 0.25, 3.0
+#: Ticks of a SAMPLE wrap at 2^32.
+TICK_MODULUS = 2 ** 32
 #: Wheels of the torque car (FL, FR, RL, RR) and the motor command's full scale [per-mille].
 WHEELS, MOTOR_FULL_SCALE = 4, 1000
 

@@ -5,9 +5,10 @@
                    [--status /tmp/irs_board.json] [--baud 1000000] [--usb-latency 0.0005]
                    [--driver 0:0,0.5:1.2,4:0.6] [--rt-priority 60] [--lockstep-delay 2]
 
-``--link`` is a symbolic link to the pty's device, opened by the host as it opens
-``/dev/ttyACM0``. The link's timing is emulated in the free-running mode: each frame reaches
-the other side ``bytes x 10 / baud`` (8N1) plus ``usb-latency`` after it is sent; the sampler
+``--link`` is a symbolic link to the pty's device, made once the emulator serves it and
+opened by the host as it opens ``/dev/ttyACM0``. The link's timing is emulated in the
+free-running mode: each frame reaches the other side ``bytes x 10 / baud`` (8N1) plus
+``usb-latency`` after it is sent; the sampler
 runs at SCHED_FIFO ``--rt-priority`` where permitted (a board's timer interrupt is hard real
 time; a late wake-up skips the missed intervals, counted as ``loop_misses``, and the emulated
 world waits meanwhile). Triggered mode (lock-step) answers at once and applies each command
@@ -110,15 +111,21 @@ class Link:
         self.slave = slave                 # kept open: the pty lives while the emulator does
         os.set_blocking(self.master, False)
         self.link_path = link_path
-        if link_path.is_symlink() or link_path.exists():
-            link_path.unlink()
-        link_path.symlink_to(self.slave_name)
         self.byte_time = 10.0 / baud
         self.usb_latency = usb_latency
         self.outgoing = []                  # (due, bytes)
         self.incoming = []
         self.tx = deque()                   # frames waiting for room in the pty
         self.dropped = 0
+
+    def publish(self) -> None:
+        """Make the symbolic link to the pty: the board appears, as a USB device does when it
+        enumerates, once the emulator answers (a host that waits for the link then finds a
+        board that serves its HELLO).
+        """
+        if self.link_path.is_symlink() or self.link_path.exists():
+            self.link_path.unlink()
+        self.link_path.symlink_to(self.slave_name)
 
     def delay(self, n: int) -> float:
         return n * self.byte_time + self.usb_latency
@@ -224,11 +231,12 @@ def main(argv=None) -> int:
     for sig in (signal.SIGINT, signal.SIGTERM, signal.SIGHUP):   # a clean stop: exit 0
         signal.signal(sig, lambda *_: loop.stop())
     note = set_fifo(args.rt_priority)
-    print(f'board_emulator: {args.link} -> {link.slave_name}, rig dt {config.dt} s, {note}',
-          flush=True)
     gc.collect()
     gc.freeze()            # a full collection then scans only what the loop makes, not ~1e5
-    try:                   # objects of numpy and the rig: no pause of tens of ms at 1 kHz
+    link.publish()         # objects of numpy and the rig: no pause of tens of ms at 1 kHz
+    print(f'board_emulator: {args.link} -> {link.slave_name}, rig dt {config.dt} s, {note}',
+          flush=True)
+    try:
         loop.run()
     finally:
         if args.status:
