@@ -112,12 +112,14 @@ def _run_experiment(path_or_name, rt_priority=0, duration=None, runs_dir=None, c
 def _realtime_row(label: str, r) -> dict:
     """One real-time run's figures (timing, CPU per step, the bag's rates and losses); printed."""
     steps = r.timing.get('steps') or 1
-    row = {'name': label, 'completed': r.completed, 'message': r.message, **r.timing,
+    row = {'name': label, 'completed': r.completed, 'message': r.message,
+           'safe_stop': r.safe_stop, **r.timing,
            'cpu_per_step_us': {k: 1e6 * v / steps for k, v in r.cpu.items()},
            'cpu_total_per_step_us': 1e6 * sum(r.cpu.values()) / steps}
     if r.bag_dir is not None and r.bag_dir.exists():
         row['bag'] = _bag_figures(r.bag_dir)
-    print(f"{row['name']:40s} {'ok ' if r.completed else 'FAILED'} misses "
+    verdict = 'FAILED' if not r.completed else 'STOPPED' if r.safe_stop else 'ok '
+    print(f"{row['name']:40s} {verdict} misses "
           f"{row.get('miss_pct', float('nan')):6.2f} %  latency p50/p99/max "
           f"{row.get('latency_p50_ms', float('nan')):.2f}/"
           f"{row.get('latency_p99_ms', float('nan')):.2f}/"
@@ -128,6 +130,8 @@ def _realtime_row(label: str, r) -> dict:
         print(f"    bag: {total} messages, {row['bag']['dropped_total']} lost", flush=True)
     if not r.completed:
         print(f'    {r.message}', flush=True)
+    elif r.safe_stop:
+        print(f'    the rig stopped the car under control at {r.safe_stop}', flush=True)
     return row
 
 
