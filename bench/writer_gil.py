@@ -13,7 +13,9 @@ come (over 0.5 ms and over 1 ms, p99, max) is compared, in interleaved rounds, w
   wants it asks after the interpreter's switch interval, 5 ms);
 - ``writer, switch 0.2 ms``: the writer with ``sys.setswitchinterval(200e-6)``.
 
-Each case runs in a process of its own (one JSON line each on stdout, a table at the end).
+Each case runs in a process of its own (one JSON line each on stdout, a table at the end). In
+the composed Figure 10 graph the writer thread is not the recorder's main cost: a writer that
+writes nothing misses as many deadlines (docs/performance.md).
 """
 import argparse
 import hashlib
