@@ -139,8 +139,7 @@ class BoardReader:
                 got = [m for m in self.parser.feed(self.serial.read(4096))
                        if isinstance(m, P.Sample)]
                 self.sampling = self.sampling or bool(got)
-                since = time.monotonic() - self.begin
-                if not self.sampling and sent * P.HELLO_RESEND <= since < P.HELLO_WAIT:
+                if not self.sampling and P.hello_due(sent, time.monotonic() - self.begin):
                     self.serial.write(self.hello)       # a board reset by the port's opening
                     sent += 1
                 if got:

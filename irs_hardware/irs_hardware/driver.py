@@ -123,7 +123,7 @@ class SerialModbusRig(RigIO):
                 raise LinkError(f'board at {self.port_name}: no INFO answer to {sent} HELLO '
                                 f'in {P.HELLO_WAIT:g} s (not IRSL firmware, or a different '
                                 'baud rate)')
-            if now >= begin + sent * P.HELLO_RESEND:
+            if P.hello_due(sent, now - begin):
                 self._write(hello)
                 sent += 1
             wait = min(P.HELLO_WAIT, sent * P.HELLO_RESEND) - (now - begin)

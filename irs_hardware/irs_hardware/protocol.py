@@ -54,6 +54,15 @@ MAX_PAYLOAD = 64
 #: How often a host repeats its HELLO while no INFO has come, and for how long [s]: an
 #: Arduino's bootloader after the DTR reset of opening the port takes 0.5-2 s.
 HELLO_RESEND, HELLO_WAIT = 0.25, 3.0
+
+
+def hello_due(sent: int, elapsed: float) -> bool:
+    """Whether a host that has sent ``sent`` HELLOs without an answer sends the next now,
+    ``elapsed`` [s] after its first: one every ``HELLO_RESEND`` within ``HELLO_WAIT``.
+    """
+    return sent * HELLO_RESEND <= elapsed < HELLO_WAIT
+
+
 #: Ticks of a SAMPLE wrap at 2^32.
 TICK_MODULUS = 2 ** 32
 #: Wheels of the torque car (FL, FR, RL, RR) and the motor command's full scale [per-mille].

@@ -231,9 +231,11 @@ def main(argv=None) -> int:
     for sig in (signal.SIGINT, signal.SIGTERM, signal.SIGHUP):   # a clean stop: exit 0
         signal.signal(sig, lambda *_: loop.stop())
     note = set_fifo(args.rt_priority)
+    # A full collection then scans only what the loop makes, not ~1e5 objects of numpy and
+    # the rig: no pause of tens of ms at 1 kHz.
     gc.collect()
-    gc.freeze()            # a full collection then scans only what the loop makes, not ~1e5
-    link.publish()         # objects of numpy and the rig: no pause of tens of ms at 1 kHz
+    gc.freeze()
+    link.publish()         # the board appears once it serves its pty
     print(f'board_emulator: {args.link} -> {link.slave_name}, rig dt {config.dt} s, {note}',
           flush=True)
     try:
