@@ -11,11 +11,11 @@ come (over 0.5 ms and over 1 ms, p99, max) is compared, in interleaved rounds, w
 - ``C hog``: a thread hashing 1 MiB buffers without pause (CPU taken, the GIL released);
 - ``Python hog``: a thread running Python bytecode without pause (the GIL held; a thread that
   wants it asks after the interpreter's switch interval, 5 ms);
-- ``writer, switch 0.2 ms``: the writer with ``sys.setswitchinterval(200e-6)``.
+- ``writer, switch 0.2 ms``: the writer with ``sys.setswitchinterval(200e-6)``;
+- ``writer, 256 per chunk``: the writer with ``chunk_messages=256``, as the recorder has it
+  (mcap indexes a chunk in one call that holds the GIL about 0.6 us per message).
 
-Each case runs in a process of its own (one JSON line each on stdout, a table at the end). In
-the composed Figure 10 graph the writer thread is not the recorder's main cost: a writer that
-writes nothing misses as many deadlines (docs/performance.md).
+Each case runs in a process of its own (one JSON line each on stdout, a table at the end).
 """
 import argparse
 import hashlib
@@ -27,7 +27,8 @@ import tempfile
 import threading
 import time
 
-CASES = ('no writer', 'writer', 'C hog', 'Python hog', 'writer, switch 0.2 ms')
+CASES = ('no writer', 'writer', 'C hog', 'Python hog', 'writer, switch 0.2 ms',
+         'writer, 256 per chunk')
 TOPICS = 13
 PAYLOAD = bytes(300)
 
@@ -51,7 +52,8 @@ def run_case(case: str, seconds: float) -> dict:
     writer = None
     if case.startswith('writer'):
         writer = BagWriter(os.path.join(tempfile.mkdtemp(prefix='irs_gil_'), 'bag'),
-                           background=True)
+                           background=True,
+                           chunk_messages=256 if case == 'writer, 256 per chunk' else None)
         for i in range(TOPICS):
             writer.add_topic(f'/t{i}', 'std_msgs/msg/String')
     if case == 'writer, switch 0.2 ms':

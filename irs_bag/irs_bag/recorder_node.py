@@ -169,8 +169,10 @@ class Recorder(Node):
         with held_signals() as held:
             try:
                 # background: the chunks are written by the bag's writer thread, so a composed
-                # 1 kHz loop does not stop for the 50-100 ms of writing a chunk
+                # 1 kHz loop does not stop for the 50-100 ms of writing a chunk; chunk_messages
+                # bounds the one call of that thread that holds the interpreter lock throughout
                 self.writer = BagWriter(self.output, chunk_size=int(self.p['chunk_size']),
+                                        chunk_messages=int(self.p['chunk_messages']),
                                         compression=self.p['compression'], background=True)
             except BagWriterError as exc:
                 raise ValueError(str(exc)) from None

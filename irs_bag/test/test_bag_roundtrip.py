@@ -363,6 +363,9 @@ def test_writer_errors(tmp_path):
         BagWriter(tmp_path / 'a', compression='bz2')
     with pytest.raises(BagWriterError, match='chunk_size'):
         BagWriter(tmp_path / 'b', chunk_size=0)
+    for bad in (0, -3, 2.5, True):
+        with pytest.raises(BagWriterError, match='chunk_messages'):
+            BagWriter(tmp_path / 'b', chunk_messages=bad)
     w = BagWriter(tmp_path / 'c')
     data = bytes(TS.serialize_cdr(make_twist(0, T0), TWIST))
     w.write('/t', TWIST, data, T0)
@@ -441,6 +444,37 @@ def test_background_writer_writes_the_same_bag_as_the_foreground_one(tmp_path):
         validate(tmp_path / name)
     assert read['fg'] == read['bg'] == sorted(fg, key=lambda m: m[0])
     assert read['fg_chunks'] == read['bg_chunks'] > 10
+
+
+@pytest.mark.parametrize('background', [False, True])
+def test_chunk_messages_bounds_every_chunk(tmp_path, background):
+    """``chunk_messages`` cuts a chunk after that many messages, however small they are: 1000
+    messages of one topic, 256 per chunk, give chunks of 256, 256, 256 and 232. A message
+    earlier than the end of a finished chunk is counted late, one early within its own chunk
+    is not, and the bag passes the CRC checks with every message in log-time order.
+    """
+    written = []
+    with BagWriter(tmp_path / 'b', chunk_messages=256, background=background) as w:
+        for i in range(1000):
+            t = T0 + i * 1_000_000
+            if i == 260:
+                t = T0 + 200_000_000     # before the first chunk's end (message 255): late
+            elif i == 300:
+                t -= 3_000_000           # early, but within the second chunk: not late
+            data = bytes(TS.serialize_cdr(make_twist(i, t), TWIST))
+            w.write('/t', TWIST, data, t)
+            written.append((t, data))
+        s = w.close()
+    assert s.message_count == 1000 and s.chunk_count == 4 and s.late_messages == 1
+    with open(tmp_path / 'b' / 'b_0.mcap', 'rb') as f:
+        per_chunk = [len(r.records) for r in StreamReader(f).records
+                     if type(r).__name__ == 'MessageIndex']
+        f.seek(0)
+        got = [(m.log_time, bytes(m.data))
+               for _, _, m in make_reader(f, validate_crcs=True).iter_messages()]
+    assert per_chunk == [256, 256, 256, 232]
+    assert got == sorted(written, key=lambda m: m[0])
+    assert validate(tmp_path / 'b').ok
 
 
 def test_background_writer_reports_a_failed_write_on_the_next_call(tmp_path):
