@@ -12,8 +12,11 @@ come (over 0.5 ms and over 1 ms, p99, max) is compared, in interleaved rounds, w
 - ``Python hog``: a thread running Python bytecode without pause (the GIL held; a thread that
   wants it asks after the interpreter's switch interval, 5 ms);
 - ``writer, switch 0.2 ms``: the writer with ``sys.setswitchinterval(200e-6)``;
-- ``writer, 256 per chunk``: the writer with ``chunk_messages=256``, as the recorder has it
-  (mcap indexes a chunk in one call that holds the GIL about 0.6 us per message).
+- ``writer, N per chunk``: the writer with ``chunk_messages=N`` (256, 512 or 1024; a recorder
+  in the loop's process has 512): mcap indexes a chunk in one call that holds the GIL about
+  0.6 us per message.
+
+``--cases`` picks some of them.
 
 Each case runs in a process of its own (one JSON line each on stdout, a table at the end).
 """
@@ -28,7 +31,7 @@ import threading
 import time
 
 CASES = ('no writer', 'writer', 'C hog', 'Python hog', 'writer, switch 0.2 ms',
-         'writer, 256 per chunk')
+         'writer, 256 per chunk', 'writer, 512 per chunk', 'writer, 1024 per chunk')
 TOPICS = 13
 PAYLOAD = bytes(300)
 
@@ -53,7 +56,8 @@ def run_case(case: str, seconds: float) -> dict:
     if case.startswith('writer'):
         writer = BagWriter(os.path.join(tempfile.mkdtemp(prefix='irs_gil_'), 'bag'),
                            background=True,
-                           chunk_messages=256 if case == 'writer, 256 per chunk' else None)
+                           chunk_messages=(int(case.split()[1]) if case.endswith('per chunk')
+                                           else None))
         for i in range(TOPICS):
             writer.add_topic(f'/t{i}', 'std_msgs/msg/String')
     if case == 'writer, switch 0.2 ms':
@@ -86,6 +90,8 @@ def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument('--seconds', type=float, default=12.0, help='per case (default 12)')
     ap.add_argument('--rounds', type=int, default=2, help='interleaved rounds (default 2)')
+    ap.add_argument('--cases', nargs='+', choices=CASES, default=list(CASES),
+                    help='the cases to run (default: all)')
     ap.add_argument('--case', choices=CASES, help=argparse.SUPPRESS)   # a child's one case
     args = ap.parse_args(argv)
     if args.case:
@@ -93,7 +99,7 @@ def main(argv=None) -> int:
         return 0
     rows = []
     for _ in range(args.rounds):
-        for case in CASES:
+        for case in args.cases:
             out = subprocess.run([sys.executable, __file__, '--case', case, '--seconds',
                                   str(args.seconds)], capture_output=True, text=True, check=True)
             rows.append(json.loads(out.stdout.splitlines()[-1]))

@@ -171,8 +171,9 @@ class Recorder(Node):
                 # background: the chunks are written by the bag's writer thread, so a composed
                 # 1 kHz loop does not stop for the 50-100 ms of writing a chunk; chunk_messages
                 # bounds the one call of that thread that holds the interpreter lock throughout
+                # (a recorder composed with the loop)
                 self.writer = BagWriter(self.output, chunk_size=int(self.p['chunk_size']),
-                                        chunk_messages=int(self.p['chunk_messages']),
+                                        chunk_messages=int(self.p['chunk_messages']) or None,
                                         compression=self.p['compression'], background=True)
             except BagWriterError as exc:
                 raise ValueError(str(exc)) from None

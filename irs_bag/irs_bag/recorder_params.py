@@ -23,10 +23,11 @@ NODE_PARAMS = [
           read_only=True),
     Param('chunk_size', 1 << 20, 'uncompressed chunk size', 'bytes', 1024, 1 << 30,
           read_only=True),
-    Param('chunk_messages', 256, "the most messages in one chunk: mcap's writer holds the "
-          "interpreter lock while it indexes a chunk (about 0.6 us a message), and a 1 kHz "
-          'loop composed with the recorder waits that long at most', '1', 1, 1 << 20,
-          read_only=True),
+    Param('chunk_messages', 0, "the most messages in one chunk, 0 = no limit. mcap's writer "
+          'holds the interpreter lock while it indexes a chunk (about 0.6 us a message): a '
+          'recorder composed with a 1 kHz loop sets 512 (the experiment runner does), so the '
+          'loop waits at most about 0.4 ms; each chunk keeps about 1.4 kB in memory until the '
+          'bag closes', '1', 0, 1 << 20, read_only=True),
     Param('flush_period', 1.0, 'write buffered messages as a chunk at least this often (what '
           'a killed recorder can lose)', 's', 0.01, 3600.0, read_only=True),
     Param('discovery_period', 0.1, 'how often the graph is checked for topics to subscribe',

@@ -255,7 +255,9 @@ class BagWriter:
         chunk's message indexes are written by mcap's pure-Python writer, about 0.6 us per
         message holding the interpreter lock in one call (2.5-3.3 ms for 4,000 messages, 0.2-0.6
         ms for 256; measured 2026-12-04): a writer thread in a 1 kHz process keeps that call
-        short with a limit (:mod:`irs_bag.recorder_node` uses 256). Must be > 0.
+        short with a limit (a recorder in the loop's process uses 512, its ``chunk_messages``
+        parameter). Each chunk keeps about 1.4 kB in mcap's writer (its chunk index) until the
+        bag closes. Must be > 0.
     compression : {'zstd', 'lz4', 'none'}
         Chunk compression (both zstd and lz4 work with the installed mcap 1.6.0).
     fsync : bool

@@ -10,12 +10,13 @@ per topic are compared.
 """
 import json
 
+from mcap.stream_reader import StreamReader
 import pytest
 
 from irs_bag.node_parameters import RECORD
 from irs_bag.reader import BagReader
 from irs_bringup.experiment import load_experiment
-from irs_bringup.experiment_runner import ExperimentRunner
+from irs_bringup.experiment_runner import COMPOSED_CHUNK_MESSAGES, ExperimentRunner
 
 #: experiment -> (duration [s]: long enough for its first event, a topic the rig publishes at
 #: every 1 ms step).
@@ -51,8 +52,24 @@ def _payloads(bag_dir) -> dict:
     return out
 
 
-def _run(exp, runs_dir) -> dict:
-    """Run ``exp``; its payloads, after checking the processes and the bag's metadata."""
+def _largest_chunk(bag_dir) -> int:
+    """The most messages in one chunk of the bag (from the message indexes after each chunk)."""
+    sizes, current = [], None
+    with open(next(bag_dir.glob('*.mcap')), 'rb') as f:
+        for record in StreamReader(f, emit_chunks=True).records:
+            kind = type(record).__name__
+            if kind == 'Chunk':
+                current = 0
+                sizes.append(current)
+            elif kind == 'MessageIndex' and current is not None:
+                sizes[-1] += len(record.records)
+    return max(sizes)
+
+
+def _run(exp, runs_dir) -> tuple:
+    """Run ``exp``; its payloads and the bag's largest chunk [messages], after checking the
+    processes and the bag's metadata.
+    """
     result = ExperimentRunner(exp, runs_dir=runs_dir, progress=False).run()
     assert result.completed, result.message
     groups = set(exp.processes().values())
@@ -64,7 +81,7 @@ def _run(exp, runs_dir) -> dict:
     assert recorded == exp.processes()
     # the experiment's node parameters are in that record: the recorder asks the nodes for none
     assert [name for name, _ in records if name == RECORD] == []
-    return _payloads(result.bag_dir)
+    return _payloads(result.bag_dir), _largest_chunk(result.bag_dir)
 
 
 @pytest.mark.parametrize('name', sorted(CASES))
@@ -77,7 +94,10 @@ def test_default_deployment_records_the_bag_of_process_per_node(tmp_path, name):
     assert None not in default.processes().values(), default.processes()
     assert set(separate.processes().values()) == {None}
     default.name, separate.name = f'{name}_default', f'{name}_per_node'
-    composed, per_node = _run(default, tmp_path), _run(separate, tmp_path)
+    (composed, composed_chunk), (per_node, per_node_chunk) = (_run(default, tmp_path),
+                                                              _run(separate, tmp_path))
+    # the recorder in the loop's process cuts its chunks short; on its own it need not
+    assert composed_chunk <= COMPOSED_CHUNK_MESSAGES < per_node_chunk
     assert set(per_node) == set(composed) == {'/' + t.lstrip('/') for t in exp.record_topics}
     for topic in per_node:
         assert len(per_node[topic]) > 0, topic
