@@ -13,8 +13,8 @@ import numpy as np
 #: [s] the reach of the latency histogram (its last bin collects everything beyond)
 LATENCY_RANGE = 0.05
 #: [%] deadline misses of a run from which its timing is a warning, and an error: at 1 % the
-#: plant runs one step in a hundred on a stale steer; the composed graph misses 0.0-0.1 % here
-#: over 60 s, a process per node 0.6-10 % (docs/performance.md).
+#: plant runs one step in a hundred on a stale steer; the composed graph misses 0.0-0.2 % here
+#: over 60 s, a process per node 0.5-10 % (docs/performance.md).
 MISS_WARN_PCT, MISS_ERROR_PCT = 1.0, 10.0
 
 
