@@ -20,9 +20,9 @@ rosbag2_storage_mcap does.
 
 Ordering and crash safety: messages are buffered in memory until the buffer reaches
 ``chunk_size`` bytes or ``chunk_messages`` messages (or :meth:`BagWriter.flush` is called); the
-buffer is then sorted by log
-time (stable, so equal times keep arrival order), written as one complete chunk plus its
-message indexes, and the file is flushed to the OS (``fsync=True`` also forces it to disk).
+buffer is then sorted by log time (stable, so equal times keep arrival order), written as one
+complete chunk plus its message indexes, and the file is flushed to the OS (``fsync=True`` also
+forces it to disk).
 Every log time inside a chunk is therefore in order. A message whose log time is earlier than
 the end of an already written chunk cannot be moved into that chunk; it is written (chunks then
 overlap in time, which MCAP readers handle) and counted in ``late_messages``. While the bag is
