@@ -371,8 +371,14 @@ def test_writer_errors(tmp_path):
     w.write('/t', TWIST, data, T0)
     with pytest.raises(BagWriterError, match='has type'):
         w.write('/t', JS, data, T0)
-    with pytest.raises(BagWriterError, match='log_time_ns'):
-        w.write('/t', TWIST, data, -1)
+    for bad in (-1, 2 ** 64, True, 1.5, None):
+        with pytest.raises(BagWriterError, match='log_time_ns'):
+            w.write('/t', TWIST, data, bad)
+    for bad in (-1, 2 ** 64, False, 2.0):
+        with pytest.raises(BagWriterError, match='publish_time_ns'):
+            w.write('/t', TWIST, data, T0, bad)
+    import numpy as np
+    w.write('/t', TWIST, data, np.int64(T0 + 1), np.uint64(T0), np.int32(7))  # numpy ints: fine
     with pytest.raises(BagWriterError, match='bytes'):
         w.write('/t', TWIST, 'text', T0)
     with pytest.raises(BagWriterError, match='must be str'):
@@ -383,7 +389,7 @@ def test_writer_errors(tmp_path):
     with pytest.raises(MessageDefinitionError):
         w.write('/u', 'nope_msgs/msg/Nope', data, T0)
     s = w.close()
-    assert s.message_count == 1
+    assert s.message_count == 2 and s.end_time_ns == T0 + 1
     assert w.close() is s
     with pytest.raises(BagWriterError, match='closed'):
         w.write('/t', TWIST, data, T0)
