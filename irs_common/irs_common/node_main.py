@@ -103,12 +103,15 @@ def run_nodes(factories, args=None, guard=None) -> int:
     experiment run X`` profiles every node of a run.
     """
     own_guard = guard is None
-    guard = _take_guard(guard)
-    register_stack_dump()
-    rt_note = set_realtime_priority()
     nodes = []
     executor = None
+    given, guard = guard, None
     try:
+        # a first signal raises Interrupted (a KeyboardInterrupt) from the moment the guard's
+        # handler is installed, even inside _take_guard: caught below, exit 0
+        guard = _take_guard(given)
+        register_stack_dump()
+        rt_note = set_realtime_priority()
         try:
             rclpy.init(args=args, signal_handler_options=SignalHandlerOptions.NO)
         except _rclpy.UnknownROSArgsError as exc:
@@ -147,16 +150,24 @@ def run_nodes(factories, args=None, guard=None) -> int:
             raise
         return 0  # a signal shut the context down while a node was being built
     finally:
-        guard.on_first = None
-        guard.ending = True          # a signal from here on leaves at once
-        if executor is not None:
-            executor.shutdown(timeout_sec=0)
-        for node in nodes:
-            node.destroy_node()
-        rclpy.try_shutdown()
-        if own_guard and args is not None:
-            _release_guard(guard)   # called in-process; as the process's main the guard stays
+        _tear_down(guard, executor, nodes, release=own_guard and args is not None)
     return 0
+
+
+def _tear_down(guard, executor, nodes, release: bool) -> None:
+    """The end of :func:`run_nodes`: executor, nodes and context down; the guard released
+    if ``release`` (called in-process; as the process's main the guard stays).
+    """
+    if guard is not None:
+        guard.on_first = None
+        guard.ending = True      # a signal from here on leaves at once
+    if executor is not None:
+        executor.shutdown(timeout_sec=0)
+    for node in nodes:
+        node.destroy_node()
+    rclpy.try_shutdown()
+    if release and guard is not None:
+        _release_guard(guard)
 
 
 def register_stack_dump(sig: int = signal.SIGUSR1) -> None:
