@@ -137,8 +137,9 @@ class _Factory:
 
 
 def main(argv=None) -> int:
-    guard = SignalGuard().install()      # a signal from the first line on: no traceback
+    guard = SignalGuard()
     try:
+        guard.install()                  # a signal from the first line on: no traceback
         argv = sys.argv[1:] if argv is None else argv
         own = argv[:argv.index('--ros-args')] if '--ros-args' in argv else argv
         parser = argparse.ArgumentParser(prog='container', description=plain_text(__doc__),
@@ -151,6 +152,7 @@ def main(argv=None) -> int:
             print(f'[FATAL] container: {exc}', file=sys.stderr)
             return 2
         from irs_common.node_main import run_nodes
+        global_ros_args = argv[len(own):]    # '--ros-args ...' for every node, e.g. a log level
     except Interrupted:
         guard.restore()
         return 0
@@ -158,7 +160,6 @@ def main(argv=None) -> int:
         print(f'[FATAL] container: internal error: {type(exc).__name__}: {one_line(exc)[:300]}; '
               f'{BUG_HINT}', file=sys.stderr)
         return EXIT_BUG
-    global_ros_args = argv[len(own):]        # '--ros-args ...' for every node, e.g. a log level
     return run_nodes(factories, args=['container', *global_ros_args], guard=guard)
 
 

@@ -208,8 +208,9 @@ def run_cli(prog: str, main, argv=None) -> int:
     the process; given (called in-process): the previous handlers are restored on return.
     """
     global GUARD
-    guard = GUARD = SignalGuard().install()
+    guard = GUARD = SignalGuard()
     try:
+        guard.install()     # inside the try: a signal between two handlers' installation too
         code = main(argv)
         if guard.signum is not None:     # stopped through on_first: the command returned
             return 128 + guard.signum
