@@ -49,6 +49,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Dict, List, Mapping, Optional, Tuple, Union
 
+from irs_common import loop_trace
 import yaml
 from mcap.writer import CompressionType, IndexType, Writer as McapWriter
 
@@ -661,10 +662,14 @@ class BagWriter:
                 add(channel_id=cid, log_time=lt, data=payload, publish_time=pt, sequence=seq)
                 if pause and i % _YIELD_EVERY == _YIELD_EVERY - 1:
                     time.sleep(_YIELD_S)   # let a waiting thread take the GIL
+            trace = loop_trace.ACTIVE  # IRS_TRACE: the chunk's end in the loop's timeline
+            start = time.monotonic_ns()
             self._writer.flush()  # finishes the chunk (if any) + message indexes, flushes stream
             self._sync()
             if batch:
                 self._chunks += 1   # counted once in the file: what a killed writer leaves
+            if trace is not None:
+                trace.chunk(start, time.monotonic_ns(), len(batch))
 
     def _write_batches(self) -> None:
         """The writer thread: write queued chunks until the ``None`` that ends it."""

@@ -26,6 +26,7 @@ from rclpy.impl.implementation_singleton import rclpy_implementation as _rclpy
 from rclpy.subscription import Subscription
 from rclpy.utilities import timeout_sec_to_nsec
 
+from . import loop_trace
 from .intra_process import IntraProcessBus
 
 _MESSAGE_AND_INFO = Subscription.CallbackType.WithMessageInfo
@@ -329,3 +330,65 @@ def _run_coroutine(coro):
     except StopIteration:
         return
     coro.close()
+
+
+class TracedLeanExecutor(LeanExecutor):
+    """A :class:`LeanExecutor` that records its timeline into a
+    :class:`~irs_common.loop_trace.LoopTrace` (``IRS_TRACE``): per ``spin_once`` when its wait
+    began, when it was due (its timeout or the next timer's ``time_until_next_call``, whichever
+    is sooner), when it woke and when its callbacks were done; and every timer callback that
+    took at least ``loop_trace.CALL_MIN_NS``. It dispatches exactly as the plain executor.
+    """
+
+    def __init__(self, trace, **kwargs):
+        super().__init__(**kwargs)
+        self._trace = trace
+        self._timeout_ns = -1
+        self._before_ns = self._due_ns = 0
+
+    def _gather(self):
+        ents = super()._gather()
+        for tmr in ents.timers:
+            if not getattr(tmr.callback, '_irs_traced', False):
+                tmr.callback = self._timed(tmr.callback)
+        return ents
+
+    def _timed(self, callback):
+        trace, name = self._trace, getattr(callback, '__qualname__', repr(callback))
+        min_ns = loop_trace.CALL_MIN_NS
+
+        def timed():
+            start = time.monotonic_ns()
+            try:
+                return callback()
+            finally:
+                end = time.monotonic_ns()
+                if end - start >= min_ns:
+                    trace.call(start, end, name)
+        timed._irs_traced = True
+        return timed
+
+    def _capped_timeout(self, timeout_ns: int, now_ns: int) -> int:
+        self._timeout_ns = super()._capped_timeout(timeout_ns, now_ns)
+        return self._timeout_ns
+
+    def _fill(self, ws, ents, chore: int) -> bool:
+        filled = super()._fill(ws, ents, chore)
+        limit = self._timeout_ns
+        for tmr in ents.timers:
+            try:
+                left = tmr.time_until_next_call()
+            except InvalidHandle:
+                continue
+            if left is not None and (limit < 0 or left < limit):
+                limit = max(left, 0)
+        self._before_ns = now = time.monotonic_ns()
+        self._due_ns = now + limit if limit >= 0 else -1
+        return filled
+
+    def _dispatch(self, ws, ents, events: bool) -> None:
+        woke = time.monotonic_ns()
+        try:
+            super()._dispatch(ws, ents, events)
+        finally:
+            self._trace.spin(self._before_ns, self._due_ns, woke, time.monotonic_ns())

@@ -34,9 +34,9 @@ from rclpy.executors import ExternalShutdownException
 from rclpy.impl.implementation_singleton import rclpy_implementation as _rclpy
 from rclpy.signals import SignalHandlerOptions
 
-from . import cli, node_help
+from . import cli, loop_trace, node_help
 from .cli import SignalGuard
-from .executor import LeanExecutor
+from .executor import LeanExecutor, TracedLeanExecutor
 from .intra_process import enabled_by_env as intra_process_enabled
 from .params import (check_pending_params_files, expect_params_files, parameter_table,
                      ros_args_params_files)
@@ -97,6 +97,10 @@ def run_nodes(factories, args=None, guard=None) -> int:
     ``IRS_MEMTRACE_PERIOD`` s (default 300) the 25 allocation sites that grew most since the first
     minute are written to ``<prefix>.<pid>.txt`` (a soak finds a leak's line this way).
 
+    Timeline: with ``IRS_TRACE=<prefix>`` the executor records when each wait was due and
+    when it woke, the long timer callbacks, the bag's chunks and the garbage collections, into
+    ``<prefix>.<pid>.npz`` at exit (:mod:`irs_common.loop_trace`, which also reads them).
+
     Profiling: with ``IRS_PROFILE=<prefix>`` the spin runs under ``cProfile`` and the statistics
     are written to ``<prefix>.<pid>.prof`` at exit (read them with ``python -m pstats``); an
     experiment's processes inherit the variable, so ``IRS_PROFILE=/tmp/p ./irs run irs_bringup
@@ -122,7 +126,7 @@ def run_nodes(factories, args=None, guard=None) -> int:
         if rt_note:
             nodes[0].get_logger().info(rt_note)
         # Composed nodes hand their messages over in-process (irs_common.intra_process).
-        executor = LeanExecutor(intra_process=len(nodes) > 1 and intra_process_enabled())
+        executor = _make_executor(intra_process=len(nodes) > 1 and intra_process_enabled())
         for node in nodes:
             executor.add_node(node)
         # Every object built so far (modules, nodes, the cores' tables: ~140,000 objects) goes
@@ -154,6 +158,14 @@ def run_nodes(factories, args=None, guard=None) -> int:
     return 0
 
 
+def _make_executor(intra_process: bool) -> LeanExecutor:
+    """The executor of the process: traced with ``IRS_TRACE=<prefix>`` (:mod:`loop_trace`)."""
+    prefix = os.environ.get('IRS_TRACE', '').strip()
+    if not prefix:
+        return LeanExecutor(intra_process=intra_process)
+    return TracedLeanExecutor(loop_trace.start(prefix), intra_process=intra_process)
+
+
 def _tear_down(guard, executor, nodes, release: bool) -> None:
     """The end of :func:`run_nodes`: executor, nodes and context down; the guard released
     if ``release`` (called in-process; as the process's main the guard stays).
@@ -166,6 +178,9 @@ def _tear_down(guard, executor, nodes, release: bool) -> None:
     for node in nodes:
         node.destroy_node()
     rclpy.try_shutdown()
+    trace = loop_trace.stop()     # after the nodes: a recorder's last chunk is in it
+    if trace is not None:
+        print(f'[irs] loop trace: {trace.save()}', file=sys.stderr, flush=True)
     if release and guard is not None:
         _release_guard(guard)
 
