@@ -23,7 +23,11 @@ holds the interpreter lock for up to milliseconds: docs/performance.md), a garba
 collection, or neither (the operating system: another process, steal time). ``python -m
 irs_common.loop_trace FILE...`` prints it.
 
-The recording costs about 2 us per ``spin_once`` and 8 bytes per stamp; it stops after
+The due times are for real-time runs: under simulated time (lock-step) a timer's
+``time_until_next_call`` is in simulated time, and the late-wake count means nothing there.
+
+The recording adds about 1 us per timer to each ``spin_once`` (7 us with six timers on the
+2-core machine of docs/performance.md, 2026-12-05) and 8 bytes per stamp; it stops after
 ``IRS_TRACE_SPINS`` spins (default 1,200,000: 10 min of a composed 1 kHz loop at about two
 spins per step) and the report says so.
 """
