@@ -126,7 +126,7 @@ def run_nodes(factories, args=None, guard=None) -> int:
         if rt_note:
             nodes[0].get_logger().info(rt_note)
         # Composed nodes hand their messages over in-process (irs_common.intra_process).
-        executor = _make_executor(intra_process=len(nodes) > 1 and intra_process_enabled())
+        executor = _make_executor(nodes, len(nodes) > 1 and intra_process_enabled())
         for node in nodes:
             executor.add_node(node)
         # Every object built so far (modules, nodes, the cores' tables: ~140,000 objects) goes
@@ -158,12 +158,17 @@ def run_nodes(factories, args=None, guard=None) -> int:
     return 0
 
 
-def _make_executor(intra_process: bool) -> LeanExecutor:
-    """The executor of the process: traced with ``IRS_TRACE=<prefix>`` (:mod:`loop_trace`)."""
+def _make_executor(nodes, intra_process: bool) -> LeanExecutor:
+    """The executor of the process: traced with ``IRS_TRACE=<prefix>`` (:mod:`loop_trace`;
+    ``ValueError`` for a prefix in a folder that does not exist).
+    """
     prefix = os.environ.get('IRS_TRACE', '').strip()
     if not prefix:
         return LeanExecutor(intra_process=intra_process)
-    return TracedLeanExecutor(loop_trace.start(prefix), intra_process=intra_process)
+    trace = loop_trace.start(prefix)
+    trace.nodes = [node.get_fully_qualified_name() for node in nodes]
+    trace.sim_time = any(node.get_clock().ros_time_is_active for node in nodes)
+    return TracedLeanExecutor(trace, intra_process=intra_process)
 
 
 def _tear_down(guard, executor, nodes, release: bool) -> None:
@@ -180,7 +185,11 @@ def _tear_down(guard, executor, nodes, release: bool) -> None:
     rclpy.try_shutdown()
     trace = loop_trace.stop()     # after the nodes: a recorder's last chunk is in it
     if trace is not None:
-        print(f'[irs] loop trace: {trace.save()}', file=sys.stderr, flush=True)
+        try:
+            print(f'[irs] loop trace: {trace.save()}', file=sys.stderr, flush=True)
+        except OSError as exc:
+            print(f'[irs] loop trace not written: {cli.os_error_text(exc)}', file=sys.stderr,
+                  flush=True)
     if release and guard is not None:
         _release_guard(guard)
 

@@ -21,8 +21,10 @@ def _synthetic(tmp_path, max_spins=100):
     trace.spin(19 * MS, 20 * MS, 21 * MS, 23 * MS)             # 1 ms late, a collection inside
     trace.spin(29 * MS, 30 * MS, 30 * MS + 8 * MS // 10, 31 * MS)   # 0.8 ms late, nothing
     trace.spin(39 * MS, -1, 45 * MS, 46 * MS)                  # no due time: not judged
-    trace.chunk(10 * MS + MS // 2, 11 * MS, 512)
-    trace.chunk(40 * MS, 41 * MS, 100)
+    trace.spin(49 * MS, 50 * MS, 51 * MS, 51 * MS + 5)          # 1 ms late, messages being added
+    trace.chunk(8 * MS, 10 * MS + MS // 2, 11 * MS, 512)       # its end overlaps the second
+    trace.chunk(50 * MS + MS // 2, 52 * MS, 53 * MS, 100)      # adding overlaps the sixth
+    trace.nodes = ['/vehicle_sim', '/recorder']
     trace.gcs.extend((20 * MS + MS // 5, 20 * MS + 2 * MS // 5, 0))
     trace.call(1 * MS, 1 * MS + 3 * MS // 10, 'Node._tick')
     trace.call(5 * MS, 5 * MS + MS // 2, 'Node._tick')
@@ -34,8 +36,8 @@ def test_late_waits_are_found_and_attributed_to_what_overlapped_them(tmp_path):
     path = _synthetic(tmp_path).save()
     with np.load(path) as data:
         s = summarise(data)
-    assert (s.spins, s.timer_wakes, s.late) == (5, 4, 3)
-    assert (s.late_in_chunk, s.late_in_gc) == (1, 1)
+    assert (s.spins, s.timer_wakes, s.late) == (6, 5, 4)
+    assert (s.late_in_chunk, s.late_in_adding, s.late_in_gc) == (1, 1, 1)
     assert s.late_p50 == pytest.approx(1.0) and s.late_max == pytest.approx(2.0)
     assert s.long_dispatches == 1 and s.longest_dispatch == pytest.approx(2.0)  # the third spin
     assert s.slowest_calls == [('Recorder.publish_status', 1, pytest.approx(1.0)),
@@ -43,8 +45,20 @@ def test_late_waits_are_found_and_attributed_to_what_overlapped_them(tmp_path):
     assert (s.chunks, s.chunk_max, s.gcs, s.truncated) == (2, pytest.approx(1.0), 1, False)
     assert summarise(np.load(path), late_ms=1.5).late == 1
     text = report(path)
-    assert '3 of 4 (75.00 %)' in text and "during a bag chunk's end: 1" in text
-    assert 'neither (the operating system, another thread): 1' in text
+    assert text.startswith(f'{path} (/vehicle_sim, /recorder): ')
+    assert '4 of 5 (80.00 %)' in text and "during a bag chunk's end: 1;" in text
+    assert "while the writer added a chunk's messages: 1;" in text
+    assert 'none of these (another thread, another process, the VM): 1' in text
+
+
+def test_a_trace_on_simulated_time_is_not_judged(tmp_path):
+    trace = _synthetic(tmp_path)
+    trace.sim_time = True
+    path = trace.save()
+    s = summarise(np.load(path))
+    assert (s.timer_wakes, s.late, s.spins) == (0, 0, 6)
+    text = report(path)
+    assert 'simulated time: the waits are not judged' in text and 'after due' not in text
 
 
 def test_a_trace_stops_recording_at_its_limit_and_says_so(tmp_path):
@@ -66,15 +80,56 @@ def test_overlaps_equals_the_pairwise_check(spans, queries):
     assert _overlaps(starts, ends, lo, hi).tolist() == expected
 
 
+def _bad_files(tmp_path, good):
+    """Files that are not traces, each with what the refusal names."""
+    text = tmp_path / 'text.npz'
+    text.write_text('not a trace')
+    single = tmp_path / 'single.npy'
+    np.save(single, np.zeros(3))
+    cut = tmp_path / 'cut.npz'
+    cut.write_bytes(open(good, 'rb').read()[:200])
+    flat = tmp_path / 'flat.npz'
+    arrays = dict(np.load(good))
+    np.savez(flat, **{**arrays, 'spins': np.zeros(8, dtype=np.int64)})
+    partial = tmp_path / 'partial.npz'
+    np.savez(partial, spins=arrays['spins'])
+    return [(text, 'not an IRS_TRACE file'), (single, 'a single numpy array'),
+            (cut, 'not an IRS_TRACE file'), (flat, "'spins' has shape (8,)"),
+            (partial, "no 'calls' array"), (tmp_path / 'missing.npz', 'No such file'),
+            (tmp_path, 'Is a directory')]
+
+
 def test_the_command_reads_traces_and_refuses_a_bad_file_in_one_line(tmp_path, capsys):
     good = _synthetic(tmp_path).save()
-    bad = tmp_path / 'bad.npz'
-    bad.write_text('not a trace')
     assert main([good]) == 0
-    assert 'waits that returned over 0.5 ms after due: 3 of 4' in capsys.readouterr().out
-    assert main([str(bad)]) == 2
-    err = capsys.readouterr().err.strip()
-    assert err.startswith(f'loop_trace: error: {bad}:') and '\n' not in err
+    assert 'waits that returned over 0.5 ms after due: 4 of 5' in capsys.readouterr().out
+    for bad, named in _bad_files(tmp_path, good):
+        assert main([str(bad)]) == 2, bad
+        err = capsys.readouterr().err.strip()
+        assert err.startswith(f'loop_trace: error: {bad}: ') and '\n' not in err, err
+        assert named in err and 'pickle' not in err, err
+
+
+@pytest.mark.parametrize('value', ['-1', '0', 'nan', 'inf', 'abc'])
+def test_a_threshold_that_is_no_positive_time_is_refused(tmp_path, capsys, value):
+    good = _synthetic(tmp_path).save()
+    with pytest.raises(SystemExit) as stop:
+        main([good, '--late-ms', value])
+    assert stop.value.code == 2
+    assert 'expected a finite number of ms > 0' in capsys.readouterr().err
+
+
+@pytest.mark.parametrize('spins, named', [('-5', "IRS_TRACE_SPINS='-5'"),
+                                          ('abc', "IRS_TRACE_SPINS='abc'")])
+def test_a_bad_spin_limit_or_a_missing_folder_is_refused_before_tracing(tmp_path, monkeypatch,
+                                                                        spins, named):
+    monkeypatch.setenv('IRS_TRACE_SPINS', spins)
+    with pytest.raises(ValueError, match=named):
+        loop_trace.start(str(tmp_path / 't'))
+    monkeypatch.delenv('IRS_TRACE_SPINS')
+    with pytest.raises(ValueError, match='does not exist'):
+        loop_trace.start(str(tmp_path / 'no' / 't'))
+    assert loop_trace.ACTIVE is None
 
 
 def test_the_traced_executor_records_its_waits_and_a_long_timer_callback(context, tmp_path):
