@@ -21,6 +21,7 @@ plots and run.rrd are made after it in a background process (the runner says whe
 Exit codes: docs/cli.md.
 """
 import argparse
+from pathlib import Path
 import sys
 
 from irs_common.cli import EXIT_FAILED, InputError, plain_text, run_cli
@@ -36,6 +37,16 @@ COMPOSED_HELP = ('every node and the recorder in one process (one executor, mess
                  'so by default')
 PER_NODE_HELP = ('every node and the recorder in a process of its own, whatever the file places '
                  '(the same lock-step bag as composed, several times slower)')
+
+
+def loop_traces(run_dir) -> list:
+    """The ``IRS_TRACE`` files the run's node processes wrote, as their logs name them."""
+    found = []
+    for log_file in sorted(Path(run_dir, 'logs').glob('*.log')):
+        for line in log_file.read_text(errors='replace').splitlines():
+            if line.startswith('[irs] loop trace: '):
+                found.append(line.split(': ', 1)[1])
+    return found
 
 
 def _post_process(result, log=print, wait=True):
@@ -95,6 +106,8 @@ def run_experiment(name, runs_dir='runs', plots=True, log=print, rt_priority=0,
            f'ran {result.sim_time:.1f} s in real time ({result.wall_time:.1f} s wall with '
            'start-up)')
     log(f'[experiment] {exp.name}: {result.message}; {ran}; run directory {result.run_dir}')
+    for path in loop_traces(result.run_dir):
+        log(f'[experiment] loop trace: {path} (python -m irs_common.loop_trace {path})')
     if plots and result.interrupted is None:
         _post_process(result, log, wait=wait_plots)
     return result

@@ -17,6 +17,8 @@ def test_a_traced_composed_run_writes_its_timeline_with_the_bags_chunks(tmp_path
                          cwd=tmp_path, capture_output=True, text=True, timeout=300, env=env)
     assert res.returncode == 0, res.stdout[-2000:] + res.stderr[-2000:]
     [path] = tmp_path.glob('trace.*.npz')          # one process: the composed graph
+    assert f'[experiment] loop trace: {path} (python -m irs_common.loop_trace {path})' \
+        in res.stdout
     with np.load(path) as data:
         spins, chunks = data['spins'], data['chunks']
         assert len(spins) > 100 and not data['truncated']
