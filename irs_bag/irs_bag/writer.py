@@ -487,14 +487,12 @@ class BagWriter:
             self._count += 1
             if self._written_end is not None and lt < self._written_end:
                 self._late += 1
-            pending = self._pending
-            pending.append((lt, self._arrival, self._channels[topic], payload, pt,
-                            sequence & 0xFFFFFFFF if type(sequence) is int
-                            else int(sequence) & 0xFFFFFFFF))
+            self._pending.append((lt, self._arrival, self._channels[topic], payload, pt,
+                                  int(sequence) & 0xFFFFFFFF))
             self._arrival += 1
             self._pending_bytes += len(payload) + 31  # Message record overhead
             if (self._pending_bytes >= self._chunk_size
-                    or len(pending) >= self._chunk_messages):
+                    or len(self._pending) >= self._chunk_messages):
                 self._flush_chunk()
 
     def record_drop(self, topic: str, n: int = 1) -> None:

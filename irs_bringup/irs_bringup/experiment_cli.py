@@ -21,6 +21,7 @@ plots and run.rrd are made after it in a background process (the runner says whe
 Exit codes: docs/cli.md.
 """
 import argparse
+import os
 from pathlib import Path
 import sys
 
@@ -40,8 +41,12 @@ PER_NODE_HELP = ('every node and the recorder in a process of its own, whatever 
 
 
 def loop_traces(run_dir) -> list:
-    """The ``IRS_TRACE`` files the run's node processes wrote, as their logs name them."""
+    """The ``IRS_TRACE`` files the run's node processes wrote, as their logs name them (none
+    without ``IRS_TRACE`` in the environment, which the processes inherit).
+    """
     found = []
+    if not os.environ.get('IRS_TRACE', '').strip():
+        return found
     for log_file in sorted(Path(run_dir, 'logs').glob('*.log')):
         for line in log_file.read_text(errors='replace').splitlines():
             if line.startswith('[irs] loop trace: '):

@@ -205,7 +205,8 @@ def summarise(data, late_ms: float = 0.5) -> TraceSummary:
     dispatch = (spins[:, 3] - spins[:, 2]) / 1e6 if len(spins) else np.zeros(0)
     slowest = []
     for index, name in enumerate(names):
-        durations = (calls[calls[:, 2] == index, 1] - calls[calls[:, 2] == index, 0]) / 1e6
+        mine = calls[calls[:, 2] == index]
+        durations = (mine[:, 1] - mine[:, 0]) / 1e6
         slowest.append((name, len(durations), float(durations.max()) if len(durations) else 0))
     slowest.sort(key=lambda row: -row[2])
     chunk_ms = (chunks[:, 2] - chunks[:, 1]) / 1e6
