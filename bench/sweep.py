@@ -9,7 +9,11 @@ Parts (results printed and written to ``bench/results/sweep-<time>.json``):
   duration or ``--duration``), run in this process (serial) and on a LocalCluster of 1 and of 2
   worker processes. The cluster's start-up and the workers' first imports are measured apart
   (one warm-up point per worker before the clock starts): points/s is the steady rate of
-  ``client.map`` over the points, with the scenario scattered once.
+  ``client.map`` over the points, with the scenario scattered once. The overhead per point is
+  what a point takes beyond its closed loop (``ClosedLoop.run`` of the same points, timed
+  alone): serially the design, the rig's set-up and the metrics; on the cluster a worker's
+  seconds per point (workers x seconds / points) less the loop, so Dask's share is the cluster
+  row's overhead less the serial one.
 - ``offline``: steps/s of the offline closed loop (:class:`irs_bringup.offline_twin.lateral_loop
   .ClosedLoop`, every core of the graph, Figure 10 scenario) against the linear plant alone:
   the identified plant of Eq. 6 stepped by our core (:class:`irs_models.identified
@@ -42,6 +46,22 @@ def _prep(points: int, duration: float | None):
     return prep, list(itertools.islice(iter_points(prep.sweep), points))
 
 
+def _loop_seconds(prep, chosen) -> float:
+    """Seconds the points' closed loops take alone (``ClosedLoop.run``; a refused point none)."""
+    from irs_bringup.offline_twin.lateral_loop import ClosedLoop
+    from irs_studies.sweep.point import REFUSALS, apply_overrides
+    total = 0.0
+    for p in chosen:
+        try:
+            loop = ClosedLoop(apply_overrides(prep.cfg, p['overrides']))
+        except REFUSALS:
+            continue
+        t0 = time.perf_counter()
+        loop.run(prep.duration)
+        total += time.perf_counter() - t0
+    return total
+
+
 def sweep_rates(points: int, duration: float | None) -> list:
     from irs_studies.sweep.point import run_point
     from irs_studies.sweep.runner import make_client, run_sweep
@@ -51,9 +71,13 @@ def sweep_rates(points: int, duration: float | None) -> list:
     for p in chosen:
         run_point(prep.cfg, prep.duration, p, list(prep.sweep.metrics))
     dt = time.perf_counter() - t0
+    loop_s = _loop_seconds(prep, chosen) / len(chosen)
     rows.append({'name': 'sweep serial (this process)', 'workers': 0, 'points': len(chosen),
-                 'seconds': dt, 'points_per_s': len(chosen) / dt})
-    print(f"{rows[-1]['name']:44s} {rows[-1]['points_per_s']:8.3f} points/s", flush=True)
+                 'seconds': dt, 'points_per_s': len(chosen) / dt,
+                 'loop_s_per_point': loop_s, 'overhead_s_per_point': dt / len(chosen) - loop_s})
+    print(f"{rows[-1]['name']:44s} {rows[-1]['points_per_s']:8.3f} points/s "
+          f'({1000 * dt / len(chosen):.0f} ms per point: the closed loop {1000 * loop_s:.0f} ms, '
+          f"the rest {1000 * rows[-1]['overhead_s_per_point']:.0f} ms)", flush=True)
     for workers in (1, 2):
         t0 = time.perf_counter()
         client = make_client(workers)
@@ -66,11 +90,15 @@ def sweep_rates(points: int, duration: float | None) -> list:
             run_sweep(prep, Path(d), client=client, limit=len(chosen), log=lambda s: None)
             dt = time.perf_counter() - t0
         client.close()       # closes its local cluster too
+        per_worker = dt * workers / len(chosen)      # a worker's seconds per point
         rows.append({'name': f'sweep on a LocalCluster, {workers} worker(s)', 'workers': workers,
                      'points': len(chosen), 'seconds': dt,
-                     'points_per_s': len(chosen) / dt, 'startup_s': start})
+                     'points_per_s': len(chosen) / dt, 'startup_s': start,
+                     'overhead_s_per_point': per_worker - loop_s})
         print(f"{rows[-1]['name']:44s} {rows[-1]['points_per_s']:8.3f} points/s "
-              f'(cluster start-up and imports {start:.1f} s)', flush=True)
+              f'({1000 * per_worker:.0f} ms per point and worker, the rest beyond the loop '
+              f"{1000 * rows[-1]['overhead_s_per_point']:.0f} ms; cluster start-up and imports "
+              f'{start:.1f} s)', flush=True)
     return rows
 
 

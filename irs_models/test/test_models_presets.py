@@ -5,8 +5,8 @@ import numpy as np
 import pytest
 
 from irs_models.bicycle import BicycleParams, zpk
-from irs_models.presets import (PARAM_NAMES, fit_preset, get_preset, load_presets, root_errors,
-                                     vehicle_roots)
+from irs_models.presets import (PARAM_NAMES, default_presets_path, fit_preset, get_preset,
+                                load_presets, root_errors, vehicle_roots)
 
 PRESETS = load_presets()
 FULL = sorted(n for n, p in PRESETS.items() if p.kind == 'full_size')
@@ -173,3 +173,30 @@ def test_fit_preset_rejects_bad_input():
 def test_get_preset_unknown_lists_names():
     with pytest.raises(KeyError, match='irs_2wd'):
         get_preset('no_such_car')
+
+
+def test_presets_parsed_once_per_file_state_and_returned_as_new_objects(tmp_path):
+    """load_presets parses a file once per (path, mtime, size): each call gives new Preset
+    objects (a caller's change stays its own), and a rewritten file is read again.
+    """
+    import shutil
+
+    from irs_models import presets as P
+    path = tmp_path / 'presets.yaml'
+    shutil.copy(default_presets_path(), path)
+    P._parsed.cache_clear()
+    first = load_presets(str(path))
+    first['irs_2wd'].features['changed'] = True
+    first['irs_2wd'].target['poles'].append('0')
+    second = load_presets(str(path))
+    assert P._parsed.cache_info().misses == 1 and P._parsed.cache_info().hits == 1
+    assert 'changed' not in second['irs_2wd'].features
+    assert second['irs_2wd'].target == load_presets(default_presets_path())['irs_2wd'].target
+    assert second['irs_2wd'] is not first['irs_2wd']
+    misses = P._parsed.cache_info().misses
+    text = path.read_text().replace('presets:', 'presets:\n  tiny:\n    params: {mass: 1.0}\n'
+                                    '    speed: 1.0\n    ds: 0.1\n', 1)
+    path.write_text(text)
+    with pytest.raises(ValueError, match="preset 'tiny'"):
+        load_presets(str(path))          # the new file, not the cached document
+    assert P._parsed.cache_info().misses == misses + 1
