@@ -348,7 +348,7 @@ def test_sweep_size_is_checked_before_anything_runs(tmp_path):
     err = one_line_error(res, 'sweep')
     assert res.stdout.startswith('[sweep] huge: 100,000,000,000,000,000 points (100,000 seed(s))'
                                  ' x 0.4 s = 40,000,000,000,000,000 s of simulated time')
-    assert 'above the limit of 20,000 s or 100,000 points' in err and '--force' in err
+    assert 'above the limit of 100,000 s or 100,000 points' in err and '--force' in err
     _sweep_file(tmp_path, 'long', duration=1e9)
     err = one_line_error(run('irs_studies', 'sweep', 'long.yaml', cwd=tmp_path, timeout=120),
                          'sweep')
