@@ -51,6 +51,23 @@ def test_reference_model_holds_nan_and_handles_nonuniform_time():
         F.reference_model_response(t, r[:-1])
 
 
+def test_reference_model_response_kept_per_time_and_reference_each_call_its_own_array():
+    """A repeated (time, reference) pair is answered from the process's cache: the same values,
+    a new writable array each time; another reference (the same shape) gets its own response.
+    """
+    F._model_response.cache_clear()
+    t = np.round(np.arange(0, 1001) * 1e-3, 12)
+    r = _step_ref(t, 0.02, 0.3)
+    first = F.reference_model_response(t, r)
+    first[:] = -1.0                                  # the caller's array, not the cache's
+    second = F.reference_model_response(t, r)
+    assert F._model_response.cache_info().hits == 1
+    assert second.flags.writeable and np.all(second[:301] == 0.0) and second[-1] > 0.0
+    other = F.reference_model_response(t, _step_ref(t, 0.04, 0.3))
+    assert np.allclose(other, 2.0 * second, rtol=1e-12, atol=0.0)
+    assert F._model_response.cache_info().misses == 2
+
+
 # --------------------------------------------------------------------------- metrics
 def _second_order(t, zeta, wn, t0):
     tau = np.clip(t - t0, 0, None)
