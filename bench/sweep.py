@@ -7,9 +7,11 @@ Parts (results printed and written to ``bench/results/sweep-<time>.json``):
 
 - ``sweep``: the first ``--points`` points of ``config/sweeps/actuator_speed.yaml`` (with its
   duration or ``--duration``), run in this process (serial) and on a LocalCluster of 1 and of 2
-  worker processes. The cluster's start-up and the workers' first imports are measured apart
-  (one warm-up point per worker before the clock starts): points/s is the steady rate of
-  ``client.map`` over the points, with the scenario scattered once. The overhead per point is
+  worker processes, each through ``run_sweep`` as the ``sweep`` command runs it (``--serial``
+  for the first; results written as Parquet parts and merged). The cluster's start-up and the
+  first imports are measured apart (one short point with every metric in each worker, and one
+  short sweep in this process, before the clock starts): points/s is the steady rate, with the
+  scenario scattered once. The overhead per point is
   what a point takes beyond its closed loop (``ClosedLoop.run`` of the same points, timed
   alone): serially the design, the rig's set-up and the metrics; on the cluster a worker's
   seconds per point (workers x seconds / points) less the loop, so Dask's share is the cluster
@@ -66,11 +68,20 @@ def sweep_rates(points: int, duration: float | None) -> list:
     from irs_studies.sweep.point import run_point
     from irs_studies.sweep.runner import make_client, run_sweep
     prep, chosen = _prep(points, duration)
+    metrics = list(prep.sweep.metrics)
+    quiet = dict(log=lambda s: None)
     rows = []
-    t0 = time.perf_counter()
-    for p in chosen:
-        run_point(prep.cfg, prep.duration, p, list(prep.sweep.metrics))
-    dt = time.perf_counter() - t0
+    # a short point first, here as in each cluster worker, with every metric: the first imports
+    # (python-control, the Parquet writer) are not the rate
+    full = prep.duration
+    prep.duration = 0.01
+    with tempfile.TemporaryDirectory() as d:
+        run_sweep(prep, Path(d), serial=True, limit=1, **quiet)
+    prep.duration = full
+    with tempfile.TemporaryDirectory() as d:
+        t0 = time.perf_counter()
+        run_sweep(prep, Path(d), serial=True, limit=len(chosen), **quiet)
+        dt = time.perf_counter() - t0
     loop_s = _loop_seconds(prep, chosen) / len(chosen)
     rows.append({'name': 'sweep serial (this process)', 'workers': 0, 'points': len(chosen),
                  'seconds': dt, 'points_per_s': len(chosen) / dt,
@@ -82,12 +93,12 @@ def sweep_rates(points: int, duration: float | None) -> list:
         t0 = time.perf_counter()
         client = make_client(workers)
         warm = client.map(run_point, [prep.cfg] * workers, [0.01] * workers,
-                          chosen[:workers], [['off_belt']] * workers, pure=False)
+                          chosen[:workers], [metrics] * workers, pure=False)
         client.gather(warm)
         start = time.perf_counter() - t0
         with tempfile.TemporaryDirectory() as d:
             t0 = time.perf_counter()
-            run_sweep(prep, Path(d), client=client, limit=len(chosen), log=lambda s: None)
+            run_sweep(prep, Path(d), client=client, limit=len(chosen), **quiet)
             dt = time.perf_counter() - t0
         client.close()       # closes its local cluster too
         per_worker = dt * workers / len(chosen)      # a worker's seconds per point
