@@ -32,7 +32,7 @@ from .point import run_point
 from .sweep_file import NODES, SweepError, SweepModel
 
 #: Refused without ``--force``: more simulated time than this in all points together [s] (about
-#: an hour on 2 cores: 20,000 points of 5 s at 5.7 points/s, docs/sweeps.md) ...
+#: an hour on 2 cores: 20,000 points of 5 s at 6-8 points/s, docs/sweeps.md) ...
 MAX_SIM_SECONDS = 100_000.0
 #: ... or more points than this.
 MAX_POINTS = 100_000
