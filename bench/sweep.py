@@ -11,11 +11,11 @@ Parts (results printed and written to ``bench/results/sweep-<time>.json``):
   for the first; results written as Parquet parts and merged). The cluster's start-up and the
   first imports are measured apart (one short point with every metric in each worker, and one
   short sweep in this process, before the clock starts): points/s is the steady rate, with the
-  scenario scattered once. The overhead per point is
-  what a point takes beyond its closed loop (``ClosedLoop.run`` of the same points, timed
-  alone): serially the design, the rig's set-up and the metrics; on the cluster a worker's
-  seconds per point (workers x seconds / points) less the loop, so Dask's share is the cluster
-  row's overhead less the serial one.
+  scenario scattered once. The overhead per point is what a point takes beyond its closed loop
+  (``ClosedLoop.run`` of the same points, timed alone): serially the design, the rig's set-up,
+  the metrics and the results' files; on the cluster a worker's seconds per point (workers x
+  seconds / points) less the loop, so Dask's share is the cluster row's overhead less the serial
+  one.
 - ``offline``: steps/s of the offline closed loop (:class:`irs_bringup.offline_twin.lateral_loop
   .ClosedLoop`, every core of the graph, Figure 10 scenario) against the linear plant alone:
   the identified plant of Eq. 6 stepped by our core (:class:`irs_models.identified

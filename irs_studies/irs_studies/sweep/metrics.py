@@ -128,7 +128,7 @@ def delayed_loop_margins(num, den, delay: float, omega) -> tuple:
     ``control.stability_margins`` handles a delay only as frequency-response data, which it
     interpolates by splines evaluated one frequency at a time (about 6,000 ``splev`` calls and
     80 ms per loop on 2000 frequencies); here the response is the polynomials' own, and a
-    sweep point's margins take about 2 ms. Without the delay the results are those of
+    sweep point's margins take 0.6 ms. Without the delay the results are those of
     ``control.stability_margins`` on the transfer function (tested).
     """
     from scipy.optimize import brentq
