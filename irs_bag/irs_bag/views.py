@@ -9,7 +9,8 @@ are made from them. A failure of either is reported through ``log`` and never hi
 its own session, ``nice`` 10), so that the runner returns at once: the process logs to
 ``<run>/logs/views.log``. Either way, :func:`make_views` ends by writing ``<run>/views.done``
 (one line per written file, ``failed: ...`` per failure) by an atomic rename, so that
-``views.done`` existing means the plots and ``run.rrd`` are complete.
+``views.done`` existing means the plots and ``run.rrd`` are complete. :func:`finish_views`
+waits for such a process and names what it wrote, as the foreground :func:`make_views` does.
 """
 from __future__ import annotations
 
@@ -26,7 +27,8 @@ from .columns import merge_specs, read_columns
 from .reader import BagError, reading
 from .run_info import run_info
 
-__all__ = ['DONE_FILE', 'LOG_FILE', 'make_views', 'start_views', 'write_views']
+__all__ = ['DONE_FILE', 'LOG_FILE', 'finish_views', 'make_views', 'start_views',
+           'write_views']
 
 #: Written into the run folder when the background views are complete.
 DONE_FILE = 'views.done'
@@ -76,6 +78,28 @@ def start_views(bag_dir, run_dir) -> subprocess.Popen:
              '--nice', str(NICE)],
             stdin=subprocess.DEVNULL, stdout=out, stderr=subprocess.STDOUT,
             start_new_session=True, close_fds=True)
+
+
+def finish_views(proc: subprocess.Popen, run_dir, log: Callable[[str], None] = print
+                 ) -> List[Path]:
+    """Wait for ``proc`` (:func:`start_views` of ``run_dir``); log ``[experiment] wrote <file>``
+    per file of ``<run_dir>/views.done`` and each failure it lists; return the written files.
+    """
+    run_dir = Path(run_dir)
+    proc.wait()
+    done = run_dir / DONE_FILE
+    if not done.exists():
+        log(f'[experiment] plots and run.rrd failed: their process ended with exit code '
+            f'{proc.returncode} before writing {done} (log {run_dir / LOG_FILE})')
+        return []
+    written: List[Path] = []
+    for line in done.read_text().splitlines():
+        if line.startswith('failed: '):
+            log(line[len('failed: '):])
+        elif line:
+            written.append(Path(line))
+            log(f'[experiment] wrote {line}')
+    return written
 
 
 def make_views(bag_dir, run_dir, log: Callable[[str], None] = print) -> List[Path]:

@@ -54,35 +54,51 @@ def loop_traces(run_dir) -> list:
     return found
 
 
-def _post_process(result, log=print, wait=True):
-    """Validate the bag, then write the plots and the .rrd (``wait``), or start them in the
-    background (:func:`irs_bag.views.start_views`) and say where they will appear; returns
-    the list of written artefacts (empty in the background).
-    """
-    written = []
+def _validated(result, log=print) -> bool:
+    """Validate the run's bag and say so in one line; whether it is there and readable."""
     if result.bag_dir is None or not result.bag_dir.exists():
-        return written
+        return False
     from irs_bag import BagError, validate
     try:
         report = validate(result.bag_dir)
-        log(
-            f'[experiment] bag: {result.bag_dir} '
-            f'({"valid" if report.ok else "INVALID: " + "; ".join(report.problems)})'
-        )
     except BagError as exc:
         log(f'[experiment] bag unreadable: {exc}')
-        return written
+        return False
+    log(f'[experiment] bag: {result.bag_dir} '
+        f'({"valid" if report.ok else "INVALID: " + "; ".join(report.problems)})')
+    return True
+
+
+def start_post_process(result, log=print):
+    """Validate the run's bag (one line), then start its plots and ``run.rrd`` in a background
+    process (:func:`irs_bag.views.start_views`); that process, for
+    :func:`irs_bag.views.finish_views`, or None without a readable bag.
+    """
+    if not _validated(result, log):
+        return None
+    from irs_bag.views import start_views
+    return start_views(result.bag_dir, result.run_dir)
+
+
+def _post_process(result, log=print, wait=True):
+    """Validate the bag, then write the plots and the .rrd (``wait``), or start them in the
+    background (:func:`start_post_process`) and say where they will appear; returns the list
+    of written artefacts (empty in the background).
+    """
     if not wait:
-        from irs_bag.views import DONE_FILE, LOG_FILE, start_views
-        run = result.run_dir
-        proc = start_views(result.bag_dir, run)
-        log(f'[experiment] plots and run.rrd: being made in the background (pid {proc.pid}), '
-            f'into {run / "plots"}/ and {run / "run.rrd"}')
-        log(f'[experiment] they are done when {run / DONE_FILE} exists (log {run / LOG_FILE}; '
-            '--wait-plots waits for them)')
-        return written
+        proc = start_post_process(result, log)
+        if proc is not None:
+            from irs_bag.views import DONE_FILE, LOG_FILE
+            run = result.run_dir
+            log(f'[experiment] plots and run.rrd: being made in the background (pid {proc.pid}), '
+                f'into {run / "plots"}/ and {run / "run.rrd"}')
+            log(f'[experiment] they are done when {run / DONE_FILE} exists (log '
+                f'{run / LOG_FILE}; --wait-plots waits for them)')
+        return []
+    if not _validated(result, log):
+        return []
     from irs_bag.views import make_views       # plots and run.rrd from one read of the bag
-    written += make_views(result.bag_dir, result.run_dir, log)
+    written = make_views(result.bag_dir, result.run_dir, log)
     for path in written:
         log(f'[experiment] wrote {path}')
     return written

@@ -74,3 +74,42 @@ def test_wait_plots_makes_them_before_returning(tmp_path):
     assert (result.run_dir / 'run.rrd').is_file()
     assert len(list((result.run_dir / 'plots').glob('*.png'))) == 4
     assert not any('in the background' in line for line in lines)
+
+
+def test_start_post_process_then_finish_views_names_every_file(tmp_path):
+    """The study's way (``figure10``): the run without plots, then ``start_post_process`` (the
+    bag validated, the views in the background) and ``finish_views``, which waits and names the
+    files as the foreground ``make_views`` does.
+    """
+    from irs_bag.views import finish_views
+    from irs_bringup.experiment_cli import run_experiment, start_post_process
+    lines = []
+    result = run_experiment('figure10_pi', runs_dir=tmp_path, deployment='composed', duration=0.5,
+                            log=lines.append, plots=False)
+    assert result.completed, result.message
+    assert not (result.run_dir / 'views.done').exists()
+    proc = start_post_process(result, lines.append)
+    assert lines[-1] == f'[experiment] bag: {result.bag_dir} (valid)'
+    written = finish_views(proc, result.run_dir, lines.append)
+    expected = sorted([result.run_dir / 'plots' / f'{p}.png'
+                       for p in ('belt', 'car_position', 'lateral', 'steering')]
+                      + [result.run_dir / 'run.rrd'])
+    assert sorted(written) == expected and all(p.stat().st_size > 10000 for p in written)
+    assert sorted(lines[-5:]) == sorted(f'[experiment] wrote {p}' for p in expected)
+
+
+def test_finish_views_says_when_the_process_wrote_nothing(tmp_path):
+    """A views process that ends without ``views.done``: one line with its exit code and log."""
+    from irs_bag.views import DONE_FILE, LOG_FILE, finish_views
+    proc = subprocess.Popen(['python3', '-c', 'raise SystemExit(3)'])
+    lines = []
+    assert finish_views(proc, tmp_path, lines.append) == []
+    assert lines == [f'[experiment] plots and run.rrd failed: their process ended with exit code '
+                     f'3 before writing {tmp_path / DONE_FILE} (log {tmp_path / LOG_FILE})']
+    (tmp_path / DONE_FILE).write_text(f'{tmp_path / "a.png"}\nfailed: [experiment] plots failed: '
+                                      'no data\n')
+    lines.clear()
+    done = subprocess.Popen(['true'])
+    assert finish_views(done, tmp_path, lines.append) == [tmp_path / 'a.png']
+    assert lines == [f'[experiment] wrote {tmp_path / "a.png"}',
+                     '[experiment] plots failed: no data']

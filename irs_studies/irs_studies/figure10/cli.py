@@ -23,26 +23,37 @@ FIGURE10 = {'mrc_with_actuator': 'figure10_mrc_with_actuator',
 
 
 def figure10(out_dir, offline=False, runs_dir='runs', log=print, deployment='default') -> int:
+    """The three runs (or their offline twins) and the report; each run's own plots and
+    ``run.rrd`` are made in a background process while the next run goes, and waited for at
+    the end.
+    """
     from irs_bag.run_series import lateral_run
-    from irs_bringup.experiment_cli import run_experiment
+    from irs_bag.views import finish_views
+    from irs_bringup.experiment_cli import run_experiment, start_post_process
     from irs_bringup.offline_twin.from_experiment import offline_run
 
     from .report import write_report
-    runs = {}
+    runs, views = {}, []
     for key, name in FIGURE10.items():
         if offline:
             runs[key] = offline_run(name)
             continue
-        result = run_experiment(name, runs_dir=runs_dir, log=log, deployment=deployment)
+        result = run_experiment(name, runs_dir=runs_dir, log=log, deployment=deployment,
+                                plots=False)
         if result.interrupted:
             raise Interrupted(result.interrupted)
         if not result.completed:
             raise RunFailed(f'{name} did not complete: {result.message}')
+        proc = start_post_process(result, log)
+        if proc is not None:
+            views.append((proc, result.run_dir))
         runs[key] = lateral_run(result.bag_dir)
     out = Path(out_dir)
     metrics = write_report(
         runs, out, 'Figure 10 ' + ('(offline cores)' if offline else '(ROS graph, lock-step)')
     )
+    for proc, run_dir in views:
+        finish_views(proc, run_dir, log)
     log(f'[figure10] report: {out / "figure10.png"}, {out / "figure10_metrics.md"}')
     log(
         (out / 'figure10_metrics.md').read_text()
