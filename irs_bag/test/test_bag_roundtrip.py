@@ -483,6 +483,49 @@ def test_chunk_messages_bounds_every_chunk(tmp_path, background):
     assert validate(tmp_path / 'b').ok
 
 
+def test_background_writer_drains_its_queue_at_close_without_pauses(tmp_path, monkeypatch):
+    """While it writes beside a running loop, the writer thread sleeps after every
+    ``_YIELD_EVERY`` messages (the loop gets the GIL back); the queue left when ``close`` begins
+    is written without those pauses, and the bag holds every message.
+    """
+    import threading
+    import types
+
+    from irs_bag import writer as W
+    sleeps = []
+    monkeypatch.setattr(W, 'time', types.SimpleNamespace(
+        monotonic_ns=W.time.monotonic_ns, sleep=lambda s: sleeps.append(s)))
+    w = BagWriter(tmp_path / 'b', chunk_messages=64, background=True)
+
+    def write(first, n):
+        for i in range(first, first + n):
+            t = T0 + i * 1_000_000
+            w.write('/t', TWIST, bytes(TS.serialize_cdr(make_twist(i, t), TWIST)), t)
+
+    write(0, 64)                         # one chunk while running: with its pauses
+    assert _wait(lambda: w._chunks == 1)
+    assert len(sleeps) == 64 // W._YIELD_EVERY
+    with w._io:                          # the thread stalls; 20 chunks queue up behind it
+        write(64, 20 * 64)
+        closing = threading.Thread(target=w.close)
+        closing.start()
+        assert _wait(lambda: w._draining)
+    closing.join(30)
+    assert not closing.is_alive()
+    assert len(sleeps) == 64 // W._YIELD_EVERY      # none while draining 1280 messages
+    assert w.close().message_count == 21 * 64 and validate(tmp_path / 'b').ok
+
+
+def _wait(condition, timeout=10.0):
+    import time
+    end = time.monotonic() + timeout
+    while time.monotonic() < end:
+        if condition():
+            return True
+        time.sleep(0.001)
+    return condition()
+
+
 def test_background_writer_reports_a_failed_write_on_the_next_call(tmp_path):
     """An exception in the writer thread is not lost: the next write raises it as a
     BagWriterError naming the bag.
