@@ -42,7 +42,8 @@ $(ENV_STAMP): $(LOCK) env/venv_local_setup.sh.in
 	@# machine, many containers) every process would compile scipy, matplotlib, control, rclpy
 	@# again at start: measured 5.2 s of CPU for their import, 1.7 s with bytecode.
 	$(VENV)/bin/python -m compileall -q -j 0 $(VENV)/lib/python3.11/site-packages
-	@sed 's|@VENV@|$(CURDIR)/$(VENV)|' env/venv_local_setup.sh.in > $(VENV)/local_setup.sh
+	@sed -e 's|@VENV@|$(CURDIR)/$(VENV)|' -e 's|@ROOT@|$(CURDIR)|' env/venv_local_setup.sh.in \
+	  > $(VENV)/local_setup.sh
 	@printf '. "%s/local_setup.sh"\n' "$(CURDIR)/$(VENV)" > $(VENV)/local_setup.bash
 	@touch $@
 

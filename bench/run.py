@@ -22,6 +22,9 @@ Sections (each a function below; results go to ``bench/results/<time>.json`` and
   ``scipy.signal.dlsim``;
 - ``replay``: ``bag play`` timing error at 1x, what the recorder keeps of 13 topics x 1 kHz and
   its CPU per message (replay);
+- ``startup`` (bench/startup.py): each Figure 10 node's start-up, the interpreter's start to the
+  node built, CPU and wall time, with OpenBLAS's thread pool as the environment sets it and with
+  the library's default, alternating sample by sample;
 - ``sweep``: bench/sweep.py -- points/s of 12 points of the actuator x speed sweep serially and
   on 1 and 2 Dask workers, and 100 linear plants stepped at once (BatchLti) against dlsim;
 - ``hil`` (bench/hil.py): real time at 1 kHz through the emulated board's link and drive, next
@@ -59,7 +62,7 @@ from common import domain as _domain, write_results   # noqa: E402 (bench/ is on
 from offline import offline  # noqa: E402,F401 (a section, called by name)
 import targets as bench_targets  # noqa: E402 (bench/targets.py)
 
-SECTIONS = ('floor', 'realtime', 'lockstep', 'offline', 'replay', 'sweep', 'hil')
+SECTIONS = ('floor', 'realtime', 'lockstep', 'offline', 'startup', 'replay', 'sweep', 'hil')
 #: Sections run only when named with ``--only``.
 EXTRA_SECTIONS = ('soak', 'starvation', 'soak_hour', 'waits')
 
@@ -241,6 +244,12 @@ def replay(seconds: float) -> list:
              'timing_error_ms': {'mean': r[1][0], 'p99': r[1][1], 'max': r[1][2]},
              'recorded': r[2], 'drops_reported': r[3], 'duration_s': r[4],
              'recorder_cpu_us_per_message': r[5]} for r in rows]
+
+
+def startup() -> list:
+    import startup as bench_startup   # bench/startup.py: each node's start-up CPU and wall time
+    _domain(60)
+    return bench_startup.startup()
 
 
 def hil(seconds: float) -> list:
