@@ -22,7 +22,8 @@
 5. the end: every reliable subscriber's acknowledgement of every message is awaited
    (at most ``--ack-timeout``, default ``ACK_TIMEOUT_S``; a warning names the topics still
    unacknowledged), then one summary line. The player's writers send heartbeats every 50 ms
-   (:func:`use_player_profile`), so acknowledgements come within about 0.1 s. With ``/clock``
+   (the environment's Fast DDS profile, or :func:`use_player_profile` where no profile is
+   named), so acknowledgements come within about 0.1 s. With ``/clock``
    consumers a warning says what the player cannot see: a message a consumer received and then
    dropped against its clock (the consumer logs it).
 
@@ -38,6 +39,8 @@ import sys
 import threading
 import time
 from typing import Dict, List, Optional
+
+from irs_common.dds_profile import PROFILE_VARIABLES, profile_file
 
 __all__ = ['ACK_TIMEOUT_S', 'CLOCK_LEAD_S', 'CLOCK_REPEAT_S', 'Interrupt', 'Player',
            'TimingStats']
@@ -310,17 +313,13 @@ class Player:
         print(f'bag play: {what} in {elapsed:.3f} s; {timing}', flush=True)
 
 
-#: The environment variables naming a Fast DDS XML profile file (Fast DDS 2 reads the first).
-PROFILE_VARIABLES = ('FASTRTPS_DEFAULT_PROFILES_FILE', 'FASTDDS_DEFAULT_PROFILES_FILE')
-
-
 def use_player_profile(environ=os.environ) -> Optional[str]:
     """Name the player's Fast DDS profile (``config/bag_play_fastdds.xml`` of ``irs_bag``:
     heartbeats every 50 ms, so the acknowledgements the player waits for come in about 0.1 s
     instead of up to 3 s) in ``environ``, unless a profile file is named there already; the
     file named, or None. Called before ``rclpy.init``: Fast DDS reads it once per process.
     """
-    if any(environ.get(v) for v in PROFILE_VARIABLES):
+    if profile_file(environ) is not None:
         return None
     from ament_index_python.packages import PackageNotFoundError, get_package_share_directory
     try:

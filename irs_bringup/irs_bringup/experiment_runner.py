@@ -32,6 +32,7 @@ import yaml
 
 from irs_common import qos
 from irs_common.cli import SignalGuard, current_guard
+from irs_common.dds_profile import writer_heartbeat_period
 from irs_common.loop_timing import format_ms
 from irs_common.stamps import to_sec
 from irs_msgs.msg import RigStatus
@@ -50,9 +51,10 @@ RECORDER_GRACE = 15.0
 DRAIN_STATUS_PERIOD = 0.1
 DRAIN_QUIET = 0.5
 #: ... and how long its counts must stand still when it was behind the run, or when any recorded
-#: topic reaches it through DDS from another process: longer than Fast DDS's heartbeat period
-#: (3 s), after which a writer resends what a slow reader missed.
-DRAIN_QUIET_BEHIND = 3.5
+#: topic reaches it through DDS from another process: the nodes' longest writer heartbeat period
+#: (after which a writer resends what a slow reader missed: 50 ms with the environment's Fast
+#: DDS profile, 3 s with Fast DDS's defaults; ``irs_common.dds_profile``) and this margin [s].
+DRAIN_HEARTBEAT_MARGIN = 1.0
 DRAIN_TIMEOUT = 60.0
 #: The recorder's ``chunk_messages`` when it runs in the loop's process: its writer thread ends a
 #: chunk in one call of mcap's writer that holds the interpreter lock, about 0.6 us a message.
@@ -200,6 +202,7 @@ class ExperimentRunner:
         self.view = view         # live view: rerun URL, .rrd path, ws:// URL (None = no view)
         self.view_topics = view_topics   # its topics (None = the node's default: all)
         self.dt = _rig_dt(exp)
+        self.drain_quiet_behind = writer_heartbeat_period() + DRAIN_HEARTBEAT_MARGIN
         self.phase = 'created'   # -> starting -> running -> stopping -> done (for observers)
         self.stop_signal = None  # set by request_stop: the signal number (0: asked, no signal)
         self.safe_stop = ''      # the rig's controlled stop: 't = <s> s (<cause>)'
@@ -477,7 +480,7 @@ class ExperimentRunner:
     def _recorder_caught_up(self, steps: int, since: float) -> bool:
         """The recorder's status counts every step's ``/clock``, and its counts of every topic
         have stood still over the statuses of the last ``DRAIN_QUIET`` s, or
-        ``DRAIN_QUIET_BEHIND`` s if a status since ``since`` lacked some of ``/clock`` or if
+        ``drain_quiet_behind`` s if a status since ``since`` lacked some of ``/clock`` or if
         the recorder and some node run in different processes (each topic is its own DDS
         stream: ``/clock`` complete does not mean the others are, and what a reader missed comes
         again only at the writer's next heartbeat; in one process every message is handed over).
@@ -497,7 +500,7 @@ class ExperimentRunner:
             if counts != last:
                 break
             still_since = t_st
-        return t_last - still_since >= (DRAIN_QUIET_BEHIND if behind else DRAIN_QUIET)
+        return t_last - still_since >= (self.drain_quiet_behind if behind else DRAIN_QUIET)
 
     def _expected(self) -> dict:
         """``{topic: (publishers, subscribers)}`` to wait for: the experiment's, and the live

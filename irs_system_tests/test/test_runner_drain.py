@@ -6,20 +6,25 @@ nodes were stopped 0.5 s after the run). Here the recorder is frozen (SIGSTOP) f
 the rig runs to its end: the bag must still hold every step.
 
 Each recorded topic is its own DDS stream: with ``/clock`` complete, another topic may still wait
-for the writer's next heartbeat (3 s) to get what its reader missed (a make test beside a CPU hog
-saw the last 79 of 1001 ``/arm/joint_states`` missing from a process-per-node bag). So a recorder
-that any node reaches through DDS is waited for until its counts stand still for
-``DRAIN_QUIET_BEHIND``; one composed with every node, for ``DRAIN_QUIET``.
+for the writer's next heartbeat to get what its reader missed (a make test beside a CPU hog saw
+the last 79 of 1001 ``/arm/joint_states`` missing from a process-per-node bag). So a recorder
+that any node reaches through DDS is waited for until its counts stand still for the runner's
+``drain_quiet_behind`` (the writers' heartbeat period in the Fast DDS profile and
+``DRAIN_HEARTBEAT_MARGIN``); one composed with every node, for ``DRAIN_QUIET``.
 """
 import dataclasses
 import os
+from pathlib import Path
 import signal
 import threading
 import time
 
+import pytest
+
 from irs_bag.reader import BagReader
 from irs_bringup.experiment import load_experiment
-from irs_bringup.experiment_runner import DRAIN_QUIET, DRAIN_QUIET_BEHIND, ExperimentRunner
+from irs_bringup.experiment_runner import DRAIN_HEARTBEAT_MARGIN, DRAIN_QUIET, ExperimentRunner
+from irs_common.dds_profile import PROFILE_VARIABLES
 from irs_bringup.processes import wait_until
 
 
@@ -55,6 +60,7 @@ def _caught_up_after(exp, tmp_path, still: float) -> bool:
     one topic short, has stood still for ``still`` s (statuses every 0.1 s).
     """
     runner = ExperimentRunner(exp, runs_dir=tmp_path, progress=False)
+    runner.drain_quiet_behind = 3.0 + DRAIN_HEARTBEAT_MARGIN      # Fast DDS's default period
     steps = int(round(exp.duration / runner.dt))
     counts = {'/clock': steps + 1, '/arm/joint_states': steps - 78}
     n = int(round(still / 0.1))
@@ -67,8 +73,22 @@ def test_a_recorder_apart_from_a_node_is_waited_for_past_the_heartbeat(tmp_path)
     nodes_composed_recorder_apart = dataclasses.replace(exp.composed(), record_process=None)
     for apart in (exp.deployed('process_per_node'), nodes_composed_recorder_apart):
         assert not _caught_up_after(apart, tmp_path, DRAIN_QUIET + 0.2)
-        assert not _caught_up_after(apart, tmp_path, DRAIN_QUIET_BEHIND - 0.2)
-        assert _caught_up_after(apart, tmp_path, DRAIN_QUIET_BEHIND + 0.1)
+        assert not _caught_up_after(apart, tmp_path, 3.0 + DRAIN_HEARTBEAT_MARGIN - 0.2)
+        assert _caught_up_after(apart, tmp_path, 3.0 + DRAIN_HEARTBEAT_MARGIN + 0.1)
     together = exp.deployed()
     assert _caught_up_after(together, tmp_path, DRAIN_QUIET + 0.1)
     assert not _caught_up_after(together, tmp_path, DRAIN_QUIET - 0.2)
+
+
+def test_the_wait_past_the_heartbeat_follows_the_fast_dds_profile_in_use(tmp_path, monkeypatch):
+    """50 ms heartbeats in the environment's profile: 1.05 s; no profile (Fast DDS's 3 s): 4 s."""
+    exp = load_experiment('figure10_pi').with_duration(1.0)
+    profile = Path(__file__).resolve().parents[2] / 'env' / 'fastdds_profiles.xml'
+    for variable in PROFILE_VARIABLES:
+        monkeypatch.delenv(variable, raising=False)
+    monkeypatch.setenv(PROFILE_VARIABLES[0], str(profile))
+    assert ExperimentRunner(exp, runs_dir=tmp_path, progress=False).drain_quiet_behind \
+        == pytest.approx(0.05 + DRAIN_HEARTBEAT_MARGIN)
+    monkeypatch.delenv(PROFILE_VARIABLES[0])
+    assert ExperimentRunner(exp, runs_dir=tmp_path, progress=False).drain_quiet_behind \
+        == pytest.approx(3.0 + DRAIN_HEARTBEAT_MARGIN)
