@@ -39,7 +39,7 @@ from irs_msgs.msg import RigStatus
 
 from .experiment import (Experiment, absolute, clock_overrides, expected_endpoints,
                          make_run_dir, new_run_dir, node_parameters, resolve_params_file)
-from .graph import make_watcher
+from .graph import call_rig_start, make_watcher
 from .processes import NodeProcess, NodeSpec, kill_processes, stop_processes
 
 #: Seconds a node has to stop after SIGINT (then SIGTERM, 2 s later SIGKILL).
@@ -551,18 +551,9 @@ class ExperimentRunner:
         client = watcher.node.create_client(Trigger, 'rig/start')
         if not watcher.spin_until(lambda: self._check_stop() or client.service_is_ready(), 20.0):
             raise ExperimentFailed('rig/start service not available')
-        deadline = time.monotonic() + 10.0
-        while True:       # the hardware rig's devices may still be coming up: try for 10 s
-            future = client.call_async(Trigger.Request())
-            ok = watcher.spin_until(lambda: self._check_stop() or future.done(), 20.0) \
-                and future.result().success
-            if ok or time.monotonic() > deadline:
-                break
-            time.sleep(0.2)
+        ok, message = call_rig_start(watcher, client, check=self._check_stop)
         if not ok:
-            raise ExperimentFailed(
-                f'rig/start failed: {future.result() and future.result().message}'
-            )
+            raise ExperimentFailed(f'rig/start failed: {message}')
 
     def _follow(self, watcher, clock, t_start) -> bool:
         exp = self.exp

@@ -7,6 +7,16 @@ import time
 
 import rclpy
 from rclpy.executors import SingleThreadedExecutor
+from std_srvs.srv import Trigger
+
+from irs_common.start_gate import ALREADY_RUNNING
+
+#: How long a ``rig/start`` call waits for its answer before calling again [s]. A DDS service's
+#: answer is lost, not late, when the server has not yet matched the caller's response reader:
+#: rmw_fastrtps drops it after waiting for the match for the response writer's 0.1 s
+#: ``max_blocking_time`` ("client will not receive response"), while the caller's own view
+#: already showed the service ready (discovery is per side).
+START_ANSWER_WAIT = 2.0
 
 
 class GraphWatcher:
@@ -53,6 +63,33 @@ class GraphWatcher:
                     return False
             return True
         return self.spin_until(matched, timeout)
+
+
+def call_rig_start(watcher: GraphWatcher, client, trying_for: float = 10.0,
+                   check=lambda: None) -> tuple[bool, str]:
+    """Call ``rig/start`` (std_srvs/Trigger) through ``client`` until the rig answers success,
+    for ``trying_for`` s (a hardware rig's devices may still be coming up); ``(ok, message)``.
+
+    An answer not in within :data:`START_ANSWER_WAIT` is taken as lost and the call is made
+    again; a later :data:`~irs_common.start_gate.ALREADY_RUNNING` then means the unanswered call
+    started the rig. ``check()`` runs at every spin (the experiment runner's stop check raises).
+    """
+    deadline = time.monotonic() + trying_for
+    unanswered = False
+    while True:
+        future = client.call_async(Trigger.Request())
+        if watcher.spin_until(lambda: check() or future.done(), START_ANSWER_WAIT):
+            answer = future.result()
+            if answer.success or (unanswered and answer.message == ALREADY_RUNNING):
+                return True, answer.message
+            message = answer.message
+        else:
+            client.remove_pending_request(future)
+            unanswered = True
+            message = f'no answer within {START_ANSWER_WAIT:g} s'
+        if time.monotonic() > deadline:
+            return False, message
+        time.sleep(0.2)
 
 
 def make_watcher(name: str = 'irs_graph_watcher', context=None) -> GraphWatcher:

@@ -23,8 +23,12 @@ import time
 
 from .params import Param
 
-__all__ = ['START_SUBSCRIBERS', 'StartGate', 'parse_start_subscribers',
+__all__ = ['ALREADY_RUNNING', 'START_SUBSCRIBERS', 'StartGate', 'parse_start_subscribers',
            'start_subscribers_problem']
+
+#: The message of a rig's ``rig/start`` answer when the rig already runs (success false). A
+#: caller whose earlier call went unanswered reads it as "started" (``irs_bringup.graph``).
+ALREADY_RUNNING = 'already running'
 
 
 def start_subscribers_problem(text: str):

@@ -56,6 +56,12 @@ def test_the_longest_of_several_writer_profiles_counts(tmp_path):
         == DEFAULT_HEARTBEAT_PERIOD
 
 
+def test_the_profiles_of_services_and_clients_do_not_count(tmp_path):
+    body = (_writer('w', True, 0, 50_000_000) + _writer('client', False, 3, 0)
+            + _writer('service', False, 3, 0))
+    assert _period(tmp_path, body) == 0.05
+
+
 @pytest.mark.parametrize('body', [
     '',                                                     # no writer profile
     _writer('w', False, 0, 50_000_000),                     # none is the default

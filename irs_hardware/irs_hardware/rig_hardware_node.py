@@ -51,7 +51,7 @@ from irs_common.params import declare_table
 from irs_common.stamp_gate import FUTURE, OLD, StampGate, answer_age
 from irs_common.stamp_sync import StampSync
 from irs_common.stamps import from_ns, to_ns
-from irs_common.start_gate import StartGate
+from irs_common.start_gate import ALREADY_RUNNING, StartGate
 from irs_msgs.msg import (BeltSpeed, RigStatus, SteeringCommand, TreadmillDriveCommand,
                           WheelEncoders, WheelTorqueCommand)
 
@@ -164,7 +164,7 @@ class RigHardwareNode(Node):
                 return ('no calibration: set the parameter calibration to the file '
                         '`calibrate` wrote (docs/hardware.md)')
             if self.started:
-                return 'already running'
+                return ALREADY_RUNNING
             try:
                 self.rig.io.start(self.lockstep)
             except (LinkError, DriveError) as exc:

@@ -13,6 +13,7 @@ from irs_common.stamps import to_ns
 from irs_msgs.msg import SteeringActuatorState, SteeringCommand
 from sensor_msgs.msg import JointState
 
+from irs_bringup.graph import call_rig_start
 from irs_bringup.processes import NodeSpec
 
 
@@ -68,8 +69,8 @@ def run_lockstep(ros, command_fn, duration, timeout=300.0):
     assert ros.wait_for_matched([pub, *subs], timeout=30.0), 'rig topics did not match'
     client = node.create_client(Trigger, 'rig/start')
     assert ros.spin_until(client.service_is_ready, 30.0), 'rig/start not available'
-    future = client.call_async(Trigger.Request())
-    assert ros.spin_until(future.done, 30.0) and future.result().success
+    ok, message = call_rig_start(ros, client)
+    assert ok, message
     n_steps = int(round(duration * 1000)) + 1
     done = ros.spin_until(lambda: all(len(v) >= n_steps for v in rec.values()), timeout)
     assert done, f'lock-step run incomplete: {[len(v) for v in rec.values()]} of {n_steps} samples'

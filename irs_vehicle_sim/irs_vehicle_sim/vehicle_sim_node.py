@@ -34,7 +34,7 @@ from irs_common.params import declare_table
 from irs_common.stamp_gate import FUTURE, OLD, StampGate, answer_age
 from irs_common.stamp_sync import StampSync
 from irs_common.stamps import clock_now_ns, from_ns, to_ns
-from irs_common.start_gate import StartGate
+from irs_common.start_gate import ALREADY_RUNNING, StartGate
 from irs_models.constants import STEER_LIMIT
 from irs_msgs.msg import (BeltSpeed, DriverCommand, RigStatus, SteeringActuatorState,
                           SteeringCommand, TreadmillDriveCommand, TreadmillState, TyreState,
@@ -326,7 +326,7 @@ class VehicleSimNode(Node):
     def _on_start(self, _request, response):
         if self.started and not self.holding:
             response.success = False
-            response.message = 'already running'
+            response.message = ALREADY_RUNNING
         else:
             self._start()
             response.success = True
