@@ -25,15 +25,10 @@ import sys
 import tempfile
 import time
 
-#: (executable, module, node class) of the Figure 10 graph's nodes.
-NODES = (
-    ('vehicle_sim', 'irs_vehicle_sim.vehicle_sim_node', 'VehicleSimNode'),
-    ('arm_pose_estimator', 'irs_sensing.arm_pose_estimator_node', 'ArmPoseEstimatorNode'),
-    ('lateral_controller', 'irs_control.lateral_controller_node', 'LateralControllerNode'),
-    ('treadmill_regulator', 'irs_treadmill.treadmill_regulator_node', 'TreadmillRegulatorNode'),
-    ('reference_generator', 'irs_control.reference_generator_node', 'ReferenceGeneratorNode'),
-    ('recorder', 'irs_bag.recorder_node', 'Recorder'),
-)
+#: (package, executable) of the Figure 10 graph's nodes.
+NODES = (('irs_vehicle_sim', 'vehicle_sim'), ('irs_sensing', 'arm_pose_estimator'),
+         ('irs_control', 'lateral_controller'), ('irs_treadmill', 'treadmill_regulator'),
+         ('irs_control', 'reference_generator'), ('irs_bag', 'recorder'))
 
 _CHILD = """
 import json, resource, sys, time
@@ -70,7 +65,11 @@ def node_startup(repeats: int = 7) -> list:
             {k: v for k, v in base.items() if k != 'OPENBLAS_NUM_THREADS'}}
     rows = []
     cwd = tempfile.mkdtemp(prefix='irs_bench_startup_')     # the recorder's empty bags go here
-    for exe, module, cls in NODES:
+    from irs_bringup.container import GROUP     # the node classes' entry points
+    from importlib.metadata import entry_points
+    for package, exe in NODES:
+        ep = next(e for e in entry_points(group=GROUP, name=exe) if e.module.startswith(package))
+        module, cls = ep.module, ep.attr
         samples = {name: [] for name in envs}
         for _ in range(repeats):
             for name, env in envs.items():
