@@ -76,6 +76,11 @@ class Interrupt:
         if guard is not None:
             self._guard = guard
             guard.on_first = lambda signum: self._on_signal(signum, None)
+            if guard.signum is not None:
+                # A signal came before: its Interrupted was raised where Python ignores
+                # exceptions (seen inside the import system's module-lock callback at start-up),
+                # or the command would not be here.
+                self._on_signal(guard.signum, None)
         else:
             self._old = {sig: signal.signal(sig, self._on_signal)
                          for sig in (signal.SIGINT, signal.SIGTERM)}

@@ -138,6 +138,27 @@ def test_sigint_during_a_dask_sweep_stops_between_calls_and_cancels(monkeypatch,
         client.close()
 
 
+def test_a_signal_the_guard_took_before_the_sweep_submits_nothing(monkeypatch):
+    """A signal whose ``Interrupted`` Python ignored (raised inside a weakref callback) is in
+    the guard only: the sweep must still stop at once.
+    """
+    distributed = pytest.importorskip('distributed')
+    monkeypatch.setattr(runner, 'run_point', _point)
+    guard = cli.SignalGuard()
+    monkeypatch.setattr(cli, 'GUARD', guard)
+    guard.signum = signal.SIGINT
+    kept = []
+    client = distributed.Client(processes=False, n_workers=1, threads_per_worker=1,
+                                dashboard_address=None)
+    try:
+        with pytest.raises(cli.Interrupted):
+            runner._run_on_dask(client, SimpleNamespace(cfg=2.0, duration=0.5),
+                                iter([{'point': k} for k in range(50)]), [], kept.append,
+                                in_flight=4)
+        assert kept == [] and not any(client.processing().values())
+    finally:
+        client.close()
+
 
 WORKER = """
 import logging, sys

@@ -326,6 +326,8 @@ def _run_on_dask(client, prep, todo, metrics, keep, in_flight: int):
     previous = guard.on_first if guard is not None else None
     if guard is not None:
         guard.on_first = lambda _signum: stop.set()
+        if guard.signum is not None:    # a signal whose Interrupted Python ignored (player.py)
+            stop.set()
     pending = None
     try:
         cfg = client.scatter(prep.cfg, broadcast=True)
