@@ -1,7 +1,9 @@
-"""Watch the ROS graph: wait for nodes and for publishers/subscriptions to match.
+"""Watch the ROS graph: wait for nodes and for publishers/subscriptions to match; call
+``rig/start`` so that a lost answer is called for again (:func:`call_rig_start`).
 
-DDS discovery between processes takes 0.4-3 s here; tests and the experiment runner wait on these
-conditions (with deadlines) instead of sleeping.
+DDS discovery between processes takes up to a participant announcement period and more here
+(0.5 s with the environment's Fast DDS profile, 3 s with Fast DDS's defaults: docs/setup.md);
+tests and the experiment runner wait on these conditions (with deadlines) instead of sleeping.
 """
 import time
 
