@@ -65,11 +65,10 @@ def node_startup(repeats: int = 7) -> list:
             {k: v for k, v in base.items() if k != 'OPENBLAS_NUM_THREADS'}}
     rows = []
     cwd = tempfile.mkdtemp(prefix='irs_bench_startup_')     # the recorder's empty bags go here
-    from irs_bringup.container import GROUP     # the node classes' entry points
-    from importlib.metadata import entry_points
+    from irs_bringup.container import component_class    # the node classes' entry points
     for package, exe in NODES:
-        ep = next(e for e in entry_points(group=GROUP, name=exe) if e.module.startswith(package))
-        module, cls = ep.module, ep.attr
+        node_class = component_class(package, exe)
+        module, cls = node_class.__module__, node_class.__name__
         samples = {name: [] for name in envs}
         for _ in range(repeats):
             for name, env in envs.items():
