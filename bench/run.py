@@ -296,7 +296,7 @@ def main(argv=None) -> int:
     a = ap.parse_args(argv)
     floor_s, rt_s, replay_s = (5.0, 20.0, 3.0) if a.quick else (10.0, 60.0, 5.0)
     results = {'started': datetime.datetime.now().isoformat(timespec='seconds'),
-               'load_before': os.getloadavg(), 'quick': a.quick}
+               'cpus': os.cpu_count(), 'load_before': os.getloadavg(), 'quick': a.quick}
     for section in a.only:
         print(f'== {section}', flush=True)
         fn = globals()[section]

@@ -9,6 +9,7 @@ than a plain call with three float operations (:func:`waits.python_floor`); for 
 plain call rate. On a VM
 whose speed swings 2-5x within minutes, a figure is read against its floor.
 """
+import os
 
 #: (key, what, target, unit, higher is better)
 TARGETS = (
@@ -37,6 +38,21 @@ def _get(results, section, name, key):
     return None if row is None else row.get(key)
 
 
+def cpu_ceiling(cpu_per_step_us, hop_us, cpus: int) -> str:
+    """Why a lock-step deployment can go no faster: the multiple of real time at which its
+    processes would keep every core busy, ``x_max = cpus * 1000 us / (CPU per 1 ms step)``, and
+    that CPU counted in the floor loop's hops (each a message delivered between processes).
+    Empty without the figures.
+    """
+    if not cpu_per_step_us or cpu_per_step_us <= 0:
+        return ''
+    text = (f'CPU-bound ceiling {cpus * 1000.0 / cpu_per_step_us:.2f}x '
+            f'({cpu_per_step_us / 1000:.2f} ms CPU per step on {cpus} cores')
+    if hop_us:
+        text += f' = {cpu_per_step_us / hop_us:.0f} floor hops'
+    return text + ')'
+
+
 def figures(results: dict) -> dict:
     """``{target key: (figure, floor text)}`` for the targets this run measured."""
     out = {}
@@ -50,10 +66,15 @@ def figures(results: dict) -> dict:
     if x is not None:
         out['lockstep_composed'] = (x, f'lean composed loop {floor_ls / 1000:.1f}x'
                                     if floor_ls else '')
-    x = _get(results, 'lockstep', 'lock-step Figure 10, process per node', 'x_real_time')
-    if x is not None:
-        out['lockstep_per_node'] = (x, f'lean 3-process loop {floor_ls3 / 1000:.2f}x'
-                                    if floor_ls3 else '')
+    per_node = _row(results, 'lockstep', 'lock-step Figure 10, process per node')
+    if per_node is not None and per_node.get('x_real_time') is not None:
+        floor_text = f'lean 3-process loop {floor_ls3 / 1000:.2f}x' if floor_ls3 else ''
+        hop = _get(results, 'floor', 'floor lean lockstep', 'cpu_per_hop_us')
+        ceiling = cpu_ceiling(per_node.get('cpu_total_per_step_us'), hop,
+                              results.get('cpus') or os.cpu_count() or 1)
+        if ceiling:
+            floor_text += f'; {ceiling}'
+        out['lockstep_per_node'] = (per_node['x_real_time'], floor_text)
     off = _row(results, 'offline', 'offline closed loop (all cores, Figure 10)')
     if off is not None:
         floor, calls = off.get('python_floor_calls_per_s'), off.get('calls_per_step')
