@@ -434,6 +434,9 @@ class ExperimentRunner:
             self._start_rig(watcher)
             cpu0 = {label: proc.cpu_seconds() for label, proc in self.procs.items()}
             self.phase = 'running'
+            self.log(f'[experiment] running: {self.exp.duration:g} s '
+                     + ('in lock-step on /clock' if self.exp.clock == 'lockstep'
+                        else 'in real time'))
             t_start = time.monotonic()
             completed = self._follow(watcher, clock, t_start)
             running = clock.get('done_at', time.monotonic()) - t_start
