@@ -74,9 +74,9 @@ def _all_tables():
 def test_every_node_declares_its_whole_table_through_the_parameter_mechanism(
     tmp_path, monkeypatch
 ):
-    """Built with defaults, every node has exactly its table's parameters, each with the table's
-    read-only flag; every writable one has a handler and takes its own value back through the
-    on-set/post-set path, every read-only one refuses a change.
+    """Built with defaults (live_view with a file to write), every node has exactly its table's
+    parameters, each with the table's read-only flag; every writable one has a handler and takes
+    its own value back through the on-set/post-set path, every read-only one refuses a change.
     """
     import importlib
 
@@ -91,7 +91,11 @@ def test_every_node_declares_its_whole_table_through_the_parameter_mechanism(
     try:
         for node_name, table in _all_tables():
             module, cls = NODE_CLASSES[node_name].split(':')
-            node = getattr(importlib.import_module(module), cls)()
+            # live_view's default streams to a rerun viewer, and with none running rerun waits
+            # 5 s to connect and 5 s more at the end: it writes its stream to a file here
+            options = ({'parameter_overrides': [Parameter('save', value=str(tmp_path / 'v.rrd'))]}
+                       if node_name == 'live_view' else {})
+            node = getattr(importlib.import_module(module), cls)(**options)
             try:
                 guard = getattr(node, ParameterGuard.ATTRIBUTE)
                 declared = set(node.list_parameters([], 0).names) - RCLPY_PARAMETERS

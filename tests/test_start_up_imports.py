@@ -2,8 +2,8 @@
 
 The rig (vehicle_sim, the container that composes it, the board emulator) discretises its plant
 with :func:`irs_models.zoh.zoh`; ``scipy.signal`` would cost about 0.8 s of CPU at every process
-start. The lateral controller loads python-control, and with it ``scipy.signal``, for its
-start-up design check.
+start. The lateral controller loads python-control, and with it ``scipy.signal``, only for a
+start-up design check whose answer is not cached yet (:mod:`irs_control.design_check_cache`).
 """
 import subprocess
 import sys
