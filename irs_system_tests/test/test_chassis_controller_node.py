@@ -22,12 +22,15 @@ from rclpy.parameter_client import AsyncParameterClient
 from irs_bringup.processes import NodeSpec
 from irs_common import qos
 from irs_common.stamps import from_ns, to_ns
+from irs_control.chassis_params import PARAMS
 from irs_msgs.msg import BeltSpeed, SteeringCommand, WheelEncoders, WheelTorqueCommand
 
 R = 0.033            # [m] wheel radius (the controller's default)
 V = 1.2              # [m/s] belt speed = car speed over the belt
 ROLLING = V / R      # [rad/s]
 MS = 1_000_000       # [ns]
+#: [ns] the node's default pose_timeout: an older newest pose gets the zero answer
+POSE_TIMEOUT_NS = round(1e9 * next(p.default for p in PARAMS if p.name == 'pose_timeout'))
 
 
 class ChassisLink:
@@ -249,7 +252,11 @@ def test_real_time_answers_each_encoder_sample_with_the_newest_pose_and_goes_sta
         stamps.append(now())
         cmd = sample(stamps[-1])
         assert not any(cmd.locked)
-    assert link.steer(stamps[-1]).front_angle == 0.05
+        # the step steer, unless this sample overtook its pose and the newest one the node had
+        # (the previous sample's, stamped 1 ms before it) was more than pose_timeout older:
+        # the zero answer a stall of more than 0.2 s between two samples rightly gets
+        gap = stamps[-1] - (stamps[-2] - MS)
+        assert link.steer(stamps[-1]).front_angle == 0.05 or gap > POSE_TIMEOUT_NS, gap
     # the poses stop, the encoder samples go on: beyond pose_timeout (0.2 s) of the newest pose
     # the answer is zero torque and steer, reason stale_pose; a fresh pose and it drives again
     ros.spin_until(lambda: False, 0.5)      # the newest pose ages 0.5 s (spinning meanwhile)
