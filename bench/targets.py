@@ -6,8 +6,9 @@ A target's floor is the same kind of work at its minimum on this machine in the 
 the lean floor loop of ``bench/floor.py`` for the graph's lock-step and real-time figures; for
 the offline cores, the steps/s their Python calls per step would allow if each cost no more
 than a plain call with three float operations (:func:`waits.python_floor`); for the waits, that
-plain call rate. On a VM
-whose speed swings 2-5x within minutes, a figure is read against its floor.
+plain call rate. On a VM whose speed swings 2-5x within minutes, a figure is read against its
+floor. Process-per-node lock-step also gets its CPU-bound ceiling (:func:`cpu_ceiling`): the
+fastest its processes could run on the machine's cores, whatever the floor.
 """
 import os
 
