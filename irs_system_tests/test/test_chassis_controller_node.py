@@ -256,7 +256,10 @@ def test_real_time_answers_each_encoder_sample_with_the_newest_pose_and_goes_sta
         # (the previous sample's, stamped 1 ms before it) was more than pose_timeout older:
         # the zero answer a stall of more than 0.2 s between two samples rightly gets
         gap = stamps[-1] - (stamps[-2] - MS)
-        assert link.steer(stamps[-1]).front_angle == 0.05 or gap > POSE_TIMEOUT_NS, gap
+        assert link.steer(stamps[-1]).front_angle == 0.05 or gap > POSE_TIMEOUT_NS, (
+            gap, [m.front_angle for m in link.steers if to_ns(m.header.stamp) == stamps[-1]],
+            [st.status[0].message for st in link.status
+             if to_ns(st.header.stamp) == stamps[-1]])
     # the poses stop, the encoder samples go on: beyond pose_timeout (0.2 s) of the newest pose
     # the answer is zero torque and steer, reason stale_pose; a fresh pose and it drives again
     ros.spin_until(lambda: False, 0.5)      # the newest pose ages 0.5 s (spinning meanwhile)
