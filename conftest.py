@@ -3,7 +3,7 @@
 Every test run claims its own ROS_DOMAIN_ID (:mod:`irs_system_tests.domains`; set here, before
 any rclpy context or child process starts), so concurrent runs on one machine do not see each
 other's topics; ``IRS_TEST_DOMAINS=81-89`` keeps the run to those ids, ``IRS_TEST_DOMAIN_FIXED``
-keeps the ROS_DOMAIN_ID of the environment.
+keeps the ROS_DOMAIN_ID of the environment (shared-locked, so that claiming runs pass it by).
 
 ``make test`` runs the suite on two pytest-xdist workers. Most tests wait on processes, DDS
 discovery and simulated runs more than they compute, so two at a time halve the wall time. A
@@ -26,17 +26,22 @@ from contextlib import ExitStack, contextmanager
 import fcntl
 import os
 from pathlib import Path
+import sys
 import tempfile
 
 import pytest
 
-from irs_system_tests.domains import claim_domain
+from irs_system_tests.domains import claim_domain, hold_domain
 
 pytest_plugins = ['irs_system_tests.floor_verdict']
 
 if 'IRS_TEST_DOMAIN_FIXED' not in os.environ:
     _domain, _domain_lock = claim_domain(os.getpid())   # held as long as this process lives
     os.environ['ROS_DOMAIN_ID'] = str(_domain)
+else:       # the environment's id, shared-locked so that claiming runs pass it by
+    _domain_lock, _warning = hold_domain(int(os.environ.get('ROS_DOMAIN_ID') or 0))
+    if _warning:
+        print(f'conftest: {_warning}', file=sys.stderr)
 os.environ.setdefault('ROS_AUTOMATIC_DISCOVERY_RANGE', 'LOCALHOST')
 # A node process that does not stop leaves its native stacks too (irs_bringup.processes).
 os.environ.setdefault('IRS_NATIVE_STACKS', '1')

@@ -7,6 +7,10 @@ each other's topics. The range is every id Fast DDS can use on one machine (its 
 allows 0-101 and 215-232; 0 is left out: it is every shell's default, a hand-started graph's),
 or the ids ``IRS_TEST_DOMAINS`` names (``81-89`` or ``81,83,90-95``), to keep the suite to its
 share of a shared machine.
+
+A run on a domain of its own choosing (``IRS_TEST_DOMAIN_FIXED``) holds a shared ``flock`` on
+the same file (:func:`hold_domain`): runs that claim ids pass it by, and several runs that chose
+the same id may share it, as they asked.
 """
 import fcntl
 import os
@@ -62,3 +66,19 @@ def claim_domain(pid: int, domains=None, lock_dir: str = '/tmp') -> tuple:
         return domain, f
     raise DomainError(f'all {n} ROS domain ids {domains[0]}..{domains[-1]} are held by other '
                       f'runs ({lock_dir}/irs_test_domain_*.lock)')
+
+
+def hold_domain(domain: int, lock_dir: str = '/tmp') -> tuple:
+    """``(open lock file, None)`` with a shared ``flock`` on ``domain``'s lock file, which keeps
+    :func:`claim_domain` of other runs off it; ``(None, warning)`` when a run that claimed it
+    holds it (its topics and this run's would mix).
+    """
+    path = os.path.join(lock_dir, f'irs_test_domain_{domain}.lock')
+    f = open(path, 'a')
+    try:
+        fcntl.flock(f, fcntl.LOCK_SH | fcntl.LOCK_NB)
+    except OSError:
+        f.close()
+        return None, (f'ROS_DOMAIN_ID {domain} is held by another test or benchmark run '
+                      f"({path}): its topics and this run's will mix")
+    return f, None
