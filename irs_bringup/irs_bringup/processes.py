@@ -147,11 +147,7 @@ class NodeProcess:
 
     def cpu_seconds(self) -> float:
         """User + system CPU time [s] the process has used so far (Linux /proc), NaN if gone."""
-        try:
-            fields = Path(f'/proc/{self.popen.pid}/stat').read_text().rsplit(')', 1)[1].split()
-        except OSError:
-            return float('nan')
-        return (int(fields[11]) + int(fields[12])) / os.sysconf('SC_CLK_TCK')
+        return cpu_seconds(self.popen.pid)
 
     def stop(self, timeout: float = 10.0) -> int:
         """SIGINT, then SIGTERM after ``timeout`` s, then SIGKILL after ``timeout / 2`` s more
@@ -176,6 +172,15 @@ class NodeProcess:
             os.killpg(self.popen.pid, sig)
         except (ProcessLookupError, PermissionError):
             pass
+
+
+def cpu_seconds(pid: int) -> float:
+    """User + system CPU time [s] process ``pid`` has used so far (Linux /proc), NaN if gone."""
+    try:
+        fields = Path(f'/proc/{pid}/stat').read_text().rsplit(')', 1)[1].split()
+    except OSError:
+        return float('nan')
+    return (int(fields[11]) + int(fields[12])) / os.sysconf('SC_CLK_TCK')
 
 
 def handles_sigterm(pid: int) -> bool:

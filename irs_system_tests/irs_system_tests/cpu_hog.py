@@ -5,7 +5,8 @@
 against 1024). SCHED_FIFO hogs would leave the rest of the machine 5 % of every core (the kernel's
 real-time throttling) for as long as they run: on a machine shared with other work that is not
 a test but an outage, so the hog stays at nice -10. The body starts once every hog has run
-(:func:`cpu_ticks`), and every hog is killed when the block ends.
+(its CPU time, :func:`irs_bringup.processes.cpu_seconds`), and every hog is killed when the
+block ends.
 
 Also :func:`descendants` (every process below a pid, from ``/proc``) and
 :func:`wait_handling_signals` (the moment a process has installed its SIGTERM handler: what the
@@ -28,9 +29,8 @@ def cpu_hog(processes: int | None = None, nice: int = HOG_NICE):
     hogs = [subprocess.Popen(['sh', '-c', 'while :; do :; done'], start_new_session=True,
                              preexec_fn=lambda: os.nice(nice)) for _ in range(n)]
     try:
-        deadline = time.monotonic() + 10.0
-        while not all(cpu_ticks(h.pid) > 0 for h in hogs) and time.monotonic() < deadline:
-            time.sleep(0.01)
+        from irs_bringup.processes import cpu_seconds, wait_until
+        wait_until(lambda: all(cpu_seconds(h.pid) > 0.0 for h in hogs), 10.0)
         yield [h.pid for h in hogs]
     finally:
         for h in hogs:
@@ -57,15 +57,6 @@ def descendants(pid: int) -> list[int]:
         out += kids
         todo += kids
     return out
-
-
-def cpu_ticks(pid: int) -> int:
-    """User + system CPU of ``pid`` so far [clock ticks] (0 if it is gone)."""
-    try:
-        fields = Path(f'/proc/{pid}/stat').read_text().rsplit(')', 1)[1].split()
-        return int(fields[11]) + int(fields[12])
-    except (OSError, IndexError, ValueError):
-        return 0
 
 
 def alive(pid: int) -> bool:
