@@ -95,7 +95,7 @@ def start(launch, **params):
     # input_sync as a lock-step graph has it (the node runs on the wall clock here, where its
     # default is false): the test sends each stamp's set and waits for its answer
     base = {'stale_timeout': 10.0, 'status_decimation': 1, 'input_sync': True}
-    launch(NodeSpec('irs_control', 'chassis_controller', params={**base, **params}))
+    return launch(NodeSpec('irs_control', 'chassis_controller', params={**base, **params}))
 
 
 def test_abs_releases_the_slipping_wheel_and_keeps_the_full_brake_on_the_others(ros, launch):
@@ -209,7 +209,7 @@ def test_lockstep_one_answer_per_encoder_stamp_only_when_its_set_is_complete(ros
 
 
 def test_real_time_answers_each_encoder_sample_with_the_newest_pose_and_goes_stale(ros, launch):
-    start(launch, input_sync=False, stale_timeout=0.2, **{'steer.amplitude': 0.05})
+    proc = start(launch, input_sync=False, stale_timeout=0.2, **{'steer.amplitude': 0.05})
     link = ChassisLink(ros)
     now = lambda: ros.node.get_clock().now().nanoseconds  # noqa: E731
 
@@ -259,7 +259,7 @@ def test_real_time_answers_each_encoder_sample_with_the_newest_pose_and_goes_sta
         assert link.steer(stamps[-1]).front_angle == 0.05 or gap > POSE_TIMEOUT_NS, (
             gap, [m.front_angle for m in link.steers if to_ns(m.header.stamp) == stamps[-1]],
             [st.status[0].message for st in link.status
-             if to_ns(st.header.stamp) == stamps[-1]])
+             if to_ns(st.header.stamp) == stamps[-1]], proc.tail(10))
     # the poses stop, the encoder samples go on: beyond pose_timeout (0.2 s) of the newest pose
     # the answer is zero torque and steer, reason stale_pose; a fresh pose and it drives again
     ros.spin_until(lambda: False, 0.5)      # the newest pose ages 0.5 s (spinning meanwhile)
