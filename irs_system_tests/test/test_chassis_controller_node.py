@@ -22,15 +22,12 @@ from rclpy.parameter_client import AsyncParameterClient
 from irs_bringup.processes import NodeSpec
 from irs_common import qos
 from irs_common.stamps import from_ns, to_ns
-from irs_control.chassis_params import PARAMS
 from irs_msgs.msg import BeltSpeed, SteeringCommand, WheelEncoders, WheelTorqueCommand
 
 R = 0.033            # [m] wheel radius (the controller's default)
 V = 1.2              # [m/s] belt speed = car speed over the belt
 ROLLING = V / R      # [rad/s]
 MS = 1_000_000       # [ns]
-#: [ns] the node's default pose_timeout: an older newest pose gets the zero answer
-POSE_TIMEOUT_NS = round(1e9 * next(p.default for p in PARAMS if p.name == 'pose_timeout'))
 
 
 class ChassisLink:
@@ -233,33 +230,41 @@ def test_real_time_answers_each_encoder_sample_with_the_newest_pose_and_goes_sta
                 return stamps[-1]
         return None
 
+    def status_of(stamp_ns):
+        """The reason on chassis/status for ``stamp_ns`` (its own topic: may come later)."""
+        def find():
+            return next((st.status[0].message for st in link.status
+                         if to_ns(st.header.stamp) == stamp_ns), None)
+        ros.spin_until(lambda: find() is not None, 5.0)
+        return find()
+
     # an encoder sample before any pose, velocity and belt speed is not answered
     stamp = now()
     link.send(stamp, [ROLLING] * 4, order=('enc',))
     assert not ros.spin_until(lambda: link.answer(stamp) is not None, 1.0)
-    # samples with their newest measurements; the first ones may overtake the measurements
-    # (other topics): sent until one is answered
+    # samples with their newest measurements, sent until one is answered with the step steer:
+    # the first ones may overtake their measurements and find none (no answer) or only those
+    # of an earlier try (stale_pose)
     stamps = [now()]
     deadline = time.monotonic() + 20.0
     while True:
         link.send(stamps[-1] - MS, [ROLLING] * 4, order=('pose', 'vel', 'belt'))
         link.send(stamps[-1], [ROLLING] * 4, order=('enc',))
-        if ros.spin_until(lambda: link.answer(stamps[-1]) is not None, 0.5):
+        if ros.spin_until(lambda: link.answer(stamps[-1]) is not None, 0.5) \
+                and link.steer(stamps[-1]).front_angle == 0.05:
             break
-        assert time.monotonic() < deadline, 'no encoder sample answered'
+        assert time.monotonic() < deadline, 'no encoder sample answered with the step steer'
         stamps.append(now())
     for _ in range(5):
         stamps.append(now())
         cmd = sample(stamps[-1])
         assert not any(cmd.locked)
-        # the step steer, unless this sample overtook its pose and the newest one the node had
-        # (the previous sample's, stamped 1 ms before it) was more than pose_timeout older:
-        # the zero answer a stall of more than 0.2 s between two samples rightly gets
-        gap = stamps[-1] - (stamps[-2] - MS)
-        assert link.steer(stamps[-1]).front_angle == 0.05 or gap > POSE_TIMEOUT_NS, (
-            gap, [m.front_angle for m in link.steers if to_ns(m.header.stamp) == stamps[-1]],
-            [st.status[0].message for st in link.status
-             if to_ns(st.header.stamp) == stamps[-1]], proc.tail(10))
+        # the step steer, or zero where the newest pose the node had was too old, as its status
+        # says: the measurements travel on topics of their own, which DDS may deliver after the
+        # encoder samples sent later (on a loaded machine, 10-15 ms late: several samples)
+        steer = link.steer(stamps[-1]).front_angle
+        assert steer == 0.05 or (steer == 0.0 and status_of(stamps[-1]) == 'stale_pose'), (
+            steer, status_of(stamps[-1]), proc.tail(10))
     # the poses stop, the encoder samples go on: beyond pose_timeout (0.2 s) of the newest pose
     # the answer is zero torque and steer, reason stale_pose; a fresh pose and it drives again
     ros.spin_until(lambda: False, 0.5)      # the newest pose ages 0.5 s (spinning meanwhile)
