@@ -167,7 +167,16 @@ def test_stalls_and_cpu_hogs_keep_the_car_or_stop_it_under_control(ros, launch):
     finally:
         hog.kill()
         hog.wait()
-    watch.run_for(12.0)     # a stop that began under the hog comes to rest
+    # then until a stop that began under the hog has come to rest, or the rig has run for 2 s
+    # after it (200 statuses at 100 Hz; a status missed makes the wait longer, not shorter)
+    after = watch.mark()
+
+    def settled():
+        recent = watch.since(after)[0][-200:]
+        return watch.lost(mark) or bool(recent) and (
+            recent[-1].safe_state == RigStatus.SAFE_STOPPED or
+            len(recent) == 200 and all(s.safe_state == RigStatus.SAFE_RUNNING for s in recent))
+    assert ros.spin_until(settled, 30.0), watch.status[-1]
     assert not watch.lost(mark), watch.status[-1]
     if watch.status[-1].safe_state != RigStatus.SAFE_RUNNING:
         _recover(ros, watch)
