@@ -164,10 +164,19 @@ class ChassisControllerNode(Node):
                 self.warner.end_settled('stale', self._log_info, 'wheel encoders fresh again',
                                         time.monotonic())
         else:
-            self.warner.warn(out.reason, f'bad input ({out.reason}): zero torque, zero steer',
+            self.warner.warn(out.reason, self._bad_input_text(out.reason, stamp_ns),
                              time.monotonic())
         self._publish(enc.header.stamp, out.torques, out.locked, out.front_steer, out.rear_steer,
                       out)
+
+    def _bad_input_text(self, reason, stamp_ns):
+        """The warning for a step answered with zero commands; a stale pose names its age."""
+        text = f'bad input ({reason}): zero torque, zero steer'
+        if reason == 'stale_pose':
+            age = (stamp_ns - self.core.last_pose_ns) * 1e-9
+            text += (f' (the newest pose is {age:.3f} s older than the encoder sample; '
+                     f'pose_timeout {self.core.config.pose_timeout:g} s)')
+        return text
 
     # ------------------------------------------------------------------ outputs
     def _publish(self, stamp, torques, locked, front, rear, out, reason=None):

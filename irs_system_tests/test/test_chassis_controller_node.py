@@ -9,6 +9,7 @@ The test process plays the rig and the arm estimator: it publishes ``wheels/enco
 """
 import math
 import os
+import re
 import subprocess
 import time
 
@@ -272,6 +273,12 @@ def test_real_time_answers_each_encoder_sample_with_the_newest_pose_and_goes_sta
     cmd = link.step(stamp, [ROLLING] * 4, order=('enc',))
     assert list(cmd.torque) == [0.0] * 4 and link.steer(stamp).front_angle == 0.0
     assert ros.spin_until(lambda: link.last_status()[0] == 'stale_pose', 5.0)
+    # its warning (throttled: one a second) names the pose's age, beyond pose_timeout
+    def stale_ages():
+        return [float(a) for a in re.findall(
+            r'stale_pose\): .*the newest pose is ([0-9.]+) s older', proc.output())]
+    assert ros.spin_until(lambda: stale_ages(), 5.0), proc.tail(10)
+    assert min(stale_ages()) > 0.2, proc.tail(10)
     assert drives_again() is not None
     # silence: within the timeout a zero command and the reason STALE; the command carries the
     # last step's stamp (a rig lagging real time keeps taking the steps after it)
