@@ -19,7 +19,7 @@ from .columns import Columns, _Plan
 from .rerun_entities import SPEC, log_static, send
 from .run_info import RunInfo
 
-__all__ = ['LiveFeed', 'open_stream']
+__all__ = ['LiveFeed', 'open_stream', 'viewer_problem']
 
 #: Topics drawn in the 3-D view (decimated to ``view_rate``); the others are series.
 VIEW_SUFFIXES = ('ground_truth/odom', 'pose', 'arm/joint_states')
@@ -103,3 +103,25 @@ def open_stream(info: RunInfo, *, url: str = '', save: str = '', application_id:
         rec.connect_grpc(url or None, default_blueprint=blueprint())
     log_static(rec, info)
     return rec
+
+
+def viewer_problem(url: str, timeout: float = 1.0) -> Optional[str]:
+    """Why nothing receives a stream to a rerun viewer at ``url``
+    (``rerun+http://host:port/proxy``), or None: nothing listens on its TCP port (``'no rerun
+    viewer listens at host:port (Connection refused)'``) or the URL names no port.
+
+    rerun's ``connect_grpc`` does not fail then: it keeps the recording in memory, retries, and
+    at the end waits 5 s more for a viewer before dropping it. Callers say what to do.
+    """
+    import socket
+    from urllib.parse import urlsplit
+    parts = urlsplit(url)
+    try:
+        host, port = parts.hostname or '127.0.0.1', parts.port or 9876
+    except ValueError as exc:
+        return f'{url}: {exc}'
+    try:
+        with socket.create_connection((host, port), timeout=timeout):
+            return None
+    except OSError as exc:
+        return f'no rerun viewer listens at {host}:{port} ({exc.strerror or type(exc).__name__})'

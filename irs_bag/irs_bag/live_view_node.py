@@ -37,7 +37,7 @@ from rclpy.type_support import check_is_valid_msg_type
 from irs_common.node_main import run_node
 from irs_common.params import declare_table
 
-from .live_view import LiveFeed, open_stream
+from .live_view import LiveFeed, open_stream, viewer_problem
 from .live_view_params import NODE_PARAMS
 from .node_parameters import POLL_PERIOD, ParameterAsker
 from .rerun_entities import log_static
@@ -96,6 +96,11 @@ class LiveViewNode(Node):
         self.feed = LiveFeed(info, view_rate=self.p['view_rate'])
         self.rec = self.bridge = None
         if rerun_to:
+            problem = None if self.p['save'] else viewer_problem(self.p['url'])
+            if problem:     # (said first: rerun's connect then takes 5 s)
+                self.get_logger().warning(
+                    f"{problem}: rerun keeps the view in memory until one starts ('./irs exec "
+                    "rerun' on this machine); or write it to a file: -p save:=live.rrd")
             try:
                 self.rec = open_stream(info, url=self.p['url'], save=self.p['save'])
             except (OSError, RuntimeError, ValueError) as exc:

@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 from rosbags.typesys import Stores, get_typestore
 
-from irs_bag.live_view import LiveFeed, open_stream
+from irs_bag.live_view import LiveFeed, open_stream, viewer_problem
 from irs_bag.rerun_entities import ENTITY_PATHS
 from irs_bag.run_info import RunInfo
 
@@ -171,3 +171,20 @@ def test_the_car_comes_from_odom_alone_once_odom_was_seen():
         feed.add(suffix, msgs['ground_truth/odom'] if suffix != 'pose' else pose)
         feed.flush(sink)
     assert sink.rows['world/car'] in (30, 31), sink.rows['world/car']
+
+
+def test_viewer_problem_names_a_port_nothing_listens_on():
+    """A listening port: None; a port bound but not listening: its host and port named; a URL
+    whose port is not a number: the URL named.
+    """
+    import socket
+    with socket.socket() as server:
+        server.bind(('127.0.0.1', 0))
+        port = server.getsockname()[1]
+        url = f'rerun+http://127.0.0.1:{port}/proxy'
+        problem = viewer_problem(url)
+        assert problem.startswith(f'no rerun viewer listens at 127.0.0.1:{port} ('), problem
+        server.listen()
+        assert viewer_problem(url) is None
+    bad = 'rerun+http://127.0.0.1:view/proxy'
+    assert viewer_problem(bad).startswith(f'{bad}: '), viewer_problem(bad)

@@ -245,9 +245,11 @@ def _main(argv) -> int:
         except ValueError as exc:
             parser.error(f'--view: {exc}')
     if args.view is not None and args.view.startswith('rerun'):
+        from irs_bag.live_view import viewer_problem
         problem = viewer_problem(args.view)
         if problem:
-            parser.error(f'--view: {problem}')
+            parser.error(f"--view: {problem}; start one first ('./irs exec rerun' on this "
+                         'machine), or write the view to a file: --view live.rrd')
     if args.view_topics is not None and args.view is None:
         parser.error('--view-topics needs --view')
     if not 0 <= args.rt_priority <= 99:
@@ -263,28 +265,6 @@ def _main(argv) -> int:
     if result.interrupted is not None:
         return 128 + result.interrupted if result.interrupted else EXIT_FAILED
     return 0 if result.completed else EXIT_FAILED
-
-
-def viewer_problem(url: str, timeout: float = 1.0) -> str | None:
-    """Why a rerun viewer at ``url`` (``rerun+http://host:port/proxy``) cannot be streamed to,
-    or None: nothing listens on its TCP port (a view streamed there would be dropped, and the
-    ``live_view`` node would spend the end of the run retrying).
-    """
-    import socket
-    from urllib.parse import urlsplit
-    parts = urlsplit(url)
-    try:
-        host, port = parts.hostname or '127.0.0.1', parts.port or 9876
-    except ValueError as exc:
-        return f'{url}: {exc}'
-    try:
-        with socket.create_connection((host, port), timeout=timeout):
-            return None
-    except OSError as exc:
-        why = exc.strerror or type(exc).__name__
-        return (f'no rerun viewer listens at {host}:{port} ({why}); start one first '
-                "('./irs exec rerun' on this machine), or write the view to a file: "
-                '--view live.rrd')
 
 
 def main(argv=None) -> int:

@@ -212,3 +212,21 @@ def test_a_view_started_by_hand_draws_the_car_and_arm_of_the_rig_beside_it(launc
     from irs_models.arm_kinematics import ArmGeometry
     assert ArmGeometry().base_x != 0.05
     assert [round(v, 6) for v in base[0]] == [0.05, round(ArmGeometry().base_y, 6), 0.0], base
+
+
+def test_a_view_started_by_hand_with_no_viewer_says_so_in_one_line(launch):
+    """``live_view`` started by hand to a URL where nothing listens warns once, as it starts
+    (before rerun's connect, which takes 5 s then), naming the port and what to do; rerun itself
+    stays silent until the end of the run.
+    """
+    from irs_bringup.processes import NodeSpec, wait_until
+    with socket.socket() as idle:            # a port bound but not listening: no viewer
+        idle.bind(('127.0.0.1', 0))
+        port = idle.getsockname()[1]
+        view = launch(NodeSpec('irs_bag', 'live_view',
+                               params={'url': f'rerun+http://127.0.0.1:{port}/proxy'}))
+        assert wait_until(lambda: 'no rerun viewer' in view.output(), 60.0), view.tail()
+    said = [ln for ln in view.output().splitlines() if 'no rerun viewer' in ln]
+    assert len(said) == 1 and said[0].startswith('[WARN]'), view.tail()
+    assert f'127.0.0.1:{port}' in said[0] and 'save:=' in said[0], said
+    view.signal_group(signal.SIGKILL)    # (rerun would wait 5 s for a viewer at the exit)
