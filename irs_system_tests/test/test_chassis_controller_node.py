@@ -17,8 +17,6 @@ import pytest
 from ament_index_python.packages import get_package_prefix
 from diagnostic_msgs.msg import DiagnosticArray
 from geometry_msgs.msg import PoseStamped, TwistStamped
-from rclpy.parameter import Parameter
-from rclpy.parameter_client import AsyncParameterClient
 
 from irs_bringup.processes import NodeSpec
 from irs_common import qos
@@ -147,12 +145,9 @@ def test_nan_encoder_gives_zero_torque_zero_steer_and_a_reason_then_recovers(ros
 
 
 def _set(ros, **values):
-    client = AsyncParameterClient(ros.node, 'chassis_controller')
-    assert client.wait_for_services(timeout_sec=20.0)
-    future = client.set_parameters([Parameter(k.replace('__', '.'), value=v)
-                                    for k, v in values.items()])
-    assert ros.spin_until(future.done, 20.0)
-    return future.result().results
+    """Set parameters of the node (the call sent again if its answer is lost)."""
+    from test_param_set_nodes import set_params
+    return set_params(ros, 'chassis_controller', **values)
 
 
 def test_parameters_refused_in_one_sentence_and_live_ones_applied(ros, launch):
