@@ -17,10 +17,20 @@ from irs_bringup.graph import call_rig_start
 from irs_bringup.processes import NodeSpec
 
 
-def rig_spec(**params):
-    """The rig in lock-step on the steering input only, waiting for rig/start."""
+#: The rig's topics :func:`run_lockstep` records, one subscription each: the rig holds step 0
+#: until each of its writers has matched the test's reader (``start_subscribers``,
+#: :mod:`irs_common.start_gate`; the reader's own view of the match does not settle it, and a
+#: writer that matches after step 0 never delivers step 0).
+RECORDED = 'ground_truth/sensor_point=1,steering/state=1,arm/joint_states=1'
+
+
+def rig_spec(start_subscribers=RECORDED, **params):
+    """The rig in lock-step on the steering input only, waiting for rig/start, then for the
+    subscriptions ``start_subscribers`` names (``'topic=count,...'``).
+    """
     from ament_index_python.packages import get_package_share_directory
-    base = {'clock_mode': 'lockstep', 'lockstep_inputs': ['steering'], 'autostart': False}
+    base = {'clock_mode': 'lockstep', 'lockstep_inputs': ['steering'], 'autostart': False,
+            'start_subscribers': start_subscribers}
     rig_yaml = f"{get_package_share_directory('irs_vehicle_sim')}/config/rig.yaml"
     return NodeSpec('irs_vehicle_sim', 'vehicle_sim', params_files=[rig_yaml],
                     params={**base, **params})
@@ -34,7 +44,7 @@ def offline_rig_params(**params) -> dict:
                                        spec.params_files, spec.params))
     for key in ('clock_mode', 'lockstep_inputs', 'autostart', 'lockstep_resend_period',
                 'default_drive_voltage', 'frame_id', 'child_frame_id', 'publish_wheel_speeds',
-                'max_steps'):
+                'max_steps', 'start_subscribers'):
         values.pop(key, None)
     return values
 
@@ -57,14 +67,20 @@ def run_lockstep(ros, command_fn, duration, timeout=300.0):
             cmd.front_angle = float(command_fn(stamp * 1e-9))
             pub.publish(cmd)
 
+    # A recorder's depth (irs_bag's recorder keeps PUBLISHER_HISTORY too): rclpy's executor
+    # takes one message per subscription per wait, and the rig steps on each answered point, so
+    # a stream DDS delivers late now and then (another topic's delivery can lag by several
+    # steps) falls one message further behind each time; with SENSOR's depth of 100 the oldest
+    # would then be overwritten.
+    record = qos.SENSOR_PUB
     subs = [
-        node.create_subscription(PointStamped, 'ground_truth/sensor_point', on_point, qos.SENSOR),
+        node.create_subscription(PointStamped, 'ground_truth/sensor_point', on_point, record),
         node.create_subscription(SteeringActuatorState, 'steering/state',
                                  lambda m: rec['actuator'].setdefault(to_ns(m.header.stamp), m),
-                                 qos.SENSOR),
+                                 record),
         node.create_subscription(JointState, 'arm/joint_states',
                                  lambda m: rec['arm'].setdefault(to_ns(m.header.stamp), m),
-                                 qos.SENSOR),
+                                 record),
     ]
     assert ros.wait_for_matched([pub, *subs], timeout=30.0), 'rig topics did not match'
     client = node.create_client(Trigger, 'rig/start')
@@ -73,5 +89,9 @@ def run_lockstep(ros, command_fn, duration, timeout=300.0):
     assert ok, message
     n_steps = int(round(duration * 1000)) + 1
     done = ros.spin_until(lambda: all(len(v) >= n_steps for v in rec.values()), timeout)
-    assert done, f'lock-step run incomplete: {[len(v) for v in rec.values()]} of {n_steps} samples'
+    if not done:
+        expected = {round(k * 1e6) for k in range(n_steps)}     # the steps' stamps [ns]
+        missing = {name: sorted(expected - set(v))[:5] for name, v in rec.items()}
+        raise AssertionError(f'lock-step run incomplete: {[len(v) for v in rec.values()]} of '
+                             f'{n_steps} samples; the first stamps missing: {missing}')
     return rec

@@ -85,7 +85,7 @@ def run_torque_lockstep(ros, command_fn, duration, timeout=300.0):
 
 def test_torque_car_topics_match_the_offline_core_brake_and_refuse_nan(ros, launch):
     params = torque_car_params()
-    proc = launch(rig_spec(**params))
+    proc = launch(rig_spec(start_subscribers='wheels/encoders=1,rig/tyre_truth=1', **params))
     duration = 0.4
     rec = run_torque_lockstep(ros, command, duration)
 
