@@ -67,12 +67,7 @@ def run_lockstep(ros, command_fn, duration, timeout=300.0):
             cmd.front_angle = float(command_fn(stamp * 1e-9))
             pub.publish(cmd)
 
-    # A recorder's depth (irs_bag's recorder keeps PUBLISHER_HISTORY too): rclpy's executor
-    # takes one message per subscription per wait, and the rig steps on each answered point, so
-    # a stream DDS delivers late now and then (another topic's delivery can lag by several
-    # steps) falls one message further behind each time; with SENSOR's depth of 100 the oldest
-    # would then be overwritten.
-    record = qos.SENSOR_PUB
+    record = qos.SENSOR
     subs = [
         node.create_subscription(PointStamped, 'ground_truth/sensor_point', on_point, record),
         node.create_subscription(SteeringActuatorState, 'steering/state',
