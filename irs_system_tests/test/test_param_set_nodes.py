@@ -14,28 +14,16 @@ from irs_common import qos
 from irs_common.stamps import from_ns, to_ns
 from irs_msgs.msg import SteeringCommand, TreadmillState
 from irs_bringup.processes import NodeSpec
+from irs_system_tests.service_calls import call_idempotent
 
 from test_treadmill_node import Feeder, feed_until
-
-
-def call(ros, request, attempts=4, timeout=5.0):
-    """The result of ``request()`` (a parameter service call, idempotent), sent again if its
-    answer has not come within ``timeout`` [s]: a service can be "ready" to a client before the
-    server's reply writer has matched the client's reader (DDS discovery), and the first reply
-    is then lost.
-    """
-    for _attempt in range(attempts):
-        future = request()
-        if ros.spin_until(future.done, timeout):
-            return future.result()
-    raise AssertionError(f'no answer in {attempts} calls of {timeout} s')
 
 
 def set_params(ros, node_name, **values):
     client = AsyncParameterClient(ros.node, node_name)
     assert client.wait_for_services(timeout_sec=20.0), f'{node_name}: no parameter services'
     params = [Parameter(k.replace('__', '.'), value=v) for k, v in values.items()]
-    return call(ros, lambda: client.set_parameters(params)).results
+    return call_idempotent(ros, lambda: client.set_parameters(params)).results
 
 
 def settled(drive) -> bool:
@@ -47,7 +35,7 @@ def settled(drive) -> bool:
 def get_param(ros, node_name, name):
     client = AsyncParameterClient(ros.node, node_name)
     assert client.wait_for_services(timeout_sec=20.0)
-    return call(ros, lambda: client.get_parameters([name])).values[0]
+    return call_idempotent(ros, lambda: client.get_parameters([name])).values[0]
 
 
 def test_regulator_x_ref_and_enabled_change_behaviour_read_only_refused(ros, launch):
