@@ -1,20 +1,17 @@
 """call_idempotent: a call whose reply is lost is sent again, up to its attempts."""
+from concurrent.futures import Future
+
 import pytest
 
 from irs_system_tests.service_calls import call_idempotent
 
 
-class Future:
-    """A settled future: done with ``result``, or never done (None)."""
-
-    def __init__(self, result=None):
-        self._result = result
-
-    def done(self):
-        return self._result is not None
-
-    def result(self):
-        return self._result
+def settled(result=None) -> Future:
+    """A future done with ``result``, or never done (None): what a lost reply leaves."""
+    future = Future()
+    if result is not None:
+        future.set_result(result)
+    return future
 
 
 class Ros:
@@ -25,7 +22,7 @@ class Ros:
 
 
 def test_the_call_is_sent_again_until_an_answer_comes():
-    replies = iter([Future(), Future(), Future('answer'), Future('second answer')])
+    replies = iter([settled(), settled(), settled('answer'), settled('second answer')])
     sent = []
 
     def request():
@@ -40,7 +37,7 @@ def test_no_answer_in_all_attempts_fails_naming_them():
 
     def request():
         sent.append(1)
-        return Future()
+        return settled()
     with pytest.raises(AssertionError, match='no answer in 2 calls of 0.5 s'):
         call_idempotent(Ros(), request, attempts=2, timeout=0.5)
     assert len(sent) == 2
