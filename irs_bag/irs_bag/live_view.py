@@ -108,7 +108,7 @@ def open_stream(info: RunInfo, *, url: str = '', save: str = '', application_id:
 def viewer_problem(url: str, timeout: float = 1.0) -> Optional[str]:
     """Why nothing receives a stream to a rerun viewer at ``url``
     (``rerun+http://host:port/proxy``), or None: nothing listens on its TCP port (``'no rerun
-    viewer listens at host:port (Connection refused)'``) or the URL names no port.
+    viewer listens at host:port (Connection refused)'``), or its port is not a number.
 
     rerun's ``connect_grpc`` does not fail then: it keeps the recording in memory, retries, and
     at the end waits 5 s more for a viewer before dropping it. Callers say what to do.

@@ -67,15 +67,14 @@ def run_lockstep(ros, command_fn, duration, timeout=300.0):
             cmd.front_angle = float(command_fn(stamp * 1e-9))
             pub.publish(cmd)
 
-    record = qos.SENSOR
     subs = [
-        node.create_subscription(PointStamped, 'ground_truth/sensor_point', on_point, record),
+        node.create_subscription(PointStamped, 'ground_truth/sensor_point', on_point, qos.SENSOR),
         node.create_subscription(SteeringActuatorState, 'steering/state',
                                  lambda m: rec['actuator'].setdefault(to_ns(m.header.stamp), m),
-                                 record),
+                                 qos.SENSOR),
         node.create_subscription(JointState, 'arm/joint_states',
                                  lambda m: rec['arm'].setdefault(to_ns(m.header.stamp), m),
-                                 record),
+                                 qos.SENSOR),
     ]
     assert ros.wait_for_matched([pub, *subs], timeout=30.0), 'rig topics did not match'
     client = node.create_client(Trigger, 'rig/start')
