@@ -1,8 +1,10 @@
 """Common interface of the lateral plants used by the rig, and the physical bicycle plant.
 
 ``LateralPlant`` (a ``typing.Protocol``) is what :class:`irs_vehicle_sim.rig.RigSimulation`
-needs: ``reset()``, ``step(delta_front, delta_rear, dt)`` with the *achieved* steer angles [rad]
-held constant (ZOH) over the step, and read-only outputs
+needs: ``reset(y0)`` (heading 0, the car at lateral position ``y0`` [m], where the c.g. and the
+sensor point coincide), ``step(delta_front, delta_rear, dt)`` with the *achieved* steer angles
+[rad] held constant (ZOH) over the step, ``curvature_gain(speed)``
+(:meth:`ZohSteps.curvature_gain`) and read-only outputs
 
 * ``y_s`` [m]: sensor-point lateral displacement, ``y_s = y_cg + ds sin(psi)`` (conventions),
 * ``y_cg`` [m]: c.g. lateral position in the treadmill frame,
@@ -34,9 +36,11 @@ __all__ = ['LateralPlant', 'ZohSteps', 'BicyclePlant']
 class LateralPlant(Protocol):
     """Interface of a lateral vehicle plant (see module docstring for units)."""
 
-    def reset(self) -> None: ...
+    def reset(self, y0: float = 0.0, /) -> None: ...
 
     def step(self, delta_front: float, delta_rear: float, dt: float) -> None: ...
+
+    def curvature_gain(self, speed: float) -> float: ...
 
     @property
     def y_s(self) -> float: ...

@@ -331,11 +331,11 @@ class PoseEstimator:
         else:
             self._psi_unwrapped += wrap_angle(pose.psi - self._last[3])
         self._last = (float(stamp), pose.x_cg, pose.y_cg, pose.psi)
-        dx, dy, dpsi = self._diff
-        xdot = dx.update(pose.x_cg)
-        ydot = dy.update(pose.y_cg)
-        r = dpsi.update(self._psi_unwrapped)
-        valid = dx.ready and dy.ready and dpsi.ready
+        d_x, d_y, d_psi = self._diff
+        xdot = d_x.update(pose.x_cg)
+        ydot = d_y.update(pose.y_cg)
+        r = d_psi.update(self._psi_unwrapped)
+        valid = d_x.ready and d_y.ready and d_psi.ready
         c, s = math.cos(pose.psi), math.sin(pose.psi)
         if valid:
             ub = xdot + belt_speed
