@@ -103,7 +103,7 @@ def _point(cfg, duration, p, metrics):
 
 
 def test_sigint_during_a_dask_sweep_stops_between_calls_and_cancels(monkeypatch, caplog):
-    distributed = pytest.importorskip('distributed')
+    import distributed
     monkeypatch.setattr(runner, 'run_point', _point)
     guard = cli.SignalGuard().install()
     monkeypatch.setattr(cli, 'GUARD', guard)
@@ -142,7 +142,7 @@ def test_a_signal_the_guard_took_before_the_sweep_submits_nothing(monkeypatch):
     """A signal whose ``Interrupted`` Python ignored (raised inside a weakref callback) is in
     the guard only: the sweep must still stop at once.
     """
-    distributed = pytest.importorskip('distributed')
+    import distributed
     monkeypatch.setattr(runner, 'run_point', _point)
     guard = cli.SignalGuard()
     monkeypatch.setattr(cli, 'GUARD', guard)

@@ -150,7 +150,6 @@ def test_config_validation_and_dotted_keys():
 
 
 def test_bicycle_plant_rig_runs_and_is_deterministic():
-    pytest.importorskip('irs_models.presets')
     a = simulate({'plant': 'bicycle'}, lane_keeper, 1.0)
     b = simulate({'plant': 'bicycle'}, lane_keeper, 1.0)
     np.testing.assert_array_equal(a['y_s'], b['y_s'])
