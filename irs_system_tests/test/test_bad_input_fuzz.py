@@ -19,13 +19,13 @@ from geometry_msgs.msg import PointStamped, PoseStamped, TwistStamped
 from hypothesis import HealthCheck, Phase, given, settings, strategies as st
 from sensor_msgs.msg import JointState
 from std_msgs.msg import Float64
-from std_srvs.srv import Trigger
 
 from irs_common import qos
 from irs_common.stamps import from_ns, to_ns
 from irs_msgs.msg import (BeltSpeed, DriverCommand, LateralControllerStatus, LateralReference,
                           SteeringActuatorState, SteeringCommand, TreadmillDriveCommand)
 from irs_bringup.processes import NodeSpec
+from irs_system_tests.service_calls import call_trigger
 from irs_control.reference import CONSOLE_LIMIT
 from irs_models.arm_kinematics import ArmGeometry, inverse_kinematics
 from irs_models.constants import STEER_LIMIT
@@ -63,14 +63,6 @@ def _now(ros):
 
 def _alive(proc):
     assert proc.poll() is None, f'the node died:\n{proc.tail(30)}'
-
-
-def _reset(ros, name):
-    """Trigger service ``name``, a reset (it may run twice: sent again if its reply is lost)."""
-    from irs_system_tests.service_calls import call_idempotent
-    client = ros.node.create_client(Trigger, name)
-    assert ros.spin_until(client.service_is_ready, 20.0), f'{name} not available'
-    return call_idempotent(ros, lambda: client.call_async(Trigger.Request()))
 
 
 # ---------------------------------------------------------------------------------- controller
@@ -235,7 +227,7 @@ def test_fuzz_treadmill_regulator(ros, launch):
 
     def good_run():
         """After treadmill/reset_fault (faults cleared, regulator from rest): 8 steps."""
-        assert _reset(ros, 'treadmill/reset_fault').success
+        assert call_trigger(ros, 'treadmill/reset_fault').success
         return [probe(x) for x in (0.0, 0.1, 0.2, 0.3, 0.4, 0.3, 0.2, 0.1)]
 
     probe()

@@ -146,7 +146,7 @@ def test_nan_encoder_gives_zero_torque_zero_steer_and_a_reason_then_recovers(ros
 
 def _set(ros, **values):
     """Set parameters of the node (the call sent again if its answer is lost)."""
-    from test_param_set_nodes import set_params
+    from irs_system_tests.service_calls import set_params
     return set_params(ros, 'chassis_controller', **values)
 
 

@@ -202,7 +202,7 @@ def test_excitation_node_refuses_limits_beyond_its_target(ros, launch):
     """
     from irs_bringup.processes import NodeSpec
     from irs_system_tests.output_lines import own_lines
-    from test_param_set_nodes import set_params
+    from irs_system_tests.service_calls import set_params
 
     bad = launch(NodeSpec('irs_sysid', 'excitation', params={'target': 'steering',
                                                              'limit': 1.0}))

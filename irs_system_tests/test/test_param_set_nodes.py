@@ -7,35 +7,20 @@ once. A read-only parameter is refused with a reason and keeps its value; a bad 
 writable one is refused with a reason too.
 """
 from geometry_msgs.msg import PointStamped
-from rclpy.parameter import Parameter
-from rclpy.parameter_client import AsyncParameterClient
 
 from irs_common import qos
 from irs_common.stamps import from_ns, to_ns
 from irs_msgs.msg import SteeringCommand, TreadmillState
 from irs_bringup.processes import NodeSpec
-from irs_system_tests.service_calls import call_idempotent
+from irs_system_tests.service_calls import get_param, set_params
 
 from test_treadmill_node import Feeder, feed_until
-
-
-def set_params(ros, node_name, **values):
-    client = AsyncParameterClient(ros.node, node_name)
-    assert client.wait_for_services(timeout_sec=20.0), f'{node_name}: no parameter services'
-    params = [Parameter(k.replace('__', '.'), value=v) for k, v in values.items()]
-    return call_idempotent(ros, lambda: client.set_parameters(params)).results
 
 
 def settled(drive) -> bool:
     """The last 5 drive voltages are equal and positive (the regulator's slew is over)."""
     last = [d.voltage for d in drive[-5:]]
     return len(last) == 5 and last[0] > 0.0 and all(v == last[0] for v in last)
-
-
-def get_param(ros, node_name, name):
-    client = AsyncParameterClient(ros.node, node_name)
-    assert client.wait_for_services(timeout_sec=20.0)
-    return call_idempotent(ros, lambda: client.get_parameters([name])).values[0]
 
 
 def test_regulator_x_ref_and_enabled_change_behaviour_read_only_refused(ros, launch):

@@ -2,11 +2,11 @@
 import math
 
 from geometry_msgs.msg import PoseStamped, TwistStamped
-from std_srvs.srv import Trigger
 
 from irs_common import qos
 from irs_msgs.msg import BeltSpeed, TreadmillDriveCommand, TreadmillState
 from irs_bringup.processes import NodeSpec
+from irs_system_tests.service_calls import call_trigger
 from irs_treadmill.safety import FaultCode
 
 
@@ -52,14 +52,6 @@ def feed_until(ros, feeder, predicate, x, y=0.0, timeout=15.0, vx=0.0):
     return ros.spin_until(step, timeout)
 
 
-def reset(ros):
-    """treadmill/reset_fault (a reset may run twice: sent again if its reply is lost)."""
-    from irs_system_tests.service_calls import call_idempotent
-    client = ros.node.create_client(Trigger, 'treadmill/reset_fault')
-    assert ros.spin_until(client.service_is_ready, 20.0)
-    return call_idempotent(ros, lambda: client.call_async(Trigger.Request()))
-
-
 def test_regulates_then_latches_stale_and_off_belt_faults(ros, launch):
     launch(NodeSpec('irs_treadmill', 'treadmill_regulator', params={'safety.stale_timeout': 1.0,
                                                                   'state_decimation': 1}))
@@ -95,7 +87,7 @@ def test_regulates_then_latches_stale_and_off_belt_faults(ros, launch):
         and f.state[-1].mode == TreadmillState.MODE_FAULT
     )
     # ... the reset service does.
-    assert reset(ros).success
+    assert call_trigger(ros, 'treadmill/reset_fault').success
     assert feed_until(ros, f, lambda: f.state[-1].mode != TreadmillState.MODE_FAULT, x=0.3)
     # NaN position: INVALID fault, drive cut, then recovered with the next valid position.
     assert feed_until(ros, f, lambda: f.state[-1].mode == TreadmillState.MODE_FAULT and
