@@ -18,7 +18,10 @@ Log time
 Log time = receive time on the **system clock** (``received_timestamp`` from the message info,
 which rmw_fastrtps fills with the reception time), as rosbag2 records ``recv_timestamp`` by
 default, also with ``use_sim_time``: sim time is in each message's ``header.stamp`` (and
-``/clock`` can be recorded). ``publish_time`` = ``source_timestamp``.
+``/clock`` can be recorded). ``publish_time`` = ``source_timestamp``. Composed with the nodes
+it records, the recorder receives their messages handed over in the process
+(:mod:`irs_common.intra_process`): log time = publish time = the time of the handover, and no
+sequence number (a handover loses nothing).
 
 Lost messages
 -------------
@@ -62,6 +65,7 @@ from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPo
 from std_msgs.msg import String
 
 from irs_common.cli import held_signals
+from irs_common.intra_process import HANDOVER_SINK
 from irs_common.node_main import run_node
 from irs_common.params import declare_table
 
@@ -252,6 +256,8 @@ class Recorder(Node):
         def on_message(data, info, rec=rec):
             self._write(rec, data, info)
         rec.sub = self.create_subscription(msg_type, name, on_message, qos, raw=True)
+        # composed: the handovers of the nodes beside it go straight to the bag
+        setattr(rec.sub, HANDOVER_SINK, self.writer.appender(name))
         self.recorded[name] = rec
         self.get_logger().info(
             f"subscribed {name} [{type_name}] ({'best effort' if best_effort else 'reliable'}"

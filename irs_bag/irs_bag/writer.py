@@ -47,7 +47,7 @@ import threading
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Dict, List, Mapping, Optional, Tuple, Union
+from typing import Callable, Dict, List, Mapping, Optional, Tuple, Union
 
 from irs_common import loop_trace
 import yaml
@@ -477,20 +477,7 @@ class BagWriter:
                 raise BagWriterError(
                     f'topic {topic!r} has type {stats.type!r}, cannot write a {type_name!r}')
             payload = bytes(data)
-            stats.message_count += 1
-            if stats.first_log_time_ns is None or lt < stats.first_log_time_ns:
-                stats.first_log_time_ns = lt
-            if stats.last_log_time_ns is None or lt > stats.last_log_time_ns:
-                stats.last_log_time_ns = lt
-            if self._start is None:
-                self._start = self._end = lt
-            elif lt < self._start:
-                self._start = lt
-            elif lt > self._end:
-                self._end = lt
-            self._count += 1
-            if self._written_end is not None and lt < self._written_end:
-                self._late += 1
+            self._note(stats, lt)
             self._pending.append((lt, self._arrival, self._channels[topic], payload, pt,
                                   int(sequence) & 0xFFFFFFFF))
             self._arrival += 1
@@ -498,6 +485,48 @@ class BagWriter:
             if (self._pending_bytes >= self._chunk_size
                     or len(self._pending) >= self._chunk_messages):
                 self._flush_chunk()
+
+    def appender(self, topic: str) -> Callable[[bytes, int], None]:
+        """``append(data, time_ns)``: :meth:`write` of one declared topic for a caller that
+        serialised ``data`` (``bytes``) itself and stamps it with an int time [ns].
+
+        ``append(data, t)`` writes what ``write(topic, type, data, t, t, 0)`` writes, with the
+        same counts, without the checks of the data's type and of the topic (done once, here):
+        the composed recorder hands over about 12,000 messages a second
+        (:mod:`irs_common.intra_process`). A time that is not an int in ``[0, 2**64)`` ns still
+        raises.
+
+        Raises
+        ------
+        BagWriterError
+            ``topic`` not declared (:meth:`add_topic`), or closed writer (also raised by
+            ``append`` once the writer is closed).
+        """
+        with self._lock:
+            self._check_open()
+            stats = self._topics.get(topic)
+            if stats is None:
+                raise BagWriterError(f'appender: topic {topic!r} is not declared')
+            channel = self._channels[topic]
+        lock, pending = self._lock, self._pending
+
+        def append(data: bytes, t: int) -> None:
+            nonlocal pending
+            with lock:
+                if self._closed or self._thread_error is not None:
+                    self._check_open()
+                if type(t) is not int or not 0 <= t < _TIME_END:
+                    t = self._check_time(t, 'time_ns')
+                if pending is not self._pending:
+                    pending = self._pending     # a chunk was cut: the new buffer
+                self._note(stats, t)
+                pending.append((t, self._arrival, channel, data, t, 0))
+                self._arrival += 1
+                self._pending_bytes += len(data) + 31  # Message record overhead
+                if (self._pending_bytes >= self._chunk_size
+                        or len(pending) >= self._chunk_messages):
+                    self._flush_chunk()
+        return append
 
     def record_drop(self, topic: str, n: int = 1) -> None:
         """Count ``n`` messages on ``topic`` that the recorder could not keep.
@@ -638,6 +667,23 @@ class BagWriter:
         self._topics[topic] = stats
         self._topic_hash[topic] = thash
         self._write_metadata_yaml(self._metadata(provisional=True))
+
+    def _note(self, stats: TopicStats, lt: int) -> None:
+        """Count one message of log time ``lt`` [ns] in ``stats`` and the bag's totals."""
+        stats.message_count += 1
+        if stats.first_log_time_ns is None or lt < stats.first_log_time_ns:
+            stats.first_log_time_ns = lt
+        if stats.last_log_time_ns is None or lt > stats.last_log_time_ns:
+            stats.last_log_time_ns = lt
+        if self._start is None:
+            self._start = self._end = lt
+        elif lt < self._start:
+            self._start = lt
+        elif lt > self._end:
+            self._end = lt
+        self._count += 1
+        if self._written_end is not None and lt < self._written_end:
+            self._late += 1
 
     def _flush_chunk(self) -> None:
         """Cut the buffer as one chunk: written now, or queued for the writer thread."""

@@ -566,3 +566,54 @@ def test_background_writer_counts_only_chunks_in_the_file(tmp_path):
     got = recover(tmp_path / 'bag')   # the writer still open: what a kill would leave
     assert not got.complete and got.chunks == 1 and [m.data for m in got] == [bytes(data)]
     assert w.close().chunk_count == 1
+
+
+@pytest.mark.parametrize('background', [False, True])
+def test_an_appender_writes_what_write_writes(tmp_path, background):
+    """``appender(topic)(data, t)`` is ``write(topic, type, data, t, t, 0)``: the same records
+    in the same chunks (the files are equal byte for byte but for the directory's name in their
+    metadata), the same counts and times; an undeclared topic, a time that is no int in
+    [0, 2**64) ns and a closed writer are refused.
+    """
+    times = [T0 + i * 1_000_000 - (20_000_000 if i % 11 == 5 else 0) for i in range(700)]
+    summaries, records = {}, {}
+    for way in ('write', 'append'):
+        with BagWriter(tmp_path / way, chunk_messages=128, background=background) as w:
+            w.add_topic('/a', JS)
+            w.add_topic('/b', TWIST)
+            append = {'/a': w.appender('/a'), '/b': w.appender('/b')}
+            for i, t in enumerate(times):
+                topic, kind = ('/a', JS) if i % 3 else ('/b', TWIST)
+                data = bytes(TS.serialize_cdr(
+                    make_joint_state(i, t) if kind == JS else make_twist(i, t), kind))
+                if way == 'write':
+                    w.write(topic, kind, data, t)
+                else:
+                    append[topic](data, t)
+        summaries[way] = w.summary()
+        with open(tmp_path / way / f'{way}_0.mcap', 'rb') as f:
+            reader = make_reader(f, validate_crcs=True)
+            records[way] = [(c.topic, m.log_time, m.publish_time, m.sequence, bytes(m.data))
+                            for _, c, m in reader.iter_messages(log_time_order=False)]
+        validate(tmp_path / way)
+    assert records['write'] == records['append'] and len(records['write']) == 700
+    a, b = summaries['write'], summaries['append']
+    assert (a.message_count, a.start_time_ns, a.end_time_ns, a.chunk_count, a.late_messages) == (
+        b.message_count, b.start_time_ns, b.end_time_ns, b.chunk_count, b.late_messages)
+    assert a.late_messages > 0
+    assert {t: (s.message_count, s.first_log_time_ns, s.last_log_time_ns)
+            for t, s in a.topics.items()} == {t: (s.message_count, s.first_log_time_ns,
+                                                  s.last_log_time_ns) for t, s in b.topics.items()}
+
+    w = BagWriter(tmp_path / 'refused', background=background)
+    with pytest.raises(BagWriterError, match="'/nope' is not declared"):
+        w.appender('/nope')
+    w.add_topic('/a', JS)
+    append = w.appender('/a')
+    for bad in (-1, 2 ** 64, 1.5e18, None):
+        with pytest.raises(BagWriterError, match='time_ns'):
+            append(b'\x00\x01\x00\x00', bad)
+    w.close()
+    with pytest.raises(BagWriterError, match='closed'):
+        append(b'\x00\x01\x00\x00', T0)
+    assert w.summary().message_count == 0

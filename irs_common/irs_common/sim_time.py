@@ -15,7 +15,8 @@ node. ``guard_clock(node)`` replaces that subscription (``node._time_source._clo
 Step 2 sets each clock's override through its ``rcl_time_point_t`` handle (rclpy 7.1.6's
 ``Clock.set_ros_time_override`` without the ``Time`` object's validating constructor, which the
 check of step 1 already covers). Every sim-time node takes this callback once per step: four in
-a composed Figure 10 graph, 4,000 a second.
+a composed Figure 10 graph, 4,000 a second; the nodes of one process share the time point of a
+clock value.
 
 ``qos`` defaults to rclpy's own (best effort, depth 1: a node only needs the newest time); a ticker
 passes ``irs_common.qos.CLOCK`` (reliable, so no tick is lost between processes).
@@ -48,6 +49,12 @@ def time_point(ns: int) -> Time:
     return t
 
 
+#: The last clock value taken [ns] and its time point: the nodes of one process take each step's
+#: ``/clock`` one after the other, and a ``Time`` is immutable, so the second to fourth node of a
+#: composed Figure 10 step share the first one's.
+_last: tuple = (None, None)
+
+
 def guard_clock(node, on_clock=None, qos=TIME_SOURCE_QOS):
     """Replace the node's ``/clock`` subscription (module docstring); None without sim time."""
     source = node._time_source
@@ -63,12 +70,18 @@ def guard_clock(node, on_clock=None, qos=TIME_SOURCE_QOS):
             log.warning(f'/clock message ignored: {clock_problem(stamp)}',
                         throttle_duration_sec=1.0)
             return
+        global _last
         ns = sec * 1_000_000_000 + nanosec
-        source._last_time_set = time_point(ns)
-        handle = source._last_time_set._time_handle
+        point = _last[1] if _last[0] == ns else None
+        if point is None:   # not the time another node of the process has just taken
+            point = time_point(ns)
+            _last = (ns, point)
+        source._last_time_set = point
+        handle = point._time_handle
         for clock in source._associated_clocks:
-            with clock.handle:
-                clock.handle.set_ros_time_override(handle)
+            clock_handle = clock.handle
+            with clock_handle:
+                clock_handle.set_ros_time_override(handle)
         if on_clock is not None:
             on_clock(stamp, ns)
 

@@ -15,7 +15,7 @@ from rclpy.serialization import deserialize_message
 from std_msgs.msg import Float64, String
 
 from irs_common.executor import LeanExecutor
-from irs_common.intra_process import enabled_by_env
+from irs_common.intra_process import HANDOVER_SINK, enabled_by_env
 
 
 def _pair(context, qos_pub=10, qos_sub=10, raw=False, topic='ipc_x'):
@@ -106,6 +106,27 @@ def test_raw_subscription_with_info_gets_bytes_and_a_receive_time(context):
     data, info = got[0]
     assert deserialize_message(data, Float64).data == -1.0
     assert info['received_timestamp'] > 0 and info['publication_sequence_number'] is None
+
+
+def test_a_handover_sink_takes_the_raw_handovers_instead_of_the_callback(context):
+    a = rclpy.create_node('ipc_sink', context=context)
+    pub = a.create_publisher(Float64, 'ipc_sink', 10)
+    called, sunk = [], []
+    sub = a.create_subscription(Float64, 'ipc_sink', lambda data, info: called.append(data), 10,
+                                raw=True)
+    setattr(sub, HANDOVER_SINK, lambda data, t: sunk.append((data, t)))
+    ex = LeanExecutor(context=context, intra_process=True)
+    ex.add_node(a)
+    ex.spin_once(timeout_sec=0)
+    before = time.time_ns()
+    for x in (1.5, -2.0, 3.25):
+        pub.publish(Float64(data=x))
+    assert _spin_until(ex, lambda: len(sunk) == 3)
+    assert called == []
+    assert [deserialize_message(d, Float64).data for d, _ in sunk] == [1.5, -2.0, 3.25]
+    assert all(type(d) is bytes for d, _ in sunk)
+    times = [t for _, t in sunk]
+    assert before <= times[0] <= times[1] <= times[2] <= time.time_ns()
 
 
 def test_incompatible_qos_and_transient_local_are_not_routed(context):

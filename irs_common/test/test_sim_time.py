@@ -48,6 +48,24 @@ def test_the_guarded_callback_sets_every_clock_and_calls_on_clock(node):
     assert later.now().nanoseconds == node.get_clock().now().nanoseconds == 13_000_000_000
 
 
+def test_two_nodes_taking_one_clock_value_in_turn_both_follow_every_value(context, node):
+    other = Node('sim_time_other', context=context,
+                 cli_args=['--ros-args', '-p', 'use_sim_time:=true'])
+    try:
+        subs = (guard_clock(node), guard_clock(other))
+        for sec, nanosec in ((3, 0), (3, 1_000_000), (3, 1_000_000), (2, 999_999_999)):
+            for sub in subs:
+                sub.callback(_clock(sec, nanosec))
+            ns = sec * 1_000_000_000 + nanosec
+            assert node.get_clock().now().nanoseconds == ns
+            assert other.get_clock().now().nanoseconds == ns
+            # the TimeSource's last time (for a clock attached later) is that value too
+            assert node._time_source._last_time_set.nanoseconds == ns
+            assert other._time_source._last_time_set.nanoseconds == ns
+    finally:
+        other.destroy_node()
+
+
 @pytest.mark.parametrize('sec, nanosec', [(-1, 0), (5, 1_000_000_000)])
 def test_a_clock_that_is_no_time_is_dropped_and_the_clock_stays(node, sec, nanosec):
     ticks = []
