@@ -221,15 +221,15 @@ class IntraProcessBus:
             n += 1
             if sink is not None:
                 sink(raw(msg), time.time_ns())
-                continue
-            data = raw(msg) if raw else msg
-            if with_info:
+            elif with_info:
                 now = time.time_ns()
-                sub.callback(data, {'source_timestamp': now, 'received_timestamp': now,
-                                    'publication_sequence_number': None,
-                                    'reception_sequence_number': None})
+                sub._callback(raw(msg) if raw else msg,
+                              {'source_timestamp': now, 'received_timestamp': now,
+                               'publication_sequence_number': None,
+                               'reception_sequence_number': None})
             else:
-                sub.callback(data)
+                # rclpy 7.1.6: the callback property's attribute, read at each call
+                sub._callback(raw(msg) if raw else msg)
             if deadline is not None and time.monotonic_ns() >= deadline:
                 break
         return n
