@@ -17,8 +17,8 @@ Sections (each a function below; results go to ``bench/results/<time>.json`` and
   no SCHED_FIFO: the steering command answers the encoder sample of the same step);
 - ``lockstep``: Figure 10 in lock-step, process per node and composed: multiple of real time,
   CPU per step, and whether the two bags carry identical messages;
-- ``offline`` (bench/offline.py): the offline twin of the graph in steps/s against a
-  vectorised linear reference: the identified plant stepped by our core and by
+- ``offline`` (bench/offline.py): the offline twin of the graph in steps/s (the fastest of 3
+  runs) against a vectorised linear reference: the identified plant stepped by our core and by
   ``scipy.signal.dlsim``;
 - ``replay``: ``bag play`` timing error at 1x, what the recorder keeps of 13 topics x 1 kHz and
   its CPU per message (replay);
