@@ -613,7 +613,15 @@ def test_an_appender_writes_what_write_writes(tmp_path, background):
     for bad in (-1, 2 ** 64, 1.5e18, None):
         with pytest.raises(BagWriterError, match='time_ns'):
             append(b'\x00\x01\x00\x00', bad)
+    with pytest.raises(BagWriterError, match='data must be bytes, got str'):
+        append('\x00\x01\x00\x00', T0)
+    buffer = bytearray(b'\x00\x01\x00\x00\x07')
+    append(buffer, T0)
+    buffer[4] = 9                   # the writer copied it: the bag keeps what was appended
     w.close()
+    with open(tmp_path / 'refused' / 'refused_0.mcap', 'rb') as f:
+        assert [bytes(m.data) for _, _, m in make_reader(f).iter_messages()] == [
+            b'\x00\x01\x00\x00\x07']
     with pytest.raises(BagWriterError, match='closed'):
         append(b'\x00\x01\x00\x00', T0)
-    assert w.summary().message_count == 0
+    assert w.summary().message_count == 1
