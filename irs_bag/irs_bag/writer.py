@@ -476,15 +476,8 @@ class BagWriter:
             elif stats.type != type_name:
                 raise BagWriterError(
                     f'topic {topic!r} has type {stats.type!r}, cannot write a {type_name!r}')
-            payload = bytes(data)
-            self._note(stats, lt)
-            self._pending.append((lt, self._arrival, self._channels[topic], payload, pt,
-                                  int(sequence) & 0xFFFFFFFF))
-            self._arrival += 1
-            self._pending_bytes += len(payload) + 31  # Message record overhead
-            if (self._pending_bytes >= self._chunk_size
-                    or len(self._pending) >= self._chunk_messages):
-                self._flush_chunk()
+            self._add(stats, self._channels[topic], bytes(data), lt, pt,
+                      int(sequence) & 0xFFFFFFFF)
 
     def appender(self, topic: str) -> Callable[[bytes, int], None]:
         """``append(data, time_ns)``: :meth:`write` of one declared topic for a caller that
@@ -508,26 +501,15 @@ class BagWriter:
             if stats is None:
                 raise BagWriterError(f'appender: topic {topic!r} is not declared')
             channel = self._channels[topic]
-        lock, pending = self._lock, self._pending
+        lock, add = self._lock, self._add
 
         def append(data: bytes, t: int) -> None:
-            nonlocal pending
             with lock:
                 if self._closed or self._thread_error is not None:
                     self._check_open()
                 if type(t) is not int or not 0 <= t < _TIME_END:
                     t = self._check_time(t, 'time_ns')
-                if type(data) is not bytes:
-                    data = self._copy(data)
-                if pending is not self._pending:
-                    pending = self._pending     # a chunk was cut: the new buffer
-                self._note(stats, t)
-                pending.append((t, self._arrival, channel, data, t, 0))
-                self._arrival += 1
-                self._pending_bytes += len(data) + 31  # Message record overhead
-                if (self._pending_bytes >= self._chunk_size
-                        or len(pending) >= self._chunk_messages):
-                    self._flush_chunk()
+                add(stats, channel, data if type(data) is bytes else self._copy(data), t, t, 0)
         return append
 
     def record_drop(self, topic: str, n: int = 1) -> None:
@@ -677,8 +659,11 @@ class BagWriter:
             raise BagWriterError(f'data must be bytes, got {type(data).__name__}')
         return bytes(data)
 
-    def _note(self, stats: TopicStats, lt: int) -> None:
-        """Count one message of log time ``lt`` [ns] in ``stats`` and the bag's totals."""
+    def _add(self, stats: TopicStats, channel: int, payload: bytes, lt: int, pt: int,
+             sequence: int) -> None:
+        """Buffer one checked message of log time ``lt`` [ns], count it in ``stats`` and the
+        bag's totals, and cut the chunk when it is full (the lock is held).
+        """
         stats.message_count += 1
         if stats.first_log_time_ns is None or lt < stats.first_log_time_ns:
             stats.first_log_time_ns = lt
@@ -693,6 +678,12 @@ class BagWriter:
         self._count += 1
         if self._written_end is not None and lt < self._written_end:
             self._late += 1
+        self._pending.append((lt, self._arrival, channel, payload, pt, sequence))
+        self._arrival += 1
+        self._pending_bytes += len(payload) + 31  # Message record overhead
+        if (self._pending_bytes >= self._chunk_size
+                or len(self._pending) >= self._chunk_messages):
+            self._flush_chunk()
 
     def _flush_chunk(self) -> None:
         """Cut the buffer as one chunk: written now, or queued for the writer thread."""
