@@ -251,6 +251,14 @@ class IdentifiedPlant(ZohSteps):
     realisation's ``z1 = delta / (s^2 + d1 s + d0)``, ``z2 = z1'``: ``r = e1 z2 + e0 z1``,
     ``psi' = r``, and the c.g. lateral velocity ``v = v_s - U psi - ds r`` (linear,
     ``v_s = v + U psi + ds r``).  y_s is unchanged (same G(s)).
+
+    The state is kept as plain floats. A step is ``x <- Ad x + Bd_front delta``: with the
+    kinematic heading (4 states) each row is summed as ``((a0 x0 + a2 x2) + (a1 x1 + a3 x3)) +
+    b delta``, which is how numpy's OpenBLAS kernels ``Haswell`` and ``SkylakeX`` sum a 4 x 4
+    matrix-vector product (no fused multiply-add), so the results are numpy's to the bit there
+    and cost no numpy call; the 5-state bicycle heading steps through numpy (no sum of floats
+    reproduces its 5 x 5 product). ``docs/performance.md`` ("Where the time goes") shows
+    the check.
     """
 
     def __init__(self, params: IdentifiedParams | None = None):
@@ -278,14 +286,18 @@ class IdentifiedPlant(ZohSteps):
             self.A = A
             self.B = np.vstack([self.B, [[0.0]]])
             self.C = np.hstack([self.C, [[0.0]]])
-        self.x = np.zeros(self.A.shape[0])
+        self._x = (0.0,) * self.A.shape[0]      # the state [y_s, v_s, z1, z2 (, psi)]
         self._delta = 0.0
         self._step_zoh = None
 
+    @property
+    def x(self) -> np.ndarray:
+        """The state ``[y_s, v_s, z1, z2]`` (and ``psi`` with the bicycle heading), a copy."""
+        return np.array(self._x)
+
     def reset(self, y_s: float = 0.0) -> None:
         """Zero state with the sensor point at lateral position ``y_s`` [m], heading 0."""
-        self.x = np.zeros(self.A.shape[0])
-        self.x[0] = float(y_s)
+        self._x = (float(y_s),) + (0.0,) * (len(self._x) - 1)
         self._delta = 0.0
 
     def step(self, delta_front: float, delta_rear: float = 0.0, dt: float = 1e-3) -> None:
@@ -293,16 +305,25 @@ class IdentifiedPlant(ZohSteps):
         zoh = self._step_zoh
         if zoh is None or zoh[0] != dt:   # Phi and the steer column of Gamma, per step size
             Ad, Bd = self.discrete(dt)
-            zoh = self._step_zoh = (dt, Ad, Bd[:, 0])
+            rows = None
+            if Ad.shape == (4, 4):        # each row (a0, a1, a2, a3, b) as floats
+                rows = tuple(tuple(float(v) for v in (*a, b)) for a, b in zip(Ad, Bd[:, 0]))
+            zoh = self._step_zoh = (dt, Ad, Bd[:, 0], rows)
         delta = float(delta_front)
-        self.x = zoh[1] @ self.x + zoh[2] * delta
+        rows = zoh[3]
+        if rows is not None:              # numpy's order of the 4 x 4 product (class docstring)
+            x0, x1, x2, x3 = self._x
+            self._x = tuple([((a0 * x0 + a2 * x2) + (a1 * x1 + a3 * x3)) + b * delta
+                             for a0, a1, a2, a3, b in rows])
+        else:
+            self._x = tuple((zoh[1] @ np.array(self._x) + zoh[2] * delta).tolist())
         self._delta = delta
 
     # ---------------------------------------------------------- outputs
     @property
     def y_s(self) -> float:
         """Sensor-point lateral displacement [m]."""
-        return float(self.x[0])
+        return self._x[0]
 
     @property
     def psi(self) -> float:
@@ -310,8 +331,8 @@ class IdentifiedPlant(ZohSteps):
         physical: no sideslip, no ds r term).
         """
         if self.bicycle is not None:
-            return float(self.x[4])
-        return float(self.x[1]) / self.params.speed
+            return self._x[4]
+        return self._x[1] / self.params.speed
 
     @property
     def y_cg(self) -> float:
@@ -323,9 +344,11 @@ class IdentifiedPlant(ZohSteps):
         """r [rad/s]: the realisation's ``e1 z2 + e0 z1``, or the kinematic ``a_s / U`` with the
         last held steer input (not physical, see module).
         """
+        x = self._x
         if self.bicycle is not None:
-            return float(self._e1 * self.x[3] + self._e0 * self.x[2])
-        a_s = float(self.Ca[0] @ self.x[:4] + self.Da[0, 0] * self._delta)
+            return self._e1 * x[3] + self._e0 * x[2]
+        # numpy's dot product (its kernels fuse multiply and add here: no sum of floats is equal)
+        a_s = float(self.Ca[0] @ np.array(x) + self.Da[0, 0] * self._delta)
         return a_s / self.params.speed
 
     @property
@@ -334,7 +357,7 @@ class IdentifiedPlant(ZohSteps):
         realisation, 0 for the kinematic heading (no sideslip state).
         """
         if self.bicycle is not None:
-            return float(self.x[1]) - self.params.speed * self.psi - self.params.ds * self.yaw_rate
+            return self._x[1] - self.params.speed * self.psi - self.params.ds * self.yaw_rate
         return 0.0
 
 
