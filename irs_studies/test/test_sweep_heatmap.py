@@ -55,3 +55,19 @@ def test_binary_metric_in_two_colours(tmp_path, figures):
     assert len(colours) == 2
     bar = figures[0].axes[-1]
     assert [t.get_text() for t in bar.get_yticklabels()] == ['0 (no)', '1 (yes)']
+
+
+def test_the_summary_tells_refused_points_from_points_not_run_and_from_a_nan_metric():
+    from types import SimpleNamespace
+    from irs_studies.sweep.plots import summary_markdown
+    rows = _rows([[0.005, float('nan'), 0.02], [0.03, 0.04, 0.05]], [[1, 1, 1], [1, 1, 1]])
+    rows[2]['error'] = 'RstDesignError: not designable'     # gain 2.0, delay 0.0: refused
+    rows[2]['ise'] = float('nan')
+    del rows[4]                                              # gain 1.0, delay 0.05: not run
+    sweep = SimpleNamespace(name='sw', description='a test sweep', plots=[], metrics=['ise'],
+                            axes=[SimpleNamespace(name='gain'), SimpleNamespace(name='delay')])
+    text = summary_markdown(rows, sweep, {'ise': 'm^2 s'})
+    table = [ln for ln in text.splitlines() if ln.startswith('| 0')]
+    assert table == ['| 0 | 0.005 | nan | refused |', '| 0.05 | 0.03 |  | 0.05 |']
+    assert '5 points, 1 refused by the cores' in text
+    assert '- RstDesignError: not designable' in text

@@ -7,7 +7,9 @@
   colours), diverged points crossed out, the values written in the cells; ``boundary`` plots
   add the contour where the metric crosses the threshold (``matplotlib.contour`` on the grid:
   the metric linearly interpolated between grid points) and hatch the cells below it.
-* :func:`summary_markdown` -- per metric and facet, the x-by-y table of :func:`grid`.
+* :func:`summary_markdown` -- per metric and facet, the x-by-y table of :func:`grid`: a cell
+  with no point run yet is empty, one whose points were all refused by the cores says
+  ``refused``.
 """
 from __future__ import annotations
 
@@ -46,11 +48,33 @@ def _fmt(v):
     return f'{v:.3g}'
 
 
+def _cell_text(rows, x, y, xs, ys, Z, where=None):
+    """``T[j][i]``: the value of ``Z[j, i]``, ``'refused'`` where every point at ``(xs[i],
+    ys[j])`` was refused by the cores, ``''`` where none has run.
+    """
+    sel = [r for r in rows if not where or all(r[k] == v for k, v in where.items())]
+    text = []
+    for j, yv in enumerate(ys):
+        row = []
+        for i, xv in enumerate(xs):
+            here = [r for r in sel if r[x] == xv and r[y] == yv]
+            if not here:
+                row.append('')
+            elif all(r['error'] for r in here):
+                row.append('refused')
+            else:
+                row.append(_fmt(Z[j, i]))
+        text.append(row)
+    return text
+
+
 def summary_markdown(rows, sweep, units) -> str:
-    """Markdown: the sweep's description, then per plotted metric and facet the x-by-y table."""
+    """Markdown: the sweep's description, then per plotted metric and facet the x-by-y table
+    (an empty cell: not run yet; ``refused``: refused by the cores, the reasons at the end).
+    """
     lines = [f'# Sweep {sweep.name}', '', sweep.description, '',
-             f'{len(rows)} points, {sum(bool(r["error"]) for r in rows)} refused by the cores.',
-             '']
+             f'{len(rows)} points, {sum(bool(r["error"]) for r in rows)} refused by the cores. '
+             'In the tables an empty cell has not run yet.', '']
     tables = [(p.x, p.y, p.metric, p.facet) for p in sweep.plots] or []
     if not tables:
         names = [a.name for a in sweep.axes]
@@ -63,14 +87,16 @@ def summary_markdown(rows, sweep, units) -> str:
         seen.add((x, y, metric, facet))
         facets = _axis_order(rows, facet) if facet else [None]
         for f in facets:
-            xs, ys, Z = grid(rows, x, y, metric, {facet: f} if facet else None)
+            where = {facet: f} if facet else None
+            xs, ys, Z = grid(rows, x, y, metric, where)
+            text = _cell_text(rows, x, y, xs, ys, Z, where)
             title = f'{metric} [{units.get(metric, "")}]' + (f', {facet} = {f}' if facet else '')
             lines += [f'## {title}', '', f'| {y} \\ {x} | ' + ' | '.join(_fmt(v) if isinstance(
                 v, float) else str(v) for v in xs) + ' |',
                 '|' + '---|' * (len(xs) + 1)]
             for j, yv in enumerate(ys):
                 lines.append(f'| {_fmt(yv) if isinstance(yv, float) else yv} | '
-                             + ' | '.join(_fmt(v) for v in Z[j]) + ' |')
+                             + ' | '.join(text[j]) + ' |')
             lines.append('')
     errors = sorted({r['error'] for r in rows if r['error']})
     if errors:
