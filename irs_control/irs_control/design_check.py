@@ -140,9 +140,12 @@ class DesignCheck:
         p = self.unstable_poles() if not self.stable_without_delay else \
             self.poles[np.argsort(-self.poles.real)][:3]
         shown = ', '.join(fmt(z) for z in p if z.imag >= -1e-9 * abs(z)) or 'none'
+        # A stable loop with a gain margin below 1 is conditionally stable: it loses
+        # stability if its gain falls below that factor. An unstable loop's margin says no such
+        # thing, so it is printed bare.
         gm = 'inf' if not math.isfinite(self.gain_margin) else f'{self.gain_margin:.3g}' + (
             ' (a lower margin: unstable below that factor of the gain)'
-            if self.gain_margin < 1.0 else '')
+            if self.gain_margin < 1.0 and self.stable else '')
         pm = 'inf' if not math.isfinite(self.phase_margin) else f'{self.phase_margin:.3g} deg'
         td = f'{1000 * self.delay:.3g} ms'
         dm = ('inf' if math.isinf(self.delay_margin) and self.delay_margin > 0

@@ -128,6 +128,9 @@ def test_paper_mrc_designs_are_unstable_on_irs_2wd(name, expect_real):
     msg = str(exc.value)
     assert '\n' not in msg and "'irs_2wd' UNSTABLE" in msg and 'allow_unstable_design' in msg
     assert f'{chk.max_real:+.3g}' in msg
+    # its gain margin is below 1, and for an unstable loop that is no lower margin
+    assert chk.gain_margin < 1.0 and f'gain margin {chk.gain_margin:.3g},' in chk.summary()
+    assert 'unstable below' not in chk.summary()
     _chk, warning, ok = require_stable({**cfg, 'allow_unstable_design': True}, spec.controller,
                                        spec.design)
     assert not ok and 'running anyway' in warning
@@ -240,3 +243,13 @@ def test_a_p_controller_has_no_integrator_pole_and_winds_up_no_integral():
     as_pi = check_design(B, A, [1.0, 0.0], [0.5, 0.0], (np.eye(1), np.zeros((1, 1)), np.eye(1),
                                                         -0.5 * np.eye(1)), cfg['dt'])
     assert not as_pi.stable and np.isclose(as_pi.max_real, 0.0)    # the integrator's pole at 0
+
+
+def test_a_stable_loop_with_a_gain_margin_below_one_is_called_conditionally_stable():
+    from irs_control.design_check import DesignCheck
+    check = DesignCheck('identified', poles=np.array([-2.0, -3.0 + 1.0j, -3.0 - 1.0j]),
+                        discrete_poles=np.array([0.998, 0.997]), gain_margin=0.5,
+                        phase_margin=40.0, wcg=3.0, wcp=5.0, delay=0.0, delay_margin=0.1)
+    assert check.stable
+    assert 'gain margin 0.5 (a lower margin: unstable below that factor of the gain)' \
+        in check.summary(), check.summary()
