@@ -16,9 +16,14 @@ running maximum of the played messages' ``header.stamp`` (or leading Time) and o
 (:func:`irs_bag.stamps.clock_mode`), else ``log``. ``--start-offset`` is in log time. The
 publishing, the ``/clock`` lead-in and the schedule are in :mod:`irs_bag.player`.
 
+A remap's names must be valid ROS topic names, and no two played topics (nor ``/clock`` with
+``--clock``) may land on one name with different types; both are checked here, before anything
+is published.
+
 An unfinished or damaged bag plays its readable part (one warning line on stderr).
 Exit codes: 0 played; 1 timeout waiting for subscribers; 2 unreadable bag (one line naming the
-file and what is wrong) or usage error (e.g. unknown topic); 130 interrupted by SIGINT
+file and what is wrong) or usage error (e.g. unknown topic, a bad ``--ros-args``); 130
+interrupted by SIGINT
 (Ctrl-C: also the usual way to end ``--loop``), 143 by SIGTERM.
 """
 from __future__ import annotations
@@ -26,6 +31,7 @@ from __future__ import annotations
 import argparse
 import importlib
 import math
+import re
 import signal
 import sys
 from dataclasses import dataclass, field
@@ -47,6 +53,11 @@ def _import_type(type_name: str):
     return getattr(importlib.import_module(f'{pkg}.{sub}'), name)
 
 
+#: A fully qualified ROS 2 topic name, as rcl validates one: tokens of letters, digits and
+#: ``_`` after each ``/``, none starting with a digit.
+_TOPIC_NAME = re.compile(r'(/[A-Za-z_][A-Za-z0-9_]*)+')
+
+
 def _parse_remaps(items) -> Dict[str, str]:
     out = {}
     for item in items or []:
@@ -56,8 +67,24 @@ def _parse_remaps(items) -> Dict[str, str]:
         old, new = old.strip(), new.strip()
         if not old or not new:
             raise UsageError(f'--remap expects OLD:=NEW, got {item!r}')
-        out[old if old.startswith('/') else '/' + old] = new if new.startswith('/') else '/' + new
+        old, new = (n if n.startswith('/') else '/' + n for n in (old, new))
+        if not _TOPIC_NAME.fullmatch(new):
+            raise UsageError(f'--remap {item}: {new!r} is not a valid ROS topic name (letters, '
+                             'digits and _ after each /, no token starting with a digit)')
+        out[old] = new
     return out
+
+
+def _check_names(wanted: List[str], infos, remaps: Dict[str, str], clock: bool) -> None:
+    """UsageError if two topics would be published on one name with different types."""
+    published: Dict[str, tuple] = {'/clock': ('rosgraph_msgs/msg/Clock', '--clock')} \
+        if clock else {}
+    for t in wanted:
+        name, kind = remaps.get(t, t), infos[t].type
+        other = published.setdefault(name, (kind, t))
+        if other[0] != kind:
+            raise UsageError(f'--remap: {t} ({kind}) and {other[1]} ({other[0]}) would both be '
+                             f'published on {name}')
 
 
 def _pace_times(msgs: List[BagMessage], stamp_of, clock_msgs: List[BagMessage]) -> List[int]:
@@ -126,6 +153,7 @@ def _selection(args, infos, remaps: Dict[str, str]) -> List[str]:
     for old in remaps:
         if old not in wanted:
             raise UsageError(f'--remap: topic {old} is not played')
+    _check_names(wanted, infos, remaps, args.clock)
     return wanted
 
 

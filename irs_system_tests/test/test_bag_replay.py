@@ -145,11 +145,19 @@ def test_replay_start_offset_and_usage_errors(ros, launch, tmp_path):
                        (['play', bag, '--remap', 'a=b'], 2),
                        (['play', bag, '--rate', '-1'], 2),
                        (['play', bag, '--ack-timeout', 'nan'], 2),
-                       (['play', bag, '--start-offset', 'inf'], 2)):
+                       (['play', bag, '--start-offset', 'inf'], 2),
+                       # names rcl refuses, and two types on one name: refused before ROS starts
+                       (['play', bag, '--remap', '/a:=not/valid/@@'], 2),
+                       (['play', bag, '--remap', '/a:=/1a'], 2),
+                       (['play', bag, '--clock', '--remap', '/a:=/clock'], 2),
+                       # a bad --ros-args: rclpy.init refuses it
+                       (['play', bag, '--ros-args', '--bogus'], 2),
+                       (['play', bag, '--ros-args', '-p', 'kp'], 2)):
         res = subprocess.run([exe, *map(str, args)], capture_output=True, text=True,
                              timeout=60)
         assert res.returncode == code, (args, res.stderr)
         assert 'Traceback' not in res.stderr and 'error' in res.stderr
+        assert 'internal error' not in res.stderr, (args, res.stderr)
 
 
 def timed_bag(path, n, log_step_ns, stamp_step_ns, lockstep=False, clock=False):
