@@ -281,8 +281,12 @@ def experiments_dir() -> Path:
 
 def find_experiment(name_or_path: str) -> Path:
     """A path as given, or ``<name>.yaml`` among the installed experiments."""
+    if not name_or_path:
+        raise ExperimentError('no experiment named (an empty argument)')
     p = Path(name_or_path)
     if p.suffix in ('.yaml', '.yml') or p.exists():
+        if p.is_dir():
+            raise ExperimentError(f'experiment file {p} is a directory, not a file')
         if not p.is_file():
             raise ExperimentError(f'experiment file {p} does not exist')
         return p

@@ -296,9 +296,10 @@ class ExperimentRunner:
                 what = (f"process '{name}' (nodes {', '.join(self.members[name])})"
                         if name in self.members else f"node '{name}'")
                 hint = ''
-                if 'recorder' in self.members.get(name, [name]):
-                    hint = (f"; the bag is unfinished: `bag recover {self.run_dir / 'bag'}` "
-                            f'writes a closed copy of what it recorded')
+                bag = self.run_dir / 'bag'
+                if 'recorder' in self.members.get(name, [name]) and any(bag.glob('*.mcap')):
+                    hint = (f'; the bag is unfinished: `bag recover {bag}` writes a closed '
+                            f'copy of what it recorded')
                 raise ExperimentFailed(f'{what} died (exit code {code}){hint}',
                                        f'its last output:\n{proc.tail(15)}')
 

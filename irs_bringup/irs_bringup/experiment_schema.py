@@ -245,6 +245,8 @@ def resolve_params_ref(ref: str) -> Path:
             raise ValueError(f"'{ref}': package '{package}' is not in the ament index") from None
     else:
         path = Path(ref)
+    if path.is_dir():
+        raise ValueError(f"parameter file '{ref}' is a directory, not a file ({path})")
     if not path.is_file():
         raise ValueError(f"parameter file '{ref}' not found ({path})")
     return path
@@ -279,11 +281,20 @@ def environment_problems(model: ExperimentModel) -> list:
                 problems.append((f'nodes.{name}.executable',
                                  f"no executable '{entry.executable}' in package "
                                  f"'{entry.package}' (it has: {', '.join(names) or 'none'})"))
+        paths = []
         for i, ref in enumerate(entry.params_files):
             try:
-                params_file_sections(resolve_params_ref(ref))
+                path = resolve_params_ref(ref)
+                params_file_sections(path)
+                paths.append(path)
             except ValueError as exc:
                 problems.append((f'nodes.{name}.params_files[{i}]', str(exc)))
+        if len(paths) == len(entry.params_files):
+            # what the node would refuse at start: a file with no section for it (a misspelt
+            # node name), a parameter two files give different types (nodes run under /)
+            from irs_common.params import params_file_problems
+            problems += [(f'nodes.{name}.params_files', p)
+                         for p in params_file_problems(paths, f'/{name}')]
     return problems
 
 

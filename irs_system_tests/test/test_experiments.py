@@ -105,6 +105,25 @@ def test_killing_a_node_ends_the_run_with_a_clear_message(tmp_path):
     assert doc['duration'] == 60.0 and doc['experiment'] == 'figure10_mrc_with_actuator'
 
 
+def test_a_node_refusing_to_start_names_no_bag_that_was_never_written(tmp_path):
+    """An unstable PI design (kp 400): the composed process's lateral controller refuses it at
+    start, before the recorder has written anything, so the message must not send the user to
+    ``bag recover`` (there is no bag to recover).
+    """
+    from irs_bringup.experiment import find_experiment
+    from irs_bringup.experiment_cli import run_experiment
+    doc = yaml.safe_load(find_experiment('figure10_pi').read_text())
+    doc['name'] = 'unstable_pi'
+    doc['nodes']['lateral_controller']['params']['kp'] = 400.0
+    path = tmp_path / 'unstable_pi.yaml'
+    path.write_text(yaml.safe_dump(doc))
+    result = run_experiment(str(path), runs_dir=tmp_path, plots=False)
+    assert not result.completed
+    assert 'died (exit code 2)' in result.message, result.message
+    assert not list((result.run_dir / 'bag').glob('*.mcap'))
+    assert 'bag recover' not in result.message, result.message
+
+
 def test_a_controlled_stop_of_the_rig_is_logged_once_and_named_in_the_result(tmp_path):
     """Real time, composed: the loop's process stopped for 1.2 s (SIGSTOP) falls more than the
     stall grace behind real time and the rig stops car and belt under control. The runner logs
@@ -508,6 +527,38 @@ def test_schema_not_yaml_and_not_a_mapping(tmp_path):
         with pytest.raises(ExperimentError) as info:
             load_experiment(str(path))
         assert str(info.value).startswith(f'{path}: ') and what in str(info.value)
+        assert '\n' not in str(info.value)
+
+
+def test_a_directory_or_an_empty_name_is_no_experiment_file(tmp_path):
+    folder = tmp_path / 'adir.yaml'
+    folder.mkdir()
+    for arg, what in ((str(folder), f'experiment file {folder} is a directory, not a file'),
+                      (str(tmp_path), f'experiment file {tmp_path} is a directory, not a file'),
+                      ('', 'no experiment named (an empty argument)')):
+        with pytest.raises(ExperimentError) as info:
+            load_experiment(arg)
+        assert str(info.value) == what
+
+
+def test_a_params_file_the_node_would_refuse_is_refused_before_start(tmp_path):
+    """A directory, a file with no section for the node, two types for one parameter."""
+    misspelt = tmp_path / 'misspelt.yaml'
+    misspelt.write_text('treadmill_regulatr:\n  ros__parameters:\n    rate_hz: 100.0\n')
+    retyped = tmp_path / 'retyped.yaml'
+    retyped.write_text('treadmill_regulator:\n  ros__parameters:\n    rate_hz: 100.0\n')
+    retyped2 = tmp_path / 'retyped2.yaml'
+    retyped2.write_text('treadmill_regulator:\n  ros__parameters:\n    rate_hz: [1.0]\n')
+    for files, what in (
+            ([str(tmp_path)],
+             r"params_files\[0\]: parameter file '.*' is a directory, not a file"),
+            ([str(misspelt)], r'params_files: --params-file .*misspelt.yaml: no section for node '
+                              r'/treadmill_regulator: it has treadmill_regulatr \(a misspelt'),
+            ([str(retyped), str(retyped2)], r"params_files: parameter 'rate_hz' of node "
+                                            r'/treadmill_regulator: .*retyped.yaml gives')):
+        doc = _doc(nodes__treadmill_regulator__params_files=files)
+        with pytest.raises(ExperimentError, match=what) as info:
+            load_experiment(str(_write(tmp_path, doc)))
         assert '\n' not in str(info.value)
 
 
