@@ -127,9 +127,18 @@ class Plan:
 
 def _check_options(args):
     """(rate, subscribers to wait for) from the options; UsageError for bad values."""
-    rate = 0.0 if args.fast else args.rate
-    if rate < 0 or rate != rate:
-        raise UsageError(f'--rate must be >= 0, got {args.rate}')
+    if args.fast and args.rate is not None:
+        raise UsageError('--fast and --rate: give one (--fast is --rate 0)')
+    rate = 0.0 if args.fast else 1.0 if args.rate is None else args.rate
+    if not (0.0 <= rate < math.inf):
+        raise UsageError(f'--rate must be a finite factor >= 0 (0: as fast as possible), '
+                         f'got {args.rate}')
+    if args.qos_depth < 1:
+        raise UsageError(f'--qos-depth must be at least 1, got {args.qos_depth}')
+    if args.wait_for_subscribers < 0:
+        raise UsageError(f'--wait-for-subscribers must be >= 0, got {args.wait_for_subscribers}')
+    if args.clock_from != 'auto' and not args.clock:
+        raise UsageError(f'--clock-from {args.clock_from} without --clock: no /clock is played')
     for option, value in (('--start-offset', args.start_offset),
                           ('--wait-timeout', args.wait_timeout),
                           ('--ack-timeout', args.ack_timeout)):
@@ -220,7 +229,7 @@ def build_parser() -> argparse.ArgumentParser:
     p = argparse.ArgumentParser(
         prog='bag play', description='Replay a rosbag2 MCAP bag onto its topics.')
     p.add_argument('bag', help='bag directory or .mcap file')
-    p.add_argument('--rate', type=float, default=1.0,
+    p.add_argument('--rate', type=float, default=None,
                    help='playback rate factor (default 1.0; 0 = as fast as possible)')
     p.add_argument('--fast', action='store_true', help='as fast as possible (= --rate 0)')
     p.add_argument('--pace', choices=('auto', 'header', 'log'), default='auto',

@@ -6,6 +6,8 @@ whatever ends it into one line on stderr, ``<prog>: error: <what>``, and an exit
 :data:`EXIT_CODES` (the table of docs/cli.md):
 
 * :class:`InputError` (a bad file, argument, bag; the message names it): exit 2;
+* a command line ``argparse`` refuses (an unknown option, ``--duration abc``): its message on
+  one line with a pointer to ``--help``, not the usage block, exit 2;
 * :class:`RunFailed` (a run the command needs did not complete): exit 1;
 * ``OSError`` (a file that cannot be read or written, a refused connection): exit 2;
 * SIGINT, SIGTERM, SIGHUP: the command's clean-up runs, then exit 128 + the signal number;
@@ -19,6 +21,8 @@ process at once with ``os._exit(128 + signum)``.
 """
 from __future__ import annotations
 
+import argparse
+import contextlib
 import os
 import re
 import signal
@@ -201,6 +205,25 @@ def warning(prog: str, text) -> None:
     print(f'{prog}: warning: {one_line(text)}', file=sys.stderr, flush=True)
 
 
+@contextlib.contextmanager
+def _one_line_usage_errors():
+    """While a command runs, ``argparse``'s refusals are one line (``<prog>: error: <message>
+    (<prog> --help shows the usage)``, exit 2) instead of the usage block and the message. The
+    parsers are built inside each command (27 of them, subcommand parsers among them), so the
+    method is swapped here, at the one top level, and put back after.
+    """
+    original = argparse.ArgumentParser.error
+
+    def error(parser, message):
+        parser.exit(EXIT_INPUT, f'{parser.prog}: error: {one_line(message)} '
+                                f'({parser.prog} --help shows the usage)\n')
+    argparse.ArgumentParser.error = error
+    try:
+        yield
+    finally:
+        argparse.ArgumentParser.error = original
+
+
 def run_cli(prog: str, main, argv=None) -> int:
     """Run ``main(argv)`` as the command ``prog``; its exit code (module docstring).
 
@@ -211,7 +234,8 @@ def run_cli(prog: str, main, argv=None) -> int:
     guard = GUARD = SignalGuard()
     try:
         guard.install()     # inside the try: a signal between two handlers' installation too
-        code = main(argv)
+        with _one_line_usage_errors():
+            code = main(argv)
         if guard.signum is not None:     # stopped through on_first: the command returned
             return 128 + guard.signum
         return EXIT_OK if code is None else int(code)

@@ -50,6 +50,29 @@ def test_return_value_and_usage_exit_pass_through(capsys):
         run_cli('prog', lambda _a: sys.exit(2), [])
 
 
+def test_a_refused_command_line_is_one_line_with_a_pointer_to_help(capsys):
+    import argparse
+
+    def main(argv):
+        parser = argparse.ArgumentParser(prog='prog run')
+        parser.add_argument('--duration', type=float)
+        parser.add_argument('--pace', choices=('log', 'header'))
+        parser.parse_args(argv)
+    for argv, what in ((['--duration', 'abc'], "argument --duration: invalid float value: 'abc'"),
+                       (['--pace', 'foo'], "argument --pace: invalid choice: 'foo'"),
+                       (['--bogus'], 'unrecognized arguments: --bogus')):
+        with pytest.raises(SystemExit) as info:
+            run_cli('prog', main, argv)
+        assert info.value.code == EXIT_INPUT
+        err = capsys.readouterr().err
+        assert err.count('\n') == 1 and err.startswith(f'prog run: error: {what}'), err
+        assert err.rstrip().endswith('(prog run --help shows the usage)'), err
+    # argparse is itself again after the command
+    with pytest.raises(SystemExit):
+        argparse.ArgumentParser(prog='plain').parse_args(['--bogus'])
+    assert capsys.readouterr().err.startswith('usage: plain')
+
+
 def test_in_process_call_gives_the_handlers_back():
     before = {s: signal.getsignal(s) for s in (signal.SIGINT, signal.SIGTERM, signal.SIGHUP)}
     run_cli('prog', lambda _a: 0, [])

@@ -150,6 +150,12 @@ def test_replay_start_offset_and_usage_errors(ros, launch, tmp_path):
                        (['play', bag, '--remap', '/a:=not/valid/@@'], 2),
                        (['play', bag, '--remap', '/a:=/1a'], 2),
                        (['play', bag, '--clock', '--remap', '/a:=/clock'], 2),
+                       # values with no meaning, and options that contradict each other
+                       (['play', bag, '--rate', 'inf'], 2),
+                       (['play', bag, '--fast', '--rate', '2'], 2),
+                       (['play', bag, '--qos-depth', '0'], 2),
+                       (['play', bag, '--wait-for-subscribers', '-1'], 2),
+                       (['play', bag, '--clock-from', 'header'], 2),
                        # a bad --ros-args: rclpy.init refuses it
                        (['play', bag, '--ros-args', '--bogus'], 2),
                        (['play', bag, '--ros-args', '-p', 'kp'], 2)):
