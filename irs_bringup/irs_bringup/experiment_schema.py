@@ -212,6 +212,8 @@ def _message(err) -> tuple[str, str]:
 
 def validate_document(doc) -> tuple[ExperimentModel | None, list]:
     """The validated model, or None and ``[(key path, message)]``."""
+    if doc is None:
+        return None, [('(top level)', 'the file is empty: a mapping of keys expected')]
     if not isinstance(doc, dict):
         return None, [('(top level)', f'a mapping of keys expected, got {_short(doc)}')]
     try:

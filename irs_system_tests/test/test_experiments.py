@@ -522,6 +522,8 @@ def test_schema_bad_file_is_one_line_naming_file_key_and_problem(tmp_path, case)
 
 def test_schema_not_yaml_and_not_a_mapping(tmp_path):
     for text, what in (('name: [unclosed\n', 'not valid YAML'),
+                       ('', '(top level): the file is empty: a mapping of keys expected'),
+                       ('# only a comment\n', '(top level): the file is empty'),
                        ('- a\n- b\n', "(top level): a mapping of keys expected, got ['a', 'b']")):
         path = _write(tmp_path, text)
         with pytest.raises(ExperimentError) as info:
