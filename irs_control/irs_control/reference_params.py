@@ -17,7 +17,8 @@ _FIELDS = {'constant': ('offset',), 'step': ('amplitude', 'start_time', 'offset'
 
 
 def _signal_type(value):
-    return None if value in _FIELDS else f'expected one of {sorted(_FIELDS)}'
+    return None if value in _FIELDS else \
+        f"expected one of {', '.join(sorted(_FIELDS))}, got {value!r}"
 
 
 def signal_params(unit: str, limit: float, default_type: str = 'step',
