@@ -119,7 +119,10 @@ def run_nodes(factories, args=None, guard=None) -> int:
         try:
             rclpy.init(args=args, signal_handler_options=SignalHandlerOptions.NO)
         except _rclpy.UnknownROSArgsError as exc:
-            return _fail(f'unknown ROS arguments after --ros-args: {_one_line(exc)}')
+            text = _one_line(exc)
+            hint = (' (--help goes before --ros-args, or after a closing --)'
+                    if "'--help'" in text or "'-h'" in text else '')
+            return _fail(f'unknown ROS arguments after --ros-args: {text}{hint}')
         except _START_ERRORS as exc:
             return _fail(f'bad command line: {_one_line(exc)}')
         _build_nodes(factories, nodes, sys.argv if args is None else args)

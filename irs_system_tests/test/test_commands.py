@@ -97,6 +97,16 @@ def test_node_parameters_without_ros_args_are_refused_in_one_line(tmp_path, args
     assert tree(tmp_path) == set()
 
 
+def test_help_after_ros_args_says_where_it_goes(tmp_path):
+    res = run('irs_control', 'lateral_controller', '--ros-args', '-p', 'kp:=2.0', '--help',
+              cwd=tmp_path, timeout=120)
+    assert res.returncode == 2, res
+    assert res.stderr.startswith("[FATAL] unknown ROS arguments after --ros-args: ['--help'] "
+                                 '(--help goes before --ros-args, or after a closing --)'), \
+        res.stderr
+    assert res.stderr.count('\n') == 1, res.stderr
+
+
 def test_experiment_list_reads_the_files_only(tmp_path):
     """No ROS, no schema, no parameter tables: the list is YAML read from the share folder."""
     code = ('import sys; from irs_bringup.experiment_cli import main; main(["list"]); '
