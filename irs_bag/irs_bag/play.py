@@ -8,7 +8,7 @@ Usage::
                  [--wait-for-subscribers N | --paused-until-matched] [--wait-timeout S]
                  [--ack-timeout S] [--qos-depth D] [--quiet] [--dry-run] [--ros-args ...]
 
-This module checks the options and reads the plan (:func:`prepare`, no rclpy): the messages
+This module checks the options and reads the plan (:func:`prepare`, no ROS node): the messages
 to play (read into memory first, so chunk decompression never delays one) and their time line
 ``t_i`` (``--pace``): ``log`` = the receive (log) time; ``header`` = simulation time, the
 running maximum of the played messages' ``header.stamp`` (or leading Time) and of the bag's
@@ -16,9 +16,9 @@ running maximum of the played messages' ``header.stamp`` (or leading Time) and o
 (:func:`irs_bag.stamps.clock_mode`), else ``log``. ``--start-offset`` is in log time. The
 publishing, the ``/clock`` lead-in and the schedule are in :mod:`irs_bag.player`.
 
-A remap's names must be valid ROS topic names, and no two played topics (nor ``/clock`` with
-``--clock``) may land on one name with different types; both are checked here, before anything
-is published.
+A remap's names must be valid ROS topic names (rclpy's ``validate_full_topic_name``, rcl's
+rule), and no two played topics (nor ``/clock`` with ``--clock``) may land on one name with
+different types; both are checked here, before anything is published.
 
 An unfinished or damaged bag plays its readable part (one warning line on stderr).
 Exit codes: 0 played; 1 timeout waiting for subscribers; 2 unreadable bag (one line naming the
@@ -31,7 +31,6 @@ from __future__ import annotations
 import argparse
 import importlib
 import math
-import re
 import signal
 import sys
 from dataclasses import dataclass, field
@@ -53,11 +52,6 @@ def _import_type(type_name: str):
     return getattr(importlib.import_module(f'{pkg}.{sub}'), name)
 
 
-#: A fully qualified ROS 2 topic name, as rcl validates one: tokens of letters, digits and
-#: ``_`` after each ``/``, none starting with a digit.
-_TOPIC_NAME = re.compile(r'(/[A-Za-z_][A-Za-z0-9_]*)+')
-
-
 def _parse_remaps(items) -> Dict[str, str]:
     out = {}
     for item in items or []:
@@ -68,9 +62,13 @@ def _parse_remaps(items) -> Dict[str, str]:
         if not old or not new:
             raise UsageError(f'--remap expects OLD:=NEW, got {item!r}')
         old, new = (n if n.startswith('/') else '/' + n for n in (old, new))
-        if not _TOPIC_NAME.fullmatch(new):
-            raise UsageError(f'--remap {item}: {new!r} is not a valid ROS topic name (letters, '
-                             'digits and _ after each /, no token starting with a digit)')
+        # rcl's own rule (its first line names what is wrong); rclpy only when a remap is given
+        from rclpy.exceptions import InvalidTopicNameException
+        from rclpy.validate_full_topic_name import validate_full_topic_name
+        try:
+            validate_full_topic_name(new)
+        except InvalidTopicNameException as exc:
+            raise UsageError(f'--remap {item}: {str(exc).splitlines()[0]} {new!r}') from None
         out[old] = new
     return out
 

@@ -40,7 +40,6 @@ import threading
 import time
 from typing import Dict, List, Optional
 
-from irs_common.cli import one_line
 from irs_common.dds_profile import PROFILE_VARIABLES, profile_file
 
 __all__ = ['ACK_TIMEOUT_S', 'CLOCK_LEAD_S', 'CLOCK_REPEAT_S', 'Interrupt', 'Player',
@@ -339,11 +338,6 @@ def use_player_profile(environ=os.environ) -> Optional[str]:
     return path
 
 
-def _rcl_text(exc) -> str:
-    """An rcl error on one line, without the ``, at <file>:<line>`` rcl appends."""
-    return one_line(exc).split(', at /')[0] or type(exc).__name__
-
-
 def run_player(args, ros_args: List[str], plan, interrupt: Interrupt) -> int:
     """``rclpy.init`` (its signal handlers off: :class:`Interrupt` has them), one node, the
     :class:`Player`, clean shutdown; returns the exit code. The process's Fast DDS writers use
@@ -351,19 +345,16 @@ def run_player(args, ros_args: List[str], plan, interrupt: Interrupt) -> int:
     """
     profile = use_player_profile()
     import rclpy
-    from rclpy.impl.implementation_singleton import rclpy_implementation as _rclpy
     from rclpy.signals import SignalHandlerOptions
+
+    from irs_common.node_main import START_ERRORS, init_error_text
     node = None
     try:
         try:
             rclpy.init(args=['bag_play', *ros_args],
                        signal_handler_options=SignalHandlerOptions.NO)
-        except _rclpy.UnknownROSArgsError as exc:
-            print(f'bag play: error: unknown ROS arguments after --ros-args: {_rcl_text(exc)}',
-                  file=sys.stderr)
-            return 2
-        except (_rclpy.RCLError, _rclpy.RCLInvalidROSArgsError) as exc:
-            print(f'bag play: error: bad --ros-args: {_rcl_text(exc)}', file=sys.stderr)
+        except START_ERRORS as exc:      # a --ros-args rcl refuses: as a node says it
+            print(f'bag play: error: {init_error_text(exc)}', file=sys.stderr)
             return 2
         node = rclpy.create_node('bag_player')
         if profile is not None:    # read by now; not for processes this one may start

@@ -43,7 +43,7 @@ from .params import (check_pending_params_files, expect_params_files, parameter_
 from .sim_time import guard_clock
 
 #: Exceptions that mean "the command line or the parameters are wrong", reported in one line.
-_START_ERRORS = (ValueError, ParameterException, _rclpy.RCLError, _rclpy.RCLInvalidROSArgsError,
+START_ERRORS = (ValueError, ParameterException, _rclpy.RCLError, _rclpy.RCLInvalidROSArgsError,
                  _rclpy.UnknownROSArgsError)
 
 
@@ -118,13 +118,8 @@ def run_nodes(factories, args=None, guard=None) -> int:
         rt_note = set_realtime_priority()
         try:
             rclpy.init(args=args, signal_handler_options=SignalHandlerOptions.NO)
-        except _rclpy.UnknownROSArgsError as exc:
-            text = _one_line(exc)
-            hint = (' (--help goes before --ros-args, or after a closing --)'
-                    if "'--help'" in text or "'-h'" in text else '')
-            return _fail(f'unknown ROS arguments after --ros-args: {text}{hint}')
-        except _START_ERRORS as exc:
-            return _fail(f'bad command line: {_one_line(exc)}')
+        except START_ERRORS as exc:
+            return _fail(init_error_text(exc))
         _build_nodes(factories, nodes, sys.argv if args is None else args)
         if rt_note:
             nodes[0].get_logger().info(rt_note)
@@ -146,7 +141,7 @@ def run_nodes(factories, args=None, guard=None) -> int:
             _spin(executor)
     except (KeyboardInterrupt, ExternalShutdownException):
         pass
-    except _START_ERRORS as exc:
+    except START_ERRORS as exc:
         if executor is not None:
             raise   # a failure while running is a bug: keep its traceback
         if guard.signum is not None or not rclpy.ok():
@@ -310,6 +305,18 @@ def answer_own_arguments(node_factory, argv) -> int | None:
         sys.stdout.flush()
         return 0
     return _fail(node_help.refusal(own, executable))
+
+
+def init_error_text(exc) -> str:
+    """The one line for ``rclpy.init`` refusing the command line with ``exc`` (one of
+    ``START_ERRORS``): ROS arguments rcl does not know, or ones it cannot parse.
+    """
+    if isinstance(exc, _rclpy.UnknownROSArgsError):
+        text = _one_line(exc)
+        hint = (' (--help goes before --ros-args, or after a closing --)'
+                if "'--help'" in text or "'-h'" in text else '')
+        return f'unknown ROS arguments after --ros-args: {text}{hint}'
+    return f'bad command line: {_one_line(exc)}'
 
 
 def _one_line(exc) -> str:
