@@ -62,13 +62,10 @@ def _parse_remaps(items) -> Dict[str, str]:
         if not old or not new:
             raise UsageError(f'--remap expects OLD:=NEW, got {item!r}')
         old, new = (n if n.startswith('/') else '/' + n for n in (old, new))
-        # rcl's own rule (its first line names what is wrong); rclpy only when a remap is given
-        from rclpy.exceptions import InvalidTopicNameException
-        from rclpy.validate_full_topic_name import validate_full_topic_name
-        try:
-            validate_full_topic_name(new)
-        except InvalidTopicNameException as exc:
-            raise UsageError(f'--remap {item}: {str(exc).splitlines()[0]} {new!r}') from None
+        from .player import topic_name_problem      # rcl's rule, through rclpy
+        problem = topic_name_problem(new)
+        if problem:
+            raise UsageError(f'--remap {item}: {problem} {new!r}')
         out[old] = new
     return out
 

@@ -338,6 +338,19 @@ def use_player_profile(environ=os.environ) -> Optional[str]:
     return path
 
 
+def topic_name_problem(name: str) -> Optional[str]:
+    """What rcl finds wrong with ``name`` as a fully qualified topic name (the first line of
+    rclpy's ``InvalidTopicNameException``), or None for a valid one.
+    """
+    from rclpy.exceptions import InvalidTopicNameException
+    from rclpy.validate_full_topic_name import validate_full_topic_name
+    try:
+        validate_full_topic_name(name)
+    except InvalidTopicNameException as exc:
+        return str(exc).splitlines()[0]
+    return None
+
+
 def run_player(args, ros_args: List[str], plan, interrupt: Interrupt) -> int:
     """``rclpy.init`` (its signal handlers off: :class:`Interrupt` has them), one node, the
     :class:`Player`, clean shutdown; returns the exit code. The process's Fast DDS writers use
