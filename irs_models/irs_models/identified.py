@@ -223,6 +223,64 @@ def identified_matrices(params: IdentifiedParams | None = None):
     return A, B, C, D, Ca, Da
 
 
+#: |x| in which the error-free product below is exact (far from overflow and underflow)
+_EXACT_LOW, _EXACT_HIGH = 2.0 ** -400, 2.0 ** 400
+_SPLIT = 134217729.0        # 2^27 + 1, Veltkamp's splitting constant for 53-bit floats
+
+
+def fma(a: float, b: float, c: float) -> float:
+    """``a b + c`` rounded once (a fused multiply-add), for ``2^-400 < |a|, |b| < 2^400``.
+
+    Python 3.11 has no ``math.fma``. Dekker's product gives ``a b = p + e`` exactly (``p`` the
+    rounded product, ``e`` its error, from Veltkamp's split of each factor into 26- and 27-bit
+    halves), and ``math.fsum`` rounds the exact sum ``p + e + c`` once (Shewchuk's algorithm,
+    correctly rounded). Outside that range the split can overflow or ``e`` underflow.
+    """
+    p = a * b
+    t = _SPLIT * a
+    a_hi = t - (t - a)
+    a_lo = a - a_hi
+    t = _SPLIT * b
+    b_hi = t - (t - b)
+    b_lo = b - b_hi
+    e = ((a_hi * b_hi - p) + a_hi * b_lo + a_lo * b_hi) + a_lo * b_lo
+    return math.fsum((p, e, c))
+
+
+def _plain_dot(c2: float, x2: float, c3: float, x3: float) -> float:
+    return c2 * x2 + c3 * x3
+
+
+def _fused_dot(c2: float, x2: float, c3: float, x3: float) -> float:
+    return fma(c3, x3, c2 * x2)
+
+
+def numpy_dot_form(ca: np.ndarray):
+    """The float form of numpy's ``ca @ x`` for ``ca = [0, 0, c2, c3]`` on this machine, or None.
+
+    OpenBLAS kernels differ: ``Haswell`` sums ``c2 x2 + c3 x3``, ``SkylakeX`` fuses the second
+    product into the sum, ``fma(c3, x3, c2 x2)`` (measured on 20,000 random states each,
+    2026-12-05). 64 probe states on which the two forms differ decide which one numpy computes
+    here; None (use numpy) if ``ca`` has another shape, or numpy equals neither form on them all.
+    """
+    ca = np.asarray(ca, dtype=float)
+    if ca.shape != (4,) or ca[0] != 0.0 or ca[1] != 0.0:
+        return None
+    c2, c3 = float(ca[2]), float(ca[3])
+    if not (_EXACT_LOW < abs(c2) < _EXACT_HIGH and _EXACT_LOW < abs(c3) < _EXACT_HIGH):
+        return None
+    rng = np.random.default_rng(20261205)
+    probes = []
+    while len(probes) < 64:
+        x = rng.uniform(-1.0, 1.0, 4) * 10.0 ** rng.uniform(-6, 0, 4)
+        if _plain_dot(c2, x[2], c3, x[3]) != _fused_dot(c2, x[2], c3, x[3]):
+            probes.append(x)
+    for form in (_plain_dot, _fused_dot):
+        if all(float(ca @ x) == form(c2, float(x[2]), c3, float(x[3])) for x in probes):
+            return form
+    return None
+
+
 class IdentifiedPlant(ZohSteps):
     """Discrete (exact ZOH) identified plant implementing the ``LateralPlant`` interface.
 
@@ -257,8 +315,9 @@ class IdentifiedPlant(ZohSteps):
     b delta``, which is how numpy's OpenBLAS kernels ``Haswell`` and ``SkylakeX`` sum a 4 x 4
     matrix-vector product (no fused multiply-add), so the results are numpy's to the bit there
     and cost no numpy call; the 5-state bicycle heading steps through numpy (no sum of floats
-    reproduces its 5 x 5 product). ``docs/performance.md`` ("Where the time goes") shows
-    the check.
+    reproduces its 5 x 5 product). The kinematic yaw rate's ``Ca x`` is in floats too, in the
+    form numpy's dot takes under the kernel this process runs (:func:`numpy_dot_form`).
+    ``docs/performance.md`` ("Where the time goes") shows the check.
     """
 
     def __init__(self, params: IdentifiedParams | None = None):
@@ -289,6 +348,11 @@ class IdentifiedPlant(ZohSteps):
         self._x = (0.0,) * self.A.shape[0]      # the state [y_s, v_s, z1, z2 (, psi)]
         self._delta = 0.0
         self._step_zoh = None
+        # the kinematic yaw rate's a_s = Ca x + Da delta with Ca = [0, 0, c2, c3]: in floats, in
+        # the form numpy's dot takes on this machine (None: numpy's dot itself)
+        self._ca = (float(self.Ca[0, 2]), float(self.Ca[0, 3]))
+        self._da = float(self.Da[0, 0])
+        self._ca_form = numpy_dot_form(self.Ca[0]) if self.bicycle is None else None
 
     @property
     def x(self) -> np.ndarray:
@@ -347,9 +411,15 @@ class IdentifiedPlant(ZohSteps):
         x = self._x
         if self.bicycle is not None:
             return self._e1 * x[3] + self._e0 * x[2]
-        # numpy's dot product (its kernels fuse multiply and add here: no sum of floats is equal)
-        a_s = float(self.Ca[0] @ np.array(x) + self.Da[0, 0] * self._delta)
-        return a_s / self.params.speed
+        x2, x3 = x[2], x[3]
+        form = self._ca_form
+        if form is not None and _EXACT_LOW < abs(x2) < _EXACT_HIGH \
+                and _EXACT_LOW < abs(x3) < _EXACT_HIGH:
+            c2, c3 = self._ca
+            dot = form(c2, x2, c3, x3)
+        else:                       # zeros, extreme magnitudes, non-finite, another kernel
+            dot = float(self.Ca[0] @ np.array(x))
+        return (dot + self._da * self._delta) / self.params.speed
 
     @property
     def lateral_velocity(self) -> float:

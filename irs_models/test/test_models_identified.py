@@ -1,15 +1,17 @@
 """Identified plant (Eq. 6 without actuator) and the bicycle wrapper vs continuous models."""
 
+from fractions import Fraction
 import math
 
 import control
+from hypothesis import given, settings, strategies as st
 import numpy as np
 import pytest
 
 from irs_models import bicycle as bic, presets
 from irs_models.constants import PAPER_PLANT_GAIN
-from irs_models.identified import (IdentifiedParams, IdentifiedPlant, identified_matrices,
-                                   identified_plant)
+from irs_models.identified import (IdentifiedParams, IdentifiedPlant, fma, identified_matrices,
+                                   identified_plant, numpy_dot_form)
 from irs_models.lateral_plant import BicyclePlant, LateralPlant
 
 DT = 1e-3
@@ -138,3 +140,39 @@ def test_discretisation_is_the_exact_zoh():
         e = expm(m * dt)
         Ad, Bd = plant.discrete(dt)
         assert np.array_equal(Ad, e[:4, :4]) and np.array_equal(Bd, e[:4, 4:]), dt
+
+
+_MAGNITUDE = st.floats(-300, 300)
+
+
+@settings(max_examples=300, deadline=None)
+@given(a=st.floats(0.5, 1.0), b=st.floats(0.5, 1.0), c=st.floats(0.5, 1.0),
+       ea=_MAGNITUDE, eb=_MAGNITUDE, ec=st.floats(-600, 600),
+       signs=st.tuples(st.booleans(), st.booleans(), st.booleans()))
+def test_fma_rounds_the_exact_a_b_plus_c_once(a, b, c, ea, eb, ec, signs):
+    """The emulated fused multiply-add is the correctly rounded ``a b + c`` (exact rationals)."""
+    a, b, c = (v * 2.0 ** int(e) * (-1 if s else 1)
+               for v, e, s in zip((a, b, c), (ea, eb, ec), signs))
+    assert fma(a, b, c) == float(Fraction(a) * Fraction(b) + Fraction(c))
+
+
+def test_fma_differs_from_the_twice_rounded_sum_where_it_must():
+    """1 + 2^-30 squared less 1: a twice-rounded sum loses the 2^-60 a single rounding keeps."""
+    a = 1.0 + 2.0 ** -30
+    assert a * a - 1.0 == 2.0 ** -29
+    assert fma(a, a, -1.0) == 2.0 ** -29 + 2.0 ** -60
+
+
+def test_numpy_dot_form_refuses_a_row_it_was_not_made_for():
+    assert numpy_dot_form(np.array([1.0, 0.0, 2.0, 3.0])) is None
+    assert numpy_dot_form(np.array([0.0, 0.0, 2.0])) is None
+    assert numpy_dot_form(np.array([0.0, 0.0, 2.0, 3.0])) is not None
+
+
+def test_the_yaw_rate_at_rest_and_at_extreme_states_is_numpys():
+    """Zeros (signed) and magnitudes beyond the exact product's range go through numpy's dot."""
+    plant = IdentifiedPlant()
+    speed = plant.params.speed
+    assert plant.yaw_rate == float(plant.Ca[0] @ plant.x + plant.Da[0, 0] * 0.0) / speed
+    plant._x = (0.0, 0.0, 1e-200, -3e-150)
+    assert plant.yaw_rate == float(plant.Ca[0] @ plant.x) / speed

@@ -44,3 +44,20 @@ def test_each_step_is_numpys_product_to_the_bit(y0, steer, dt, speed):
     # the outputs read the same state
     assert plant.y_s == float(expected[0])
     assert plant.psi == float(expected[1]) / speed
+
+
+@settings(max_examples=60, deadline=None)
+@given(y0=st.floats(-0.5, 0.5),
+       steer=st.lists(st.floats(-0.6, 0.6), min_size=1, max_size=200),
+       speed=st.sampled_from([1.2, 0.8, 2.0]))
+def test_the_kinematic_yaw_rate_is_numpys_dot_to_the_bit(y0, steer, speed):
+    """``a_s = Ca x + Da delta`` in floats, in the form this kernel's dot takes (plain, or with
+    the second product fused), equals numpy's, and the plant found the form (no numpy call).
+    """
+    plant = IdentifiedPlant(IdentifiedParams(speed=speed))
+    assert plant._ca_form is not None, openblas_core()
+    plant.reset(y0)
+    for k, delta in enumerate(steer):
+        plant.step(delta)
+        expected = float(plant.Ca[0] @ plant.x + plant.Da[0, 0] * delta) / speed
+        assert plant.yaw_rate == expected, (k, plant.yaw_rate, expected)
