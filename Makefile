@@ -15,17 +15,17 @@ PACKAGE_FILES := $(shell find $(PACKAGES) -type f \( -name package.xml -o -name 
   -o -name CMakeLists.txt -o -name '*.cmake' -o -path '*/msg/*' -o -path '*/resource/*' \
   -o -path '*/config/*' \) 2>/dev/null)
 
-.PHONY: demo test figures env build clean help lock
+.PHONY: demo test figures env build native clean help lock
 
 help:
 	@echo "make demo   set up (venv + colcon build) and run the Figure 10 demo"
 	@echo "make test   set up and run the whole test suite"
 	@echo "make figures  reproduce the paper's Figures 5-10 into docs/img (ONLY='treadmill actuator' for some parts)"
-	@echo "make build  set up only;  make clean  remove venv and build products"
+	@echo "make build  set up only (venv, colcon, the compiled cores);  make clean  remove venv and build products"
 	@echo "make lock   re-resolve env/requirements.txt into the pinned env/requirements.lock"
 
 env: $(ENV_STAMP)
-build: $(BUILD_STAMP)
+build: native
 
 # The venv installs the full pinned set in $(LOCK) (every transitive dependency), which
 # `make lock` resolves from the direct requirements in env/requirements.txt.
@@ -68,20 +68,27 @@ $(BUILD_STAMP): $(ENV_STAMP) $(PACKAGE_FILES)
 	  $(foreach p,$(filter-out irs_msgs,$(PACKAGES)),$(p)/$(p))
 	@touch $@
 
-demo: $(BUILD_STAMP)
+# mypyc compiles the offline loop's cores into build/native (irs_common.native_cores, about 25 s
+# of one core); every process of the workspace then imports them compiled. The script does
+# nothing when the build matches the sources; when it cannot compile it says why in one line
+# and the cores stay interpreted. IRS_PURE_PYTHON=1 runs the interpreted cores regardless.
+native: $(BUILD_STAMP)
+	@$(VENV)/bin/python env/build_native.py
+
+demo: native
 	./irs run irs_studies figure10
 
 # Two pytest-xdist workers (each with its own ROS domain), a test module per worker at a time (its
 # module fixtures run once); tests marked `exclusive` run alone (conftest.py). The 25 slowest
 # tests are listed at the end (--durations).
 TEST_WORKERS ?= 2
-test: $(BUILD_STAMP)
+test: native
 	./irs exec python -m pytest -n $(TEST_WORKERS) --dist loadscope --durations=25
 
 # The paper's Figures 5-10 through the graph: experiments, identification, PNGs in docs/img.
 # ONLY='treadmill vehicle' runs those parts only (make reads --options itself: hence a variable).
 ONLY ?=
-figures: $(BUILD_STAMP)
+figures: native
 	./irs run irs_studies figures --img-dir docs/img $(if $(strip $(ONLY)),--only $(ONLY))
 
 clean:

@@ -63,17 +63,51 @@ def calls_per_step(duration: float = 0.5) -> float:
     return pstats.Stats(prof).total_calls / (duration / loop.dt)
 
 
+_INTERPRETED = """
+import json, sys
+sys.path.insert(0, 'bench')
+from offline import calls_per_step, offline_timings
+from irs_common import native_cores
+o = offline_timings()
+print(json.dumps({'status': native_cores.status, 'n': o['n'], 't_loops': o['t_loops'],
+                  'calls_per_step': calls_per_step()}))
+"""
+
+
+def interpreted_timings() -> dict:
+    """:func:`offline_timings`' loop runs and :func:`calls_per_step` with the interpreted cores
+    (a process with ``IRS_PURE_PYTHON=1``; cProfile counts only interpreted calls).
+    """
+    import json
+    import os
+    import subprocess
+    import sys
+    root = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+    out = subprocess.run([sys.executable, '-c', _INTERPRETED], cwd=root, check=True, text=True,
+                         capture_output=True, env=dict(os.environ, IRS_PURE_PYTHON='1'))
+    return json.loads(out.stdout.strip().splitlines()[-1])
+
+
 def offline() -> list:
+    from irs_common import native_cores
     from waits import python_floor      # bench/waits.py
     floor = python_floor()
-    calls = calls_per_step()
     o = offline_timings()
+    pure = interpreted_timings()
+    calls = pure['calls_per_step']
     n, t_loop, t_core, t_ref, err = o['n'], o['t_loop'], o['t_core'], o['t_ref'], o['err']
     print(f'    Python floor {floor / 1e6:.1f} M calls/s (a call and three float operations); '
-          f'the loop makes {calls:.0f} calls per step: {floor / calls:.0f} steps/s at that rate',
+          f'the interpreted loop makes {calls:.0f} calls per step: {floor / calls:.0f} steps/s at '
+          f'that rate', flush=True)
+    pure_runs = [pure['n'] / t for t in pure['t_loops']]
+    print(f'    cores: {native_cores.status}; interpreted ({pure["status"]}): '
+          f'{max(pure_runs):.0f} steps/s (runs: {", ".join(f"{r:.0f}" for r in pure_runs)})',
           flush=True)
     rows = [{'name': 'offline closed loop (all cores, Figure 10)', 'steps_per_s': n / t_loop,
              'steps_per_s_each_run': [n / t for t in o['t_loops']],
+             'cores': native_cores.status,
+             'interpreted_steps_per_s': max(pure_runs),
+             'interpreted_steps_per_s_each_run': pure_runs,
              'python_floor_calls_per_s': floor, 'calls_per_step': calls},
             {'name': 'identified plant, our core stepped in Python', 'steps_per_s': n / t_core},
             {'name': 'identified plant, scipy.signal.dlsim (vectorised reference)',

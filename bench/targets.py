@@ -4,8 +4,9 @@ the sections a target needs; the rows go into the results JSON under ``targets``
 
 A target's floor is the same kind of work at its minimum on this machine in the same minutes:
 the lean floor loop of ``bench/floor.py`` for the graph's lock-step and real-time figures; for
-the offline cores, the steps/s their Python calls per step would allow if each cost no more
-than a plain call with three float operations (:func:`waits.python_floor`); for the waits, that
+the offline cores, the steps/s their interpreted Python calls per step would allow if each cost
+no more than a plain call with three float operations (:func:`waits.python_floor`), beside the
+interpreted cores' own figure (the target's figure is the compiled cores'); for the waits, that
 plain call rate. On a VM whose speed swings 2-5x within minutes, a figure is read against its
 floor. Process-per-node lock-step also gets its CPU-bound ceiling (:func:`cpu_ceiling`): the
 fastest its processes could run on the machine's cores, whatever the floor.
@@ -79,9 +80,12 @@ def figures(results: dict) -> dict:
     off = _row(results, 'offline', 'offline closed loop (all cores, Figure 10)')
     if off is not None:
         floor, calls = off.get('python_floor_calls_per_s'), off.get('calls_per_step')
-        out['offline'] = (off['steps_per_s'], f'{calls:.0f} Python calls per step at the plain '
-                          f'call rate ({floor / 1e6:.1f} M/s): {floor / calls:.0f} steps/s'
-                          if floor and calls else '')
+        text = (f'interpreted: {calls:.0f} Python calls per step at the plain call rate '
+                f'({floor / 1e6:.1f} M/s): {floor / calls:.0f} steps/s' if floor and calls else '')
+        if off.get('interpreted_steps_per_s'):
+            text += (f'; the interpreted cores ran {off["interpreted_steps_per_s"]:.0f} steps/s '
+                     f'(cores of the figure: {off.get("cores")})')
+        out['offline'] = (off['steps_per_s'], text)
     for key, name in (('rt_composed', 'realtime_figure10_composed'),
                       ('rt_fifo', 'realtime_figure10_composed SCHED_FIFO')):
         row = _row(results, 'realtime', name)

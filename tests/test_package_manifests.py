@@ -20,6 +20,7 @@ ROSDEP_KEYS = {
     'matplotlib': 'python3-matplotlib', 'pydantic': 'python3-pydantic',
     'pyarrow': 'python3-pyarrow', 'distributed': 'python3-distributed', 'dask': 'python3-dask',
     'pandas': 'python3-pandas', 'serial': 'python3-serial',
+    'mypy_extensions': 'python3-mypy-extensions',
     'control': 'python3-control-pip', 'mcap': 'python3-mcap-pip',
     'mcap_ros2': 'python3-mcap-ros2-pip', 'rerun': 'python3-rerun-sdk-pip',
     'pymodbus': 'python3-pymodbus-pip', 'rosbags': 'python3-rosbags-pip',

@@ -21,6 +21,7 @@ INVALID). The steer is always finite and within the limits.
 from __future__ import annotations
 
 import math
+from typing import Any
 
 import numpy as np
 
@@ -56,8 +57,8 @@ class DiscretePiController(InputGuard):
 
     def __init__(self, kp: float = 5.0, ki: float = 3.0, dt: float = 1e-3,
                  limits=(-STEER_LIMIT, STEER_LIMIT), tracking_time: float | None = None,
-                 anti_windup='back_calculation', measurement_limit: float = DEFAULT_INPUT_LIMIT,
-                 reference_limit: float = DEFAULT_INPUT_LIMIT, initial_reference: float = 0.0):
+                 anti_windup='back_calculation', measurement_limit: Any = DEFAULT_INPUT_LIMIT,
+                 reference_limit: Any = DEFAULT_INPUT_LIMIT, initial_reference: Any = 0.0):
         if not dt > 0:
             raise ValueError(f'dt must be a positive sample time in seconds; got {dt}.')
         if kp < 0 or ki < 0:
@@ -95,7 +96,7 @@ class DiscretePiController(InputGuard):
         return (np.array([[1.0]]), np.array([[-self.dt * self.ki]]), np.array([[1.0]]),
                 np.array([[-self.kp]]))
 
-    def step(self, reference: float, measurement: float) -> ControlOutput:
+    def step(self, reference: Any, measurement: Any) -> ControlOutput:
         """Advance one sample; ``reference``, ``measurement`` in m, steer in rad.
 
         Bad inputs: see the module docstring; never raises for bad data.
@@ -103,7 +104,7 @@ class DiscretePiController(InputGuard):
         ref, ref_problem, meas_problem = self._screen(reference, measurement)
         if meas_problem is not None:
             return self._measurement_invalid(ref, ref_problem, meas_problem)
-        e = ref - measurement
+        e = ref - float(measurement)
         u = self.kp * e + self.integral
         v = min(max(u, self.u_min), self.u_max)
         # with ki = 0 (a P controller) the integral stays 0: back-calculation alone would

@@ -20,6 +20,7 @@ inputs never raise and never give a non-finite steer (:class:`InputGuard`). Choi
 from __future__ import annotations
 
 import math
+from typing import Any
 from dataclasses import dataclass
 
 import numpy as np
@@ -62,7 +63,7 @@ STATE_RUNNING = 'RUNNING'
 STATE_INVALID = 'INVALID'
 
 
-@dataclass(frozen=True)
+@dataclass(init=False)
 class ControlOutput:
     """One controller step.
 
@@ -93,6 +94,18 @@ class ControlOutput:
     reason: str = ''
     reference: float = 0.0
     reset: bool = False
+
+    # Written out rather than generated: compiled, it is native code (tests/test_step_records.py
+    # holds it to the fields; irs_common.native_cores).
+    def __init__(self, u_unsat: float, u_sat: float, saturated: bool, state: str = STATE_RUNNING,
+                       reason: str = '', reference: float = 0.0, reset: bool = False) -> None:
+        self.u_unsat = u_unsat
+        self.u_sat = u_sat
+        self.saturated = saturated
+        self.state = state
+        self.reason = reason
+        self.reference = reference
+        self.reset = reset
 
     @property
     def valid(self) -> bool:
@@ -130,8 +143,19 @@ class InputGuard:
     and use :meth:`_screen` / :meth:`_invalid` in ``step``.
     """
 
-    def _init_guard(self, measurement_limit: float, reference_limit: float,
-                    initial_reference: float) -> None:
+    u_min: float    # [rad] the steer limits, set by the subclass
+    u_max: float
+
+    def reset(self) -> None:
+        """Return the controller to rest (the subclass's)."""
+        raise NotImplementedError
+
+    def step(self, reference: Any, measurement: Any) -> ControlOutput:
+        """One sample under the bad-input rule (the subclass's)."""
+        raise NotImplementedError
+
+    def _init_guard(self, measurement_limit: Any, reference_limit: Any,
+                    initial_reference: Any) -> None:
         for name, v in (('measurement_limit', measurement_limit),
                         ('reference_limit', reference_limit)):
             if isinstance(v, bool) or not isinstance(v, (int, float)) or not v > 0:
@@ -170,7 +194,7 @@ class InputGuard:
         reason = f'{meas_problem}: no valid feedback, zero steer and controller reset'
         return self._invalid(ref, reason if ref_problem is None else f'{reason}; {ref_problem}')
 
-    def step_checked(self, reference, measurement) -> ControlOutput:
+    def step_checked(self, reference: Any, measurement: Any) -> ControlOutput:
         """The node's entry point: :meth:`step` (which applies the bad-input rule itself).
 
         Returns the :class:`ControlOutput` with ``state`` (RUNNING/INVALID), ``reason`` (empty
@@ -296,8 +320,8 @@ class DiscreteRstController(InputGuard):
 
     def __init__(self, design: RstDesign, dt: float = 1e-3, u_min: float = -STEER_LIMIT,
                  u_max: float = STEER_LIMIT, anti_windup='back_calculation', aw_poly=None,
-                 measurement_limit: float = DEFAULT_INPUT_LIMIT,
-                 reference_limit: float = DEFAULT_INPUT_LIMIT, initial_reference: float = 0.0):
+                 measurement_limit: Any = DEFAULT_INPUT_LIMIT,
+                 reference_limit: Any = DEFAULT_INPUT_LIMIT, initial_reference: Any = 0.0):
         if not dt > 0:
             raise ValueError(f'dt must be a positive sample time in seconds; got {dt}.')
         if not (math.isfinite(u_min) and math.isfinite(u_max) and u_min < u_max):
@@ -365,7 +389,7 @@ class DiscreteRstController(InputGuard):
         """Copy of the internal controller state."""
         return np.array(self._x, dtype=float)
 
-    def step(self, reference: float, measurement: float) -> ControlOutput:
+    def step(self, reference: Any, measurement: Any) -> ControlOutput:
         """Advance one sample: compute the steer for ``u_c = reference``, ``y = measurement``.
 
         Bad inputs follow the rule of :class:`InputGuard` (invalid reference: last valid one
@@ -403,9 +427,6 @@ class DiscreteRstController(InputGuard):
             return self._invalid(ref, f'controller state became non-finite (u = {u!r}): state '
                                       'reset, zero steer')
         self._x = x_next
-        # ControlOutput(u_unsat=u, u_sat=u_sat, saturated=..., reason=..., reference=ref), its
-        # fields set at once (a frozen dataclass's __init__ sets each by object.__setattr__).
-        out = object.__new__(ControlOutput)
-        out.__dict__.update(u_unsat=u, u_sat=u_sat, saturated=(u_sat != u), state=STATE_RUNNING,
-                            reason=ref_problem or '', reference=ref, reset=False)
-        return out
+        return ControlOutput(u_unsat=u, u_sat=u_sat, saturated=(u_sat != u),
+                             state=STATE_RUNNING, reason=ref_problem or '', reference=ref,
+                             reset=False)

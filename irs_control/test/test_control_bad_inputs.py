@@ -1,7 +1,6 @@
 """Bad inputs cannot make a lateral controller emit a non-finite or out-of-limit steer, and it
 recovers. The rule is documented in irs_control.discrete_rst.InputGuard.
 """
-import copy
 import math
 
 import numpy as np
@@ -21,18 +20,20 @@ ANY = st.one_of(st.floats(allow_nan=True, allow_infinity=True, allow_subnormal=T
                 st.sampled_from(NASTY), st.floats(-0.6, 0.6))
 GOOD = st.floats(-0.6, 0.6, allow_subnormal=True)
 
-_PROTOS = {
-    'mrc': DiscreteRstController(paper_mrc_design(True)),
-    'mrc_no_actuator': DiscreteRstController(paper_mrc_design(False)),
-    'mrc_no_aw': DiscreteRstController(paper_mrc_design(True), anti_windup=False),
-    'pi': DiscretePiController(kp=5.0, ki=3.0),
-    'pi_no_aw': DiscretePiController(kp=5.0, ki=3.0, anti_windup=False),
+_MRC, _MRC_NO_ACTUATOR = paper_mrc_design(True), paper_mrc_design(False)
+_BUILDERS = {
+    'mrc': lambda: DiscreteRstController(_MRC),
+    'mrc_no_actuator': lambda: DiscreteRstController(_MRC_NO_ACTUATOR),
+    'mrc_no_aw': lambda: DiscreteRstController(_MRC, anti_windup=False),
+    'pi': lambda: DiscretePiController(kp=5.0, ki=3.0),
+    'pi_no_aw': lambda: DiscretePiController(kp=5.0, ki=3.0, anti_windup=False),
 }
-KINDS = sorted(_PROTOS)
+KINDS = sorted(_BUILDERS)
 
 
 def fresh(kind):
-    return copy.deepcopy(_PROTOS[kind])
+    """A controller of ``kind`` just built (the compiled cores cannot be copied)."""
+    return _BUILDERS[kind]()
 
 
 def state_of(c):

@@ -106,7 +106,7 @@ class ArmGeometry:
         return abs(self.l1 - self.l2)
 
 
-@dataclass(frozen=True)
+@dataclass(init=False)
 class ArmPose:
     """Pose computed from the arm [m, m, rad, m, m] in the ``treadmill`` frame."""
 
@@ -115,6 +115,15 @@ class ArmPose:
     psi: float
     x_tip: float
     y_tip: float
+
+    # Written out rather than generated: compiled, it is native code (tests/test_step_records.py
+    # holds it to the fields; irs_common.native_cores).
+    def __init__(self, x_cg: float, y_cg: float, psi: float, x_tip: float, y_tip: float) -> None:
+        self.x_cg = x_cg
+        self.y_cg = y_cg
+        self.psi = psi
+        self.x_tip = x_tip
+        self.y_tip = y_tip
 
 
 def forward_kinematics(theta1: float, theta2: float, theta3: float,
@@ -164,11 +173,7 @@ def forward_kinematics(theta1: float, theta2: float, theta3: float,
     psi = wrap_angle(a12 + theta3)
     x_cg = x_tip - g.attach_offset * math.cos(psi)
     y_cg = y_tip - g.attach_offset * math.sin(psi)
-    # The same frozen ArmPose as ArmPose(...), its fields set at once (the frozen __init__ sets
-    # each through object.__setattr__, a cost the 1 kHz estimator pays every sample).
-    pose = object.__new__(ArmPose)
-    pose.__dict__.update(x_cg=x_cg, y_cg=y_cg, psi=psi, x_tip=x_tip, y_tip=y_tip)
-    return pose
+    return ArmPose(x_cg=x_cg, y_cg=y_cg, psi=psi, x_tip=x_tip, y_tip=y_tip)
 
 
 def inverse_kinematics(x_cg: float, y_cg: float, psi: float,

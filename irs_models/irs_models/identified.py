@@ -21,6 +21,7 @@ physical (:class:`IdentifiedPlant`); only y_s, v_s and a_s are.
 from __future__ import annotations
 
 import math
+from typing import Any
 from dataclasses import dataclass
 
 import numpy as np
@@ -270,7 +271,7 @@ def numpy_dot_form(ca: np.ndarray):
     if not (_EXACT_LOW < abs(c2) < _EXACT_HIGH and _EXACT_LOW < abs(c3) < _EXACT_HIGH):
         return None
     rng = np.random.default_rng(20261205)
-    probes = []
+    probes: list = []
     while len(probes) < 64:
         x = rng.uniform(-1.0, 1.0, 4) * 10.0 ** rng.uniform(-6, 0, 4)
         if _plain_dot(c2, x[2], c3, x[3]) != _fused_dot(c2, x[2], c3, x[3]):
@@ -323,7 +324,8 @@ class IdentifiedPlant(ZohSteps):
     def __init__(self, params: IdentifiedParams | None = None):
         self.params = params if params is not None else IdentifiedParams()
         self.A, self.B, self.C, self.D, self.Ca, self.Da = identified_matrices(self.params)
-        self.bicycle = None
+        self._zoh_cache: dict = {}
+        self.bicycle: Any = None
         if self.params.heading == 'bicycle':
             self.bicycle = bicycle_realisation(self.params)
             if self.bicycle is None:
@@ -347,12 +349,12 @@ class IdentifiedPlant(ZohSteps):
             self.C = np.hstack([self.C, [[0.0]]])
         self._x = (0.0,) * self.A.shape[0]      # the state [y_s, v_s, z1, z2 (, psi)]
         self._delta = 0.0
-        self._step_zoh = None
+        self._step_zoh: Any = None
         # the kinematic yaw rate's a_s = Ca x + Da delta with Ca = [0, 0, c2, c3]: in floats, in
         # the form numpy's dot takes on this machine (None: numpy's dot itself)
         self._ca = (float(self.Ca[0, 2]), float(self.Ca[0, 3]))
         self._da = float(self.Da[0, 0])
-        self._ca_form = numpy_dot_form(self.Ca[0]) if self.bicycle is None else None
+        self._ca_form: Any = numpy_dot_form(self.Ca[0]) if self.bicycle is None else None
 
     @property
     def x(self) -> np.ndarray:
@@ -366,10 +368,10 @@ class IdentifiedPlant(ZohSteps):
 
     def step(self, delta_front: float, delta_rear: float = 0.0, dt: float = 1e-3) -> None:
         """Advance dt [s] with the achieved front steer ``delta_front`` [rad] held constant."""
-        zoh = self._step_zoh
+        zoh: Any = self._step_zoh
         if zoh is None or zoh[0] != dt:   # Phi and the steer column of Gamma, per step size
             Ad, Bd = self.discrete(dt)
-            rows = None
+            rows: Any = None
             if Ad.shape == (4, 4):        # each row (a0, a1, a2, a3, b) as floats
                 rows = tuple(tuple(float(v) for v in (*a, b)) for a, b in zip(Ad, Bd[:, 0]))
             zoh = self._step_zoh = (dt, Ad, Bd[:, 0], rows)
@@ -484,7 +486,7 @@ def bicycle_realisation(params: IdentifiedParams | None = None, tol: float = 1e-
             sol = least_squares(residual, np.log([iz0, lf0]), xtol=1e-15, ftol=1e-15, gtol=1e-15)
             if best is None or sol.cost < best.cost:
                 best = sol
-    if np.max(np.abs(best.fun)) > tol:
+    if best is None or np.max(np.abs(best.fun)) > tol:
         return None
     iz, lf, cf, cr = unpack(best.x)
     return {'mass': 1.0, 'yaw_inertia': float(iz), 'lf': float(lf), 'lr': float(lr),

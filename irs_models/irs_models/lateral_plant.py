@@ -65,7 +65,7 @@ class ZohSteps:
 
     def discrete(self, dt: float):
         """(Ad, Bd) for step dt [s] (cached)."""
-        cache = self.__dict__.setdefault('_zoh_cache', {})
+        cache = self._zoh_cache
         if dt not in cache:
             if not (math.isfinite(dt) and dt > 0.0):
                 raise ValueError(f'dt must be a positive finite step in s, got {dt!r}')
@@ -98,6 +98,7 @@ class BicyclePlant(ZohSteps):
     """
 
     def __init__(self, params, speed: float, ds: float):
+        self._zoh_cache = {}
         from .bicycle import bicycle_state_space
 
         self.params = params

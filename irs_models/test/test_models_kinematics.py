@@ -127,7 +127,15 @@ def test_sensor_point():
 
 
 @pytest.mark.parametrize('kwargs', [dict(l1=0.0), dict(l2=-1.0), dict(elbow=0),
-                                    dict(base_x=float('nan')), dict(attach_offset='a')])
+                                    dict(base_x=float('nan'))])
 def test_geometry_validation(kwargs):
     with pytest.raises(ValueError):
         ArmGeometry(**kwargs)
+
+
+def test_geometry_refuses_a_value_that_is_not_a_number():
+    """Interpreted: a ValueError naming the field; compiled, the class's own type check raises
+    a TypeError naming the type first (irs_common.native_cores).
+    """
+    with pytest.raises((ValueError, TypeError), match='attach_offset|float object expected'):
+        ArmGeometry(attach_offset='a')

@@ -43,7 +43,7 @@ class Differentiator:
         backward difference has ``G = sqrt(2)``.
     """
 
-    _settling = None
+    _settling: int | None = None
 
     def __init__(self, dt: float, b: np.ndarray, a: np.ndarray) -> None:
         if not (isinstance(dt, (int, float)) and math.isfinite(dt) and dt > 0.0):
@@ -102,7 +102,7 @@ class Differentiator:
     @property
     def ready(self) -> bool:
         """True once ``settling_samples`` samples have been fed since the last reset."""
-        n = self._settling
+        n: int | None = self._settling
         if n is None:   # fixed by the filter's parameters: computed once
             n = self._settling = self.settling_samples
         return self.samples_since_reset >= n

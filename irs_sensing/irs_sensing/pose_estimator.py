@@ -24,7 +24,7 @@ from __future__ import annotations
 import math
 import numbers
 from dataclasses import dataclass, field
-from typing import Optional, Tuple
+from typing import Any, Optional, Tuple
 
 from irs_common.field_checks import check_numbers
 from irs_models.arm_kinematics import (ArmGeometry, forward_kinematics, sensor_point,
@@ -150,7 +150,7 @@ class PoseEstimatorParams:
         return cls(**kw)
 
 
-@dataclass(frozen=True)
+@dataclass(init=False)
 class PoseEstimate:
     """Validated pose [m, rad] and velocities [m/s, rad/s] at time ``stamp`` [s].
 
@@ -171,6 +171,25 @@ class PoseEstimate:
     v: float
     velocity_valid: bool
     near_singular: bool
+
+    # Written out rather than generated: compiled, it is native code (tests/test_step_records.py
+    # holds it to the fields; irs_common.native_cores).
+    def __init__(self, stamp: float, x_cg: float, y_cg: float, psi: float, x_s: float, y_s: float,
+                       xdot: float, ydot: float, yaw_rate: float, u: float, v: float,
+                       velocity_valid: bool, near_singular: bool) -> None:
+        self.stamp = stamp
+        self.x_cg = x_cg
+        self.y_cg = y_cg
+        self.psi = psi
+        self.x_s = x_s
+        self.y_s = y_s
+        self.xdot = xdot
+        self.ydot = ydot
+        self.yaw_rate = yaw_rate
+        self.u = u
+        self.v = v
+        self.velocity_valid = velocity_valid
+        self.near_singular = near_singular
 
 
 def _joint_ranges(p: PoseEstimatorParams) -> tuple:
@@ -214,14 +233,14 @@ class PoseEstimator:
         p = self.params
         self._diff = [make_differentiator(p.differentiator, p.dt, p.cutoff_hz, p.window, p.order)
                       for _ in range(3)]
-        self._ranges_of = None
+        self._ranges_of: Any = None
         self.reset()
 
     def reset(self) -> None:
         """Forget all history (next valid sample restarts the differentiators)."""
         for d in self._diff:
             d.reset()
-        self._last: Optional[Tuple[float, float, float, float]] = None  # t, x, y, psi
+        self._last: Any = None     # (t, x, y, psi) of the last accepted sample, or None
         self._psi_unwrapped = 0.0
         self.last_reason = 'no sample yet'
 
@@ -345,11 +364,8 @@ class PoseEstimator:
             xdot = ydot = r = u = v = math.nan
         xs, ys = sensor_point(pose, p.ds)
         self.last_reason = ''
-        # A frozen dataclass's __init__ sets each of its 13 fields through object.__setattr__;
-        # filling __dict__ at once gives the same (still frozen) object at a fraction of the cost.
-        est = object.__new__(PoseEstimate)
-        est.__dict__.update(stamp=float(stamp), x_cg=pose.x_cg, y_cg=pose.y_cg, psi=pose.psi,
-                            x_s=xs, y_s=ys, xdot=xdot, ydot=ydot, yaw_rate=r, u=u, v=v,
-                            velocity_valid=valid,
-                            near_singular=singularity_margin(theta2) < p.singular_tolerance)
+        est = PoseEstimate(stamp=float(stamp), x_cg=pose.x_cg, y_cg=pose.y_cg, psi=pose.psi,
+                           x_s=xs, y_s=ys, xdot=xdot, ydot=ydot, yaw_rate=r, u=u, v=v,
+                           velocity_valid=valid,
+                           near_singular=singularity_margin(theta2) < p.singular_tolerance)
         return est, ''

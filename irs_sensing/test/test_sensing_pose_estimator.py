@@ -30,7 +30,7 @@ def test_pose_and_sensor_point():
     assert not e.velocity_valid and math.isnan(e.xdot)
 
 
-def test_an_estimate_is_a_whole_frozen_record():
+def test_an_estimate_is_a_whole_record():
     import dataclasses
     from irs_sensing.pose_estimator import PoseEstimate
     est = PoseEstimator(PoseEstimatorParams(ds=0.2))
@@ -38,9 +38,6 @@ def test_an_estimate_is_a_whole_frozen_record():
     assert e.velocity_valid
     # every field present and equal to a record built through the constructor
     assert e == PoseEstimate(**dataclasses.asdict(e))
-    assert set(vars(e)) == {f.name for f in dataclasses.fields(PoseEstimate)}
-    with pytest.raises(dataclasses.FrozenInstanceError):
-        e.y_s = 0.0
 
 
 @pytest.mark.parametrize('kind', ['lowpass', 'savgol'])

@@ -451,11 +451,12 @@ def test_progress_rate_over_a_window_and_estimating_first(monkeypatch):
 
 
 def test_sweep_interrupted_by_ctrl_c_prints_no_traceback_and_resumes(tmp_path):
-    # 1.2 s per point (about 15 s of work on one worker): the Ctrl-C below lands while points
-    # run even when this process gets little CPU (at 0.4 s it could come after the last one)
+    # 3 s per point (about 8 s of work on one worker with the compiled cores, 16 s interpreted):
+    # the Ctrl-C below lands while points run even when this process gets little CPU (at 1.2 s
+    # the compiled cores finished all 120 points first)
     _sweep_file(tmp_path, axes=[{'name': 'delay_ms', 'range': {'start': 0.0, 'stop': 40.0,
                                                                 'num': 120},
-                                 'set': {'rig.actuator_front.delay': 0.001}}], duration=1.2)
+                                 'set': {'rig.actuator_front.delay': 0.001}}], duration=3.0)
     log = open(tmp_path / 'first.log', 'w')
     proc = subprocess.Popen([resolve_executable('irs_studies', 'sweep'), 's.yaml', '--workers',
                              '1', '--out', 'o', '--no-plots'], cwd=tmp_path, stdout=log,

@@ -84,7 +84,7 @@ class RegulatorParams:
         return dataclass_from_mapping(cls, d)
 
 
-@dataclass(frozen=True)
+@dataclass(init=False)
 class RegulatorOutput:
     """One regulator step: voltage [V], belt speed set point [m/s], estimates and flags."""
 
@@ -95,6 +95,19 @@ class RegulatorOutput:
     saturated: bool
     integrating: bool
     reason: str = ''     # empty, or what was wrong with the inputs (module docstring rule)
+
+    # Written out rather than generated: compiled, it is native code (tests/test_step_records.py
+    # holds it to the fields; irs_common.native_cores).
+    def __init__(self, voltage: float, speed_setpoint: float, error: float,
+                       car_speed_estimate: float, saturated: bool, integrating: bool,
+                       reason: str = '') -> None:
+        self.voltage = voltage
+        self.speed_setpoint = speed_setpoint
+        self.error = error
+        self.car_speed_estimate = car_speed_estimate
+        self.saturated = saturated
+        self.integrating = integrating
+        self.reason = reason
 
 
 #: Default bound on |x| [m] beyond which a position is not a measurement of the car.
@@ -238,13 +251,9 @@ class BeltSpeedRegulator:
                 self.integral = min(lim, max(-lim, self.integral))
                 integrating = True
         self.voltage = u
-        # RegulatorOutput(voltage=u, ...), its fields set at once (a frozen dataclass's __init__
-        # sets each by object.__setattr__, a cost paid at 1 kHz).
-        out = object.__new__(RegulatorOutput)
-        out.__dict__.update(voltage=u, speed_setpoint=v_star, error=e, car_speed_estimate=u_car,
-                            saturated=bool(sat_low or sat_high or slew_up or slew_down),
-                            integrating=integrating, reason=reason)
-        return out
+        return RegulatorOutput(voltage=u, speed_setpoint=v_star, error=e, car_speed_estimate=u_car,
+                               saturated=bool(sat_low or sat_high or slew_up or slew_down),
+                               integrating=integrating, reason=reason)
 
     def _fail(self, what: str) -> RegulatorOutput:
         self.reset()

@@ -25,6 +25,7 @@ No rclpy.
 from __future__ import annotations
 
 import math
+from typing import Any
 from dataclasses import dataclass
 
 import numpy as np
@@ -227,7 +228,7 @@ class ActuatorParams:
         return theta / self.gear_ratio
 
 
-@dataclass
+@dataclass(init=False)
 class ActuatorState:
     """Signals of the actuator chain at the current sample (for the actuator-state message).
 
@@ -257,6 +258,24 @@ class ActuatorState:
     saturated: bool = False
     horn: float = 0.0
 
+    # Written out rather than generated: compiled, it is native code (tests/test_step_records.py
+    # holds it to the fields; irs_common.native_cores).
+    def __init__(self, commanded: float = 0.0, delayed: float = 0.0, servo: float = 0.0,
+                       achieved: float = 0.0, rate_limited: bool = False, saturated: bool = False,
+                       horn: float = 0.0) -> None:
+        self.commanded = commanded
+        self.delayed = delayed
+        self.servo = servo
+        self.achieved = achieved
+        self.rate_limited = rate_limited
+        self.saturated = saturated
+        self.horn = horn
+
+    def copy(self) -> 'ActuatorState':
+        """A copy of this sample's signals (the rig's outputs keep them as the chain moves on)."""
+        return ActuatorState(self.commanded, self.delayed, self.servo, self.achieved,
+                             self.rate_limited, self.saturated, self.horn)
+
 
 class SteeringActuator:
     """Fixed-step steering actuator (module docstring for the chain).
@@ -281,8 +300,8 @@ class SteeringActuator:
         self.frame_phase = (float(np.random.default_rng(seed).uniform(0.0, p.radio_frame))
                             if p.framed else 0.0)
         self._initial = float(initial_angle)
-        self._dt: float | None = None
-        self._link: RadioLink | None = None
+        self._dt: Any = None         # [s] and the RadioLink: set by _configure
+        self._link: Any = None
         self._a = 0.0
         self._horn_max = p.horn_of(p.limit)
         self.state = ActuatorState()

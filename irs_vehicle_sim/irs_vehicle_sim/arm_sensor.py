@@ -17,6 +17,7 @@ potentiometers; the values and why they are chosen: :class:`ArmSensorParams`.
 from __future__ import annotations
 
 import math
+from typing import ClassVar
 from dataclasses import dataclass
 
 import numpy as np
@@ -127,7 +128,7 @@ class ArmSensor:
     #: ``0 + sigma z`` is what numpy computes for each of them, so every reading is the same to
     #: the bit (tested); drawn one at a time, numpy's per-call overhead on 3-element arrays is
     #: most of the arm model's cost in the 1 kHz loop.
-    NOISE_BLOCK = 3 * 1024
+    NOISE_BLOCK: ClassVar[int] = 3 * 1024
 
     def reset(self) -> None:
         """Re-seed the noise generator."""

@@ -18,14 +18,14 @@ from __future__ import annotations
 import copy
 import math
 from dataclasses import dataclass, field, fields, asdict, replace
-from typing import Callable, Optional
+from typing import Any, Callable, Optional
 
 import numpy as np
 
 from irs_models.arm_kinematics import ArmGeometry, ArmReachError
 from irs_models.constants import SENSOR_DISTANCE
 from irs_models.identified import IdentifiedParams, IdentifiedPlant, quadratic_roots
-from irs_models.lateral_plant import BicyclePlant, LateralPlant
+from irs_models.lateral_plant import BicyclePlant
 from irs_models.torque_car import GRAVITY
 
 from .actuator import ActuatorParams, ActuatorState, SteeringActuator, actuator_seed
@@ -68,7 +68,7 @@ def _screen(value, what: str, accept, out_of_range, safe: float, instead: str):
     return v, None
 
 
-def sanitize_steer(value: float, reject_limit: float = DEFAULT_STEER_REJECT_RAD):
+def sanitize_steer(value: object, reject_limit: float = DEFAULT_STEER_REJECT_RAD):
     """Safe steer command [rad] and a reason (``None`` if accepted).
 
     Non-finite values and ``|value| > reject_limit`` are replaced by 0 rad.
@@ -80,7 +80,7 @@ def sanitize_steer(value: float, reject_limit: float = DEFAULT_STEER_REJECT_RAD)
                    0.0, 'using 0 rad')
 
 
-def sanitize_voltage(value: float, u_max: float):
+def sanitize_voltage(value: object, u_max: float):
     """Safe drive voltage [V] and a reason; non-finite or outside [0, u_max] -> 0 V."""
     if type(value) is float and 0.0 <= value <= u_max:
         return value, None
@@ -88,7 +88,7 @@ def sanitize_voltage(value: float, u_max: float):
                    lambda v: f'{v:.3f} V is outside [0, {u_max:.3f}] V', 0.0, 'using 0 V')
 
 
-def sanitize_speed(value: float, u_max: float, fallback: float):
+def sanitize_speed(value: object, u_max: float, fallback: float):
     """Safe driver speed command [m/s] and a reason; non-finite or outside [0, u_max] ->
     ``fallback`` (the last accepted command: stopping the car on a moving belt is not safe).
     """
@@ -99,19 +99,8 @@ def sanitize_speed(value: float, u_max: float, fallback: float):
                    f'holding {fallback:.3f} m/s')
 
 
-def _snapshot(state):
-    """A shallow copy of a mutable state dataclass (``dataclasses.replace`` without its
-    per-field work: the outputs keep the values of this step while the model moves on).
-    """
-    if not hasattr(state, '__dict__'):
-        return replace(state)
-    copy = object.__new__(type(state))
-    copy.__dict__.update(state.__dict__)
-    return copy
-
-
 # ----------------------------------------------------------------------------- data
-@dataclass
+@dataclass(init=False)
 class RigInputs:
     """Inputs held over one step: steer commands [rad], drive voltage [V], speed command [m/s];
     torque car only: wheel torques [N m] and locked flags (FL, FR, RL, RR).
@@ -124,8 +113,21 @@ class RigInputs:
     wheel_torque: tuple = ZERO_TORQUE
     wheel_locked: tuple = NOT_LOCKED
 
+    # Written out rather than generated: compiled, it is native code (tests/test_step_records.py
+    # holds it to the fields; irs_common.native_cores).
+    def __init__(self, front_steer: float = 0.0, rear_steer: float = 0.0,
+                       drive_voltage: float = 0.0, speed_cmd: float = 0.0,
+                       wheel_torque: tuple = ZERO_TORQUE,
+                       wheel_locked: tuple = NOT_LOCKED) -> None:
+        self.front_steer = front_steer
+        self.rear_steer = rear_steer
+        self.drive_voltage = drive_voltage
+        self.speed_cmd = speed_cmd
+        self.wheel_torque = wheel_torque
+        self.wheel_locked = wheel_locked
 
-@dataclass
+
+@dataclass(init=False)
 class RigOutputs:
     """Rig outputs at time ``time`` [s] (all SI)."""
 
@@ -153,6 +155,41 @@ class RigOutputs:
     encoder_counts: tuple = ()   # two_track: wheel encoder counts [FL, FR, RL, RR]; else ()
     encoder_velocity: tuple = ()  # two_track: encoder velocities [rad/s]; else ()
     tyre: Optional[TyreTruth] = None  # two_track: tyre ground truth; else None
+
+    # Written out rather than generated: compiled, it is native code (tests/test_step_records.py
+    # holds it to the fields; irs_common.native_cores).
+    def __init__(self, time: float, arm_angles: tuple, belt_speed_measured: float,
+                       belt_speed: float, actuator_front: ActuatorState,
+                       actuator_rear: ActuatorState, x: float, y: float, psi: float, u: float,
+                       v: float, yaw_rate: float, y_s: float, wheel_speeds: tuple, off_belt: bool,
+                       off_belt_edge: str, arm_fault: bool, fault: bool, fault_reason: str,
+                       input_warnings: tuple = (), applied_inputs: Optional[RigInputs] = None,
+                       encoder_counts: tuple = (), encoder_velocity: tuple = (),
+                       tyre: Optional[TyreTruth] = None) -> None:
+        self.time = time
+        self.arm_angles = arm_angles
+        self.belt_speed_measured = belt_speed_measured
+        self.belt_speed = belt_speed
+        self.actuator_front = actuator_front
+        self.actuator_rear = actuator_rear
+        self.x = x
+        self.y = y
+        self.psi = psi
+        self.u = u
+        self.v = v
+        self.yaw_rate = yaw_rate
+        self.y_s = y_s
+        self.wheel_speeds = wheel_speeds
+        self.off_belt = off_belt
+        self.off_belt_edge = off_belt_edge
+        self.arm_fault = arm_fault
+        self.fault = fault
+        self.fault_reason = fault_reason
+        self.input_warnings = input_warnings
+        self.applied_inputs = applied_inputs
+        self.encoder_counts = encoder_counts
+        self.encoder_velocity = encoder_velocity
+        self.tyre = tyre
 
 
 def unflatten(d: dict) -> dict:
@@ -220,6 +257,10 @@ def _bicycle_defaults() -> dict:
                 track=0.16, wheel_radius=0.033, speed=1.2)
 
 
+_RIG_SCALARS = ('dt', 'seed', 'plant', 'ds', 'steer_reject', 'speed_cmd_max', 'x0', 'y0', 'u0',
+                'belt_speed0')
+
+
 @dataclass
 class RigConfig:
     """Validated rig configuration (see ``config/rig.yaml`` for units and defaults).
@@ -250,15 +291,13 @@ class RigConfig:
     surface: dict = field(default_factory=surface_defaults)
     encoders: dict = field(default_factory=encoder_defaults)
 
-    _SCALARS = ('dt', 'seed', 'plant', 'ds', 'steer_reject', 'speed_cmd_max', 'x0', 'y0', 'u0',
-                'belt_speed0')
 
     @classmethod
     def from_dict(cls, params: dict | None) -> "RigConfig":
         """Build from a (possibly dotted) parameter dict; missing keys take the defaults."""
         d = unflatten(dict(params or {}))
         base = cls()
-        scal = {k: getattr(base, k) for k in cls._SCALARS}
+        scal = {k: getattr(base, k) for k in _RIG_SCALARS}
         sections = ('actuator_front', 'actuator_rear', 'identified', 'bicycle', 'car', 'arm',
                     'belt', 'two_track', 'surface', 'encoders')
         unknown = set(d) - set(scal) - set(sections)
@@ -424,9 +463,9 @@ class RigSimulation:
                                           seed=actuator_seed(c.seed, 'front'))
         self.act_rear = SteeringActuator(copy.deepcopy(c.actuator_rear),
                                          seed=actuator_seed(c.seed, 'rear'))
-        self.torque_car: TorqueCarPlant | None = None
+        self.torque_car: Any = None        # a TorqueCarPlant, or None
         if c.plant == 'identified':
-            self.plant: LateralPlant | None = IdentifiedPlant(c.identified)
+            self.plant: Any = IdentifiedPlant(c.identified)   # a LateralPlant, or None
         elif c.plant == 'bicycle':
             self.plant = BicyclePlant(c.make_bicycle_params(), c.bicycle['speed'], c.ds)
         else:
@@ -650,8 +689,8 @@ class RigSimulation:
         belt = self.belt
         return RigOutputs(
             time=self.k * self.config.dt, arm_angles=ang, belt_speed_measured=belt.measured_speed,
-            belt_speed=belt.speed, actuator_front=_snapshot(self.act_front.state),
-            actuator_rear=_snapshot(self.act_rear.state), x=x, y=y, psi=psi, u=u, v=v,
+            belt_speed=belt.speed, actuator_front=self.act_front.state.copy(),
+            actuator_rear=self.act_rear.state.copy(), x=x, y=y, psi=psi, u=u, v=v,
             yaw_rate=r, y_s=y_s, wheel_speeds=ws, off_belt=bool(edge), off_belt_edge=edge,
             arm_fault=arm_fault, fault=bool(self._fault_reason),
             fault_reason=self._fault_reason, input_warnings=warnings, applied_inputs=applied,
@@ -689,7 +728,7 @@ def simulate(config: RigConfig | dict | None, input_fn: Callable[[RigOutputs], R
     if n < 0:
         raise ValueError(f'duration must be >= 0 s, got {duration!r}')
     outs = [sim.outputs]
-    ins = []
+    ins: list = []
     for _ in range(n):
         u = input_fn(outs[-1])
         o = sim.step(u)

@@ -21,7 +21,9 @@ reference turns into different steer commands.
 """
 from dataclasses import dataclass, field
 import math
+from typing import Any
 
+from mypy_extensions import mypyc_attr
 import numpy as np
 
 from irs_common.orientation import quaternion_from_yaw, yaw_from_quaternion
@@ -57,12 +59,13 @@ def _yaw_via_quaternion(psi: float) -> float:
     return yaw_from_quaternion(*quaternion_from_yaw(psi))
 
 
+@mypyc_attr(allow_interpreted_subclasses=True)   # compiled (irs_common.native_cores), subclassed
 class ClosedLoop:
     """Offline closed loop; :meth:`run` returns the signals the graph would publish."""
 
     def __init__(self, cfg: LoopConfig):
         self.cfg = cfg
-        self.rig = RigSimulation(rig_config(cfg.rig))
+        self.rig: Any = RigSimulation(rig_config(cfg.rig))   # or a stand-in (hardware_loop)
         self.dt = self.rig.config.dt
         self.dt_ns = int(round(self.dt * 1e9))      # vehicle_sim's step in its stamps [ns]
         self.k = 0                                  # the step being answered
@@ -128,7 +131,8 @@ class ClosedLoop:
     def run(self, duration: float) -> dict:
         """Simulate ``duration`` s; arrays of length N+1 (outputs) and N (commands)."""
         n = int(round(duration / self.dt))
-        rows, cmds = [], []
+        rows: list = []
+        cmds: list = []
         control, step = self._control, self.rig.step
         add_row, add_cmd = rows.append, cmds.append
         out = self.rig.outputs

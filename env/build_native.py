@@ -1,0 +1,104 @@
+"""Compile the offline loop's cores with mypyc into build/native (irs_common.native_cores).
+
+Usage (``make build``): ``.venv/bin/python env/build_native.py``. Writes the extension of each
+module of ``irs_common.native_cores.MODULES``, mypyc's shared library and ``manifest.json`` (each
+source's SHA-256) into ``build/native``, nothing into the source tree, and the one-line
+``irs_native_cores.pth`` into the venv, which installs the finder at every interpreter start.
+Does nothing when the manifest already matches the sources. If mypyc or a C compiler is
+missing, or the compile fails, it says so in one line (the compiler's output is in
+``build/native.log``), exits 0, and the cores stay interpreted.
+"""
+from __future__ import annotations
+
+import contextlib
+import importlib.machinery
+import json
+import os
+from pathlib import Path
+import shutil
+import sys
+import sysconfig
+import tempfile
+import time
+
+ROOT = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(ROOT / 'irs_common'))
+from irs_common import native_cores  # noqa: E402 -- needs the path above
+
+LOG = ROOT / 'build' / 'native.log'
+#: Run at every start of the venv's Python: the finder, if this workspace is on the path.
+PTH_LINE = ("import sys; exec('try:\\n import irs_common.native_cores as m\\nexcept ImportError:"
+            "\\n pass\\nelse:\\n m.install()')\n")
+
+
+def _install_pth() -> None:
+    pth = Path(sysconfig.get_paths()['purelib']) / 'irs_native_cores.pth'
+    if not pth.is_file() or pth.read_text() != PTH_LINE:
+        pth.write_text(PTH_LINE)
+
+
+def _compile(out: Path, work: Path) -> None:
+    """mypyc and the C compiler, their output into :data:`LOG`; raises on failure."""
+    from mypyc.build import mypycify
+    from setuptools import Distribution
+    sources = [str(ROOT / source) for _, source in native_cores.MODULES]
+    extensions = mypycify(sources + ['--ignore-missing-imports', '--follow-imports=silent',
+                                     '--cache-dir', str(ROOT / 'build' / 'mypy_cache')],
+                          opt_level='3', multi_file=True, target_dir=str(work / 'c'))
+    dist = Distribution({'ext_modules': extensions, 'script_args': [
+        'build_ext', '--build-lib', str(work / 'lib'), '--build-temp', str(work / 'obj')]})
+    dist.parse_command_line()
+    dist.run_commands()
+    if out.exists():
+        shutil.rmtree(out)
+    shutil.copytree(work / 'lib', out)
+
+
+def build(out: Path = native_cores.BUILD_DIR) -> str:
+    """Compile into ``out`` unless it is up to date; returns a one-line account."""
+    _install_pth()
+    if native_cores.stale_reason(out, ROOT) is None:
+        return f'compiled cores in {out.relative_to(ROOT)} are up to date'
+    try:
+        import mypyc.build  # noqa: F401 -- present?
+        import setuptools  # noqa: F401
+    except ImportError as exc:
+        return f'the cores stay interpreted: {exc}'
+    started = time.monotonic()
+    LOG.parent.mkdir(parents=True, exist_ok=True)
+    cwd = os.getcwd()
+    with tempfile.TemporaryDirectory(prefix='irs_native_') as tmp, open(LOG, 'w') as log:
+        os.chdir(ROOT)
+        try:
+            with contextlib.redirect_stdout(log), contextlib.redirect_stderr(log):
+                # the C compiler writes to the process's descriptors, not to sys.stdout
+                saved = os.dup(1), os.dup(2)
+                os.dup2(log.fileno(), 1)
+                os.dup2(log.fileno(), 2)
+                try:
+                    _compile(out, Path(tmp))
+                finally:
+                    sys.stdout.flush()
+                    os.dup2(saved[0], 1)
+                    os.dup2(saved[1], 2)
+        except (SystemExit, Exception) as exc:  # noqa: BLE001 -- any failure: stay interpreted
+            return (f'the cores stay interpreted: the mypyc build failed ({type(exc).__name__}: '
+                    f'{exc}; {LOG.relative_to(ROOT)} has its output)')
+        finally:
+            os.chdir(cwd)
+    suffix = importlib.machinery.EXTENSION_SUFFIXES[0]
+    modules = {name: {'source': source, 'extension': name.replace('.', '/') + suffix,
+                      'sha256': native_cores.source_digest(ROOT / source)}
+               for name, source in native_cores.MODULES}
+    shared = {p.name[:-len(suffix)]: p.name for p in out.glob(f'*__mypyc{suffix}')}
+    (out / 'manifest.json').write_text(json.dumps(
+        {'suffix': suffix, 'modules': modules, 'shared': shared}, indent=1) + '\n')
+    reason = native_cores.stale_reason(out, ROOT)
+    if reason is not None:
+        return f'the cores stay interpreted: {reason}'
+    return (f'compiled {len(modules)} core modules with mypyc into {out.relative_to(ROOT)} '
+            f'in {time.monotonic() - started:.0f} s')
+
+
+if __name__ == '__main__':
+    print(build())
