@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import contextlib
 import importlib.machinery
+import importlib.util
 import json
 import os
 from pathlib import Path
@@ -22,8 +23,21 @@ import tempfile
 import time
 
 ROOT = Path(__file__).resolve().parents[1]
-sys.path.insert(0, str(ROOT / 'irs_common'))
-from irs_common import native_cores  # noqa: E402 -- needs the path above
+
+
+def _this_workspaces_native_cores():
+    """``irs_common/native_cores.py`` of this checkout, by its path: ``import irs_common`` may
+    find another workspace's (a shell that sourced it sets PYTHONPATH, and the venv's ``.pth``
+    imports it at start).
+    """
+    path = ROOT / 'irs_common' / 'irs_common' / 'native_cores.py'
+    spec = importlib.util.spec_from_file_location('_irs_native_cores_of_this_workspace', path)
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module
+
+
+native_cores = _this_workspaces_native_cores()
 
 LOG = ROOT / 'build' / 'native.log'
 #: Run at every start of the venv's Python: the finder, if this workspace is on the path.

@@ -86,3 +86,23 @@ def test_irs_pure_python_keeps_every_process_interpreted(tree):
             f'print(n.install(Path({str(build)!r}), Path({str(root)!r})))')
     status = _status_in_a_new_process(code, {'IRS_PURE_PYTHON': '1'})
     assert status == 'interpreted: IRS_PURE_PYTHON is set'
+
+
+def test_the_build_script_uses_its_own_workspaces_module_list(monkeypatch):
+    """Another workspace's ``irs_common`` imported first (a sourced shell, the venv's ``.pth``)
+    does not reach ``env/build_native.py``: it loads this checkout's module by its path.
+    """
+    import importlib.util
+    import types
+
+    import irs_common
+    root = native_cores.ROOT
+    other = types.ModuleType('irs_common.native_cores')
+    other.ROOT = root.parent / 'another_workspace'
+    monkeypatch.setitem(sys.modules, 'irs_common.native_cores', other)
+    monkeypatch.setattr(irs_common, 'native_cores', other)
+    spec = importlib.util.spec_from_file_location('build_native', root / 'env' / 'build_native.py')
+    script = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(script)
+    assert script.native_cores.ROOT == root
+    assert script.native_cores.MODULES == native_cores.MODULES
