@@ -6,8 +6,8 @@ SHA-256. :func:`install` puts a finder first on ``sys.meta_path`` that imports t
 their compiled extension instead of their source, **only if every source is the one compiled**:
 the modules of one mypyc build call each other natively, so a compiled module must never meet an
 edited source of another. An edited source, a missing or foreign build (another Python, another
-checkout), or ``IRS_PURE_PYTHON=1`` leaves the interpreted modules in place; :data:`status` says
-which and why.
+checkout), or ``IRS_PURE_PYTHON`` set (to anything but ``0``) leaves the interpreted modules in
+place; :data:`status` says which and why, and ``python -m irs_common.which_cores`` prints it.
 
 ``make build`` also puts ``irs_native_cores.pth`` into the venv, which calls :func:`install` at
 every interpreter start, so every process of the workspace (nodes, tests, sweeps' workers) runs
@@ -155,3 +155,4 @@ def install(build_dir: Path = BUILD_DIR, root: Path = ROOT) -> str:
 def is_compiled(module) -> bool:
     """True if ``module`` was loaded from a compiled extension."""
     return isinstance(getattr(module, '__loader__', None), importlib.machinery.ExtensionFileLoader)
+

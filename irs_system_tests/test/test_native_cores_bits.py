@@ -40,6 +40,9 @@ def test_this_workspace_runs_the_compiled_cores():
     if os.environ.get('IRS_PURE_PYTHON', '') not in ('', '0'):
         pytest.skip('IRS_PURE_PYTHON is set: this workspace runs the interpreted cores')
     assert native_cores.status == 'compiled', native_cores.status
+    told = subprocess.run([sys.executable, '-m', 'irs_common.which_cores'], capture_output=True,
+                          text=True, check=True).stdout
+    assert told == 'compiled\n'
 
 
 def test_compiled_and_interpreted_cores_give_the_same_figure10_bits():
