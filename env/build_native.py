@@ -68,6 +68,24 @@ def _compile(out: Path, work: Path) -> None:
     shutil.copytree(work / 'lib', out)
 
 
+@contextlib.contextmanager
+def _descriptors_to(log):
+    """Standard output and error, of this process and of the C compiler it starts, into ``log``."""
+    sys.stdout.flush()
+    sys.stderr.flush()
+    saved = os.dup(1), os.dup(2)
+    os.dup2(log.fileno(), 1)
+    os.dup2(log.fileno(), 2)
+    try:
+        yield
+    finally:
+        sys.stdout.flush()
+        sys.stderr.flush()
+        for fd, copy in zip((1, 2), saved):
+            os.dup2(copy, fd)
+            os.close(copy)
+
+
 def build(out: Path = native_cores.BUILD_DIR) -> str:
     """Compile into ``out`` unless it is up to date; returns a one-line account."""
     _install_pth()
@@ -84,17 +102,8 @@ def build(out: Path = native_cores.BUILD_DIR) -> str:
     with tempfile.TemporaryDirectory(prefix='irs_native_') as tmp, open(LOG, 'w') as log:
         os.chdir(ROOT)
         try:
-            with contextlib.redirect_stdout(log), contextlib.redirect_stderr(log):
-                # the C compiler writes to the process's descriptors, not to sys.stdout
-                saved = os.dup(1), os.dup(2)
-                os.dup2(log.fileno(), 1)
-                os.dup2(log.fileno(), 2)
-                try:
-                    _compile(out, Path(tmp))
-                finally:
-                    sys.stdout.flush()
-                    os.dup2(saved[0], 1)
-                    os.dup2(saved[1], 2)
+            with _descriptors_to(log):
+                _compile(out, Path(tmp))
         except (SystemExit, Exception) as exc:  # noqa: BLE001 -- any failure: stay interpreted
             return (f'the cores stay interpreted: the mypyc build failed ({type(exc).__name__}: '
                     f'{exc}; {LOG.relative_to(ROOT)} has its output)')
