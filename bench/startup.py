@@ -9,7 +9,9 @@ see the same phase of the machine.
   fresh process (``python -c``) that imports the node's module, calls ``rclpy.init`` and builds
   the node, then reports its own ``getrusage`` CPU (the interpreter's start included) and the
   wall time since it began. OpenBLAS (numpy's and scipy's copies) starts its thread pool at
-  import; with one thread it starts none.
+  import; with one thread it starts none. A third set unsets ``_ROS_WHEELS_BOOTSTRAP_COMPLETE``,
+  which the environment sets: the ROS wheels' ``ros_wheels_bootstrapper.pth`` then executes the
+  interpreter once more at its start, as it does outside the environment.
 - **Graph up** (:func:`graph_up`): ``experiment run figure10_pi --duration 1 --no-plots``,
   process per node and composed, with the environment's Fast DDS profile
   (``env/fastdds_profiles.xml``: participant announcements every 0.5 s) and with Fast DDS's
@@ -62,7 +64,9 @@ def node_startup(repeats: int = 7) -> list:
     envs = {'environment (OPENBLAS_NUM_THREADS=%s)' % base.get('OPENBLAS_NUM_THREADS', 'unset'):
             base,
             "OpenBLAS's default (a thread per core)":
-            {k: v for k, v in base.items() if k != 'OPENBLAS_NUM_THREADS'}}
+            {k: v for k, v in base.items() if k != 'OPENBLAS_NUM_THREADS'},
+            "the ROS wheels' re-exec at start (its guard unset)":
+            {k: v for k, v in base.items() if k != '_ROS_WHEELS_BOOTSTRAP_COMPLETE'}}
     rows = []
     cwd = tempfile.mkdtemp(prefix='irs_bench_startup_')     # the recorder's empty bags go here
     from irs_bringup.container import component_class    # the node classes' entry points

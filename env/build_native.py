@@ -86,7 +86,7 @@ def _descriptors_to(log):
             os.close(copy)
 
 
-def build(out: Path = native_cores.BUILD_DIR) -> str:
+def build(out: Path = Path(native_cores.BUILD_DIR)) -> str:
     """Compile into ``out`` unless it is up to date; returns a one-line account."""
     _install_pth()
     if native_cores.stale_reason(out, ROOT) is None:

@@ -29,17 +29,19 @@ compiled class differs from its source where Python code reaches into it:
   it), nor copied or pickled unless it is a dataclass;
 - it has no ``__dict__``.
 
-No rclpy, numpy or other import beyond the standard library: it runs first in a process.
+It runs first in every process of the venv, so it imports only the standard library's cheapest
+modules: ``os.path`` for paths, no ``pathlib``, and a finder that follows
+``importlib.abc.MetaPathFinder``'s protocol without importing it (``importlib.abc`` imports
+``importlib.resources``, ``pathlib``, ``tempfile`` and ``typing``; docs/setup.md#the-environment
+has what each costs a process). Paths are strings; the functions take any path-like.
 """
 from __future__ import annotations
 
 import hashlib
-import importlib.abc
 import importlib.machinery
 import importlib.util
 import json
 import os
-from pathlib import Path
 import sys
 
 #: The compiled modules, as (module, source path relative to the workspace root).
@@ -65,30 +67,34 @@ MODULES = (
 
 #: The workspace root (this file is ``<root>/irs_common/irs_common/native_cores.py``; the
 #: develop-mode install links to it).
-ROOT = Path(__file__).resolve().parents[2]
+ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.realpath(__file__))))
 #: Where ``env/build_native.py`` writes the extensions and ``manifest.json``.
-BUILD_DIR = ROOT / 'build' / 'native'
+BUILD_DIR = os.path.join(ROOT, 'build', 'native')
 
 #: ``'compiled'``, or ``'interpreted: <why>'`` after :func:`install`; None before.
 status: str | None = None
 
 
-def source_digest(path: Path) -> str:
+def source_digest(path: str | os.PathLike) -> str:
     """SHA-256 of a source file, hex."""
-    return hashlib.sha256(path.read_bytes()).hexdigest()
+    with open(path, 'rb') as f:
+        return hashlib.sha256(f.read()).hexdigest()
 
 
 def _extension_suffix() -> str:
     return importlib.machinery.EXTENSION_SUFFIXES[0]
 
 
-def stale_reason(build_dir: Path = BUILD_DIR, root: Path = ROOT) -> str | None:
+def stale_reason(build_dir: str | os.PathLike = BUILD_DIR,
+                 root: str | os.PathLike = ROOT) -> str | None:
     """Why the build in ``build_dir`` cannot stand in for the sources under ``root``, or None."""
-    manifest_path = build_dir / 'manifest.json'
-    if not manifest_path.is_file():
+    build_dir, root = os.fspath(build_dir), os.fspath(root)
+    manifest_path = os.path.join(build_dir, 'manifest.json')
+    if not os.path.isfile(manifest_path):
         return f'no compiled build ({manifest_path} not found; `make build` writes it)'
     try:
-        manifest = json.loads(manifest_path.read_text())
+        with open(manifest_path) as f:
+            manifest = json.load(f)
         modules = manifest['modules']
     except (OSError, ValueError, KeyError, TypeError) as exc:
         return f'{manifest_path}: unreadable ({exc})'
@@ -97,20 +103,24 @@ def stale_reason(build_dir: Path = BUILD_DIR, root: Path = ROOT) -> str | None:
     if sorted(modules) != sorted(name for name, _ in MODULES):
         return 'the build holds other modules than native_cores.MODULES'
     for name, source in MODULES:
-        src = root / source
-        if not src.is_file():
+        src = os.path.join(root, source)
+        if not os.path.isfile(src):
             return f'{source}: not found'
         if source_digest(src) != modules[name]['sha256']:
             return f'{source} changed since it was compiled (`make build` compiles it again)'
-        if not (build_dir / modules[name]['extension']).is_file():
+        if not os.path.isfile(os.path.join(build_dir, modules[name]['extension'])):
             return f'{modules[name]["extension"]}: missing from {build_dir}'
     return None
 
 
-class _CompiledFinder(importlib.abc.MetaPathFinder):
-    """Finds :data:`MODULES` (and the build's shared library) in the compiled build."""
+class _CompiledFinder:
+    """Finds :data:`MODULES` (and the build's shared library) in the compiled build.
 
-    def __init__(self, build_dir: Path, extensions: dict) -> None:
+    A meta path finder by protocol (``find_spec``), as ``importlib.abc.MetaPathFinder``
+    describes it; the import system asks for nothing else.
+    """
+
+    def __init__(self, build_dir: str, extensions: dict) -> None:
         self._build_dir = build_dir
         self._extensions = extensions
 
@@ -118,12 +128,15 @@ class _CompiledFinder(importlib.abc.MetaPathFinder):
         relative = self._extensions.get(fullname)
         if relative is None:
             return None
-        location = str(self._build_dir / relative)
+        location = os.path.join(self._build_dir, relative)
         loader = importlib.machinery.ExtensionFileLoader(fullname, location)
         return importlib.util.spec_from_file_location(fullname, location, loader=loader)
 
+    def invalidate_caches(self) -> None:
+        """Nothing is cached (``importlib.invalidate_caches`` calls this)."""
 
-def install(build_dir: Path = BUILD_DIR, root: Path = ROOT) -> str:
+
+def install(build_dir: str | os.PathLike = BUILD_DIR, root: str | os.PathLike = ROOT) -> str:
     """Import :data:`MODULES` compiled from now on, if the build is fresh; returns :data:`status`.
 
     Does nothing (and says why) when ``IRS_PURE_PYTHON=1``, the build is stale or missing, or
@@ -144,10 +157,11 @@ def install(build_dir: Path = BUILD_DIR, root: Path = ROOT) -> str:
     if reason is not None:
         status = f'interpreted: {reason}'
         return status
-    manifest = json.loads((build_dir / 'manifest.json').read_text())
+    with open(os.path.join(build_dir, 'manifest.json')) as f:
+        manifest = json.load(f)
     extensions = {name: entry['extension'] for name, entry in manifest['modules'].items()}
     extensions.update(manifest.get('shared', {}))
-    sys.meta_path.insert(0, _CompiledFinder(build_dir, extensions))
+    sys.meta_path.insert(0, _CompiledFinder(os.fspath(build_dir), extensions))
     status = 'compiled'
     return status
 

@@ -1,6 +1,7 @@
 """The compiled cores' finder: it imports a build only when every source is the one compiled."""
 import importlib.machinery
 import json
+from pathlib import Path
 import subprocess
 import sys
 
@@ -96,7 +97,7 @@ def test_the_build_script_uses_its_own_workspaces_module_list(monkeypatch):
     import types
 
     import irs_common
-    root = native_cores.ROOT
+    root = Path(native_cores.ROOT)
     other = types.ModuleType('irs_common.native_cores')
     other.ROOT = root.parent / 'another_workspace'
     monkeypatch.setitem(sys.modules, 'irs_common.native_cores', other)
@@ -104,5 +105,15 @@ def test_the_build_script_uses_its_own_workspaces_module_list(monkeypatch):
     spec = importlib.util.spec_from_file_location('build_native', root / 'env' / 'build_native.py')
     script = importlib.util.module_from_spec(spec)
     spec.loader.exec_module(script)
-    assert script.native_cores.ROOT == root
+    assert Path(script.native_cores.ROOT) == root
     assert script.native_cores.MODULES == native_cores.MODULES
+
+
+def test_the_finder_adds_no_costly_import_to_a_process_start():
+    """The venv's ``.pth`` runs :func:`install` in every process: it must not pull in
+    ``importlib.abc`` (and through it ``importlib.resources``, ``tempfile`` and ``typing``).
+    """
+    code = ('import sys; from irs_common import native_cores; '
+            "print([m for m in ('importlib.abc', 'importlib.resources', 'tempfile', 'typing') "
+            'if m in sys.modules])')
+    assert _status_in_a_new_process(code, {}) == '[]'
