@@ -279,6 +279,15 @@ def sweep() -> list:
     return bench_sweep.sweep_rates(12, None) + bench_sweep.offline(100)
 
 
+def _interpreter() -> dict:
+    """The interpreter the figures are of: a distribution's build and a default pyenv build
+    differ by about 15 % in the offline loop (docs/setup.md#requirements).
+    """
+    import platform
+    return {'version': platform.python_version(), 'base_prefix': sys.base_prefix,
+            'executable': sys.executable}
+
+
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__,
                                  formatter_class=argparse.RawDescriptionHelpFormatter)
@@ -296,7 +305,8 @@ def main(argv=None) -> int:
     a = ap.parse_args(argv)
     floor_s, rt_s, replay_s = (5.0, 20.0, 3.0) if a.quick else (10.0, 60.0, 5.0)
     results = {'started': datetime.datetime.now().isoformat(timespec='seconds'),
-               'cpus': os.cpu_count(), 'load_before': os.getloadavg(), 'quick': a.quick}
+               'cpus': os.cpu_count(), 'load_before': os.getloadavg(), 'quick': a.quick,
+               'python': _interpreter()}
     for section in a.only:
         print(f'== {section}', flush=True)
         fn = globals()[section]
