@@ -68,8 +68,8 @@ $(BUILD_STAMP): $(ENV_STAMP) $(PACKAGE_FILES)
 	  $(foreach p,$(filter-out irs_msgs,$(PACKAGES)),$(p)/$(p))
 	@touch $@
 
-# mypyc compiles the offline loop's cores into build/native (irs_common.native_cores, about 25 s
-# of one core); every process of the workspace then imports them compiled. The script does
+# mypyc compiles the offline loop's cores into build/native (irs_common.native_cores, about 18 s
+# on two cores); every process of the workspace then imports them compiled. The script does
 # nothing when the build matches the sources; when it cannot compile it says why in one line
 # and the cores stay interpreted. IRS_PURE_PYTHON=1 runs the interpreted cores regardless.
 native: $(BUILD_STAMP)

@@ -32,8 +32,9 @@ compiled class differs from its source where Python code reaches into it:
 It runs first in every process of the venv, so it imports only the standard library's cheapest
 modules: ``os.path`` for paths, no ``pathlib``, and a finder that follows
 ``importlib.abc.MetaPathFinder``'s protocol without importing it (``importlib.abc`` imports
-``importlib.resources``, ``pathlib``, ``tempfile`` and ``typing``; docs/setup.md#the-environment
-has what each costs a process). Paths are strings; the functions take any path-like.
+``importlib.resources``, ``pathlib``, ``tempfile`` and ``typing``, which every process would
+then pay for; docs/setup.md#the-environment). Paths are strings; the functions take any
+path-like.
 """
 from __future__ import annotations
 
