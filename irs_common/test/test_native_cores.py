@@ -60,7 +60,7 @@ def test_a_damaged_or_foreign_build_is_stale_and_says_why(tree, damage, words):
     assert words in native_cores.stale_reason(build, root)
 
 
-def _status_in_a_new_process(code: str, env_extra: dict) -> str:
+def _last_line_in_a_new_process(code: str, env_extra: dict) -> str:
     import os
     env = dict(os.environ, **env_extra)
     out = subprocess.run([sys.executable, '-c', code], env=env, capture_output=True, text=True,
@@ -76,7 +76,7 @@ def test_a_module_imported_before_install_keeps_the_process_interpreted(tree):
             "if type(f).__name__ != '_CompiledFinder']; "
             "sys.modules['irs_control.discrete_rst'] = object(); "
             f'print(n.install(Path({str(build)!r}), Path({str(root)!r})))')
-    status = _status_in_a_new_process(code, {'IRS_PURE_PYTHON': ''})
+    status = _last_line_in_a_new_process(code, {'IRS_PURE_PYTHON': ''})
     assert status == ('interpreted: irs_control.discrete_rst was imported before '
                       'native_cores.install()')
 
@@ -85,7 +85,7 @@ def test_irs_pure_python_keeps_every_process_interpreted(tree):
     root, build, _ = tree
     code = ('from pathlib import Path; from irs_common import native_cores as n; '
             f'print(n.install(Path({str(build)!r}), Path({str(root)!r})))')
-    status = _status_in_a_new_process(code, {'IRS_PURE_PYTHON': '1'})
+    status = _last_line_in_a_new_process(code, {'IRS_PURE_PYTHON': '1'})
     assert status == 'interpreted: IRS_PURE_PYTHON is set'
 
 
@@ -116,4 +116,4 @@ def test_the_finder_adds_no_costly_import_to_a_process_start():
     code = ('import sys; from irs_common import native_cores; '
             "print([m for m in ('importlib.abc', 'importlib.resources', 'tempfile', 'typing') "
             'if m in sys.modules])')
-    assert _status_in_a_new_process(code, {}) == '[]'
+    assert _last_line_in_a_new_process(code, {}) == '[]'
